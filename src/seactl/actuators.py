@@ -1,0 +1,234 @@
+"""Actuator parameter sets: the series elastic actuator (SEA) and its presets.
+
+All fields are SI and expressed in the *rotary joint space* of the paper's
+Table II (kg m^2, N m s/rad, N m/rad, N m/A).  The UT-SEA is a linear
+ball-screw actuator driving a joint through a pulley of radius ``r``; its
+linear-space equivalent (kg, N s/m, N/m, N/A) is available through
+:meth:`SEAParams.linear`.  The critically-damped gain equations and every
+loop are invariant under this change of units, so gains computed in either
+space agree once converted (Kq r^2, Bq r^2, Ktau / r, Btau / r).
+"""
+
+from __future__ import annotations
+
+import math
+import tomllib
+from dataclasses import asdict, dataclass, fields
+from pathlib import Path
+from typing import Any
+
+from pydantic import BaseModel, ConfigDict, Field, ValidationError
+
+from .errors import InputError
+
+_POS = dict(gt=0, allow_inf_nan=False)
+
+
+class _SEAModel(BaseModel):
+    """Validation schema of :class:`SEAParams` (also the TOML schema)."""
+
+    model_config = ConfigDict(extra="forbid", frozen=True)
+
+    name: str = "custom"
+    motor_inertia: float = Field(description="reflected motor inertia I_m [kg m^2]", **_POS)
+    joint_inertia: float = Field(description="joint (load side) inertia I_j [kg m^2]", **_POS)
+    motor_damping: float = Field(description="reflected motor damping b_m [N m s/rad]", ge=0,
+                                 allow_inf_nan=False)
+    joint_damping: float = Field(description="joint damping b_j [N m s/rad]", ge=0,
+                                 allow_inf_nan=False)
+    spring_stiffness: float = Field(description="spring stiffness k [N m/rad]", **_POS)
+    current_to_torque: float = Field(description="beta = eta N k_tau r, current to joint "
+                                     "torque [N m/A]", **_POS)
+    motor_torque_constant: float = Field(0.0276, description="motor torque constant k_tau "
+                                         "[N m/A]", **_POS)
+    pulley_radius: float = Field(0.025, description="joint pulley radius r [m], for the "
+                                 "linear-space view", **_POS)
+    max_current: float = Field(30.0, description="motor current limit [A]", **_POS)
+
+
+_UNITS = {
+    "motor_inertia": "kg m^2", "joint_inertia": "kg m^2", "motor_damping": "N m s/rad",
+    "joint_damping": "N m s/rad", "spring_stiffness": "N m/rad",
+    "current_to_torque": "N m/A", "motor_torque_constant": "N m/A", "pulley_radius": "m",
+    "max_current": "A",
+}
+
+
+def _raise_from_pydantic(exc: ValidationError, prefix: str = "") -> None:
+    err = exc.errors()[0]
+    field = prefix + ".".join(str(p) for p in err["loc"])
+    if err["type"] == "extra_forbidden":
+        known = ", ".join(_SEAModel.model_fields)
+        raise InputError(field, err.get("input"), f"one of the known keys ({known})") from None
+    if err["type"] == "missing":
+        raise InputError(field, None, "given (required field)") from None
+    name = field.split(".")[-1]
+    bounds = []
+    if name in _SEAModel.model_fields:
+        for m in _SEAModel.model_fields[name].metadata:
+            for attr, sym in (("gt", ">"), ("ge", ">=")):
+                if getattr(m, attr, None) is not None:
+                    bounds.append(f"{sym} {getattr(m, attr)}")
+    valid = (" and ".join(bounds) + " and finite") if bounds else err["msg"].lower()
+    unit = _UNITS.get(field.split(".")[-1])
+    if unit:
+        valid += f" [{unit}]"
+    raise InputError(field, err.get("input"), valid) from None
+
+
+@dataclass(frozen=True)
+class SEAParams:
+    """Immutable, validated SEA parameters in rotary joint space (SI units).
+
+    Attributes
+    ----------
+    motor_inertia : float
+        Reflected motor inertia ``I_m`` [kg m^2].
+    joint_inertia : float
+        Joint-side inertia ``I_j`` [kg m^2].
+    motor_damping : float
+        Reflected motor damping ``b_m`` [N m s/rad].
+    joint_damping : float
+        Joint damping ``b_j`` [N m s/rad].
+    spring_stiffness : float
+        Series spring stiffness ``k`` [N m/rad].
+    current_to_torque : float
+        ``beta = eta N k_tau r``: motor current to joint torque [N m/A].
+    motor_torque_constant : float
+        Motor torque constant ``k_tau`` [N m/A] (only used by the paper's
+        printed impedance formula).
+    pulley_radius : float
+        Joint pulley radius ``r`` [m], for the linear-space view.
+    max_current : float
+        Motor current limit [A].
+
+    Examples
+    --------
+    >>> from seactl.actuators import UT_SEA
+    >>> round(UT_SEA.current_to_torque / UT_SEA.pulley_radius, 1)   # beta in N/A
+    208.1
+    >>> UT_SEA.linear()["motor_inertia"]
+    360.0
+    """
+
+    motor_inertia: float
+    joint_inertia: float
+    motor_damping: float
+    joint_damping: float
+    spring_stiffness: float
+    current_to_torque: float
+    motor_torque_constant: float = 0.0276
+    pulley_radius: float = 0.025
+    max_current: float = 30.0
+    name: str = "custom"
+
+    def __post_init__(self) -> None:
+        try:
+            _SEAModel.model_validate(asdict(self))
+        except ValidationError as exc:
+            _raise_from_pydantic(exc)
+
+    # Paper symbols, for readable equations.
+    @property
+    def Im(self) -> float:  # noqa: N802 - paper notation
+        return self.motor_inertia
+
+    @property
+    def Ij(self) -> float:  # noqa: N802
+        return self.joint_inertia
+
+    @property
+    def bm(self) -> float:
+        return self.motor_damping
+
+    @property
+    def bj(self) -> float:
+        return self.joint_damping
+
+    @property
+    def k(self) -> float:
+        return self.spring_stiffness
+
+    @property
+    def beta(self) -> float:
+        return self.current_to_torque
+
+    def linear(self) -> dict[str, float]:
+        """The same actuator in linear (pushrod) space: kg, N s/m, N/m, N/A."""
+        r = self.pulley_radius
+        return {
+            "motor_inertia": self.motor_inertia / r**2,
+            "joint_inertia": self.joint_inertia / r**2,
+            "motor_damping": self.motor_damping / r**2,
+            "joint_damping": self.joint_damping / r**2,
+            "spring_stiffness": self.spring_stiffness / r**2,
+            "current_to_force": self.current_to_torque / r,
+        }
+
+    @classmethod
+    def from_linear(cls, *, motor_mass: float, joint_mass: float, motor_damping: float,
+                    joint_damping: float, spring_stiffness: float, current_to_force: float,
+                    pulley_radius: float, **extra: Any) -> SEAParams:
+        """Build from linear-space values (kg, N s/m, N/m, N/A) and the pulley radius [m]."""
+        r = pulley_radius
+        return cls(motor_inertia=motor_mass * r**2, joint_inertia=joint_mass * r**2,
+                   motor_damping=motor_damping * r**2, joint_damping=joint_damping * r**2,
+                   spring_stiffness=spring_stiffness * r**2,
+                   current_to_torque=current_to_force * r, pulley_radius=r, **extra)
+
+
+def _ut_sea() -> SEAParams:
+    # Table II and background.md section 1: linear-space values with r = 0.025 m.
+    n_gear = 2 * math.pi * 4 / 0.003          # pulley reduction 4, ball-screw lead 3 mm/rev
+    beta_lin = 0.9 * n_gear * 0.0276          # eta N k_tau = 208.1 N/A
+    return SEAParams.from_linear(motor_mass=360.0, joint_mass=22.4, motor_damping=2200.0,
+                                 joint_damping=160.0, spring_stiffness=350000.0,
+                                 current_to_force=beta_lin, pulley_radius=0.025,
+                                 motor_torque_constant=0.0276, max_current=30.0,
+                                 name="ut-sea")
+
+
+UT_SEA = _ut_sea()
+"""The UT-SEA of the paper (Table II), in rotary joint space."""
+
+SEA_PRESETS: dict[str, SEAParams] = {"ut-sea": UT_SEA}
+
+
+def load_sea(spec: str | Path) -> SEAParams:
+    """Load an SEA by preset name (``ut-sea``) or from a TOML file.
+
+    The TOML file holds the fields of :class:`SEAParams` at top level (or
+    under an ``[actuator]`` table), in rotary SI units::
+
+        name = "my-sea"
+        motor_inertia = 0.225      # kg m^2
+        joint_inertia = 0.014      # kg m^2
+        motor_damping = 1.375      # N m s/rad
+        joint_damping = 0.1        # N m s/rad
+        spring_stiffness = 218.75  # N m/rad
+        current_to_torque = 5.2    # N m/A
+
+    Raises
+    ------
+    InputError
+        Unknown preset, unreadable file, unknown key or out-of-range value.
+    """
+    key = str(spec)
+    if key.lower() in SEA_PRESETS:
+        return SEA_PRESETS[key.lower()]
+    path = Path(key)
+    if not path.suffix == ".toml" or not path.is_file():
+        raise InputError("actuator", key, f"a preset ({', '.join(SEA_PRESETS)}) or an "
+                         "existing .toml file")
+    try:
+        data = tomllib.loads(path.read_text())
+    except tomllib.TOMLDecodeError as exc:
+        raise InputError("actuator", key, f"valid TOML ({exc})") from None
+    if "actuator" in data and isinstance(data["actuator"], dict) and len(data) == 1:
+        data = data["actuator"]
+    data.setdefault("name", path.stem)
+    try:
+        model = _SEAModel.model_validate(data)
+    except ValidationError as exc:
+        _raise_from_pydantic(exc)
+    return SEAParams(**{f.name: getattr(model, f.name) for f in fields(SEAParams)})
