@@ -1,0 +1,5 @@
+"""CLI commands beyond the core ones in :mod:`seactl.cli`, one module per topic.
+
+Each module imports ``cli`` (the click group) and the shared helpers from
+:mod:`seactl.cli` and registers its commands with ``@cli.command()``.
+"""

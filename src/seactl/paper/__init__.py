@@ -1,0 +1,6 @@
+"""Report sections reproducing the paper, one module per topic.
+
+Importing this package registers every section with :mod:`seactl.report`.
+"""
+
+from . import gain_design  # noqa: F401

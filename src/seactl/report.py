@@ -1,0 +1,219 @@
+"""The reproduction report: sections, claims, figures, HTML, written atomically.
+
+A *section* is a function ``f(ctx) -> Section`` registered with
+:func:`section`; the sections of the paper live in :mod:`seactl.paper`.  Each
+returns prose, tables, figures and :class:`Claim` objects comparing a number
+of the paper with the value seactl computes.  :func:`reproduce` runs them all,
+writes ``figures/*.png``, ``claims.json`` and ``index.html`` into a temporary
+directory next to the target and renames it into place at the end, so an
+interrupted run never leaves a half report.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import os
+import shutil
+import tempfile
+from collections.abc import Callable, Iterable
+from dataclasses import asdict, dataclass, field
+from pathlib import Path
+from typing import Any
+
+STATUSES = ("pass", "fail", "info")
+
+
+@dataclass(frozen=True)
+class Claim:
+    """A numeric claim of the paper and what seactl computes for it.
+
+    ``status`` is ``pass`` when ``|our - paper| <= tolerance`` (numbers) or
+    the stated relation holds, ``fail`` otherwise (``note`` says why), and
+    ``info`` for findings without a pass/fail criterion.
+    """
+
+    id: str
+    section: str
+    claim: str
+    paper_value: Any
+    our_value: Any
+    tolerance: Any
+    status: str
+    note: str = ""
+
+    def __post_init__(self) -> None:
+        if self.status not in STATUSES:
+            raise ValueError(f"status must be one of {STATUSES}, got {self.status!r}")
+
+    def as_json(self) -> dict[str, Any]:
+        d = asdict(self)
+        for key in ("paper_value", "our_value", "tolerance"):
+            d[key] = _clean(d[key])
+        if not d["note"]:
+            d.pop("note")
+        return d
+
+
+def numeric_claim(id: str, section: str, claim: str, paper: float, ours: float,
+                  tol: float, note: str = "") -> Claim:
+    """A claim that passes when ``|ours - paper| <= tol``."""
+    ok = math.isfinite(ours) and abs(ours - paper) <= tol
+    if not ok and not note:
+        note = f"differs by {ours - paper:+.4g} (tolerance {tol:g})"
+    return Claim(id, section, claim, paper, ours, tol, "pass" if ok else "fail", note)
+
+
+def _clean(v: Any) -> Any:
+    """JSON-stable values: floats rounded to 10 significant digits, NaN/inf as strings."""
+    try:
+        import numpy as np
+
+        if isinstance(v, np.generic):
+            v = v.item()
+        elif isinstance(v, np.ndarray):
+            v = v.tolist()
+    except ImportError:  # pragma: no cover
+        pass
+    if isinstance(v, float):
+        if not math.isfinite(v):
+            return str(v)
+        return float(f"{v:.10g}")
+    if isinstance(v, (list, tuple)):
+        return [_clean(x) for x in v]
+    if isinstance(v, dict):
+        return {k: _clean(x) for k, x in v.items()}
+    return v
+
+
+@dataclass
+class Figure:
+    filename: str   # relative to figures/
+    caption: str
+
+
+@dataclass
+class Section:
+    """One section of the report."""
+
+    id: str
+    title: str
+    intro: str = ""
+    tables: list[tuple[str, list[str], list[list[str]]]] = field(default_factory=list)
+    figures: list[Figure] = field(default_factory=list)
+    claims: list[Claim] = field(default_factory=list)
+    notes: list[str] = field(default_factory=list)
+
+
+@dataclass(frozen=True)
+class Context:
+    """What a section gets: where to save figures."""
+
+    figures_dir: Path
+
+    def savefig(self, fig: Any, name: str) -> str:
+        """Save a matplotlib figure as ``figures/name`` and close it; returns ``name``."""
+        import matplotlib.pyplot as plt
+
+        fig.savefig(self.figures_dir / name, dpi=110, bbox_inches="tight")
+        plt.close(fig)
+        return name
+
+
+_SECTIONS: list[tuple[int, str, Callable[[Context], Section]]] = []
+
+
+def section(order: int, id: str) -> Callable:
+    """Register a report section builder (sections run in ``order``)."""
+
+    def deco(func: Callable[[Context], Section]) -> Callable[[Context], Section]:
+        if any(s[1] == id for s in _SECTIONS):
+            raise ValueError(f"duplicate report section {id!r}")
+        _SECTIONS.append((order, id, func))
+        return func
+
+    return deco
+
+
+def registered_sections() -> list[tuple[int, str, Callable[[Context], Section]]]:
+    from . import paper  # noqa: F401 - registers the sections
+
+    return sorted(_SECTIONS, key=lambda s: (s[0], s[1]))
+
+
+def reproduce(out: Path, only: Iterable[str] | None = None, console: Any = None
+              ) -> list[dict[str, Any]]:
+    """Build the report into ``out`` (atomically) and return the claims as JSON dicts."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    from rich.progress import Progress
+
+    out = Path(out)
+    sections = registered_sections()
+    if only:
+        wanted = set(only)
+        unknown = wanted - {s[1] for s in sections}
+        if unknown:
+            from .errors import InputError
+
+            raise InputError("--only", ", ".join(sorted(unknown)),
+                             "one of " + ", ".join(s[1] for s in sections))
+        sections = [s for s in sections if s[1] in wanted]
+    out.parent.mkdir(parents=True, exist_ok=True)
+    tmp = Path(tempfile.mkdtemp(prefix=f".{out.name}.tmp-", dir=out.parent))
+    try:
+        (tmp / "figures").mkdir()
+        ctx = Context(tmp / "figures")
+        built: list[Section] = []
+        with Progress(console=console, transient=True, disable=console is None) as progress:
+            task = progress.add_task("reproducing the paper", total=len(sections))
+            for _, sid, func in sections:
+                progress.update(task, description=f"section {sid}")
+                built.append(func(ctx))
+                progress.advance(task)
+        claims = [c.as_json() for s in built for c in s.claims]
+        (tmp / "claims.json").write_text(json.dumps(claims, indent=2, sort_keys=True) + "\n")
+        (tmp / "index.html").write_text(_render(built, claims))
+        _swap_into_place(tmp, out)
+    except BaseException:
+        shutil.rmtree(tmp, ignore_errors=True)
+        raise
+    return claims
+
+
+def _swap_into_place(tmp: Path, out: Path) -> None:
+    """Replace ``out`` by ``tmp`` with renames only (never a half-written ``out``)."""
+    old = None
+    if out.exists():
+        old = out.with_name(f".{out.name}.old-{os.getpid()}")
+        os.replace(out, old)
+    os.replace(tmp, out)
+    if old is not None:
+        shutil.rmtree(old, ignore_errors=True)
+
+
+def write_atomic(path: Path, data: str | bytes) -> None:
+    """Write a file through a temporary sibling and a rename."""
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", dir=path.parent)
+    try:
+        with os.fdopen(fd, "wb") as fh:
+            fh.write(data.encode() if isinstance(data, str) else data)
+        os.replace(tmp, path)
+    except BaseException:
+        Path(tmp).unlink(missing_ok=True)
+        raise
+
+
+def _render(sections: list[Section], claims: list[dict[str, Any]]) -> str:
+    from importlib.metadata import version
+
+    from jinja2 import Environment, PackageLoader, select_autoescape
+
+    env = Environment(loader=PackageLoader("seactl", "templates"),
+                      autoescape=select_autoescape(["html"]))
+    counts = {s: sum(1 for c in claims if c["status"] == s) for s in STATUSES}
+    return env.get_template("report.html").render(sections=sections, claims=claims,
+                                                  counts=counts, version=version("seactl"))
