@@ -225,6 +225,10 @@ class DesignSubset:
     def __init__(self, design: Any, idx: np.ndarray, shape: tuple[int, ...]):
         self._design, self._idx, self._shape = design, idx, shape
 
+    @property
+    def shape(self) -> tuple[int, ...]:
+        return (int(np.size(self._idx)),)
+
     def __getattr__(self, name: str) -> np.ndarray:
         if name.startswith("_"):
             raise AttributeError(name)

@@ -18,7 +18,7 @@ Controller (paper Fig. ControlBlock)::
     tau_des = Kq (q_des - e^{-T_qs s} q_j) - Bq e^{-T_qd s} Q_qd s q_j
     i_m     = tau_des / beta + Ktau e_p + Btau Q_taud s e_d
     e_p     = tau_des - e^{-T_tau s} tau_k
-    e_d     = e_p                       (derivative on the whole error: P_CL has the zero)
+    e_d     = tau_des - e^{-T_tau s} tau_k  (derivative on the whole error: P_CL has the zero)
     e_d     = tau_fb - e^{-T_tau s} tau_k  (``zero=False``: derivative not on the reference)
 """
 
@@ -150,8 +150,12 @@ class SEADesign:
         return replace(self, timing=timing)
 
 
-def _sea_blocks() -> list[Block]:
+def _sea_blocks(zero: bool = True) -> list[Block]:
     ctrl, plant = "controller", "plant"
+    # The torque derivative acts on the whole error tau_des - tau_meas (P_CL has the zero),
+    # or only on its feedback part tau_fb - tau_meas (no zero; background.md section 5).
+    derivative_input = Block("ed_des", "tau_des", "e_d", role=ctrl) if zero else \
+        Block("ed_fb", "tau_fb", "e_d", role=ctrl)
     return [
         # outer impedance loop (stiffness on the high-level process, damping embedded)
         Block("Kq_ref", "q_des", "tau_ref", num=lambda p: (p.Kq,), role=ctrl),
@@ -170,8 +174,7 @@ def _sea_blocks() -> list[Block]:
               process="embedded"),
         Block("ep_des", "tau_des", "e_p", role=ctrl),
         Block("ep_fb", "tau_meas", "e_p", num=lambda p: (-1.0,), role=ctrl),
-        Block("ed_fb", "tau_fb", "e_d", role=ctrl),
-        Block("ed_ref", "tau_ref", "e_d", role=ctrl),
+        derivative_input,
         Block("ed_tau", "tau_meas", "e_d", num=lambda p: (-1.0,), role=ctrl),
         Block("Ktau", "e_p", "i_m", num=lambda p: (p.Ktau,), role=ctrl, process="embedded"),
         Block("Btau", "e_d", "i_m", num=lambda p: (p.Btau, 0.0),
@@ -189,10 +192,10 @@ def _sea_blocks() -> list[Block]:
     ]
 
 
-SEA_DIAGRAM = BlockDiagram("sea", _sea_blocks())
+SEA_DIAGRAM = BlockDiagram("sea", _sea_blocks(zero=True))
 """The SEA loop with the torque-derivative acting on the reference (P_CL has the zero)."""
 
-SEA_DIAGRAM_NO_ZERO = SEA_DIAGRAM.without("ed_ref")
+SEA_DIAGRAM_NO_ZERO = BlockDiagram("sea-no-zero", _sea_blocks(zero=False))
 """Variant: the torque derivative acts on feedback only (no zero in P_CL)."""
 
 
