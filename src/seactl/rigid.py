@@ -1,0 +1,401 @@
+"""Rigid actuator with distributed impedance control (background.md section 6).
+
+Plant ``1/(m s^2 + b s)`` driven by a force command; controller::
+
+    F = K (x_des - e^{-T_s s} x) - B Q(s) s e^{-T_d s} x,   Q = 1/(T_f s + 1)
+
+with the stiffness feedback on the high-level process (delay ``T_s``) and the
+damping feedback on the embedded process (delay ``T_d``).  *Monolithic*
+placements run both loops on one process (``T_s = T_d``); *distributed* ones
+give each loop its own delay.
+
+The loop is written once, as :data:`RIGID_DIAGRAM` (a
+:class:`~seactl.blockdiagram.BlockDiagram`); margins use the generic
+:func:`seactl.margins.loop_margins`.  The position measurement is split into
+two taps, ``x_s`` (read by the stiffness block) and ``x_d`` (read by the
+damping block), so that each loop can be broken on its own
+(:mod:`seactl.latency`).
+
+Gains are critically damped ignoring delays: ``K = m w_n^2`` and
+``B = 2 m w_n - b`` (``passive_damping=False``: ``B = 2 m w_n``).
+
+Examples
+--------
+>>> d = RigidDesign.from_fn(UT_LINEAR, 8.0, T_s=1.5e-3, T_d=1.5e-3)
+>>> round(float(d.K)), round(float(d.B))
+(646814, 24486)
+>>> m = rigid_margins(d)
+>>> bool(m.stable), round(float(m.phase_margin_deg), 1)
+(True, 69.4)
+"""
+
+from __future__ import annotations
+
+import math
+import tomllib
+from dataclasses import asdict, dataclass, fields, replace
+from functools import cached_property
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+from pydantic import BaseModel, ConfigDict, Field, ValidationError
+
+from ._validate import finite_array
+from .actuators import UT_SEA
+from .blockdiagram import Block, BlockDiagram, Transfer
+from .errors import InfeasibleDesignError, InputError
+from .margins import Margins, default_grid, loop_margins
+
+# ------------------------------------------------------------------ parameters
+_POS = dict(gt=0, allow_inf_nan=False)
+
+
+class _RigidModel(BaseModel):
+    """Validation schema of :class:`RigidParams` (also the TOML schema)."""
+
+    model_config = ConfigDict(extra="forbid", frozen=True)
+
+    name: str = "custom"
+    mass: float = Field(description="effective output mass m [kg]", **_POS)
+    damping: float = Field(description="passive damping b [N s/m]", ge=0, allow_inf_nan=False)
+    current_to_force: float = Field(description="beta, motor current to force [N/A]", **_POS)
+    max_current: float = Field(30.0, description="motor current limit [A]", **_POS)
+
+
+_UNITS = {"mass": "kg", "damping": "N s/m", "current_to_force": "N/A", "max_current": "A"}
+
+
+def _raise_from_pydantic(exc: ValidationError) -> None:
+    err = exc.errors()[0]
+    field = ".".join(str(p) for p in err["loc"])
+    if err["type"] == "extra_forbidden":
+        known = ", ".join(_RigidModel.model_fields)
+        raise InputError(field, err.get("input"), f"one of the known keys ({known})") from None
+    if err["type"] == "missing":
+        raise InputError(field, None, "given (required field)") from None
+    bounds = []
+    if field in _RigidModel.model_fields:
+        for m in _RigidModel.model_fields[field].metadata:
+            for attr, sym in (("gt", ">"), ("ge", ">=")):
+                if getattr(m, attr, None) is not None:
+                    bounds.append(f"{sym} {getattr(m, attr)}")
+    valid = (" and ".join(bounds) + " and finite") if bounds else err["msg"].lower()
+    if field in _UNITS:
+        valid += f" [{_UNITS[field]}]"
+    raise InputError(field, err.get("input"), valid) from None
+
+
+@dataclass(frozen=True)
+class RigidParams:
+    """Immutable, validated rigid (stiff drivetrain) linear actuator, SI units.
+
+    Attributes
+    ----------
+    mass : float
+        Effective output mass ``m`` [kg].
+    damping : float
+        Passive damping ``b`` [N s/m].
+    current_to_force : float
+        ``beta``: motor current to output force [N/A].
+    max_current : float
+        Motor current limit [A]; the force limit is ``beta * max_current``.
+
+    Examples
+    --------
+    >>> round(UT_LINEAR.max_force)
+    6243
+    >>> RigidParams(mass=-1.0, damping=0.0, current_to_force=1.0)
+    Traceback (most recent call last):
+    ...
+    seactl.errors.InputError: invalid mass = -1.0: must be > 0 and finite [kg]
+    """
+
+    mass: float
+    damping: float
+    current_to_force: float
+    max_current: float = 30.0
+    name: str = "custom"
+
+    def __post_init__(self) -> None:
+        try:
+            _RigidModel.model_validate(asdict(self))
+        except ValidationError as exc:
+            _raise_from_pydantic(exc)
+
+    @property
+    def m(self) -> float:
+        return self.mass
+
+    @property
+    def b(self) -> float:
+        return self.damping
+
+    @property
+    def beta(self) -> float:
+        return self.current_to_force
+
+    @property
+    def max_force(self) -> float:
+        """Force limit [N] = ``beta * max_current``."""
+        return self.current_to_force * self.max_current
+
+
+UT_LINEAR = RigidParams(
+    mass=256.0, damping=1250.0,
+    # same drivetrain as the UT-SEA: beta = eta N k_tau = 208.1 N/A (background.md section 1)
+    current_to_force=UT_SEA.current_to_torque / UT_SEA.pulley_radius,
+    max_current=30.0, name="ut-linear")
+"""The UT linear actuator of the paper's step experiment (m = 256 kg, b = 1250 N s/m)."""
+
+RIGID_PRESETS: dict[str, RigidParams] = {"ut-linear": UT_LINEAR}
+
+
+def load_rigid(spec: str | Path) -> RigidParams:
+    """Load a rigid actuator by preset name (``ut-linear``) or from a TOML file.
+
+    The TOML file holds the fields of :class:`RigidParams` at top level (or
+    under an ``[actuator]`` table), SI units::
+
+        name = "my-actuator"
+        mass = 256.0               # kg
+        damping = 1250.0           # N s/m
+        current_to_force = 208.1   # N/A
+        max_current = 30.0         # A
+
+    Raises
+    ------
+    InputError
+        Unknown preset, unreadable file, unknown key or out-of-range value.
+
+    Examples
+    --------
+    >>> load_rigid("ut-linear").mass
+    256.0
+    """
+    key = str(spec)
+    if key.lower() in RIGID_PRESETS:
+        return RIGID_PRESETS[key.lower()]
+    path = Path(key)
+    if path.suffix != ".toml" or not path.is_file():
+        raise InputError("actuator", key, f"a rigid-actuator preset ({', '.join(RIGID_PRESETS)})"
+                         " or an existing .toml file")
+    try:
+        data = tomllib.loads(path.read_text())
+    except tomllib.TOMLDecodeError as exc:
+        raise InputError("actuator", key, f"valid TOML ({exc})") from None
+    if "actuator" in data and isinstance(data["actuator"], dict) and len(data) == 1:
+        data = data["actuator"]
+    data.setdefault("name", path.stem)
+    try:
+        model = _RigidModel.model_validate(data)
+    except ValidationError as exc:
+        _raise_from_pydantic(exc)
+    return RigidParams(**{f.name: getattr(model, f.name) for f in fields(RigidParams)})
+
+
+# ------------------------------------------------------------------ gains and designs
+@dataclass(frozen=True)
+class RigidGains:
+    """Impedance gains of the rigid actuator (arrays broadcast as a batch).
+
+    Attributes
+    ----------
+    K : stiffness gain [N/m];  B : damping gain [N s/m].
+    """
+
+    K: np.ndarray
+    B: np.ndarray
+
+    def __post_init__(self) -> None:
+        for f in fields(self):
+            object.__setattr__(self, f.name, finite_array(f.name, getattr(self, f.name),
+                                                           minimum=0.0))
+
+    @property
+    def shape(self) -> tuple[int, ...]:
+        return np.broadcast_shapes(np.shape(self.K), np.shape(self.B))
+
+
+def min_feasible_fn(actuator: RigidParams, passive_damping: bool = True) -> float:
+    """Lowest ``f_n`` [Hz] with a positive damping gain (``2 m w_n > b``), 0 without the
+    ``-b`` term."""
+    return actuator.b / (4 * math.pi * actuator.m) if passive_damping else 0.0
+
+
+def rigid_gains(actuator: RigidParams, fn_hz, *, passive_damping: bool = True) -> RigidGains:
+    """Critically-damped gains ``K = m w_n^2``, ``B = 2 m w_n - b`` (delays ignored).
+
+    Parameters
+    ----------
+    actuator : RigidParams
+    fn_hz : array_like
+        Closed-loop natural frequency ``f_n`` [Hz].
+    passive_damping : bool
+        Subtract the passive damping ``b`` from ``B`` (default).  ``False`` gives
+        ``B = 2 m w_n`` (the closed loop is then over-damped by ``b``).
+
+    Raises
+    ------
+    InfeasibleDesignError
+        If ``B`` would be zero or negative (``f_n <= b / (4 pi m)``).
+
+    Examples
+    --------
+    >>> g = rigid_gains(UT_LINEAR, 12.0)
+    >>> round(float(g.K)), round(float(g.B))
+    (1455332, 37354)
+    >>> rigid_gains(UT_LINEAR, 0.2)
+    Traceback (most recent call last):
+    ...
+    seactl.errors.InfeasibleDesignError: no positive damping gain B = 2 m w_n - b exists for \
+f_n = 0.2 Hz on actuator 'ut-linear'; feasible: f_n > 0.3886 Hz
+    """
+    fn = finite_array("fn [Hz]", fn_hz, minimum=0.0, strict=True)
+    a = actuator
+    wn = 2 * np.pi * fn
+    B = 2 * a.m * wn - (a.b if passive_damping else 0.0)
+    bad = B <= 0
+    if bad.any():
+        lo = min_feasible_fn(a, passive_damping)
+        what = ", ".join(f"{f:g}" for f in np.unique(fn[bad])[:6])
+        raise InfeasibleDesignError(
+            f"no positive damping gain B = 2 m w_n - b exists for f_n = {what} Hz on actuator "
+            f"'{a.name}'; feasible: f_n > {lo:.4g} Hz", fn_hz=np.unique(fn[bad]),
+            feasible_hz=[(lo, math.inf)])
+    return RigidGains(a.m * wn**2, B)
+
+
+def _tau_filter(f_hz) -> np.ndarray:
+    if f_hz is None:
+        return np.asarray(0.0)
+    f = finite_array("f_v [Hz]", f_hz, minimum=0.0, strict=True, allow_inf=True)
+    return 1.0 / (2 * np.pi * f)
+
+
+@dataclass(frozen=True)
+class RigidDesign:
+    """A batch of rigid-actuator designs: actuator, gains, delays, velocity filter.
+
+    Attributes used by :data:`RIGID_DIAGRAM` are arrays of the common batch shape:
+    ``m``, ``b``, ``K``, ``B``, ``T_s`` (stiffness delay [s]), ``T_d`` (damping
+    delay [s]) and ``Tf_v`` (velocity-filter time constant [s], 0 = no filter).
+
+    Parameters
+    ----------
+    actuator : RigidParams
+    gains : RigidGains
+    T_s, T_d : array_like
+        Stiffness- and damping-feedback delays [s].
+    f_v : array_like or None
+        Velocity filter cut-off ``Q = 2 pi f_v / (s + 2 pi f_v)`` [Hz]; None: no filter.
+    """
+
+    actuator: RigidParams
+    gains: RigidGains
+    T_s: Any = 0.0
+    T_d: Any = 0.0
+    f_v: Any = None
+
+    def __post_init__(self) -> None:
+        object.__setattr__(self, "T_s", finite_array("T_s [s]", self.T_s, minimum=0.0))
+        object.__setattr__(self, "T_d", finite_array("T_d [s]", self.T_d, minimum=0.0))
+        if self.f_v is not None:
+            object.__setattr__(self, "f_v", finite_array("f_v [Hz]", self.f_v, minimum=0.0,
+                                                         strict=True, allow_inf=True))
+
+    @classmethod
+    def from_fn(cls, actuator: RigidParams, fn_hz, *, T_s=0.0, T_d=0.0, f_v=None,
+                passive_damping: bool = True) -> RigidDesign:
+        """Critically-damped design(s) for ``f_n`` [Hz] (see :func:`rigid_gains`)."""
+        return cls(actuator, rigid_gains(actuator, fn_hz, passive_damping=passive_damping),
+                   T_s, T_d, f_v)
+
+    @cached_property
+    def _arrays(self) -> dict[str, np.ndarray]:
+        a, g = self.actuator, self.gains
+        raw = dict(m=a.m, b=a.b, K=g.K, B=g.B, T_s=self.T_s, T_d=self.T_d,
+                   Tf_v=_tau_filter(self.f_v))
+        arrays = np.broadcast_arrays(*(np.asarray(v, float) for v in raw.values()))
+        return dict(zip(raw, arrays))
+
+    def __getattr__(self, name: str) -> np.ndarray:
+        if name.startswith("_"):
+            raise AttributeError(name)
+        try:
+            return self._arrays[name]
+        except KeyError:
+            raise AttributeError(name) from None
+
+    @property
+    def shape(self) -> tuple[int, ...]:
+        return self._arrays["K"].shape
+
+    @property
+    def wn(self) -> np.ndarray:
+        """Delay-free natural frequency ``sqrt(K/m)`` [rad/s]."""
+        return np.sqrt(self.K / self.m)
+
+    def with_delays(self, T_s=None, T_d=None) -> RigidDesign:
+        """Same design with other delays [s] (``None`` keeps the current one)."""
+        return replace(self, T_s=self.T_s if T_s is None else T_s,
+                       T_d=self.T_d if T_d is None else T_d)
+
+
+# ------------------------------------------------------------------ the block diagram
+def _rigid_blocks() -> list[Block]:
+    ctrl, plant = "controller", "plant"
+    return [
+        Block("K_ref", "x_des", "F_des", num=lambda p: (p.K,), role=ctrl, process="high-level"),
+        Block("x_sensor", "x", "x_sens", role="sensor"),
+        # one tap per loop, so each loop can be broken alone
+        Block("s_tap", "x_sens", "x_s", role=ctrl),
+        Block("d_tap", "x_sens", "x_d", role=ctrl),
+        Block("K_fb", "x_s", "F_des", num=lambda p: (-p.K,), delay="T_s", role=ctrl,
+              process="high-level"),
+        Block("B_fb", "x_d", "F_des", num=lambda p: (-p.B, 0.0), den=lambda p: (p.Tf_v, 1.0),
+              delay="T_d", role=ctrl, process="embedded"),
+        # physics: the force command is the actuator force (saturated in simulations)
+        Block("drive", "F_des", "F_net", role=plant),
+        Block("ext_load", "F_ext", "F_net", role=plant),
+        Block("mass", "F_net", "x", den=lambda p: (p.m, p.b, 0.0), role=plant),
+    ]
+
+
+RIGID_DIAGRAM = BlockDiagram("rigid", _rigid_blocks())
+"""The rigid actuator loop.  Signals: inputs ``x_des`` [m], ``F_ext`` [N]; ``F_des``
+force command, ``F_net``, ``x`` position, sensor ``x_sens`` and its taps ``x_s``
+(stiffness) and ``x_d`` (damping)."""
+
+
+def rigid_loop() -> Transfer:
+    """Whole loop ``L = (K e^{-T_s s} + B Q s e^{-T_d s}) / (m s^2 + b s)``."""
+    return RIGID_DIAGRAM.loop("x_sens")
+
+
+def rigid_closed_loop() -> Transfer:
+    """Position response ``x / x_des``."""
+    return RIGID_DIAGRAM.transfer("x", "x_des")
+
+
+def rigid_compliance() -> Transfer:
+    """Compliance ``x / F_ext`` (its inverse is the closed-loop stiffness)."""
+    return RIGID_DIAGRAM.transfer("x", "F_ext")
+
+
+def rigid_grid(design: RigidDesign) -> np.ndarray:
+    """Bracketing grid [rad/s] around each design's ``w_n`` (four decades)."""
+    return default_grid(design.wn)
+
+
+def rigid_margins(design: RigidDesign, omega: np.ndarray | None = None) -> Margins:
+    """Phase/gain/delay margins and Nyquist stability of the whole rigid loop (the open
+    loop is stable: poles at 0 and ``-b/m``)."""
+    return loop_margins(rigid_loop(), design, rigid_grid(design) if omega is None else omega)
+
+
+def static_stiffness(design: Any, compliance: Transfer, scale: np.ndarray) -> np.ndarray:
+    """Closed-loop stiffness at (nearly) zero frequency: ``1/|compliance(j 1e-6 scale)|``."""
+    c = compliance(design, 1j * 1e-6 * np.asarray(scale, float)[..., None])[..., 0]
+    with np.errstate(divide="ignore"):
+        return 1.0 / np.abs(c)
