@@ -312,7 +312,8 @@ def main(argv: Sequence[str] | None = None) -> int:
     try:
         cli.main(args=args, prog_name="seactl", standalone_mode=False)
     except SeactlError as exc:
-        err_console.print(f"[bold red]error:[/bold red] {escape(str(exc))}", highlight=False)
+        err_console.print(f"[bold red]error:[/bold red] {escape(str(exc))}", highlight=False,
+                          soft_wrap=True)
         return 2
     except click.exceptions.Abort:
         err_console.print("aborted")

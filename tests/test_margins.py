@@ -1,0 +1,177 @@
+"""Margins against python-control, analytic identities and a time-domain simulation."""
+
+from types import SimpleNamespace
+
+import control
+import numpy as np
+import pytest
+
+from seactl.actuators import UT_SEA
+from seactl.blockdiagram import DesignSubset
+from seactl.design import critically_damped_gains
+from seactl.loops import SEADesign, Timing, outer_loop
+from seactl.margins import default_grid, loop_margins, sea_margins
+
+A = UT_SEA
+TABLE_I_PM = {12: 45.1, 14: 43.2, 16: 40.0, 18: 36.5, 20: 33.2}
+
+
+def sea(fn, gs=1.0, ms=(0.5, 2.0, 0.5, 50.0, 100.0)):
+    return SEADesign(A, critically_damped_gains(A, fn, gs=gs), Timing.from_ms(*ms))
+
+
+@pytest.mark.parametrize("fn,pm", sorted(TABLE_I_PM.items()))
+def test_table_i_phase_margins(fn, pm):
+    assert float(sea_margins(sea(float(fn))).phase_margin_deg) == pytest.approx(pm, abs=0.1)
+
+
+def test_gain_scale_0p4_gives_34_degrees():
+    # Fig. GainScale(a): ideal loop, f_n = 14 Hz
+    m = sea_margins(SEADesign(A, critically_damped_gains(A, 14.0, gs=0.4)))
+    assert float(m.phase_margin_deg) == pytest.approx(34.0, abs=0.1)
+
+
+# Table-driven comparison with python-control on a dense FRD of the same exact-delay loop.
+CASES = [
+    # fn, gs, (T_tau, T_qs, T_qd [ms], f_qd, f_taud [Hz])
+    (12.0, 1.0, (0.5, 2.0, 0.5, 50.0, 100.0)),
+    (20.0, 1.0, (1.0, 10.0, 1.0, 50.0, 100.0)),
+    (14.0, 0.5, (0.5, 5.0, 2.0, 30.0, 200.0)),
+    (30.0, 2.0, (1.0, 3.0, 1.0, None, None)),
+    (16.0, 1.0, (0.0, 0.0, 0.0, None, None)),
+    (25.0, 1.3, (0.8, 15.0, 0.5, 80.0, 150.0)),
+]
+
+
+@pytest.mark.parametrize("fn,gs,ms", CASES)
+def test_margins_equal_python_control_on_dense_frd(fn, gs, ms):
+    d = sea(fn, gs, ms)
+    ours = sea_margins(d)
+    w = np.logspace(-1, 4, 20000)
+    L = outer_loop()(d, 1j * w)
+    gm, pm, _sm, w180, wc, _ws = control.stability_margins(control.FRD(L, w))
+    assert float(ours.phase_margin_deg) == pytest.approx(pm, abs=2e-3)
+    assert float(ours.crossover_hz) * 2 * np.pi == pytest.approx(wc, rel=1e-5)
+    if np.isfinite(gm):
+        assert float(ours.gain_margin) == pytest.approx(gm, rel=1e-4)
+        assert float(ours.phase_crossover_hz) * 2 * np.pi == pytest.approx(w180, rel=1e-5)
+    else:
+        assert np.isinf(ours.gain_margin)
+
+
+def integrator_with_delay(K, T):
+    loop = lambda p, s: p.K[..., None] * np.exp(-s * p.T[..., None]) / s  # noqa: E731
+    p = SimpleNamespace(K=np.atleast_1d(np.asarray(K, float)),
+                        T=np.atleast_1d(np.asarray(T, float)))
+    p.shape = np.broadcast_shapes(p.K.shape, p.T.shape)
+    return loop, p
+
+
+def test_pure_delay_identities_vectorized():
+    K = np.array([1.0, 10.0, 50.0, 200.0])
+    T = np.array([0.0, 0.01, 0.02, 0.005])
+    loop, p = integrator_with_delay(K, T)
+    m = loop_margins(loop, p, default_grid(K))
+    np.testing.assert_allclose(m.phase_margin_deg, 90 - np.degrees(K * T), atol=1e-6)
+    np.testing.assert_allclose(m.crossover_hz, K / (2 * np.pi), rtol=1e-9)
+    np.testing.assert_allclose(m.delay_margin_s, np.pi / (2 * K) - T, rtol=1e-7)
+    # phase crossover where w T = pi/2: gain margin w180 / K (none without delay)
+    assert np.isinf(m.gain_margin[0])
+    np.testing.assert_allclose(m.gain_margin[1:], np.pi / (2 * T[1:]) / K[1:], rtol=1e-7)
+    assert m.stable.all()
+
+
+def test_unstable_pure_delay_loop():
+    loop, p = integrator_with_delay(10.0, 0.2)   # K T = 2 > pi/2
+    m = loop_margins(loop, p, default_grid(10.0))
+    assert not m.stable[0] and m.unstable_poles[0] >= 2
+    assert m.phase_margin_deg[0] < 0 and m.delay_margin_s[0] == 0.0
+
+
+def test_no_crossover_reported_explicitly():
+    loop, p = integrator_with_delay(1.0, 0.0)
+    # grid entirely below the crossover: |L| > 1 everywhere on it
+    m = loop_margins(lambda d, s: 1e-4 * loop(d, s), p, np.logspace(-6, -5, 50), max_depth=0)
+    assert np.isinf(m.phase_margin_deg[0]) and np.isnan(m.crossover_hz[0])
+    assert not m.has_crossover[0]
+
+
+def test_delay_margin_is_the_stability_boundary():
+    d = sea(np.array([12.0, 16.0, 20.0]), 1.0, (0.5, 2.0, 0.5, 50.0, 100.0))
+    m = sea_margins(d)
+    dm = m.delay_margin_s
+    # an equal extra delay on both outer-loop paths multiplies L by exp(-s tau)
+    for factor, stable in ((0.98, True), (1.02, False)):
+        extra = factor * dm
+        t = Timing(0.0005, 0.002 + extra, 0.0005 + extra, 50.0, 100.0)
+        shifted = sea_margins(SEADesign(A, d.gains, t))
+        assert np.all(shifted.stable == stable)
+    t = Timing(0.0005, 0.002 + dm, 0.0005 + dm, 50.0, 100.0)
+    at = sea_margins(SEADesign(A, d.gains, t))
+    np.testing.assert_allclose(at.phase_margin_deg, 0.0, atol=1e-6)
+
+
+def simulate_sea(design, t_end=1.5, dt=2e-5):
+    """Independent check: explicit fixed-step simulation of the physical equations with
+    delay buffers (not derived from the block diagram). Returns q_j over time, (n, steps)."""
+    p = design
+    n = int(np.prod(p.shape))
+    f = {k: np.broadcast_to(getattr(p, k), p.shape).reshape(n) for k in
+         ("Kq", "Bq", "Ktau", "Btau", "T_tau", "T_qs", "T_qd", "Tf_qd", "Tf_taud")}
+    steps = int(t_end / dt)
+    lag = {k: np.maximum(np.round(f[k] / dt).astype(int), 0) for k in ("T_tau", "T_qs", "T_qd")}
+    H = max(int(v.max()) for v in lag.values()) + 2
+    hist_q, hist_v, hist_t = (np.zeros((H, n)) for _ in range(3))
+    qm = np.zeros(n); vm = np.zeros(n); qj = np.zeros(n); vj = np.zeros(n)  # noqa: E702
+    vf = np.zeros(n); ef = np.zeros(n)  # noqa: E702
+    q_des = 1e-3
+    cols = np.arange(n)
+    out = np.empty((steps, n))
+    for i in range(steps):
+        tau_k = A.k * (qm - qj)
+        h = i % H
+        hist_q[h], hist_v[h], hist_t[h] = qj, vf, tau_k
+        q_s = hist_q[(i - lag["T_qs"]) % H, cols]
+        v_s = hist_v[(i - lag["T_qd"]) % H, cols]
+        t_s = hist_t[(i - lag["T_tau"]) % H, cols]
+        tau_des = f["Kq"] * (q_des - q_s) - f["Bq"] * v_s
+        e = tau_des - t_s
+        de = (e - ef) / f["Tf_taud"]            # filtered derivative s/(T s + 1) e
+        i_m = tau_des / A.beta + f["Ktau"] * e + f["Btau"] * de
+        am = (A.beta * i_m - A.bm * vm - tau_k) / A.Im
+        aj = (tau_k - A.bj * vj) / A.Ij
+        ef = ef + dt * de
+        vf = vf + dt * (vj - vf) / f["Tf_qd"]
+        vm, vj = vm + dt * am, vj + dt * aj
+        qm, qj = qm + dt * vm, qj + dt * vj
+        out[i] = qj
+    return out.T / q_des
+
+
+def test_nyquist_stability_agrees_with_time_domain_simulation():
+    gs = np.array([1.0, 3.0, 1.0, 1.0])
+    T_tau = np.array([0.5, 2.0, 0.5, 0.5]) * 1e-3
+    T_qs = np.array([2.0, 0.0, 2.0, 2.0]) * 1e-3
+    g = critically_damped_gains(A, 14.0, gs=gs)
+    d0 = SEADesign(A, g, Timing(T_tau, T_qs, 0.5e-3, 50.0, 100.0))
+    dm = sea_margins(d0).delay_margin_s
+    # design 3: just inside its delay margin on the damping loop; design 4: beyond it
+    T_qd = np.array([0.5e-3, 0.5e-3, 0.5e-3 + 0.6 * dm[2], 0.5e-3 + 1.6 * dm[3]])
+    T_qs = T_qs + np.array([0, 0, 0.6 * dm[2], 1.6 * dm[3]])
+    d = SEADesign(A, g, Timing(T_tau, T_qs, T_qd, 50.0, 100.0))
+    m = sea_margins(d)
+    # case 2 has a healthy-looking outer phase margin but an unstable inner torque loop
+    assert m.phase_margin_deg[1] > 30 and m.unstable_poles[1] > 0
+    y = simulate_sea(d)
+    tail, early = np.abs(y[:, -5000:] - 1).max(axis=1), np.abs(y[:, 5000:10000] - 1).max(axis=1)
+    sim_stable = np.isfinite(tail) & (tail < 0.5 * early + 1e-3) & (tail < 1.0)
+    np.testing.assert_array_equal(m.stable, sim_stable)
+    np.testing.assert_array_equal(m.stable, [True, False, True, False])
+
+
+def test_subset_evaluation_matches_batch():
+    d = sea(np.array([12.0, 14.0, 16.0]))
+    s = 1j * np.array([5.0, 50.0])
+    full = outer_loop()(d, s)
+    sub = outer_loop()(DesignSubset(d, np.array([2, 0]), d.shape), s[None, :])
+    np.testing.assert_allclose(sub, full[[2, 0]])
