@@ -25,3 +25,221 @@ def gain_scale_figure(fn: np.ndarray, gs: np.ndarray, pm: np.ndarray):
     ax.grid(True, which="both", alpha=0.3)
     ax.legend(fontsize=8, ncol=2)
     return fig
+
+
+# ----------------------------------------------------------------------- impedance (issue 3)
+def impedance_bode_figure(columns, *, suptitle: str | None = None, unit: str = "N m s/rad",
+                          col_width: float = 4.6):
+    """Bode magnitude (dB) and unwrapped phase (deg) of impedances, one column per panel.
+
+    ``columns``: list of ``(title, curves)``; each curve is a dict with ``f`` [Hz], ``z``
+    (complex), ``label`` and optional ``color``, ``dashed`` (asymptotes and references:
+    drawn dashed and excluded from the axis limits), ``lw``.
+    """
+    n = len(columns)
+    fig, axes = plt.subplots(2, n, figsize=(col_width * n, 6.2), sharex="col", squeeze=False,
+                             gridspec_kw={"height_ratios": [1.6, 1]})
+    for j, (title, curves) in enumerate(columns):
+        am, ap = axes[0, j], axes[1, j]
+        lo, hi = np.inf, -np.inf
+        for c in curves:
+            f, z = np.asarray(c["f"]), np.asarray(c["z"])
+            db = 20 * np.log10(np.abs(z))
+            ph = np.degrees(np.unwrap(np.angle(z)))
+            ls = "--" if c.get("dashed") else "-"
+            lw = c.get("lw", 1.0 if c.get("dashed") else 1.6)
+            am.semilogx(f, db, ls=ls, lw=lw, color=c.get("color"), label=c.get("label"))
+            ap.semilogx(f, ph, ls=ls, lw=lw, color=c.get("color"))
+            if not c.get("dashed"):
+                lo, hi = min(lo, float(np.nanmin(db))), max(hi, float(np.nanmax(db)))
+        if np.isfinite(lo):
+            am.set_ylim(lo - 8, hi + 8)
+        am.set_title(title, fontsize=10)
+        am.grid(True, which="both", alpha=0.3)
+        ap.grid(True, which="both", alpha=0.3)
+        ap.set_xlabel("frequency [Hz]")
+        if j == 0:
+            am.set_ylabel(f"|Z| [dB re 1 {unit}]")
+            ap.set_ylabel("phase of Z [deg]")
+        am.legend(fontsize=7, loc="best")
+    if suptitle:
+        fig.suptitle(suptitle, fontsize=11)
+    fig.tight_layout()
+    return fig
+
+
+def zregion_figure(region, fn_hz, gs, *, spring=None, unit: str = "N m s/rad"):
+    """Z-region: admissible |Z| envelope, Z-width with the Z-depth, admissible design map."""
+    f = region.f_hz
+    fig, axes = plt.subplots(1, 3, figsize=(15, 4.4),
+                             gridspec_kw={"width_ratios": [1.3, 1.0, 0.9]})
+    ax = axes[0]
+    mag = region.magnitude.reshape(-1, f.size)
+    for row in mag[region.admissible.reshape(-1)]:
+        ax.semilogx(f, 20 * np.log10(row), color="0.75", lw=0.5)
+    ax.fill_between(f, 20 * np.log10(region.z_min), 20 * np.log10(region.z_max),
+                    color="tab:blue", alpha=0.25, label="Z-region (admissible envelope)")
+    ax.semilogx(f, 20 * np.log10(region.z_max), color="tab:blue", lw=1.4)
+    ax.semilogx(f, 20 * np.log10(region.z_min), color="tab:blue", lw=1.4)
+    if spring is not None:
+        ax.semilogx(f, 20 * np.log10(np.abs(spring)), "k--", lw=1, label="spring k/(jw)")
+    ax.set_xlabel("frequency [Hz]")
+    ax.set_ylabel(f"|Z| [dB re 1 {unit}]")
+    ax.set_title(f"{region.n_admissible} admissible designs ({region.model})", fontsize=10)
+    ax.grid(True, which="both", alpha=0.3)
+    ax.legend(fontsize=8)
+    ax = axes[1]
+    ax.semilogx(f, region.width_db, color="tab:blue")
+    ax.axhline(region.threshold_db, color="k", ls=":", lw=1,
+               label=f"threshold {region.threshold_db:g} dB")
+    if region.depth_hz is not None:
+        ax.axvspan(*region.depth_hz, color="tab:green", alpha=0.15,
+                   label=f"Z-depth {region.depth_hz[0]:.3g}-{region.depth_hz[1]:.3g} Hz "
+                         f"({region.depth_decades:.2f} dec)")
+    ax.set_xlabel("frequency [Hz]")
+    ax.set_ylabel("Z-width [dB]")
+    ax.set_title("Z-width = 20 log10(max|Z| / min|Z|)", fontsize=10)
+    ax.grid(True, which="both", alpha=0.3)
+    ax.legend(fontsize=8)
+    ax = axes[2]
+    pm = np.where(region.stable, region.phase_margin_deg, np.nan)
+    im = ax.pcolormesh(np.asarray(gs), np.asarray(fn_hz), pm, cmap="viridis", shading="nearest")
+    fig.colorbar(im, ax=ax, label="phase margin [deg] (blank: unstable)")
+    yy, xx = np.nonzero(~region.admissible)
+    ax.plot(np.asarray(gs)[xx], np.asarray(fn_hz)[yy], "x", color="r", ms=4,
+            label="not admissible")
+    ax.set_xlabel("gain scale GS")
+    ax.set_ylabel("f_n [Hz]")
+    ax.set_title(f"admissible: PM >= {region.min_pm_deg:g} deg"
+                 + (", passive" if region.require_passive else ""), fontsize=10)
+    ax.legend(fontsize=8, loc="upper right")
+    fig.tight_layout()
+    return fig
+
+
+def sweep_map_figure(m: dict, title: str = ""):
+    """Heatmap (with contours) of a sweep output over two axes (:func:`seactl.sweep.sweep_map`);
+    grey: no feasible design; red line: stability boundary (half the designs of a cell stable)."""
+    fig, ax = plt.subplots(figsize=(6.4, 4.6))
+    x, y, z = m["x"], m["y"], np.ma.masked_invalid(m["z"])
+    ax.set_facecolor("0.85")
+    finite = np.isfinite(m["z"])
+    if finite.any():
+        lo, hi = np.nanpercentile(m["z"][finite], [1, 99])
+        mesh = ax.pcolormesh(x, y, z, shading="nearest", cmap="viridis", vmin=lo, vmax=hi)
+        cb = fig.colorbar(mesh, ax=ax)
+        cb.set_label(f"{m['z_name']} ({m['reduce']} per cell)")
+        if x.size > 2 and y.size > 2 and np.ptp(z[finite]) > 0:
+            cs = ax.contour(x, y, z, levels=8, colors="white", linewidths=0.6)
+            ax.clabel(cs, fontsize=7, fmt="%.3g")
+    frac = m["stable_fraction"]
+    if x.size > 1 and y.size > 1 and np.nanmin(frac) < 0.5 < np.nanmax(frac):
+        ax.contour(x, y, np.nan_to_num(frac, nan=1.0), levels=[0.5], colors="red",
+                   linewidths=1.6)
+        ax.plot([], [], color="red", label="stability boundary")
+        ax.legend(loc="upper right", fontsize=8)
+    ax.set_xlabel(m["x_name"])
+    ax.set_ylabel(m["y_name"])
+    ax.set_title(title or f"{m['z_name']} over {m['x_name']} x {m['y_name']}")
+    return fig
+
+
+def robust_histogram_figure(pm: np.ndarray, stable: np.ndarray, nominal_pm: float,
+                            title: str = ""):
+    """Histogram of the phase margin over Monte Carlo samples (stable ones), with the
+    nominal margin and the share of unstable samples."""
+    fig, ax = plt.subplots(figsize=(6.4, 4.0))
+    ok = stable & np.isfinite(pm)
+    if ok.any():
+        ax.hist(pm[ok], bins=min(60, max(10, int(np.sqrt(ok.sum())))), color="tab:blue",
+                alpha=0.8, label=f"stable samples ({ok.sum()})")
+    ax.axvline(nominal_pm, color="k", ls="--", lw=1.2, label=f"nominal {nominal_pm:.2f} deg")
+    n_bad = int((~stable).sum())
+    ax.set_xlabel("phase margin [deg]")
+    ax.set_ylabel("samples")
+    ax.set_title(title or "Phase margin under actuator parameter uncertainty")
+    ax.text(0.02, 0.95, f"unstable: {n_bad} of {stable.size} "
+            f"({100.0 * n_bad / max(stable.size, 1):.2f}%)", transform=ax.transAxes,
+            va="top", fontsize=9, color="tab:red" if n_bad else "k")
+    ax.legend(fontsize=8, loc="upper right")
+    ax.grid(True, alpha=0.3)
+    return fig
+
+
+# --------------------------------------------------------------- loop placement (issue 5)
+def latency_map_figure(maps, maxfn=None, title: str = ""):
+    """Phase-margin maps over (damping delay, stiffness delay), one row per actuator.
+
+    ``maps``: list of :class:`seactl.latency.LatencyMap`; ``maxfn``: optional list
+    (same order) of ``(T_s [s], T_d [s], MaxFn)`` drawn in a second column.  The thick
+    black line is the stability boundary; unstable points are hatched.
+    """
+    ncol = 2 if maxfn else 1
+    fig, axes = plt.subplots(len(maps), ncol, figsize=(5.6 * ncol, 4.4 * len(maps)),
+                             squeeze=False)
+    levels = np.arange(-90, 91, 15)
+    for i, mp in enumerate(maps):
+        ax = axes[i, 0]
+        td, ts = mp.T_d * 1e3, mp.T_s * 1e3
+        pm = np.clip(np.where(np.isfinite(mp.phase_margin_deg), mp.phase_margin_deg, 90),
+                     -90, 90)
+        cf = ax.contourf(td, ts, pm, levels=levels, cmap="RdYlGn", extend="both")
+        cs = ax.contour(td, ts, pm, levels=[0, 15, 30, 45, 60], colors="k", linewidths=0.6)
+        ax.clabel(cs, fmt="%g", fontsize=7)
+        st = mp.stable.astype(float)
+        if 0 < st.mean() < 1:
+            ax.contour(td, ts, st, levels=[0.5], colors="k", linewidths=2.2)
+            ax.contourf(td, ts, st, levels=[-0.5, 0.5], colors="none", hatches=["//"])
+        fig.colorbar(cf, ax=ax, label="phase margin [deg]")
+        ax.set_xlabel("damping-loop delay $T_d$ [ms]")
+        ax.set_ylabel("stiffness-loop delay $T_s$ [ms]")
+        ax.set_title(f"{mp.actuator}: phase margin, $f_n$ = {mp.fn_hz:g} Hz", fontsize=10)
+        ax.plot([0, min(td[-1], ts[-1])], [0, min(td[-1], ts[-1])], "k:", lw=0.8)
+        if maxfn:
+            T_s, T_d, res = maxfn[i]
+            ax = axes[i, 1]
+            f = np.where(np.isnan(res.fn_hz), 0.0, res.fn_hz)
+            cf = ax.contourf(T_d * 1e3, T_s * 1e3, f, levels=20, cmap="viridis")
+            cs = ax.contour(T_d * 1e3, T_s * 1e3, f, levels=8, colors="w", linewidths=0.6)
+            ax.clabel(cs, fmt="%.3g", fontsize=7)
+            fig.colorbar(cf, ax=ax, label="max stable $f_n$ [Hz]")
+            ax.set_xlabel("damping-loop delay $T_d$ [ms]")
+            ax.set_ylabel("stiffness-loop delay $T_s$ [ms]")
+            crit = ("stable" if res.min_pm_deg is None
+                    else f"PM $\\geq$ {res.min_pm_deg:g} deg")
+            ax.set_title(f"{mp.actuator}: highest $f_n$ keeping the loop {crit}", fontsize=10)
+            none = np.isnan(res.fn_hz)
+            if none.any():
+                ax.contourf(T_d * 1e3, T_s * 1e3, none.astype(float), levels=[0.5, 1.5],
+                            colors="none", hatches=["xx"])
+    if title:
+        fig.suptitle(title)
+    fig.tight_layout()
+    return fig
+
+
+def step_experiment_figure(t, y, panels, fn_hz, unstable, saturated, title: str = ""):
+    """Four-panel normalized step responses: ``y[panel, fn, time]``; ``panels`` are
+    labels; unstable runs are drawn dashed and marked in the legend."""
+    fig, axes = plt.subplots(2, 2, figsize=(10, 6.5), sharex=True, sharey=True)
+    colors = plt.cm.plasma(np.linspace(0.05, 0.8, len(fn_hz)))
+    for k, ax in enumerate(axes.ravel()):
+        for j, (f, c) in enumerate(zip(fn_hz, colors)):
+            tag = " UNSTABLE" if unstable[k, j] else ""
+            tag += " (sat.)" if saturated[k, j] else ""
+            ax.plot(t[: y.shape[-1]], np.clip(y[k, j], -1.0, 3.0), color=c,
+                    ls="--" if unstable[k, j] else "-", lw=1.2,
+                    label=f"$f_n$ = {f:g} Hz{tag}")
+        ax.axhline(1.0, color="k", lw=0.6, ls=":")
+        ax.set_title(f"({'abcd'[k]}) {panels[k]}", fontsize=10)
+        ax.set_ylim(-1.0, 3.0)
+        ax.grid(True, alpha=0.3)
+        ax.legend(fontsize=7, loc="upper right")
+    for ax in axes[1]:
+        ax.set_xlabel("time [s]")
+    for ax in axes[:, 0]:
+        ax.set_ylabel("normalized position")
+    if title:
+        fig.suptitle(title, fontsize=11)
+    fig.tight_layout()
+    return fig

@@ -1,0 +1,331 @@
+"""``seactl sweep`` (design-space sweeps on local cores or a Dask cluster) and
+``seactl robust`` (Monte Carlo over actuator parameter uncertainty)."""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+from typing import Any
+
+import click
+import numpy as np
+from rich.markup import escape
+from rich.table import Table
+
+from ..cli import VARIADIC, cli, console, echo_json, err_console, finite_or_none, parse_values
+from ..errors import InputError
+from ..sweep import ACTUATOR_AXES, AXES, SAMPLINGS, relative_interval
+
+VARIADIC.add("--z-freq")
+
+_FILTERS = ("f_qd_hz", "f_taud_hz")
+
+
+def parse_axis(actuator: Any, name: str, tokens: tuple[str, ...], *, sampling: str,
+               unc_points: int) -> tuple[float, ...] | None:
+    """Values of axis ``name`` from CLI tokens: numbers, ``START:STOP:STEP`` ranges,
+    comma lists; ``P%`` (actuator axes) = nominal +/- P% (``unc_points`` values on a
+    grid, the interval otherwise); ``none`` (filters) = no filter."""
+    if not tokens:
+        return None
+    info = AXES[name]
+    out: list[float] = []
+    for tok in tokens:
+        for part in str(tok).replace(",", " ").split():
+            if part.endswith("%"):
+                if name not in ACTUATOR_AXES:
+                    raise InputError(info.option, part, "numbers or START:STOP:STEP (a "
+                                     "relative P% applies to actuator parameters only)")
+                try:
+                    pct = float(part[:-1])
+                except ValueError:
+                    raise InputError(info.option, part, "P% with a number P") from None
+                lo, hi = relative_interval(actuator, name, pct)
+                if pct == 0:
+                    out.append(lo)
+                elif sampling == "grid":
+                    out.extend(np.linspace(lo, hi, unc_points))
+                else:
+                    out.extend((lo, hi))
+            elif name in _FILTERS and part.lower() in ("none", "inf"):
+                out.append(math.inf)
+            else:
+                out.extend(parse_values(info.option, [part]))
+    return tuple(out)
+
+
+def _axis_options(func):
+    for name, info in reversed(AXES.items()):
+        unit = f" [{info.unit}]" if info.unit else ""
+        extra = {"f_qd_hz": " 'none': no filter.", "f_taud_hz": " 'none': no filter."}.get(
+            name, " Or P% (+/- around the actuator's value)." if name in ACTUATOR_AXES else "")
+        default = ("actuator's" if info.default is None else
+                   "none" if math.isinf(info.default) else f"{info.default:g}")
+        func = click.option(info.option, name, multiple=True,
+                            help=f"{info.description}{unit}: values, START:STOP:STEP or "
+                                 f"a,b,c.{extra} Default: {default}.")(func)
+    return func
+
+
+def _spec_from_options(opts: dict[str, Any], *, actuator: str, sampling: str, n_samples: int,
+                       seed: int, chunk_size: int, unc_points: int, z_freq: tuple[str, ...]):
+    from ..actuators import load_sea
+    from ..sweep import SweepSpec
+
+    act = load_sea(actuator)
+    axes = []
+    for name in AXES:
+        vals = parse_axis(act, name, opts.get(name, ()), sampling=sampling,
+                          unc_points=unc_points)
+        if vals is not None:
+            axes.append((name, vals))
+    zf = tuple(parse_values("--z-freq", z_freq)) if z_freq else ()
+    return SweepSpec(act, tuple(axes), sampling=sampling, n_samples=n_samples or 0, seed=seed,
+                     chunk_size=chunk_size, z_freqs_hz=zf)
+
+
+@cli.command()
+@_axis_options
+@click.option("--actuator", default="ut-sea", show_default=True,
+              help="Nominal SEA (preset or TOML): gains are designed for it.")
+@click.option("--sample", "sampling", type=click.Choice(SAMPLINGS), default="grid",
+              show_default=True, help="Cartesian grid, or uniform random / Latin-hypercube "
+              "samples over the intervals the axes span.")
+@click.option("--n", "n_samples", type=int, default=None,
+              help="Number of points for --sample random/lhs.")
+@click.option("--seed", type=int, default=0, show_default=True, help="Sampling seed.")
+@click.option("--chunk-size", type=int, default=5_000, show_default=True,
+              help="Points per chunk (one Parquet file each; about 27 kB per point at peak).")
+@click.option("--unc-points", type=click.IntRange(2, 101), default=3, show_default=True,
+              help="Grid values per P% actuator uncertainty.")
+@click.option("--z-freq", multiple=True,
+              help="Also report |Z| [N m s/rad] at these frequencies [Hz].")
+@click.option("--out", required=True, type=click.Path(),
+              help="Output directory (Parquet dataset: part-*.parquet, _manifest.json, "
+                   "_summary.json).")
+@click.option("--resume", is_flag=True, help="Complete an interrupted sweep of the same spec.")
+@click.option("--overwrite", is_flag=True, help="Replace an existing sweep in --out.")
+@click.option("--workers", type=int, default=None,
+              help="Local worker processes (default: all cores; 0: in this process).")
+@click.option("--scheduler", default=None,
+              help="Run on an existing Dask cluster: scheduler address tcp://HOST:PORT.")
+@click.option("--plot", "plot_axes", default=None, metavar="X,Y",
+              help="Draw a heatmap of --plot-z over two swept axes (column names, e.g. "
+                   "fn_hz,t_qs_ms).")
+@click.option("--plot-z", default="phase_margin_deg", show_default=True,
+              help="Output column to plot.")
+@click.option("--plot-reduce", type=click.Choice(["min", "max", "mean"]), default="min",
+              show_default=True, help="Reduction over the other swept axes.")
+@click.option("--plot-file", type=click.Path(dir_okay=False), default=None,
+              help="Figure file (default: OUT/_plot-Z-X-Y.png).")
+@click.option("--quiet", is_flag=True, help="No progress bar.")
+@click.option("--json", "as_json", is_flag=True, help="Print the summary as JSON.")
+def sweep(actuator, sampling, n_samples, seed, chunk_size, unc_points, z_freq, out, resume,
+          overwrite, workers, scheduler, plot_axes, plot_z, plot_reduce, plot_file, quiet,
+          as_json, **axes) -> None:
+    """Sweep the design space: gains, margins (and |Z|) for every point, as Parquet.
+
+    \b
+    Any design option takes values, START:STOP:STEP ranges or comma lists; actuator
+    parameters (--im --ij --bm --bj --k --beta, rotary SI) also take P% for the
+    nominal value +/- P%. Gains are designed for the nominal actuator and the
+    loop is evaluated on the perturbed plant. Points without a critically-damped
+    gain set are reported as infeasible rows.
+
+    \b
+    Examples:
+      seactl sweep --fn 10:40:0.25 --gs 0.3:3:0.05 --t-qs 0:20:0.5 --t-qd 0.5 --out sweep.parquet
+      seactl sweep ... --out sweep.parquet --resume          # after Ctrl-C: missing chunks only
+      seactl sweep ... --scheduler tcp://10.0.0.5:8786       # on a Dask cluster
+      seactl sweep --fn 14 --ij 20% --bm 20% --k 20% --sample lhs --n 100000 --out mc.parquet
+
+    Runs on local worker processes (all cores) unless --workers or --scheduler
+    say otherwise; Dask schedules the chunks and retries failed ones.
+    """
+    from ..sweep import SweepInterrupted, run_sweep
+
+    if sampling != "grid" and n_samples is None:
+        raise InputError("--n", None, f"given with --sample {sampling} (number of points)")
+    spec = _spec_from_options(axes, actuator=actuator, sampling=sampling,
+                              n_samples=n_samples or 0, seed=seed, chunk_size=chunk_size,
+                              unc_points=unc_points, z_freq=z_freq)
+    plot_xy = _parse_plot_axes(plot_axes, spec) if plot_axes else None
+    if not quiet:
+        err_console.print(f"sweep: {spec.n_points:,} points in {spec.n_chunks:,} chunks of "
+                          f"{spec.chunk_size:,} -> {escape(str(out))}"
+                          + (f" on {escape(scheduler)}" if scheduler else ""))
+    try:
+        res = run_sweep(spec, Path(out), resume=resume, overwrite=overwrite, workers=workers,
+                        scheduler=scheduler, console=None if quiet else err_console)
+    except SweepInterrupted as exc:
+        err_console.print(f"[yellow]{escape(str(exc))}[/yellow]")
+        raise click.exceptions.Abort() from None
+    fig_path = None
+    if plot_xy:
+        fig_path = _plot(Path(out), plot_xy, plot_z, plot_reduce, plot_file)
+    s = res.summary
+    if as_json:
+        echo_json({**s, "out": str(out), "figure": fig_path,
+                   "points_per_s": finite_or_none(res.points_per_s)})
+        return
+    t = Table(title=f"sweep {escape(str(out))} (spec {res.spec_hash[:12]})")
+    t.add_column("quantity")
+    t.add_column("value", justify="right")
+    for k in ("n_points", "feasible", "infeasible", "stable", "unstable"):
+        t.add_row(escape(k), f"{s[k]:,}")
+    for k, v in (s["phase_margin_deg_stable"] or {}).items():
+        t.add_row(escape(f"PM of stable designs, {k} [deg]"), f"{v:.3f}")
+    run = s["run"]
+    t.add_row("chunks computed this run", f"{run['chunks_computed']} of {res.n_chunks}")
+    t.add_row(escape("wall time [s]"), f"{run['seconds']:.2f}")
+    if res.points_computed:
+        t.add_row(escape("throughput [points/s]"), f"{res.points_per_s:,.0f}")
+        t.add_row("workers", "in process" if not run["workers"] else str(run["workers"]))
+        t.add_row(escape("peak RSS per worker [MB]"), f"{run['worker_peak_rss_mb']:.0f}")
+    console.print(t)
+    if s["best_phase_margin"]:
+        best = ", ".join(f"{k}={v:.6g}" if isinstance(v, float) else f"{k}={v}"
+                         for k, v in s["best_phase_margin"].items())
+        console.print(f"largest phase margin among stable designs: {escape(best)}")
+    if fig_path:
+        console.print(f"figure: {escape(fig_path)}")
+
+
+def _parse_plot_axes(text: str, spec) -> tuple[str, str]:
+    parts = [p.strip() for p in text.split(",") if p.strip()]
+    swept = [n for n, _ in spec.swept]
+    if len(parts) != 2:
+        raise InputError("--plot", text, "two swept axes X,Y (of: " + ", ".join(swept) + ")")
+    for p in parts:
+        if p not in swept:
+            raise InputError("--plot", p, "a swept axis (one of: " + (", ".join(swept) or
+                             "none: sweep at least two axes") + ")")
+    return parts[0], parts[1]
+
+
+def _plot(out: Path, xy: tuple[str, str], z: str, reduce: str, plot_file: str | None) -> str:
+    import io
+
+    from ..plots import sweep_map_figure
+    from ..report import write_atomic
+    from ..sweep import sweep_map
+
+    m = sweep_map(out, xy[0], xy[1], z, reduce)
+    fig = sweep_map_figure(m)
+    path = Path(plot_file) if plot_file else out / f"_plot-{z}-{xy[0]}-{xy[1]}.png"
+    buf = io.BytesIO()
+    fig.savefig(buf, format=path.suffix.lstrip(".") or "png", dpi=120, bbox_inches="tight")
+    import matplotlib.pyplot as plt
+
+    plt.close(fig)
+    write_atomic(path, buf.getvalue())
+    return str(path)
+
+
+# ------------------------------------------------------------------ robust
+@cli.command()
+@click.option("--fn", type=float, default=14.0, show_default=True,
+              help="Natural frequency f_n [Hz] of the design.")
+@click.option("--gs", type=float, default=1.0, show_default=True, help="Gain scale GS.")
+@click.option("--zeta1", type=float, default=1.0, show_default=True)
+@click.option("--zeta2", type=float, default=1.0, show_default=True)
+@click.option("--ratio", type=float, default=1.0, show_default=True)
+@click.option("--t-tau", type=float, default=0.0, show_default=True, help="T_tau [ms].")
+@click.option("--t-qs", type=float, default=0.0, show_default=True, help="T_qs [ms].")
+@click.option("--t-qd", type=float, default=0.0, show_default=True, help="T_qd [ms].")
+@click.option("--f-qd", type=float, default=None, help="f_qd [Hz] (default: no filter).")
+@click.option("--f-taud", type=float, default=None, help="f_taud [Hz] (default: no filter).")
+@click.option("--actuator", default="ut-sea", show_default=True,
+              help="Nominal SEA (preset or TOML).")
+@click.option("--im", "Im", default=None, help="Uncertainty of I_m: P% or LO,HI [kg m^2].")
+@click.option("--ij", "Ij", default=None, help="Uncertainty of I_j: P% or LO,HI [kg m^2].")
+@click.option("--bm", "bm", default=None, help="Uncertainty of b_m: P% or LO,HI [N m s/rad].")
+@click.option("--bj", "bj", default=None, help="Uncertainty of b_j: P% or LO,HI [N m s/rad].")
+@click.option("--k", "k", default=None, help="Uncertainty of k: P% or LO,HI [N m/rad].")
+@click.option("--beta", "beta", default=None, help="Uncertainty of beta: P% or LO,HI [N m/A].")
+@click.option("--n", "n_samples", type=click.IntRange(10, 10_000_000), default=2000,
+              show_default=True, help="Monte Carlo samples.")
+@click.option("--seed", type=int, default=0, show_default=True)
+@click.option("--plot", "plot_file", type=click.Path(dir_okay=False), default=None,
+              help="Write the phase-margin histogram to this PNG.")
+@click.option("--json", "as_json", is_flag=True, help="Print machine-readable JSON.")
+def robust(fn, gs, zeta1, zeta2, ratio, t_tau, t_qs, t_qd, f_qd, f_taud, actuator, n_samples,
+           seed, plot_file, as_json, **unc) -> None:
+    """Monte Carlo of one design over actuator parameter uncertainty.
+
+    \b
+    The gains are designed for the nominal actuator; each sample draws the plant's
+    parameters uniformly in their intervals (P% = nominal +/- P%). Reports the
+    phase-margin distribution and the probability of instability (Wilson 95%).
+
+    \b
+    Example:
+      seactl robust --fn 14 --t-tau 0.5 --t-qs 2 --t-qd 0.5 --f-qd 50 --f-taud 100 \\
+          --ij 20% --bm 20% --k 20% --n 5000 --plot pm_hist.png
+
+    The same samples, on Dask and stored as Parquet:
+    seactl sweep --sample random --n N --seed S with the same options.
+    """
+    from ..sweep import monte_carlo
+
+    opts = {"fn_hz": (str(fn),), "gs": (str(gs),), "zeta1": (str(zeta1),),
+            "zeta2": (str(zeta2),), "ratio": (str(ratio),), "t_tau_ms": (str(t_tau),),
+            "t_qs_ms": (str(t_qs),), "t_qd_ms": (str(t_qd),),
+            "f_qd_hz": (str(f_qd if f_qd is not None else "none"),),
+            "f_taud_hz": (str(f_taud if f_taud is not None else "none"),)}
+    given = {k: v for k, v in unc.items() if v is not None}
+    if not given:
+        raise InputError("--ij/--bm/--k/...", None, "at least one uncertain actuator "
+                         "parameter, e.g. --ij 20%")
+    for name, v in given.items():
+        opts[name] = (v,)
+    spec = _spec_from_options(opts, actuator=actuator, sampling="random", n_samples=n_samples,
+                              seed=seed, chunk_size=5_000, unc_points=3, z_freq=())
+    for name in given:
+        if len(dict(spec.axes)[name]) < 2 or np.ptp(dict(spec.axes)[name]) == 0:
+            raise InputError(AXES[name].option, given[name], "an interval: P% with P > 0 or "
+                             "two values LO,HI")
+    r = monte_carlo(spec)
+    lo, hi = r.p_unstable_ci95()
+    pct = r.percentiles()
+    fig_path = None
+    if plot_file:
+        import io
+
+        import matplotlib.pyplot as plt
+
+        from ..plots import robust_histogram_figure
+        from ..report import write_atomic
+
+        unc_text = ", ".join(f"{AXES[n].option[2:]} {given[n]}" for n in given)
+        fig = robust_histogram_figure(r.phase_margin_deg, r.stable, r.nominal_phase_margin_deg,
+                                      f"f_n = {fn:g} Hz, GS = {gs:g}: {unc_text} "
+                                      f"({r.n} samples)")
+        buf = io.BytesIO()
+        fig.savefig(buf, format="png", dpi=120, bbox_inches="tight")
+        plt.close(fig)
+        write_atomic(Path(plot_file), buf.getvalue())
+        fig_path = plot_file
+    res = {"n_samples": r.n, "nominal_phase_margin_deg": finite_or_none(
+               r.nominal_phase_margin_deg),
+           "p_unstable": finite_or_none(r.p_unstable),
+           "p_unstable_ci95": [finite_or_none(lo), finite_or_none(hi)],
+           "phase_margin_deg_stable": {k: finite_or_none(v) for k, v in pct.items()},
+           "intervals": {n: [finite_or_none(min(dict(spec.axes)[n])),
+                             finite_or_none(max(dict(spec.axes)[n]))] for n in given},
+           "figure": fig_path}
+    if as_json:
+        echo_json(res)
+        return
+    t = Table(title=f"Monte Carlo, f_n = {fn:g} Hz, GS = {gs:g}, {r.n} samples")
+    t.add_column("quantity")
+    t.add_column("value", justify="right")
+    for n, (a, b) in res["intervals"].items():
+        t.add_row(escape(f"{n} interval [{AXES[n].unit}]"), f"{a:.6g} .. {b:.6g}")
+    t.add_row(escape("nominal PM [deg]"), f"{r.nominal_phase_margin_deg:.3f}")
+    for k, v in pct.items():
+        t.add_row(escape(f"PM {k} (stable samples) [deg]"), f"{v:.3f}")
+    t.add_row("P(unstable)", f"{r.p_unstable:.4f} (95%: {lo:.4f} .. {hi:.4f})")
+    console.print(t)
+    if fig_path:
+        console.print(f"figure: {escape(fig_path)}")

@@ -1,0 +1,909 @@
+"""Design-space sweeps: chunked, resumable, on local cores or a Dask cluster.
+
+A :class:`SweepSpec` describes a set of SEA designs: a Cartesian grid, or
+random / Latin-hypercube samples, over any design option (``fn_hz``, ``gs``,
+``zeta1``, ``zeta2``, ``ratio``, ``t_tau_ms``, ``t_qs_ms``, ``t_qd_ms``,
+``f_qd_hz``, ``f_taud_hz``) and over the actuator parameters (``Im``, ``Ij``,
+``bm``, ``bj``, ``k``, ``beta``, rotary SI units).  An axis with one value is
+fixed; in the sampling modes an axis with several values is the interval
+``[min, max]``.
+
+Points have a deterministic order (grid: C order over the axes in the order of
+:data:`AXES`; samples: chunk by chunk from a seed), and chunk ``i`` holds points
+``[i*C, (i+1)*C)``.  A chunk's points are generated from the spec alone (the
+grid is never materialized), evaluated with the vectorized gain design and
+margins, and written as one Parquet file ``part-NNNNN.parquet`` (temporary
+name, then ``os.replace``) into the output directory, next to
+``_manifest.json`` (the spec and its hash) and ``_summary.json``.  Finished
+chunks survive any interruption; :func:`run_sweep` with ``resume=True``
+computes only the missing ones and refuses a directory made by another spec.
+
+Semantics of actuator axes: the controller gains are always designed for the
+*nominal* actuator (``spec.actuator``, the controller does not know the real
+plant) and the loop is evaluated with the perturbed plant parameters.  An
+``f_n`` with no critically-damped gain set is an *infeasible* row
+(``feasible = False``, gains and margins null), never a crash.
+
+Examples
+--------
+>>> from seactl.actuators import UT_SEA
+>>> spec = SweepSpec(UT_SEA, axes=(("fn_hz", (8.0, 12.0, 14.0)), ("t_qs_ms", (0.0, 2.0))),
+...                  chunk_size=4)
+>>> spec.n_points, spec.n_chunks
+(6, 2)
+>>> t = evaluate_chunk(spec, 0)[0]
+>>> t.column("feasible").to_pylist()       # 8 Hz is below the feasible f_n range
+[False, False, True, True]
+>>> [round(x, 1) for x in t.column("phase_margin_deg").to_pylist()[2:]]
+[54.4, 48.7]
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import math
+import os
+import time
+from collections.abc import Callable, Iterable
+from dataclasses import asdict, dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from .actuators import SEAParams
+from .errors import InputError
+
+FORMAT = "seactl-sweep/1"
+
+
+@dataclass(frozen=True)
+class AxisInfo:
+    """A sweepable quantity: column name, CLI option, unit, default (``None``: from the
+    actuator) and the smallest valid value (exclusive when ``strict``)."""
+
+    name: str
+    option: str
+    unit: str
+    default: float | None
+    minimum: float = 0.0
+    strict: bool = True
+    description: str = ""
+
+
+AXES: dict[str, AxisInfo] = {a.name: a for a in (
+    AxisInfo("fn_hz", "--fn", "Hz", 14.0, description="natural frequency f_n"),
+    AxisInfo("gs", "--gs", "", 1.0, description="gain scale GS"),
+    AxisInfo("zeta1", "--zeta1", "", 1.0, description="damping ratio of pole pair 1"),
+    AxisInfo("zeta2", "--zeta2", "", 1.0, description="damping ratio of pole pair 2"),
+    AxisInfo("ratio", "--ratio", "", 1.0, description="w2 / w1"),
+    AxisInfo("t_tau_ms", "--t-tau", "ms", 0.0, strict=False, description="torque delay"),
+    AxisInfo("t_qs_ms", "--t-qs", "ms", 0.0, strict=False, description="stiffness delay"),
+    AxisInfo("t_qd_ms", "--t-qd", "ms", 0.0, strict=False, description="damping delay"),
+    AxisInfo("f_qd_hz", "--f-qd", "Hz", math.inf,
+             description="velocity filter cut-off (inf: no filter)"),
+    AxisInfo("f_taud_hz", "--f-taud", "Hz", math.inf,
+             description="torque-derivative filter cut-off (inf: no filter)"),
+    AxisInfo("Im", "--im", "kg m^2", None, description="motor inertia (plant)"),
+    AxisInfo("Ij", "--ij", "kg m^2", None, description="joint inertia (plant)"),
+    AxisInfo("bm", "--bm", "N m s/rad", None, strict=False,
+             description="motor damping (plant)"),
+    AxisInfo("bj", "--bj", "N m s/rad", None, strict=False,
+             description="joint damping (plant)"),
+    AxisInfo("k", "--k", "N m/rad", None, description="spring stiffness (plant)"),
+    AxisInfo("beta", "--beta", "N m/A", None, description="current to torque (plant)"),
+)}
+ACTUATOR_AXES = ("Im", "Ij", "bm", "bj", "k", "beta")
+_ACTUATOR_FIELDS = dict(Im="motor_inertia", Ij="joint_inertia", bm="motor_damping",
+                        bj="joint_damping", k="spring_stiffness", beta="current_to_torque")
+SAMPLINGS = ("grid", "random", "lhs")
+
+OUTPUTS: dict[str, str] = {
+    "point": "point index in the sweep's deterministic order",
+    "feasible": "a critically-damped gain set with four positive gains exists",
+    "Kq": "stiffness gain [N m/rad] (null: infeasible)",
+    "Bq": "damping gain [N m s/rad] (null: infeasible)",
+    "Ktau": "torque P gain [A/(N m)] (null: infeasible)",
+    "Btau": "torque D gain [A s/(N m)] (null: infeasible)",
+    "phase_margin_deg": "phase margin [deg] (inf: no gain crossover)",
+    "crossover_hz": "gain crossover [Hz] (null: none)",
+    "gain_margin_db": "gain margin [dB] (inf: no phase crossover)",
+    "phase_crossover_hz": "phase crossover [Hz] (null: none)",
+    "delay_margin_ms": "delay margin [ms] (0: unstable, inf: no crossover)",
+    "stable": "closed loop stable (Nyquist; null: infeasible)",
+    "unstable_poles": "closed-loop right-half-plane poles (null: infeasible)",
+}
+
+
+def z_column(f_hz: float) -> str:
+    """Column name of the impedance magnitude at ``f_hz``."""
+    return f"z_mag_{f_hz:g}hz"
+
+
+# ------------------------------------------------------------------ spec
+@dataclass(frozen=True)
+class SweepSpec:
+    """What to sweep; everything a chunk needs to regenerate its points.
+
+    Parameters
+    ----------
+    actuator : SEAParams
+        Nominal actuator (gains are designed for it; also the default plant).
+    axes : tuple of (name, values)
+        Per axis of :data:`AXES`: its values (grid), or the interval spanned by
+        them (sampling modes).  Unlisted axes keep their default.
+    sampling : {"grid", "random", "lhs"}
+    n_samples : int
+        Number of points for ``random`` / ``lhs``.
+    seed : int
+        Seed of the sampling modes (chunk ``i`` draws from ``(seed, i)``).
+    chunk_size : int
+        Points per chunk (bounds memory: about 27 kB per point at peak, i.e.
+        about 130 MB of arrays per worker for the default 5000).
+    z_freqs_hz : tuple of float
+        Frequencies [Hz] at which to report the impedance magnitude ``|Z|``.
+    """
+
+    actuator: SEAParams
+    axes: tuple[tuple[str, tuple[float, ...]], ...] = ()
+    sampling: str = "grid"
+    n_samples: int = 0
+    seed: int = 0
+    chunk_size: int = 5_000
+    z_freqs_hz: tuple[float, ...] = ()
+
+    def __post_init__(self) -> None:
+        if self.sampling not in SAMPLINGS:
+            raise InputError("--sample", self.sampling, "one of " + ", ".join(SAMPLINGS))
+        if int(self.chunk_size) != self.chunk_size or self.chunk_size < 1:
+            raise InputError("--chunk-size", self.chunk_size, "an integer >= 1")
+        if self.sampling != "grid" and (int(self.n_samples) != self.n_samples
+                                        or self.n_samples < 1):
+            raise InputError("--n", self.n_samples, f"an integer >= 1 for --sample "
+                             f"{self.sampling}")
+        norm: dict[str, tuple[float, ...]] = {}
+        for name, values in self.axes:
+            if name not in AXES:
+                raise InputError("axis", name, "one of " + ", ".join(AXES))
+            if name in norm:
+                raise InputError(AXES[name].option, name, "given once")
+            vals = tuple(float(v) for v in np.ravel(values))
+            if not vals:
+                raise InputError(AXES[name].option, "", "at least one value")
+            _check_axis(name, np.asarray(vals))
+            norm[name] = vals
+        for f in self.z_freqs_hz:
+            if not (math.isfinite(f) and f > 0):
+                raise InputError("--z-freq", f, "a finite frequency > 0 [Hz]")
+        # canonical order (AXES order) so that equal sweeps hash equally
+        object.__setattr__(self, "axes", tuple((n, norm[n]) for n in AXES if n in norm))
+        object.__setattr__(self, "z_freqs_hz", tuple(float(f) for f in self.z_freqs_hz))
+
+    # ---- derived structure
+    @property
+    def swept(self) -> tuple[tuple[str, tuple[float, ...]], ...]:
+        """Axes with more than one value (columns of the dataset)."""
+        return tuple((n, v) for n, v in self.axes if len(v) > 1)
+
+    def fixed(self) -> dict[str, float]:
+        """Value of every axis that does not vary."""
+        given = dict(self.axes)
+        out = {}
+        for name, info in AXES.items():
+            if name in given and len(given[name]) > 1:
+                continue
+            if name in given:
+                out[name] = given[name][0]
+            elif info.default is not None:
+                out[name] = info.default
+            else:
+                out[name] = float(getattr(self.actuator, _ACTUATOR_FIELDS[name]))
+        return out
+
+    @property
+    def grid_shape(self) -> tuple[int, ...]:
+        return tuple(len(v) for _, v in self.swept)
+
+    @property
+    def n_points(self) -> int:
+        if self.sampling == "grid":
+            return int(np.prod(self.grid_shape, dtype=np.int64))
+        return int(self.n_samples)
+
+    @property
+    def n_chunks(self) -> int:
+        return -(-self.n_points // self.chunk_size)
+
+    def chunk_range(self, i: int) -> tuple[int, int]:
+        start = i * self.chunk_size
+        return start, min(start + self.chunk_size, self.n_points)
+
+    # ---- identity
+    def as_json(self) -> dict[str, Any]:
+        from importlib.metadata import version
+
+        return {
+            "format": FORMAT, "seactl": version("seactl"),
+            "actuator": asdict(self.actuator), "sampling": self.sampling,
+            "n_samples": self.n_samples if self.sampling != "grid" else None,
+            "seed": self.seed if self.sampling != "grid" else None,
+            "chunk_size": self.chunk_size,
+            "axes": {n: [_json_float(x) for x in v] for n, v in self.axes},
+            "z_freqs_hz": list(self.z_freqs_hz),
+        }
+
+    @property
+    def hash(self) -> str:
+        text = json.dumps(self.as_json(), sort_keys=True, separators=(",", ":"))
+        return hashlib.sha256(text.encode()).hexdigest()
+
+    # ---- points
+    def points(self, start: int, stop: int, chunk: int | None = None) -> dict[str, np.ndarray]:
+        """Values of the swept axes for points ``[start, stop)``.
+
+        For the sampling modes ``[start, stop)`` must be chunk ``chunk``'s range
+        (samples are drawn per chunk)."""
+        swept = self.swept
+        n = stop - start
+        if self.sampling == "grid":
+            if not swept:
+                return {}
+            multi = np.unravel_index(np.arange(start, stop, dtype=np.int64), self.grid_shape)
+            return {name: np.asarray(vals)[m] for (name, vals), m in zip(swept, multi)}
+        if chunk is None or self.chunk_range(chunk) != (start, stop):
+            raise ValueError("sampled points are generated per chunk")
+        d = len(swept)
+        rng = np.random.default_rng([self.seed, chunk])
+        if d == 0:
+            return {}
+        if self.sampling == "random":
+            u = rng.random((n, d))
+        else:
+            from scipy.stats import qmc
+
+            u = qmc.LatinHypercube(d, rng=rng).random(n)
+        out = {}
+        for k, (name, vals) in enumerate(swept):
+            lo, hi = min(vals), max(vals)
+            out[name] = lo + (hi - lo) * u[:, k]
+        return out
+
+
+def _json_float(x: float) -> float | str:
+    return x if math.isfinite(x) else repr(x)
+
+
+def _check_axis(name: str, vals: np.ndarray) -> None:
+    info = AXES[name]
+    label = f"{info.option}" + (f" [{info.unit}]" if info.unit else "")
+    if np.isnan(vals).any():
+        raise InputError(label, float("nan"), "a number")
+    allow_inf = name in ("f_qd_hz", "f_taud_hz")
+    bad_inf = np.isinf(vals) & ~(allow_inf & (vals > 0))
+    if bad_inf.any():
+        raise InputError(label, float(vals[bad_inf][0]), "finite")
+    low = vals <= info.minimum if info.strict else vals < info.minimum
+    if low.any():
+        raise InputError(label, float(vals[low][0]),
+                         f"{'>' if info.strict else '>='} {info.minimum:g}"
+                         + (" (inf: no filter)" if allow_inf else ""))
+
+
+# ------------------------------------------------------------------ evaluation
+@dataclass(frozen=True)
+class ActuatorBatch:
+    """Actuator parameters as arrays (a batch of perturbed plants), rotary SI.
+
+    Duck-types the attributes of :class:`~seactl.actuators.SEAParams` that the
+    block diagram and the gain design read."""
+
+    Im: np.ndarray
+    Ij: np.ndarray
+    bm: np.ndarray
+    bj: np.ndarray
+    k: np.ndarray
+    beta: np.ndarray
+    motor_torque_constant: float = 0.0276
+    pulley_radius: float = 0.025
+    name: str = "batch"
+
+
+def impedance_magnitude(design: Any, f_hz: np.ndarray) -> np.ndarray:
+    """``|Z(j 2 pi f)|`` [N m s/rad] of the SEA, ``Z = tau_k / (-s q_j)`` with the joint
+    motion imposed (``q_des = 0``), from :data:`~seactl.loops.SEA_DIAGRAM`.
+
+    Examples
+    --------
+    The static stiffness is ``K_q`` (background.md section 4): ``|Z| w -> K_q``.
+
+    >>> from seactl.actuators import UT_SEA
+    >>> from seactl.design import critically_damped_gains
+    >>> from seactl.loops import SEADesign
+    >>> d = SEADesign(UT_SEA, critically_damped_gains(UT_SEA, 30.0))
+    >>> f = 1e-4
+    >>> z = impedance_magnitude(d, np.array([f]))[0]
+    >>> bool(abs(z * 2 * np.pi * f / d.gains.Kq - 1) < 1e-6)
+    True
+    """
+    try:  # the impedance module, where present, is the project's one entry point
+        from .impedance import impedance
+    except ImportError:  # pragma: no cover - same transfer, straight from the diagram
+        from .loops import SEA_DIAGRAM
+
+        s = 2j * np.pi * np.asarray(f_hz, float)
+        return np.abs(-SEA_DIAGRAM.transfer("tau_k", "q_j", cut=("q_j",))(design, s) / s)
+    return impedance(design, f_hz).magnitude
+
+
+def evaluate_points(spec: SweepSpec, values: dict[str, np.ndarray], n: int
+                    ) -> dict[str, np.ndarray]:
+    """Gains, margins (and ``|Z|``) for ``n`` points whose swept axes are ``values``.
+
+    Returns numpy columns; rows that are infeasible hold NaN in the float outputs
+    and the ``feasible`` mask says so (converted to nulls by :func:`to_table`)."""
+    from .design import critically_damped_gains, solve_gains
+    from .loops import SEADesign, Timing
+    from .margins import sea_margins
+
+    fixed = spec.fixed()
+
+    def col(name: str) -> np.ndarray:
+        return np.broadcast_to(np.asarray(values.get(name, fixed.get(name)), float), (n,))
+
+    a = spec.actuator
+    design_kw = dict(zeta1=col("zeta1"), zeta2=col("zeta2"), ratio=col("ratio"))
+    sols = solve_gains(a, col("fn_hz"), **design_kw)
+    ok = sols.n_valid > 0
+    out: dict[str, np.ndarray] = {"feasible": ok}
+    nan = np.full(n, np.nan)
+    if ok.any():
+        gains = critically_damped_gains(a, col("fn_hz")[ok], gs=col("gs")[ok],
+                                        **{k: v[ok] for k, v in design_kw.items()})
+        timing = Timing.from_ms(col("t_tau_ms")[ok], col("t_qs_ms")[ok], col("t_qd_ms")[ok],
+                                col("f_qd_hz")[ok], col("f_taud_hz")[ok])
+        plant: Any = a
+        if any(name in dict(spec.axes) for name in ACTUATOR_AXES):
+            plant = ActuatorBatch(*(col(name)[ok] for name in ACTUATOR_AXES),
+                                  motor_torque_constant=a.motor_torque_constant,
+                                  pulley_radius=a.pulley_radius, name=a.name)
+        design = SEADesign(plant, gains, timing)
+        m = sea_margins(design)
+        res = {"Kq": gains.Kq, "Bq": gains.Bq, "Ktau": gains.Ktau, "Btau": gains.Btau,
+               "phase_margin_deg": m.phase_margin_deg, "crossover_hz": m.crossover_hz,
+               "gain_margin_db": m.gain_margin_db, "phase_crossover_hz": m.phase_crossover_hz,
+               "delay_margin_ms": m.delay_margin_ms, "stable": m.stable.astype(float),
+               "unstable_poles": m.unstable_poles.astype(float)}
+        if spec.z_freqs_hz:
+            z = impedance_magnitude(design, np.asarray(spec.z_freqs_hz))
+            z = np.broadcast_to(z, (int(ok.sum()), len(spec.z_freqs_hz)))
+            for j, f in enumerate(spec.z_freqs_hz):
+                res[z_column(f)] = z[:, j]
+        for key, v in res.items():
+            full = nan.copy()
+            full[ok] = v
+            out[key] = full
+    else:
+        for key in list(OUTPUTS)[2:] + [z_column(f) for f in spec.z_freqs_hz]:
+            out[key] = nan.copy()
+    return out
+
+
+def schema(spec: SweepSpec):
+    """The Arrow schema of a sweep's chunks (with the spec hash as metadata)."""
+    import pyarrow as pa
+
+    cols = [pa.field("point", pa.int64(), nullable=False)]
+    cols += [pa.field(name, pa.float64(), nullable=False) for name, _ in spec.swept]
+    cols.append(pa.field("feasible", pa.bool_(), nullable=False))
+    for name in list(OUTPUTS)[2:]:
+        typ = {"stable": pa.bool_(), "unstable_poles": pa.int32()}.get(name, pa.float64())
+        cols.append(pa.field(name, typ))
+    cols += [pa.field(z_column(f), pa.float64()) for f in spec.z_freqs_hz]
+    return pa.schema(cols, metadata={"seactl_spec_hash": spec.hash})
+
+
+def to_table(spec: SweepSpec, start: int, values: dict[str, np.ndarray],
+             res: dict[str, np.ndarray]):
+    """Arrow table of one chunk; outputs of infeasible rows and missing crossings
+    (NaN in ``res``) become nulls."""
+    import pyarrow as pa
+
+    sch = schema(spec)
+    n = len(res["feasible"])
+    arrays = []
+    for f in sch:
+        if f.name == "point":
+            arrays.append(pa.array(np.arange(start, start + n, dtype=np.int64)))
+        elif f.name in values:
+            arrays.append(pa.array(np.asarray(values[f.name], float)))
+        elif f.name == "feasible":
+            arrays.append(pa.array(res["feasible"]))
+        else:
+            v = res[f.name]
+            mask = np.isnan(v)
+            if f.type == pa.float64():
+                arrays.append(pa.array(v, mask=mask))
+            else:
+                filled = np.where(mask, 0, v).astype(f.type.to_pandas_dtype())
+                arrays.append(pa.array(filled, type=f.type, mask=mask))
+    return pa.Table.from_arrays(arrays, schema=sch)
+
+
+def evaluate_chunk(spec: SweepSpec, i: int) -> tuple[Any, dict[str, float]]:
+    """Compute chunk ``i``: returns its Arrow table and stats (wall seconds, the
+    evaluating process's peak RSS in MB).  Runs on Dask workers."""
+    t0 = time.perf_counter()
+    start, stop = spec.chunk_range(i)
+    values = spec.points(start, stop, chunk=i)
+    res = evaluate_points(spec, values, stop - start)
+    table = to_table(spec, start, values, res)
+    return table, {"seconds": time.perf_counter() - t0, "peak_rss_mb": _peak_rss_mb(),
+                   "pid": os.getpid()}
+
+
+def _peak_rss_mb() -> float:
+    try:
+        import resource
+
+        return resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0
+    except (ImportError, AttributeError):  # pragma: no cover - not on Linux/macOS
+        return float("nan")
+
+
+# ------------------------------------------------------------------ dataset on disk
+def part_path(out: Path, i: int) -> Path:
+    return Path(out) / f"part-{i:05d}.parquet"
+
+
+def write_chunk(out: Path, i: int, table: Any) -> None:
+    """Write chunk ``i`` atomically (temporary dot-name, then ``os.replace``)."""
+    import pyarrow.parquet as pq
+
+    final = part_path(out, i)
+    tmp = final.with_name(f".{final.name}.tmp-{os.getpid()}")
+    try:
+        pq.write_table(table, tmp)
+        os.replace(tmp, final)
+    except BaseException:
+        tmp.unlink(missing_ok=True)
+        raise
+
+
+def _chunk_done(spec: SweepSpec, out: Path, i: int) -> bool:
+    import pyarrow.parquet as pq
+
+    p = part_path(out, i)
+    if not p.is_file():
+        return False
+    try:
+        meta = pq.read_metadata(p)
+    except Exception:  # unreadable: recompute
+        return False
+    start, stop = spec.chunk_range(i)
+    return meta.num_rows == stop - start
+
+
+def missing_chunks(spec: SweepSpec, out: Path) -> list[int]:
+    """Chunks without a complete part file in ``out``."""
+    return [i for i in range(spec.n_chunks) if not _chunk_done(spec, out, i)]
+
+
+def _write_manifest(spec: SweepSpec, out: Path, status: str) -> None:
+    from .report import write_atomic
+
+    fixed = {k: _json_float(v) for k, v in spec.fixed().items()}
+    units = {n: AXES[n].unit for n in AXES}
+    manifest = {
+        "format": FORMAT, "spec_hash": spec.hash, "status": status,
+        "n_points": spec.n_points, "n_chunks": spec.n_chunks, "chunk_size": spec.chunk_size,
+        "swept_axes": [n for n, _ in spec.swept], "fixed": fixed, "units": units,
+        "columns": {**OUTPUTS, **{z_column(f): f"|Z| at {f:g} Hz [N m s/rad] (null: "
+                                  "infeasible)" for f in spec.z_freqs_hz}},
+        "spec": spec.as_json(),
+    }
+    write_atomic(out / "_manifest.json", json.dumps(manifest, indent=2) + "\n")
+
+
+def prepare_output(spec: SweepSpec, out: Path, *, resume: bool, overwrite: bool) -> None:
+    """Create ``out`` or check it belongs to the same sweep (``resume``).
+
+    Raises
+    ------
+    InputError
+        ``out`` holds a sweep of another spec, or exists without ``resume`` /
+        ``overwrite``, or is a non-sweep directory.
+    """
+    import shutil
+
+    out = Path(out)
+    manifest = out / "_manifest.json"
+    if out.exists() and not out.is_dir():
+        raise InputError("--out", str(out), "a directory path (a Parquet dataset), not a file")
+    if out.is_dir() and any(out.iterdir()):
+        if not manifest.is_file():
+            raise InputError("--out", str(out), "a new or empty directory, or a seactl sweep "
+                             "(this directory has no _manifest.json)")
+        old = json.loads(manifest.read_text())
+        if overwrite:
+            shutil.rmtree(out)
+        elif old.get("spec_hash") != spec.hash:
+            diff = _spec_diff(old.get("spec", {}), spec.as_json())
+            raise InputError(
+                "--out", str(out),
+                "a new directory or --overwrite: it holds a different sweep (spec hash "
+                f"{str(old.get('spec_hash'))[:12]} vs {spec.hash[:12]}; differs in: "
+                f"{', '.join(diff) or 'format'}); results of different specs are never mixed")
+        elif not resume:
+            raise InputError("--out", str(out), "a new directory, or --resume to complete this "
+                             "sweep (same spec), or --overwrite to restart it")
+    out.mkdir(parents=True, exist_ok=True)
+    for stale in out.glob(".part-*.tmp-*"):   # left by a killed writer
+        stale.unlink(missing_ok=True)
+    _write_manifest(spec, out, "running")
+
+
+def _spec_diff(a: dict[str, Any], b: dict[str, Any]) -> list[str]:
+    keys = sorted(set(a) | set(b))
+    out = []
+    for k in keys:
+        if isinstance(a.get(k), dict) and isinstance(b.get(k), dict) and k == "axes":
+            out += [f"axis {n}" for n in sorted(set(a[k]) | set(b[k]))
+                    if a[k].get(n) != b[k].get(n)]
+        elif a.get(k) != b.get(k):
+            out.append(k)
+    return out
+
+
+def read_sweep(out: Path, columns: Iterable[str] | None = None):
+    """The sweep dataset in ``out`` as one Arrow table sorted by ``point``."""
+    import pyarrow.parquet as pq
+
+    parts = sorted(Path(out).glob("part-*.parquet"))
+    if not parts:
+        raise InputError("--out", str(out), "a directory holding sweep results")
+    cols = None if columns is None else list(dict.fromkeys(["point", *columns]))
+    import pyarrow as pa
+
+    return pa.concat_tables([pq.read_table(p, columns=cols) for p in parts]).sort_by("point")
+
+
+# ------------------------------------------------------------------ execution
+@dataclass(frozen=True)
+class SweepResult:
+    """Outcome of :func:`run_sweep`."""
+
+    out: Path
+    spec_hash: str
+    n_points: int
+    n_chunks: int
+    chunks_computed: int
+    points_computed: int
+    seconds: float
+    workers: int
+    worker_peak_rss_mb: float
+    summary: dict[str, Any] = field(default_factory=dict)
+
+    @property
+    def points_per_s(self) -> float:
+        """Points computed in this run per second of wall time (start-up included)."""
+        return self.points_computed / self.seconds if self.seconds > 0 else float("nan")
+
+
+class SweepInterrupted(KeyboardInterrupt):
+    """Ctrl-C during a sweep; finished chunks are kept (``done`` of ``total``)."""
+
+    def __init__(self, out: Path, done: int, total: int):
+        self.out, self.done, self.total = out, done, total
+        super().__init__(f"interrupted: {done} of {total} chunks are on disk in {out}; "
+                         "rerun the same command with --resume to finish")
+
+
+def _local_cluster(workers: int):
+    import logging
+
+    from distributed import LocalCluster
+
+    return LocalCluster(n_workers=workers, threads_per_worker=1, processes=True,
+                        dashboard_address=None, silence_logs=logging.ERROR)
+
+
+def run_sweep(spec: SweepSpec, out: Path | str, *, resume: bool = False,
+              overwrite: bool = False, workers: int | None = None,
+              scheduler: str | None = None, client: Any = None, console: Any = None,
+              _on_chunk: Callable[[int], None] | None = None) -> SweepResult:
+    """Run (or complete, with ``resume``) a sweep into the Parquet dataset ``out``.
+
+    Parameters
+    ----------
+    workers : int, optional
+        Local Dask worker processes (default: all cores); ``0`` evaluates the
+        chunks one after the other in this process, without Dask.
+    scheduler : str, optional
+        Address of an existing Dask scheduler (``tcp://HOST:PORT``); seactl must
+        be importable on its workers.  Results come back to this process, which
+        writes them, so workers need no shared filesystem.
+    client : distributed.Client, optional
+        Use this client (and leave it open).
+    console : rich.console.Console, optional
+        Where to draw the progress bar (none if ``None``).
+
+    Chunks are submitted to Dask with ``retries=2`` and written as they
+    complete; on Ctrl-C the pending ones are cancelled and
+    :class:`SweepInterrupted` is raised, every written chunk staying on disk.
+    """
+    from rich.progress import (
+        BarColumn,
+        MofNCompleteColumn,
+        Progress,
+        TextColumn,
+        TimeElapsedColumn,
+        TimeRemainingColumn,
+    )
+
+    out = Path(out)
+    if workers is not None and workers < 0:
+        raise InputError("--workers", workers, ">= 0 (0: in this process)")
+    prepare_output(spec, out, resume=resume, overwrite=overwrite)
+    todo = missing_chunks(spec, out)
+    t0 = time.perf_counter()
+    peak = 0.0
+    done = spec.n_chunks - len(todo)
+    n_workers = 0
+    own_client = own_cluster = None
+    progress = Progress(TextColumn("[bold]sweep"), BarColumn(), MofNCompleteColumn(),
+                        TextColumn("chunks"), TimeElapsedColumn(), TimeRemainingColumn(),
+                        console=console, disable=console is None, transient=False)
+    computed = points = 0
+    try:
+        with progress:
+            task = progress.add_task("sweep", total=spec.n_chunks, completed=done)
+
+            def finish(i: int, table: Any, stats: dict[str, float]) -> None:
+                nonlocal peak, computed, points
+                write_chunk(out, i, table)
+                points += table.num_rows
+                peak = max(peak, stats["peak_rss_mb"])
+                computed += 1
+                progress.advance(task)
+                if _on_chunk is not None:
+                    _on_chunk(i)
+
+            if todo and workers == 0 and client is None and scheduler is None:
+                for i in todo:
+                    finish(i, *evaluate_chunk(spec, i))
+            elif todo:
+                from distributed import Client, as_completed
+
+                if client is None:
+                    if scheduler is None:
+                        own_cluster = _local_cluster(workers or os.cpu_count() or 1)
+                        own_client = client = Client(own_cluster)
+                    else:
+                        own_client = client = _connect(scheduler)
+                n_workers = len(client.scheduler_info(n_workers=-1)["workers"])
+                futures = {}
+                for i in todo:
+                    fut = client.submit(evaluate_chunk, spec, i, retries=2, pure=False,
+                                        key=f"seactl-sweep-{spec.hash[:12]}-{i:06d}")
+                    futures[fut.key] = (i, fut)
+                try:
+                    for fut, (table, stats) in as_completed([f for _, f in futures.values()],
+                                                            with_results=True):
+                        i, _ = futures.pop(fut.key)
+                        finish(i, table, stats)
+                        del table
+                except BaseException:
+                    client.cancel([f for _, f in futures.values()])
+                    raise
+    except KeyboardInterrupt:
+        have = spec.n_chunks - len(missing_chunks(spec, out))
+        raise SweepInterrupted(out, have, spec.n_chunks) from None
+    finally:
+        if own_client is not None:
+            own_client.close()
+        if own_cluster is not None:
+            own_cluster.close()
+    seconds = time.perf_counter() - t0
+    summary = summarize(spec, out)
+    summary["run"] = {"chunks_computed": computed, "seconds": round(seconds, 3),
+                      "workers": n_workers, "worker_peak_rss_mb": round(peak, 1)}
+    from .report import write_atomic
+
+    write_atomic(out / "_summary.json", json.dumps(summary, indent=2) + "\n")
+    _write_manifest(spec, out, "complete")
+    return SweepResult(out, spec.hash, spec.n_points, spec.n_chunks, computed, points, seconds,
+                       n_workers, peak, summary)
+
+
+def _connect(address: str):
+    from distributed import Client
+
+    if not address.startswith(("tcp://", "tls://", "inproc://", "ucx://", "ws://", "wss://")):
+        raise InputError("--scheduler", address, "a Dask scheduler address such as "
+                         "tcp://HOST:PORT")
+    try:
+        return Client(address, timeout="10s")
+    except OSError as exc:
+        raise InputError("--scheduler", address, f"a reachable Dask scheduler ({exc})") from None
+
+
+def summarize(spec: SweepSpec, out: Path) -> dict[str, Any]:
+    """Counts and phase-margin statistics of a complete sweep, read part by part
+    (bounded memory) from ``out``."""
+    import pyarrow.parquet as pq
+
+    n = n_feas = n_stable = 0
+    pm_all: list[np.ndarray] = []
+    best: dict[str, Any] | None = None
+    cols = ["point", "feasible", "stable", "phase_margin_deg", *[n for n, _ in spec.swept]]
+    for i in range(spec.n_chunks):
+        t = pq.read_table(part_path(out, i), columns=cols)
+        feas = t.column("feasible").to_numpy()
+        stable = t.column("stable").to_numpy(zero_copy_only=False)
+        stable = np.where(feas, stable, False).astype(bool)
+        pm = t.column("phase_margin_deg").to_numpy(zero_copy_only=False)
+        n += t.num_rows
+        n_feas += int(feas.sum())
+        n_stable += int(stable.sum())
+        pm_s = pm[stable]
+        # a bounded sample for percentiles: every point when small, else strided
+        stride = max(1, spec.n_points // 1_000_000)
+        pm_all.append(pm_s[::stride])
+        finite = stable & np.isfinite(pm)
+        if finite.any():
+            j = int(np.argmax(np.where(finite, pm, -np.inf)))
+            if best is None or pm[j] > best["phase_margin_deg"]:
+                best = {c: t.column(c)[j].as_py() for c in cols if c not in ("stable",)}
+    pms = np.concatenate(pm_all) if pm_all else np.empty(0)
+    pms = pms[np.isfinite(pms)]
+    stats = None
+    if pms.size:
+        q = np.percentile(pms, [0, 5, 50, 95, 100])
+        stats = dict(zip(("min", "p5", "median", "p95", "max"), (round(float(x), 6) for x in q)))
+    return {"spec_hash": spec.hash, "n_points": n, "feasible": n_feas,
+            "infeasible": n - n_feas, "stable": n_stable, "unstable": n_feas - n_stable,
+            "phase_margin_deg_stable": stats, "best_phase_margin": best}
+
+
+# ------------------------------------------------------------------ robustness
+@dataclass(frozen=True)
+class RobustResult:
+    """Monte Carlo of a design over actuator parameter uncertainty.
+
+    ``phase_margin_deg`` holds one value per sample (``inf``: no crossover);
+    ``stable`` the stability of each sample."""
+
+    nominal_phase_margin_deg: float
+    phase_margin_deg: np.ndarray
+    stable: np.ndarray
+    samples: dict[str, np.ndarray]
+
+    @property
+    def n(self) -> int:
+        return int(self.stable.size)
+
+    @property
+    def p_unstable(self) -> float:
+        return float(1.0 - self.stable.mean())
+
+    def p_unstable_ci95(self) -> tuple[float, float]:
+        """Wilson 95% interval of the probability of instability."""
+        z, n, p = 1.959963984540054, self.n, self.p_unstable
+        centre = (p + z * z / (2 * n)) / (1 + z * z / n)
+        half = z * math.sqrt(p * (1 - p) / n + z * z / (4 * n * n)) / (1 + z * z / n)
+        return max(0.0, centre - half), min(1.0, centre + half)
+
+    def percentiles(self, q=(1, 5, 50, 95, 99)) -> dict[str, float]:
+        """Phase-margin percentiles over the stable samples."""
+        pm = self.phase_margin_deg[self.stable & np.isfinite(self.phase_margin_deg)]
+        if pm.size == 0:
+            return {}
+        return {f"p{x:g}": float(v) for x, v in zip(q, np.percentile(pm, q))}
+
+
+def relative_interval(actuator: SEAParams, name: str, percent: float) -> tuple[float, float]:
+    """``nominal * (1 -/+ percent/100)`` of actuator axis ``name``."""
+    if not (0 <= percent < 100):
+        raise InputError(AXES[name].option, f"{percent:g}%", "a relative uncertainty in "
+                         "[0%, 100%)")
+    nom = float(getattr(actuator, _ACTUATOR_FIELDS[name]))
+    return nom * (1 - percent / 100), nom * (1 + percent / 100)
+
+
+def monte_carlo(spec: SweepSpec) -> RobustResult:
+    """Evaluate a random-sampling spec chunk by chunk in this process.
+
+    ``spec`` fixes one design (``f_n``, GS, delays, filters) and samples the
+    plant parameters of its swept actuator axes uniformly in their intervals;
+    the nominal phase margin is that of the unperturbed actuator."""
+    if spec.sampling != "random":
+        raise InputError("sampling", spec.sampling, "random for a Monte Carlo analysis")
+    bad = [n for n, _ in spec.swept if n not in ACTUATOR_AXES]
+    if bad:
+        raise InputError(AXES[bad[0]].option, "several values", "a single value (the "
+                         "Monte Carlo varies actuator parameters of one design)")
+    pm, st = [], []
+    samples: dict[str, list[np.ndarray]] = {n: [] for n, _ in spec.swept}
+    for i in range(spec.n_chunks):
+        t, _ = evaluate_chunk(spec, i)
+        feas = t.column("feasible").to_numpy()
+        if not feas.all():
+            raise InputError("--fn", spec.fixed()["fn_hz"], "a feasible f_n for the nominal "
+                             "actuator")
+        pm.append(t.column("phase_margin_deg").to_numpy())
+        st.append(t.column("stable").to_numpy(zero_copy_only=False).astype(bool))
+        for name in samples:
+            samples[name].append(t.column(name).to_numpy())
+    nominal = SweepSpec(spec.actuator, tuple((n, v) for n, v in spec.axes
+                                             if n not in ACTUATOR_AXES))
+    t0, _ = evaluate_chunk(nominal, 0)
+    return RobustResult(float(t0.column("phase_margin_deg")[0].as_py()), np.concatenate(pm),
+                        np.concatenate(st), {k: np.concatenate(v) for k, v in samples.items()})
+
+
+__all__ = [
+    "AXES", "ActuatorBatch", "RobustResult", "SweepInterrupted", "SweepResult", "SweepSpec",
+    "evaluate_chunk", "evaluate_points", "impedance_magnitude", "missing_chunks",
+    "monte_carlo", "read_sweep", "relative_interval", "run_sweep", "summarize",
+]
+
+
+# ------------------------------------------------------------------ maps for plots
+def sweep_map(out: Path | str, x: str, y: str, z: str = "phase_margin_deg",
+              reduce: str = "min", bins: int = 40) -> dict[str, Any]:
+    """``z`` over the two axes ``x`` and ``y`` of the sweep in ``out``.
+
+    Grid sweeps keep their axis values; sampled sweeps are binned (``bins`` per
+    axis).  Points sharing a cell (other swept axes) are reduced with ``min``,
+    ``max`` or ``mean`` over their feasible points (``min`` of a margin is the
+    worst case).  Returns ``x``, ``y`` (cell centres), ``z`` (shape
+    ``(len(y), len(x))``, NaN where no feasible point) and ``stable_fraction``.
+    """
+    out = Path(out)
+    manifest = json.loads((out / "_manifest.json").read_text())
+    swept = manifest["swept_axes"]
+    for opt, name in (("--plot", x), ("--plot", y)):
+        if name not in swept:
+            raise InputError(opt, name, "one of the swept axes (" + ", ".join(swept) + ")")
+    if x == y:
+        raise InputError("--plot", f"{x},{y}", "two different axes")
+    cols = set(manifest["columns"]) - {"point", "feasible"}
+    if z not in cols:
+        raise InputError("--plot-z", z, "one of " + ", ".join(sorted(cols)))
+    if reduce not in ("min", "max", "mean"):
+        raise InputError("--plot-reduce", reduce, "min, max or mean")
+    t = read_sweep(out, [x, y, z, "feasible", "stable"])
+    feas = t.column("feasible").to_numpy()
+    xv, yv = (t.column(c).to_numpy()[feas] for c in (x, y))
+    zv = np.asarray(t.column(z).to_numpy(zero_copy_only=False), float)[feas]
+    st = np.asarray(t.column("stable").to_numpy(zero_copy_only=False), float)[feas]
+
+    def cells(v: np.ndarray, name: str) -> tuple[np.ndarray, np.ndarray]:
+        if manifest["spec"]["sampling"] == "grid":
+            grid = np.asarray(manifest["spec"]["axes"][name], float)
+            centres = np.unique(grid)
+            return centres, np.searchsorted(centres, v)
+        lo, hi = float(np.min(v)), float(np.max(v))
+        edges = np.linspace(lo, hi, bins + 1)
+        return 0.5 * (edges[1:] + edges[:-1]), np.clip(np.searchsorted(edges, v, "right") - 1,
+                                                       0, bins - 1)
+
+    xc, ix = cells(xv, x)
+    yc, iy = cells(yv, y)
+    flat = iy * xc.size + ix
+    size = xc.size * yc.size
+    count = np.bincount(flat, minlength=size).astype(float)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        ok = ~np.isnan(zv)
+        n_ok = np.bincount(flat[ok], minlength=size)
+        if reduce == "mean":
+            zs = np.bincount(flat[ok], zv[ok], minlength=size) / n_ok
+        else:
+            zs = np.full(size, np.inf if reduce == "min" else -np.inf)
+            (np.minimum if reduce == "min" else np.maximum).at(zs, flat[ok], zv[ok])
+        zs[n_ok == 0] = np.nan
+        frac = np.bincount(flat, st, minlength=size) / count
+    return {"x": xc, "y": yc, "z": zs.reshape(yc.size, xc.size),
+            "stable_fraction": frac.reshape(yc.size, xc.size), "x_name": x, "y_name": y,
+            "z_name": z, "reduce": reduce, "n_points": int(t.num_rows)}
