@@ -55,6 +55,8 @@ class Margins:
     crossover_hz : gain-crossover frequency of that margin [Hz], NaN where none
         (see ``has_crossover``).
     gain_margin : gain margin (absolute), ``inf`` where the phase never reaches -180.
+        Phase crossovers are resolved wherever ``|L| > 0.05``; a gain margin above
+        26 dB comes from the weaker crossings the grid found and means "> 26 dB".
     phase_crossover_hz : frequency of that gain margin [Hz], NaN where none.
     delay_margin_s : smallest extra latency that destabilizes the loop [s];
         0 for an unstable loop, ``inf`` without crossover.
@@ -140,7 +142,9 @@ def loop_margins(loop: LoopFn, design: Any, omega: np.ndarray, *,
         Bracketing grid [rad/s], shape ``(F,)`` or ``design.shape + (F,)``;
         its first point must lie below the loop's low-frequency features.
         Grid intervals where the phase of ``L`` (where ``|L| > 0.05``) or of
-        ``1 + L`` (where ``|L| > 0.5``) turns by more than 60 degrees are
+        ``1 + L`` (where ``|L| > 0.5``) turns by more than 60 degrees, or whose
+        chord is longer than its endpoints' distance to the unit circle or to
+        the negative real axis (a pair of crossings could hide between them), are
         subdivided, recursively (``max_depth``), and the grid is extended
         upwards while ``|L| > 0.5`` at its top, so that no crossing and no
         encirclement is missed.
@@ -262,6 +266,16 @@ class _Scan:
         coarse = (np.abs(dphi_f) > np.pi / 3) & (big > 0.5)
         if not self.stability_only:
             coarse |= (np.abs(dphi) > np.pi / 3) & (big > 0.05)
+            # A chord longer than the endpoints' distance to the unit circle (or to the
+            # negative real axis) could hide a pair of crossings between the samples.
+            chord = np.abs(L[:, 1:] - L[:, :-1])
+            to_circle = np.minimum(np.abs(mag[:, 1:] - 1), np.abs(mag[:, :-1] - 1))
+            same_side = (mag[:, 1:] >= 1) == (mag[:, :-1] >= 1)
+            coarse |= same_side & (chord > to_circle)
+            to_axis = np.where(L.real < 0, np.abs(L.imag), mag)
+            same_half = (L.imag[:, 1:] >= 0) == (L.imag[:, :-1] >= 0)
+            coarse |= same_half & (big > 0.05) & (chord > np.minimum(to_axis[:, 1:],
+                                                                        to_axis[:, :-1]))
         if depth <= 0:
             coarse[:] = False
         fine = ~coarse
