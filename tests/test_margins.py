@@ -175,3 +175,22 @@ def test_subset_evaluation_matches_batch():
     full = outer_loop()(d, s)
     sub = outer_loop()(DesignSubset(d, np.array([2, 0]), d.shape), s[None, :])
     np.testing.assert_allclose(sub, full[[2, 0]])
+
+
+@pytest.mark.parametrize("per_decade", [12, 20, 30, 60])
+def test_close_pair_of_crossings_is_found_on_any_grid(per_decade):
+    """A pair of gain crossovers 2.5% apart (|L| rises just above 1 between two grid
+    points) must be found whatever the grid density: compare with a brute-force scan."""
+    d = SEADesign(A, critically_damped_gains(A, 38.88686974382624),
+                  Timing(0.9065989727994375e-3, 7.399103319724809e-3, 2.743535449415269e-3,
+                         50.0, 100.0))
+    w = np.linspace(2 * np.pi * 5, 2 * np.pi * 200, 400_000)
+    mag = np.abs(outer_loop()(d, 1j * w))
+    idx = np.nonzero((mag[:-1] >= 1) != (mag[1:] >= 1))[0]
+    assert idx.size == 3
+    from seactl.margins import sea_reference_frequency
+    grid = default_grid(sea_reference_frequency(d), per_decade=per_decade)
+    from seactl.loops import inner_loop
+    inner = loop_margins(inner_loop(), d, grid, stability_only=True)
+    m = loop_margins(outer_loop(), d, grid, open_loop_rhp_poles=inner.unstable_poles)
+    np.testing.assert_allclose(np.sort(m.gain_crossovers.omega), w[idx], rtol=1e-5)
