@@ -193,4 +193,5 @@ def test_close_pair_of_crossings_is_found_on_any_grid(per_decade):
     from seactl.loops import inner_loop
     inner = loop_margins(inner_loop(), d, grid, stability_only=True)
     m = loop_margins(outer_loop(), d, grid, open_loop_rhp_poles=inner.unstable_poles)
-    np.testing.assert_allclose(np.sort(m.gain_crossovers.omega), w[idx], rtol=1e-5)
+    # the brute-force grid spacing is 0.003 rad/s (2e-5 relative at the first crossing)
+    np.testing.assert_allclose(np.sort(m.gain_crossovers.omega), w[idx], rtol=3e-5)
