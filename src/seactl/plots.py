@@ -75,3 +75,93 @@ def robust_histogram_figure(pm: np.ndarray, stable: np.ndarray, nominal_pm: floa
     ax.legend(fontsize=8, loc="upper right")
     ax.grid(True, alpha=0.3)
     return fig
+
+
+# ----------------------------------------------------------------------- impedance (issue 3)
+def impedance_bode_figure(columns, *, suptitle: str | None = None, unit: str = "N m s/rad",
+                          col_width: float = 4.6):
+    """Bode magnitude (dB) and unwrapped phase (deg) of impedances, one column per panel.
+
+    ``columns``: list of ``(title, curves)``; each curve is a dict with ``f`` [Hz], ``z``
+    (complex), ``label`` and optional ``color``, ``dashed`` (asymptotes and references:
+    drawn dashed and excluded from the axis limits), ``lw``.
+    """
+    n = len(columns)
+    fig, axes = plt.subplots(2, n, figsize=(col_width * n, 6.2), sharex="col", squeeze=False,
+                             gridspec_kw={"height_ratios": [1.6, 1]})
+    for j, (title, curves) in enumerate(columns):
+        am, ap = axes[0, j], axes[1, j]
+        lo, hi = np.inf, -np.inf
+        for c in curves:
+            f, z = np.asarray(c["f"]), np.asarray(c["z"])
+            db = 20 * np.log10(np.abs(z))
+            ph = np.degrees(np.unwrap(np.angle(z)))
+            ls = "--" if c.get("dashed") else "-"
+            lw = c.get("lw", 1.0 if c.get("dashed") else 1.6)
+            am.semilogx(f, db, ls=ls, lw=lw, color=c.get("color"), label=c.get("label"))
+            ap.semilogx(f, ph, ls=ls, lw=lw, color=c.get("color"))
+            if not c.get("dashed"):
+                lo, hi = min(lo, float(np.nanmin(db))), max(hi, float(np.nanmax(db)))
+        if np.isfinite(lo):
+            am.set_ylim(lo - 8, hi + 8)
+        am.set_title(title, fontsize=10)
+        am.grid(True, which="both", alpha=0.3)
+        ap.grid(True, which="both", alpha=0.3)
+        ap.set_xlabel("frequency [Hz]")
+        if j == 0:
+            am.set_ylabel(f"|Z| [dB re 1 {unit}]")
+            ap.set_ylabel("phase of Z [deg]")
+        am.legend(fontsize=7, loc="best")
+    if suptitle:
+        fig.suptitle(suptitle, fontsize=11)
+    fig.tight_layout()
+    return fig
+
+
+def zregion_figure(region, fn_hz, gs, *, spring=None, unit: str = "N m s/rad"):
+    """Z-region: admissible |Z| envelope, Z-width with the Z-depth, admissible design map."""
+    f = region.f_hz
+    fig, axes = plt.subplots(1, 3, figsize=(15, 4.4),
+                             gridspec_kw={"width_ratios": [1.3, 1.0, 0.9]})
+    ax = axes[0]
+    mag = region.magnitude.reshape(-1, f.size)
+    for row in mag[region.admissible.reshape(-1)]:
+        ax.semilogx(f, 20 * np.log10(row), color="0.75", lw=0.5)
+    ax.fill_between(f, 20 * np.log10(region.z_min), 20 * np.log10(region.z_max),
+                    color="tab:blue", alpha=0.25, label="Z-region (admissible envelope)")
+    ax.semilogx(f, 20 * np.log10(region.z_max), color="tab:blue", lw=1.4)
+    ax.semilogx(f, 20 * np.log10(region.z_min), color="tab:blue", lw=1.4)
+    if spring is not None:
+        ax.semilogx(f, 20 * np.log10(np.abs(spring)), "k--", lw=1, label="spring k/(jw)")
+    ax.set_xlabel("frequency [Hz]")
+    ax.set_ylabel(f"|Z| [dB re 1 {unit}]")
+    ax.set_title(f"{region.n_admissible} admissible designs ({region.model})", fontsize=10)
+    ax.grid(True, which="both", alpha=0.3)
+    ax.legend(fontsize=8)
+    ax = axes[1]
+    ax.semilogx(f, region.width_db, color="tab:blue")
+    ax.axhline(region.threshold_db, color="k", ls=":", lw=1,
+               label=f"threshold {region.threshold_db:g} dB")
+    if region.depth_hz is not None:
+        ax.axvspan(*region.depth_hz, color="tab:green", alpha=0.15,
+                   label=f"Z-depth {region.depth_hz[0]:.3g}-{region.depth_hz[1]:.3g} Hz "
+                         f"({region.depth_decades:.2f} dec)")
+    ax.set_xlabel("frequency [Hz]")
+    ax.set_ylabel("Z-width [dB]")
+    ax.set_title("Z-width = 20 log10(max|Z| / min|Z|)", fontsize=10)
+    ax.grid(True, which="both", alpha=0.3)
+    ax.legend(fontsize=8)
+    ax = axes[2]
+    pm = np.where(region.stable, region.phase_margin_deg, np.nan)
+    im = ax.pcolormesh(np.asarray(gs), np.asarray(fn_hz), pm, cmap="viridis", shading="nearest")
+    fig.colorbar(im, ax=ax, label="phase margin [deg] (blank: unstable)")
+    yy, xx = np.nonzero(~region.admissible)
+    ax.plot(np.asarray(gs)[xx], np.asarray(fn_hz)[yy], "x", color="r", ms=4,
+            label="not admissible")
+    ax.set_xlabel("gain scale GS")
+    ax.set_ylabel("f_n [Hz]")
+    ax.set_title(f"admissible: PM >= {region.min_pm_deg:g} deg"
+                 + (", passive" if region.require_passive else ""), fontsize=10)
+    ax.legend(fontsize=8, loc="upper right")
+    fig.tight_layout()
+    return fig

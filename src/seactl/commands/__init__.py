@@ -3,4 +3,5 @@
 Each module imports ``cli`` (the click group) and the shared helpers from
 :mod:`seactl.cli` and registers its commands with ``@cli.command()``.
 """
+from . import impedance  # noqa: F401
 from . import sweep  # noqa: F401

@@ -1,0 +1,335 @@
+"""SEA impedance: block diagram vs an independent per-frequency solve of the physical
+equations, the paper's printed coefficients, asymptotes, passivity, Z-region, CLI."""
+
+import json
+
+import numpy as np
+import pytest
+
+from seactl.actuators import UT_SEA
+from seactl.cli import main
+from seactl.design import critically_damped_gains
+from seactl.errors import InfeasibleDesignError, InputError
+from seactl.impedance import (
+    asymptotes,
+    excess_over_asymptotes_db,
+    high_frequency_asymptote,
+    impedance,
+    loaded_impedance_from_compliance,
+    low_frequency_stiffness,
+    paper_coefficients,
+    passivity,
+    zregion,
+)
+from seactl.loops import Gains, SEADesign, Timing
+
+A = UT_SEA
+F = np.logspace(-1, 3, 37)
+TIMINGS = [Timing(), Timing.from_ms(1.0, 10.0, 3.0), Timing.from_ms(0, 0, 0, 50.0, 100.0),
+           Timing.from_ms(0.7, 3.0, 1.1, 45.0, 120.0)]
+
+
+def design(fn=30.0, timing=Timing(), gs=1.0):
+    return SEADesign(A, critically_damped_gains(A, fn, gs=gs), timing)
+
+
+def solve_physics(d, f_hz, load=False, Ij=None, bj=None):
+    """Independent route: the loop's linear equations solved at each frequency.
+
+    Unknowns x = [tau_des, e, i_m, q_m, tau_k] (+ q_j with the load).  Without load q_j = 1
+    is imposed and Z = tau_k / (-s); with the load tau_ext = 1 and Z_l = 1 / (s q_j).
+    """
+    out = []
+    for f in f_hz:
+        s = 2j * np.pi * f
+        Qv, Qt = 1 / (d.Tf_qd * s + 1), 1 / (d.Tf_taud * s + 1)
+        Fb = d.Kq * np.exp(-s * d.T_qs) + d.Bq * Qv * s * np.exp(-s * d.T_qd)
+        C = d.Ktau + d.Btau * Qt * s
+        eT = np.exp(-s * d.T_tau)
+        M = d.Im * s**2 + d.bm * s
+        n = 6 if load else 5
+        Amat = np.zeros((n, n), complex)
+        b = np.zeros(n, complex)
+        # tau_des + Fb q_j = 0  (q_des = 0)
+        Amat[0, 0] = 1
+        # e = tau_des - e^{-sT_tau} tau_k
+        Amat[1, 1], Amat[1, 0], Amat[1, 4] = 1, -1, eT
+        # i_m = tau_des / beta + C e
+        Amat[2, 2], Amat[2, 0], Amat[2, 1] = 1, -1 / d.beta, -C
+        # (I_m s^2 + b_m s) q_m = beta i_m - tau_k
+        Amat[3, 3], Amat[3, 2], Amat[3, 4] = M, -d.beta, 1
+        # tau_k = k (q_m - q_j)
+        Amat[4, 4], Amat[4, 3] = 1, -d.k
+        if load:
+            Amat[0, 5] = Fb
+            Amat[4, 5] = d.k
+            # (I_j s^2 + b_j s) q_j = tau_k + tau_ext
+            Amat[5, 5], Amat[5, 4] = Ij * s**2 + bj * s, -1
+            b[5] = 1.0
+            x = np.linalg.solve(Amat, b)
+            out.append(1 / (s * x[5]))
+        else:
+            b[0] = -Fb
+            b[4] = -d.k
+            x = np.linalg.solve(Amat, b)
+            out.append(x[4] / (-s))
+    return np.array(out)
+
+
+@pytest.mark.parametrize("timing", TIMINGS)
+def test_block_diagram_matches_physical_equations(timing):
+    d = design(23.0, timing)
+    z = impedance(d, F)
+    assert z.model == "block-diagram"
+    np.testing.assert_allclose(z.z, solve_physics(d, F), rtol=1e-10)
+    zl = impedance(d, F, load=True).z
+    np.testing.assert_allclose(zl, solve_physics(d, F, True, A.Ij, A.bj), rtol=1e-10)
+    np.testing.assert_allclose(zl, loaded_impedance_from_compliance(d, F), rtol=1e-9)
+
+
+def test_load_is_z_plus_inertia_and_damping():
+    d = design(20.0, TIMINGS[3])
+    z = impedance(d, F).z
+    s = 2j * np.pi * F
+    zl = impedance(d, F, load_inertia=0.2, load_damping=0.3).z
+    np.testing.assert_allclose(zl, z + 0.2 * s + 0.3, rtol=1e-12)
+    np.testing.assert_allclose(zl, solve_physics(d, F, True, 0.2, 0.3), rtol=1e-10)
+
+
+def test_static_stiffness_and_bare_spring():
+    d = design(30.0, TIMINGS[3])
+    assert impedance(d, [1e-5]).stiffness[0].real == pytest.approx(float(d.Kq), rel=1e-6)
+    zero = SEADesign(A, Gains(0.0, 0.0, 0.0, 0.0), TIMINGS[1])
+    s = 2j * np.pi * F
+    # no control: the motor is free, Z = series spring + motor: (k M/(M+k))/s, M = I_m s^2 + b_m s
+    M = A.Im * s**2 + A.bm * s
+    np.testing.assert_allclose(impedance(zero, F).z, A.k * M / (M + A.k) / s, rtol=1e-12)
+    # motor locked (huge inertia): the bare spring k/s
+    locked = SEADesign(UT_SEA.__class__(**{**UT_SEA.__dict__, "motor_inertia": 1e12}),
+                       Gains(0.0, 0.0, 0.0, 0.0))
+    np.testing.assert_allclose(impedance(locked, F).z, A.k / s, rtol=1e-6)
+
+
+def test_batch_shapes_and_chunking(monkeypatch):
+    import seactl.impedance as imp
+
+    g = critically_damped_gains(A, np.array([12.0, 20.0, 30.0])[:, None],
+                                gs=np.array([0.8, 1.0])[None, :])
+    d = SEADesign(A, g, TIMINGS[3])
+    z = impedance(d, F).z
+    assert z.shape == (3, 2, F.size)
+    monkeypatch.setattr(imp, "_CHUNK_POINTS", 50)  # forces design chunks of 1
+    np.testing.assert_allclose(impedance(d, F).z, z, rtol=1e-14)
+    for i, j in [(0, 0), (2, 1)]:
+        one = SEADesign(A, g[i, j], TIMINGS[3])
+        np.testing.assert_allclose(z[i, j], impedance(one, F).z, rtol=1e-13)
+
+
+def test_linear_units():
+    d = design(20.0, TIMINGS[1])
+    r = A.pulley_radius
+    zr, zl = impedance(d, F).z, impedance(d, F, units="linear")
+    assert zl.unit == "N s/m"
+    np.testing.assert_allclose(zl.z, zr / r**2, rtol=1e-12)
+
+
+# ----------------------------------------------------------------------------- paper model
+def printed(d, s, kt):
+    """A second transcription of a few printed coefficients (eq. SEA_impedance)."""
+    eqs, eT = np.exp(-s * d.T_qs), np.exp(-s * d.T_tau)
+    return dict(N4=A.Im * d.Tf_taud * d.Tf_qd * A.beta * A.k,
+                N0=d.Kq * A.k * kt * eqs * (1 + d.Ktau * A.beta),
+                D5=A.Im * d.Tf_taud * d.Tf_qd * A.beta,
+                D1=A.beta * A.k * (1 + d.Ktau * kt * eT))
+
+
+@pytest.mark.parametrize("timing", TIMINGS)
+def test_paper_model(timing):
+    d = design(30.0, timing)
+    s = 2j * np.pi * F
+    N, D = paper_coefficients(d, s)
+    p = printed(d, s, A.motor_torque_constant)
+    for key, got in (("N4", N[4]), ("N0", N[0]), ("D5", D[5]), ("D1", D[1])):
+        np.testing.assert_allclose(got, np.broadcast_to(p[key], got.shape), rtol=1e-13)
+    np.testing.assert_array_equal(D[0], 0)
+    z = impedance(d, F, model="paper")
+    assert z.model == "paper"
+    num = sum(c * s**i for i, c in enumerate(N))
+    den = sum(c * s**i for i, c in enumerate(D))
+    np.testing.assert_allclose(z.z, num / den, rtol=1e-13)
+    # equals the block diagram only with k_tau replaced by beta (background.md section 4)
+    np.testing.assert_allclose(impedance(d, F, model="paper", k_tau=A.beta).z,
+                               impedance(d, F).z, rtol=1e-10)
+    assert np.max(np.abs(z.z / impedance(d, F).z - 1)) > 0.1
+
+
+def test_paper_low_frequency_stiffness_value():
+    d = design(30.0)
+    kt, beta = A.motor_torque_constant, A.beta
+    expect = d.Kq * kt * (1 / beta + d.Ktau) / (1 + d.Ktau * kt)
+    assert float(low_frequency_stiffness(d, "paper")) == pytest.approx(float(expect), rel=1e-12)
+    assert float(expect) == pytest.approx(72.9, abs=0.05)  # background.md section 4
+    assert float(low_frequency_stiffness(d)) == pytest.approx(293.6, abs=0.05)
+    for t in TIMINGS:
+        z = impedance(design(30.0, t), [1e-5], model="paper")
+        assert z.stiffness[0].real == pytest.approx(72.887, abs=1e-3)
+
+
+# ----------------------------------------------------------------------------- asymptotes
+@pytest.mark.parametrize("model", ["block-diagram", "paper"])
+@pytest.mark.parametrize("timing", TIMINGS)
+def test_asymptotes_at_extreme_frequencies(model, timing):
+    d = design(25.0, timing)
+    a = asymptotes(d, [1e-5, 1e6], model=model)
+    z = impedance(d, [1e-5, 1e6], model=model).z
+    assert abs(z[0] / a.low[0] - 1) < 1e-4
+    assert abs(z[1] / a.high[1] - 1) < 1e-4
+    kt = A.beta if model == "block-diagram" else A.motor_torque_constant
+    s = 2j * np.pi * 1e6
+    if timing.f_qd is not None:
+        assert a.high[1] == pytest.approx(A.k / s, rel=1e-12)
+    else:  # ideal / delay only: k (I_m + g B_tau B_q e^{-s T_qd}) / (I_m s)
+        expect = A.k * (A.Im + kt * d.Btau * d.Bq * np.exp(-s * d.T_qd)) / (A.Im * s)
+        assert a.high[1] == pytest.approx(complex(expect), rel=1e-12)
+
+
+def test_load_asymptotes_and_spike():
+    d = design(20.0, Timing.from_ms(1.0, 10.0, 1.0, 50.0, 100.0))
+    a = asymptotes(d, [1e-5, 1e6], load_inertia=[0.014, 0.2], load_damping=0.1)
+    z = impedance(d, [1e-5, 1e6], load_inertia=[0.014, 0.2], load_damping=0.1)
+    np.testing.assert_allclose(z.z[:, 1] / a.high[:, 1], 1, atol=1e-6)
+    np.testing.assert_allclose(z.z[:, 0] / a.low[:, 0], 1, atol=1e-4)
+    # excess over the envelope is ~0 where an asymptote is exact
+    assert np.all(np.abs(excess_over_asymptotes_db(z, a)) < 1e-3)
+    with pytest.raises(InputError, match="load_inertia"):
+        impedance(d, F, load_inertia=-1.0)
+
+
+def test_high_frequency_asymptote_case_mix():
+    g = critically_damped_gains(A, np.array([20.0, 20.0]))
+    d = SEADesign(A, g, Timing(T_qd=np.array([0.0, 0.002]), f_qd=np.array([np.inf, 40.0])))
+    h = high_frequency_asymptote(d, [1e6])
+    s = 2j * np.pi * 1e6
+    assert h[1, 0] == pytest.approx(A.k / s)
+    assert h[0, 0] == pytest.approx(A.k * (A.Im + A.beta * g.Btau[0] * g.Bq[0]) / (A.Im * s))
+
+
+# ----------------------------------------------------------------------------- passivity
+def test_passivity_bands_on_a_built_non_passive_case():
+    # Stiffness delay only: Z = K/s e^{-sT} + ... and Re(K e^{-jwT}/(jw)) = -K sin(wT)/w < 0
+    # for 0 < wT < pi: with a large T the band starts at the scan start and ends near
+    # f = 1/(2T) where the delay term's real part changes sign (other terms shift it a bit).
+    d = design(15.0, Timing(T_qs=0.05))
+    p = passivity(d, (0.01, 5.0))
+    assert not p.passive
+    b = p.bands_hz[()]
+    assert b[0, 0] == 0.01
+    z_in = impedance(d, [np.sqrt(b[0, 0] * b[0, 1])]).z[0]
+    assert z_in.real < 0
+    # edges are exact roots of Re Z
+    for edge in b.ravel():
+        if 0.01 < edge < 5.0:
+            z = impedance(d, [edge]).z[0]
+            assert abs(z.real) < 1e-8 * abs(z)
+    # compare to a brute-force dense scan
+    f = np.logspace(-2, np.log10(5.0), 200001)
+    neg = impedance(d, f).z.real < 0
+    dense_edges = f[1:][neg[1:] != neg[:-1]]
+    inner = b.ravel()[(b.ravel() > 0.01) & (b.ravel() < 5.0)]
+    np.testing.assert_allclose(np.sort(inner), dense_edges, rtol=1e-4)
+
+
+def test_passive_ideal_and_load_damping_helps():
+    assert bool(passivity(design(30.0), (0.1, 1000.0)).passive)
+    d = design(20.0, Timing(T_qs=0.02))  # K_q T_qs = 3 Nms/rad > B_q: negative damping
+    assert not bool(passivity(d, (0.1, 100.0)).passive)
+    # Re Z_l = Re Z + b_j: enough joint damping restores passivity at low frequency
+    worst = -impedance(d, np.logspace(-1, 2, 2000)).z.real.min()
+    assert bool(passivity(d, (0.1, 100.0), load_damping=1.01 * worst).passive)
+
+
+def test_bad_input():
+    d = design(20.0)
+    with pytest.raises(InputError, match="model"):
+        impedance(d, F, model="matlab")
+    with pytest.raises(InputError, match="f_hz"):
+        impedance(d, [0.0, 1.0])
+    with pytest.raises(InputError, match="f_hz"):
+        impedance(d, [np.nan])
+    with pytest.raises(InputError, match="units"):
+        impedance(d, F, units="imperial")
+    with pytest.raises(InputError, match="k_tau"):
+        impedance(d, F, model="paper", k_tau=-1)
+    with pytest.raises(InputError, match="f_range_hz"):
+        passivity(d, (10.0, 1.0))
+
+
+# ----------------------------------------------------------------------------- Z-region
+def test_zregion_width_and_depth():
+    fn = np.array([12.0, 16.0, 20.0])
+    gs = np.array([0.8, 1.0, 1.25])
+    d = SEADesign(A, critically_damped_gains(A, fn[:, None], gs=gs[None, :]),
+                  Timing.from_ms(0.5, 2.0, 0.5, 50.0, 100.0))
+    f = np.logspace(-3, 5, 81)
+    reg = zregion(d, f, min_pm_deg=30.0, threshold_db=6.0)
+    mag = impedance(d, f).magnitude.reshape(9, -1)
+    ok = reg.admissible.ravel()
+    assert ok.sum() == reg.n_admissible > 1
+    np.testing.assert_allclose(reg.z_max, mag[ok].max(axis=0))
+    np.testing.assert_allclose(reg.z_min, mag[ok].min(axis=0))
+    kq = np.asarray(d.Kq)[reg.admissible]
+    assert reg.width_db[0] == pytest.approx(20 * np.log10(kq.max() / kq.min()), abs=1e-3)
+    assert reg.width_db[-1] < 0.01  # all tend to k/s with filters
+    lo, hi = reg.depth_hz
+    assert lo == f[0] and f[0] < hi < f[-1]
+    k = np.searchsorted(f, hi)
+    assert np.all(reg.width_db[:k] >= 6.0) and reg.width_db[k] < 6.0
+    with pytest.raises(InfeasibleDesignError, match="no admissible design"):
+        zregion(d, f, min_pm_deg=89.0)
+
+
+# ----------------------------------------------------------------------------- CLI
+def test_cli_impedance_json_and_files(tmp_path, capsys):
+    png, csv = tmp_path / "z.png", tmp_path / "z.csv"
+    rc = main(["impedance", "--fn", "30", "--t-tau", "1", "--t-qs", "10", "--t-qd", "3",
+               "--freq", "1", "10", "100", "--json", "--plot", str(png), "--csv", str(csv)])
+    assert rc == 0
+    out = json.loads(capsys.readouterr().out)
+    assert out["model"] == "block-diagram"
+    assert out["f_hz"] == [1.0, 10.0, 100.0]
+    d = design(30.0, Timing.from_ms(1, 10, 3))
+    z = impedance(d, [1.0, 10.0, 100.0])
+    np.testing.assert_allclose(out["magnitude"], z.magnitude, rtol=1e-9)
+    np.testing.assert_allclose(out["magnitude_db"], z.magnitude_db, rtol=1e-9)
+    np.testing.assert_allclose(out["phase_deg"], z.phase_deg, rtol=1e-9)
+    p = passivity(d, (1.0, 100.0))
+    assert out["passive"] is False
+    np.testing.assert_allclose(out["non_passive_bands_hz"], p.bands_hz[()], rtol=1e-12)
+    assert png.stat().st_size > 10_000 and png.read_bytes()[:4] == b"\x89PNG"
+    lines = csv.read_text().splitlines()
+    assert len(lines) == 4 and lines[0].startswith("fn_hz,gs,f_hz")
+    assert not [x for x in tmp_path.iterdir() if x.name.startswith(".")]  # no temp left
+
+
+def test_cli_impedance_paper_model_and_errors(capsys):
+    assert main(["impedance", "--fn", "30", "--freq", "0.001", "--model", "paper",
+                 "--json"]) == 0
+    out = json.loads(capsys.readouterr().out)
+    assert out["model"] == "paper"
+    assert out["low_frequency_stiffness"] == pytest.approx(72.887, abs=1e-3)
+    assert main(["impedance", "--fn", "30", "--freq", "0:1:3"]) == 2
+    assert "--freq" in capsys.readouterr().err
+    assert main(["impedance", "--fn", "30", "--plot", "z.jpg"]) == 2
+    assert main(["impedance", "--fn", "30", "--model", "x"]) != 0
+
+
+def test_cli_zregion(tmp_path, capsys):
+    rc = main(["zregion", "--fn", "12", "16", "--gs", "0.8", "1", "--t-tau", "0.5",
+               "--t-qs", "2", "--t-qd", "0.5", "--f-qd", "50", "--f-taud", "100",
+               "--freq", "0.1:1000:41", "--json", "--plot", str(tmp_path / "zr.svg")])
+    assert rc == 0
+    out = json.loads(capsys.readouterr().out)
+    assert out["n_designs"] == 4 and len(out["width_db"]) == 41
+    assert (tmp_path / "zr.svg").read_text().lstrip().startswith("<?xml")
+    assert main(["zregion", "--fn", "12", "--min-pm", "89"]) == 2
+    assert "no admissible design" in capsys.readouterr().err
