@@ -1,0 +1,264 @@
+"""Sweeps: equal to the points computed one by one, resumable, same on Dask, guarded."""
+
+import itertools
+import json
+import math
+from dataclasses import replace
+
+import numpy as np
+import pyarrow.parquet as pq
+import pytest
+
+from seactl.actuators import UT_SEA
+from seactl.cli import main
+from seactl.design import critically_damped_gains
+from seactl.errors import InfeasibleDesignError, InputError
+from seactl.loops import SEA_DIAGRAM, SEADesign, Timing
+from seactl.margins import sea_margins
+from seactl.sweep import (
+    RobustResult,
+    SweepInterrupted,
+    SweepSpec,
+    missing_chunks,
+    monte_carlo,
+    read_sweep,
+    run_sweep,
+    sweep_map,
+)
+
+IJ = UT_SEA.joint_inertia
+# f_n = 8 Hz has no critically-damped gain set (feasible above about 9.5 Hz).
+AXES = (("fn_hz", (8.0, 12.0, 20.0)), ("gs", (0.6, 1.0)), ("t_tau_ms", (0.5,)),
+        ("t_qs_ms", (2.0, 12.0)), ("t_qd_ms", (0.5,)), ("f_qd_hz", (50.0,)),
+        ("f_taud_hz", (100.0,)), ("Ij", (0.8 * IJ, IJ)))
+SPEC = SweepSpec(UT_SEA, AXES, chunk_size=5, z_freqs_hz=(2.0, 40.0))
+
+
+@pytest.fixture(scope="module")
+def reference(tmp_path_factory):
+    """The uninterrupted in-process run of SPEC."""
+    out = tmp_path_factory.mktemp("ref") / "sweep"
+    res = run_sweep(SPEC, out, workers=0)
+    return out, res, read_sweep(out)
+
+
+def test_sweep_equals_points_one_by_one(reference):
+    out, res, table = reference
+    assert res.n_points == 24 and res.chunks_computed == 5 and table.num_rows == 24
+    rows = table.to_pylist()
+    swept = [(n, v) for n, v in AXES if len(v) > 1]
+    s_z = 2j * np.pi * np.array([2.0, 40.0])
+    for p, combo in enumerate(itertools.product(*(v for _, v in swept))):
+        row = rows[p]
+        assert row["point"] == p
+        point = dict(zip((n for n, _ in swept), combo))
+        assert {k: row[k] for k in point} == point
+        fn, gs, tqs, ij = point["fn_hz"], point["gs"], point["t_qs_ms"], point["Ij"]
+        if fn == 8.0:
+            with pytest.raises(InfeasibleDesignError):
+                critically_damped_gains(UT_SEA, fn)
+            assert row["feasible"] is False
+            assert all(row[k] is None for k in ("Kq", "phase_margin_deg", "stable",
+                                                "z_mag_2hz"))
+            continue
+        # one design at a time: gains for the nominal actuator, loop on the real plant
+        gains = critically_damped_gains(UT_SEA, fn, gs=gs)
+        plant = replace(UT_SEA, joint_inertia=ij)
+        d = SEADesign(plant, gains, Timing.from_ms(0.5, tqs, 0.5, 50.0, 100.0))
+        m = sea_margins(d)
+        assert row["feasible"] is True
+        for key, ref in (("Kq", gains.Kq), ("Bq", gains.Bq), ("Ktau", gains.Ktau),
+                         ("Btau", gains.Btau), ("phase_margin_deg", m.phase_margin_deg),
+                         ("crossover_hz", m.crossover_hz), ("gain_margin_db", m.gain_margin_db),
+                         ("delay_margin_ms", m.delay_margin_ms)):
+            assert row[key] == pytest.approx(float(ref), rel=1e-9, abs=1e-12), key
+        assert row["stable"] == bool(m.stable)
+        assert row["unstable_poles"] == int(m.unstable_poles)
+        # |Z| straight from the block diagram, Z = -(tau_k/q_j)/s with q_j imposed
+        z = np.abs(-SEA_DIAGRAM.transfer("tau_k", "q_j", cut=("q_j",))(d, s_z) / s_z)
+        assert [row["z_mag_2hz"], row["z_mag_40hz"]] == pytest.approx(z, rel=1e-9)
+    # Table I point (f_n = 12 Hz, GS = 1, T_qs = 2 ms, nominal plant): the paper's 45.1 deg
+    t1 = [r for r in rows if (r["fn_hz"], r["gs"], r["t_qs_ms"], r["Ij"]) == (12, 1, 2, IJ)]
+    assert t1[0]["phase_margin_deg"] == pytest.approx(45.1, abs=0.05)
+    summary = json.loads((out / "_summary.json").read_text())
+    feas = [r for r in rows if r["feasible"]]
+    assert summary["infeasible"] == 8 and summary["stable"] == sum(r["stable"] for r in feas)
+    assert json.loads((out / "_manifest.json").read_text())["status"] == "complete"
+
+
+def test_resume_after_interruption_gives_the_same_dataset(reference, tmp_path):
+    ref_out, _, ref_table = reference
+    out = tmp_path / "sweep"
+
+    def interrupt(i):
+        if i == 2:
+            raise KeyboardInterrupt
+
+    with pytest.raises(SweepInterrupted) as info:
+        run_sweep(SPEC, out, workers=0, _on_chunk=interrupt)
+    assert info.value.done == 3
+    assert missing_chunks(SPEC, out) == [3, 4]
+    assert json.loads((out / "_manifest.json").read_text())["status"] == "running"
+    # a writer killed mid-file leaves only a dot-named temporary, never a part
+    (out / ".part-00003.parquet.tmp-999").write_bytes(b"partial")
+    with pytest.raises(InputError, match="--resume"):
+        run_sweep(SPEC, out, workers=0)
+    res = run_sweep(SPEC, out, workers=0, resume=True)
+    assert res.chunks_computed == 2
+    assert not list(out.glob(".part-*"))
+    assert read_sweep(out).equals(ref_table)
+    for i in range(SPEC.n_chunks):
+        name = f"part-{i:05d}.parquet"
+        assert (out / name).read_bytes() == (ref_out / name).read_bytes()
+    assert run_sweep(SPEC, out, workers=0, resume=True).chunks_computed == 0
+
+
+def test_changed_spec_is_refused(reference, tmp_path):
+    ref_out, _, _ = reference
+    out = tmp_path / "sweep"
+    run_sweep(SweepSpec(UT_SEA, (("fn_hz", (12.0, 14.0)),), chunk_size=5), out, workers=0)
+    other = SweepSpec(UT_SEA, (("fn_hz", (12.0, 16.0)),), chunk_size=5)
+    with pytest.raises(InputError, match="axis fn_hz"):
+        run_sweep(other, out, workers=0, resume=True)
+    with pytest.raises(InputError, match="chunk_size"):
+        run_sweep(replace(other, axes=(("fn_hz", (12.0, 14.0)),), chunk_size=4), out,
+                  workers=0, resume=True)
+    (tmp_path / "other").mkdir()
+    (tmp_path / "other" / "notes.txt").write_text("not a sweep")
+    with pytest.raises(InputError, match="_manifest.json"):
+        run_sweep(other, tmp_path / "other", workers=0)
+    res = run_sweep(other, out, workers=0, overwrite=True)
+    assert res.chunks_computed == 1
+    assert read_sweep(out).column("fn_hz").to_pylist() == [12.0, 16.0]
+    # the CLI says it in one line, exit status 2
+    assert main(["sweep", "--fn", "12", "18", "--out", str(out), "--workers", "0",
+                 "--resume", "--quiet"]) == 2
+
+
+def test_samples_are_deterministic_and_stratified():
+    lhs = SweepSpec(UT_SEA, (("fn_hz", (10.0, 30.0)), ("t_qs_ms", (0.0, 20.0)),
+                             ("k", (0.9 * UT_SEA.k, 1.1 * UT_SEA.k))),
+                    sampling="lhs", n_samples=250, chunk_size=100, seed=3)
+    assert lhs.n_chunks == 3
+    a = lhs.points(100, 200, chunk=1)
+    assert all(np.array_equal(a[k], v) for k, v in lhs.points(100, 200, chunk=1).items())
+    for name, (lo, hi) in (("fn_hz", (10, 30)), ("t_qs_ms", (0, 20))):
+        u = (a[name] - lo) / (hi - lo)
+        # a Latin hypercube: each of the 100 strata of [0, 1) holds exactly one point
+        assert sorted(np.floor(u * 100).astype(int)) == list(range(100))
+    assert np.all((a["k"] >= 0.9 * UT_SEA.k) & (a["k"] <= 1.1 * UT_SEA.k))
+    rnd = replace(lhs, sampling="random")
+    b = rnd.points(200, 250, chunk=2)
+    assert b["fn_hz"].shape == (50,) and not np.array_equal(b["fn_hz"], a["fn_hz"][:50])
+    assert rnd.hash != lhs.hash != replace(lhs, seed=4).hash
+    with pytest.raises(InputError, match="--n"):
+        SweepSpec(UT_SEA, (("fn_hz", (10.0, 30.0)),), sampling="lhs")
+    with pytest.raises(InputError, match=r"--t-qs \[ms\]"):
+        SweepSpec(UT_SEA, (("t_qs_ms", (-1.0, 2.0)),))
+
+
+def test_sweep_map_reduces_over_the_other_axes(reference):
+    out, _, table = reference
+    m = sweep_map(out, "fn_hz", "t_qs_ms", "phase_margin_deg", "min")
+    assert list(m["x"]) == [8.0, 12.0, 20.0] and list(m["y"]) == [2.0, 12.0]
+    rows = table.to_pylist()
+    for i, tqs in enumerate(m["y"]):
+        for j, fn in enumerate(m["x"]):
+            cell = [r["phase_margin_deg"] for r in rows
+                    if r["fn_hz"] == fn and r["t_qs_ms"] == tqs and r["feasible"]]
+            if not cell:
+                assert math.isnan(m["z"][i, j])
+            else:
+                assert m["z"][i, j] == min(cell)
+
+
+def test_cli_sweep_plot_and_bad_input(tmp_path, capsys):
+    out = tmp_path / "cli"
+    fig = tmp_path / "map.png"
+    code = main(["sweep", "--fn", "12:16:2", "--t-qs", "0,5,10", "--t-qd", "0.5",
+                 "--out", str(out), "--workers", "0", "--plot", "fn_hz,t_qs_ms",
+                 "--plot-file", str(fig), "--json", "--quiet"])
+    res = json.loads(capsys.readouterr().out)
+    assert code == 0 and res["n_points"] == 9 and res["feasible"] == 9
+    assert fig.read_bytes()[:4] == b"\x89PNG"
+    assert pq.read_table(out).num_rows == 9
+    for args, field in ((["--fn", "14", "--sample", "lhs"], "--n"),
+                        (["--fn", "12,14", "--plot", "fn_hz,gs"], "--plot"),
+                        (["--t-qs", "20%"], "--t-qs"),
+                        (["--ij", "150%"], "--ij"),
+                        (["--fn", "12", "--scheduler", "localhost:1"], "--scheduler")):
+        code = main(["sweep", *args, "--out", str(tmp_path / "bad"), "--workers", "0",
+                     "--quiet"])
+        err = capsys.readouterr().err
+        assert code == 2 and field in err and "Traceback" not in err, (args, err)
+
+
+def test_monte_carlo_matches_samples_evaluated_one_by_one():
+    spec = SweepSpec(UT_SEA, (("fn_hz", (20.0,)), ("t_tau_ms", (0.5,)), ("t_qs_ms", (14.0,)),
+                              ("t_qd_ms", (0.5,)), ("f_qd_hz", (50.0,)), ("f_taud_hz", (100.0,)),
+                              ("Ij", (0.6 * IJ, 1.4 * IJ)), ("k", (0.6 * UT_SEA.k,
+                                                                   1.4 * UT_SEA.k))),
+                     sampling="random", n_samples=120, chunk_size=50, seed=1)
+    r = monte_carlo(spec)
+    gains = critically_damped_gains(UT_SEA, 20.0)
+    timing = Timing.from_ms(0.5, 14.0, 0.5, 50.0, 100.0)
+    nominal = sea_margins(SEADesign(UT_SEA, gains, timing))
+    assert r.nominal_phase_margin_deg == pytest.approx(float(nominal.phase_margin_deg),
+                                                       rel=1e-12)
+    assert 0 < r.p_unstable < 1        # this design sits on the edge: both outcomes occur
+    for i in range(0, 120, 15):
+        plant = replace(UT_SEA, joint_inertia=float(r.samples["Ij"][i]),
+                        spring_stiffness=float(r.samples["k"][i]))
+        m = sea_margins(SEADesign(plant, gains, timing))
+        assert bool(m.stable) == bool(r.stable[i])
+        assert r.phase_margin_deg[i] == pytest.approx(float(m.phase_margin_deg), rel=1e-9)
+    assert r.p_unstable == pytest.approx(1 - r.stable.mean())
+
+
+def test_wilson_interval():
+    # p = 0 of n: the upper end is z^2 / (n + z^2)
+    r = RobustResult(40.0, np.full(100, 40.0), np.ones(100, bool), {})
+    z2 = 1.959963984540054 ** 2
+    assert r.p_unstable_ci95() == pytest.approx((0.0, z2 / (100 + z2)), abs=1e-12)
+
+
+def test_cli_robust(tmp_path, capsys):
+    fig = tmp_path / "hist.png"
+    code = main(["robust", "--fn", "14", "--t-qs", "2", "--t-qd", "0.5", "--ij", "20%",
+                 "--k", "20%", "--n", "200", "--plot", str(fig), "--json"])
+    res = json.loads(capsys.readouterr().out)
+    assert code == 0 and res["n_samples"] == 200
+    assert res["intervals"]["Ij"] == pytest.approx([0.8 * IJ, 1.2 * IJ])
+    assert fig.read_bytes()[:4] == b"\x89PNG"
+    assert main(["robust", "--fn", "14"]) == 2
+
+
+# ------------------------------------------------------------------ Dask
+@pytest.fixture(scope="module")
+def cluster():
+    import logging
+
+    from distributed import LocalCluster
+
+    with LocalCluster(n_workers=2, threads_per_worker=1, processes=True,
+                      dashboard_address=None, silence_logs=logging.ERROR) as c:
+        yield c
+
+
+def test_local_cluster_gives_the_same_result(reference, cluster, tmp_path, capsys):
+    from distributed import Client
+
+    _, _, ref_table = reference
+    with Client(cluster) as client:
+        res = run_sweep(SPEC, tmp_path / "dask", client=client)
+    assert res.workers == 2 and res.chunks_computed == SPEC.n_chunks
+    assert read_sweep(tmp_path / "dask").equals(ref_table)
+    # the same through the CLI, given only the scheduler's address
+    code = main(["sweep", "--fn", "8,12,20", "--gs", "0.6,1", "--t-tau", "0.5",
+                 "--t-qs", "2,12", "--t-qd", "0.5", "--f-qd", "50", "--f-taud", "100",
+                 "--ij", f"{0.8 * IJ!r},{IJ!r}", "--z-freq", "2", "40", "--chunk-size", "5",
+                 "--out", str(tmp_path / "cli"), "--scheduler", cluster.scheduler_address,
+                 "--quiet", "--json"])
+    assert code == 0, capsys.readouterr().err
+    assert json.loads(capsys.readouterr().out)["run"]["workers"] == 2
+    assert read_sweep(tmp_path / "cli").equals(ref_table)
