@@ -188,13 +188,24 @@ class Transfer:
         """The symbolic expression in block names (sympy)."""
         return _symbolic(self.diagram, self.output, self.input, self.cut, self.kind)
 
-    def __call__(self, design: Any, s: np.ndarray | complex) -> np.ndarray:
-        """Evaluate at complex frequencies ``s`` (last axis) for a design batch."""
+    def __call__(self, design: Any, s: np.ndarray | complex,
+                 cache: dict[str, np.ndarray] | None = None) -> np.ndarray:
+        """Evaluate at complex frequencies ``s`` (last axis) for a design batch.
+
+        ``cache`` (block name -> response) lets several transfers of the same diagram
+        share block evaluations for the same ``design`` and ``s``."""
         func, blocks = self._compiled
         s = np.asarray(s, dtype=complex)
         if s.ndim == 0:
             s = s[None]
-        values = [b.response(design, s) for b in blocks]
+        if cache is None:
+            values = [b.response(design, s) for b in blocks]
+        else:
+            values = []
+            for b in blocks:
+                if b.name not in cache:
+                    cache[b.name] = b.response(design, s)
+                values.append(cache[b.name])
         with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
             out = func(*values)
         return np.broadcast_to(out, np.broadcast_shapes(*(v.shape for v in values))) \
@@ -232,8 +243,10 @@ class DesignSubset:
     def __getattr__(self, name: str) -> np.ndarray:
         if name.startswith("_"):
             raise AttributeError(name)
-        value = np.asarray(getattr(self._design, name))
-        return np.broadcast_to(value, self._shape).reshape(-1)[self._idx]
+        value = np.broadcast_to(np.asarray(getattr(self._design, name)), self._shape).reshape(-1)
+        if isinstance(self._idx, slice):
+            return value[self._idx]
+        return value[self._idx]
 
 
 @lru_cache(maxsize=256)

@@ -129,7 +129,8 @@ def _refine(loop: LoopFn, design: Any, shape: tuple[int, ...], b: np.ndarray,
 
 def loop_margins(loop: LoopFn, design: Any, omega: np.ndarray, *,
                  open_loop_rhp_poles: np.ndarray | int = 0, max_depth: int = 6,
-                 stability_only: bool = False) -> Margins:
+                 stability_only: bool = False,
+                 block_cache: dict[str, np.ndarray] | None = None) -> Margins:
     """Margins and Nyquist stability of ``L`` for a batch of designs.
 
     Parameters
@@ -152,6 +153,9 @@ def loop_margins(loop: LoopFn, design: Any, omega: np.ndarray, *,
         Number of right-half-plane poles of ``L`` (e.g. unstable inner loop).
     stability_only : bool
         Only count encirclements (skip crossings): for inner loops.
+    block_cache : dict, optional
+        Shared block responses on the base grid, when ``loop`` is a block-diagram
+        :class:`~seactl.blockdiagram.Transfer` (several loops of one diagram).
 
     Returns
     -------
@@ -178,7 +182,7 @@ def loop_margins(loop: LoopFn, design: Any, omega: np.ndarray, *,
     omega = omega.reshape(n, -1)
     P = np.broadcast_to(np.asarray(open_loop_rhp_poles, int), shape).reshape(n)
     scan = _Scan(loop, design, shape, stability_only)
-    L0 = scan.segments(np.arange(n), omega, max_depth)
+    L0 = scan.segments(np.arange(n), omega, max_depth, block_cache)
     # Extend upwards while the loop is still large at the top of the grid.
     top, w_top = np.abs(L0[:, -1]), omega[:, -1]
     todo = np.nonzero(top > 0.5)[0]
@@ -246,18 +250,20 @@ class _Scan:
         self.brackets: dict[str, list[tuple[np.ndarray, np.ndarray, np.ndarray]]] = {
             "gain": [], "phase": []}
 
-    def at(self, didx: np.ndarray, omega: np.ndarray) -> np.ndarray:
+    def at(self, didx: np.ndarray, omega: np.ndarray, cache: dict | None = None) -> np.ndarray:
         """``L(j omega)`` for designs ``didx`` (``omega`` of shape ``(n, F)`` or ``(n,)``)."""
         if didx.size == 0:
             return np.empty(np.shape(omega), complex)
         w = omega if omega.ndim == 2 else omega[:, None]
-        L = np.broadcast_to(self.loop(DesignSubset(self.design, didx, self.shape), 1j * w),
-                            w.shape)
+        sub = DesignSubset(self.design, didx, self.shape)
+        L = self.loop(sub, 1j * w, cache=cache) if cache is not None else self.loop(sub, 1j * w)
+        L = np.broadcast_to(L, w.shape)
         return L if omega.ndim == 2 else L[:, 0]
 
-    def segments(self, didx: np.ndarray, omega: np.ndarray, depth: int) -> np.ndarray:
+    def segments(self, didx: np.ndarray, omega: np.ndarray, depth: int,
+                 cache: dict | None = None) -> np.ndarray:
         """Scan rows of grid ``omega`` (one row per design in ``didx``); returns ``L``."""
-        L = self.at(didx, omega)
+        L = self.at(didx, omega, cache)
         dphi = np.angle(L[:, 1:] / L[:, :-1])
         ret = 1.0 + L
         dphi_f = np.angle(ret[:, 1:] / ret[:, :-1])
@@ -357,5 +363,7 @@ def sea_margins(design: Any, omega: np.ndarray | None = None) -> Margins:
 
     if omega is None:
         omega = default_grid(sea_reference_frequency(design))
-    inner = loop_margins(inner_loop(), design, omega, stability_only=True)
-    return loop_margins(outer_loop(), design, omega, open_loop_rhp_poles=inner.unstable_poles)
+    cache: dict[str, np.ndarray] = {}  # the inner loop's blocks are shared with the outer's
+    inner = loop_margins(inner_loop(), design, omega, stability_only=True, block_cache=cache)
+    return loop_margins(outer_loop(), design, omega, open_loop_rhp_poles=inner.unstable_poles,
+                        block_cache=cache)
