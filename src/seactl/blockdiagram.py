@@ -243,10 +243,8 @@ class DesignSubset:
     def __getattr__(self, name: str) -> np.ndarray:
         if name.startswith("_"):
             raise AttributeError(name)
-        value = np.broadcast_to(np.asarray(getattr(self._design, name)), self._shape).reshape(-1)
-        if isinstance(self._idx, slice):
-            return value[self._idx]
-        return value[self._idx]
+        value = np.broadcast_to(np.asarray(getattr(self._design, name)), self._shape)
+        return value.reshape(-1)[self._idx]
 
 
 @lru_cache(maxsize=256)
