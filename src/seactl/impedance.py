@@ -152,10 +152,22 @@ def paper_coefficients(design: Any, s: np.ndarray, k_tau: Any = None
     def c(x):
         return np.asarray(x, float)[..., None]
 
+    eqs, eqd, eT = (np.exp(-s * c(T)) for T in (p.T_qs, p.T_qd, p.T_tau))
+    return paper_coefficients_from_factors(p, eqs, eqd, eT, k_tau)
+
+
+def paper_coefficients_from_factors(p: Any, eqs: Any, eqd: Any, eT: Any, k_tau: Any
+                                    ) -> tuple[list[np.ndarray], list[np.ndarray]]:
+    """The printed coefficients with the delay factors ``e^{-T_qs s}``, ``e^{-T_qd s}``,
+    ``e^{-T_tau s}`` given explicitly (arrays broadcasting against batch + (F,); e.g. 0/1 to
+    split the coefficients into their rational parts)."""
+
+    def c(x):
+        return np.asarray(x, float)[..., None]
+
     Im, bm, k, beta = c(p.Im), c(p.bm), c(p.k), c(p.beta)
     Kq, Bq, Kt, Bt = c(p.Kq), c(p.Bq), c(p.Ktau), c(p.Btau)
     Tv, Tt, kt = c(p.Tf_qd), c(p.Tf_taud), c(k_tau)
-    eqs, eqd, eT = np.exp(-s * c(p.T_qs)), np.exp(-s * c(p.T_qd)), np.exp(-s * c(p.T_tau))
     N4 = Im * Tt * Tv * beta * k
     N3 = beta * k * (Im * (Tt + Tv) + Tt * Tv * bm)
     N2 = (Im * beta * k + beta * k * bm * (Tt + Tv)
