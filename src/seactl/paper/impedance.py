@@ -307,8 +307,8 @@ def delay_sets(ctx: Context) -> Section:
         cols.append((MODEL_TEXT[model].split(" (")[0], curves))
     fig = impedance_bode_figure(cols, suptitle="f_n = 30 Hz, four delay sets")
     sec.figures.append(Figure(ctx.savefig(fig, "impedance_delay_sets.png"),
-                              "Left: paper model (printed N_zi/D_zi); right: block-diagram "
-                              "model."))
+                              " | ".join(f"{side}: {MODEL_TEXT[m]}" for side, m in
+                                         zip(("left", "right"), MODELS)) + "."))
     for lbl, d in ds:
         m = sea_margins(d)
         for model in MODELS:
