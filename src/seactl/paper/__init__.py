@@ -5,3 +5,4 @@ Importing this package registers every section with :mod:`seactl.report`.
 
 from . import gain_design  # noqa: F401
 from . import impedance  # noqa: F401
+from . import sweep  # noqa: F401
