@@ -85,7 +85,7 @@ def unstable_poles(diagram: BlockDiagram, design: Any, omega: np.ndarray,
     origin allowed)."""
     P: np.ndarray | int = 0
     for i, sensor in enumerate(order):
-        cut = tuple(order[i + 1:]) + tuple(held)
+        cut = tuple(sorted(set(order[i + 1:]) | set(held)))  # one cache entry per cut set
         P = loop_margins(diagram.loop(sensor, cut=cut), design, omega, open_loop_rhp_poles=P,
                          stability_only=True).unstable_poles
     return np.broadcast_to(np.asarray(P), tuple(getattr(design, "shape", ())))
@@ -338,38 +338,41 @@ def max_stable_fn(model: LoopModel, T_s, T_d, *, min_pm_deg: float | None = None
     """
     lo = model.fn_limits[0] if fn_lo is None else fn_lo
     hi = model.fn_limits[1] if fn_hi is None else fn_hi
-    T_s, T_d = np.broadcast_arrays(np.asarray(T_s, float), np.asarray(T_d, float))
-    shape = T_s.shape
+    # array-valued overrides (e.g. a torque-loop delay per point) broadcast with T_s, T_d
+    per_point = {k: v for k, v in overrides.items() if np.ndim(v) > 0}
+    fixed = {k: v for k, v in overrides.items() if k not in per_point}
+    arrays = np.broadcast_arrays(np.asarray(T_s, float), np.asarray(T_d, float),
+                                 *(np.asarray(v, float) for v in per_point.values()))
+    shape = arrays[0].shape
+    flat = [x.reshape(-1) for x in arrays]
 
-    def ok(fn: np.ndarray, ts: np.ndarray, td: np.ndarray) -> np.ndarray:
-        d = model.design(fn, ts, td, **overrides)
+    def ok(fn: np.ndarray, idx: np.ndarray, scan_axis: bool) -> np.ndarray:
+        vals = [x[idx][:, None] if scan_axis else x[idx] for x in flat]
+        extra = dict(zip(per_point, vals[2:]))
+        d = model.design(fn, vals[0], vals[1], **fixed, **extra)
         m = model.margins(d, stability_only=min_pm_deg is None)
         good = m.stable
         if min_pm_deg is not None:
             good = good & (m.phase_margin_deg >= min_pm_deg)
         return good
 
+    n = flat[0].size
     scan = np.geomspace(lo, hi, n_scan)
-    good = ok(scan, T_s[..., None], T_d[..., None])          # shape + (n_scan,)
-    bad_any = ~good.all(axis=-1)
-    first_bad = np.where(bad_any, np.argmax(~good, axis=-1), n_scan)
+    good = ok(scan, np.arange(n), True)                       # (n, n_scan)
+    first_bad = np.where(good.all(axis=-1), n_scan, np.argmax(~good, axis=-1))
     none = first_bad == 0
     capped = first_bad == n_scan
-    mid_pts = ~none & ~capped
-    a = np.where(mid_pts, scan[np.clip(first_bad - 1, 0, n_scan - 1)], lo)  # passing end
-    b = np.where(mid_pts, scan[np.clip(first_bad, 0, n_scan - 1)], hi)      # failing end
-    idx = np.nonzero(mid_pts.reshape(-1))[0]
+    idx = np.nonzero(~none & ~capped)[0]
+    a = np.full(n, lo)
     if idx.size:
-        a_f, b_f = a.reshape(-1)[idx], b.reshape(-1)[idx]
-        ts_f, td_f = T_s.reshape(-1)[idx], T_d.reshape(-1)[idx]
+        a_f, b_f = scan[first_bad[idx] - 1], scan[first_bad[idx]]   # passing, failing ends
         n_iter = int(np.ceil(np.log2(np.log(scan[1] / scan[0]) / np.log1p(rtol)))) + 1
         for _ in range(max(n_iter, 1)):
             mid = np.sqrt(a_f * b_f)
-            g = ok(mid, ts_f, td_f)
+            g = ok(mid, idx, False)
             a_f, b_f = np.where(g, mid, a_f), np.where(g, b_f, mid)
-        a = a.reshape(-1).copy()
         a[idx] = a_f
-        a = a.reshape(shape)
+    none, capped, a = none.reshape(shape), capped.reshape(shape), a.reshape(shape)
     fn = np.where(none, np.nan, np.where(capped, hi, a))
     status = np.where(none, "none", np.where(capped, "capped", "ok"))
     return MaxFn(fn, status, float(lo), float(hi), min_pm_deg)

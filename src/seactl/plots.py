@@ -210,3 +210,84 @@ def latency_sensitivity_figure(fn_hz, t_qs_ms, t_qd_ms, pm, stable, mark=None):
     fig.suptitle("SEA phase margin over stiffness and damping latency (red: stability "
                  "boundary)")
     return fig
+
+
+# --------------------------------------------------------------- loop placement (issue 5)
+def latency_map_figure(maps, maxfn=None, title: str = ""):
+    """Phase-margin maps over (damping delay, stiffness delay), one row per actuator.
+
+    ``maps``: list of :class:`seactl.latency.LatencyMap`; ``maxfn``: optional list
+    (same order) of ``(T_s [s], T_d [s], MaxFn)`` drawn in a second column.  The thick
+    black line is the stability boundary; unstable points are hatched.
+    """
+    ncol = 2 if maxfn else 1
+    fig, axes = plt.subplots(len(maps), ncol, figsize=(5.6 * ncol, 4.4 * len(maps)),
+                             squeeze=False)
+    levels = np.arange(-90, 91, 15)
+    for i, mp in enumerate(maps):
+        ax = axes[i, 0]
+        td, ts = mp.T_d * 1e3, mp.T_s * 1e3
+        pm = np.clip(np.where(np.isfinite(mp.phase_margin_deg), mp.phase_margin_deg, 90),
+                     -90, 90)
+        cf = ax.contourf(td, ts, pm, levels=levels, cmap="RdYlGn", extend="both")
+        cs = ax.contour(td, ts, pm, levels=[0, 15, 30, 45, 60], colors="k", linewidths=0.6)
+        ax.clabel(cs, fmt="%g", fontsize=7)
+        st = mp.stable.astype(float)
+        if 0 < st.mean() < 1:
+            ax.contour(td, ts, st, levels=[0.5], colors="k", linewidths=2.2)
+            ax.contourf(td, ts, st, levels=[-0.5, 0.5], colors="none", hatches=["//"])
+        fig.colorbar(cf, ax=ax, label="phase margin [deg]")
+        ax.set_xlabel("damping-loop delay $T_d$ [ms]")
+        ax.set_ylabel("stiffness-loop delay $T_s$ [ms]")
+        ax.set_title(f"{mp.actuator}: phase margin, $f_n$ = {mp.fn_hz:g} Hz", fontsize=10)
+        ax.plot([td[0], min(td[-1], ts[-1])], [ts[0], min(td[-1], ts[-1])], "k:", lw=0.8)
+        ax.set_xlim(td[0], td[-1])
+        ax.set_ylim(ts[0], ts[-1])
+        if maxfn:
+            T_s, T_d, res = maxfn[i]
+            ax = axes[i, 1]
+            f = np.where(np.isnan(res.fn_hz), 0.0, res.fn_hz)
+            cf = ax.contourf(T_d * 1e3, T_s * 1e3, f, levels=20, cmap="viridis")
+            cs = ax.contour(T_d * 1e3, T_s * 1e3, f, levels=8, colors="w", linewidths=0.6)
+            ax.clabel(cs, fmt="%.3g", fontsize=7)
+            fig.colorbar(cf, ax=ax, label="max stable $f_n$ [Hz]")
+            ax.set_xlabel("damping-loop delay $T_d$ [ms]")
+            ax.set_ylabel("stiffness-loop delay $T_s$ [ms]")
+            crit = ("stable" if res.min_pm_deg is None
+                    else f"PM $\\geq$ {res.min_pm_deg:g} deg")
+            ax.set_title(f"{mp.actuator}: highest $f_n$ keeping the loop {crit}", fontsize=10)
+            none = np.isnan(res.fn_hz)
+            if none.any():
+                ax.contourf(T_d * 1e3, T_s * 1e3, none.astype(float), levels=[0.5, 1.5],
+                            colors="none", hatches=["xx"])
+    if title:
+        fig.suptitle(title)
+    fig.tight_layout()
+    return fig
+
+
+def step_experiment_figure(t, y, panels, fn_hz, unstable, saturated, title: str = ""):
+    """Four-panel normalized step responses: ``y[panel, fn, time]``; ``panels`` are
+    labels; unstable runs are drawn dashed and marked in the legend."""
+    fig, axes = plt.subplots(2, 2, figsize=(10, 6.5), sharex=True, sharey=True)
+    colors = plt.cm.plasma(np.linspace(0.05, 0.8, len(fn_hz)))
+    for k, ax in enumerate(axes.ravel()):
+        for j, (f, c) in enumerate(zip(fn_hz, colors)):
+            tag = " UNSTABLE" if unstable[k, j] else ""
+            tag += " (sat.)" if saturated[k, j] else ""
+            ax.plot(t[: y.shape[-1]], np.clip(y[k, j], -1.0, 3.0), color=c,
+                    ls="--" if unstable[k, j] else "-", lw=1.2,
+                    label=f"$f_n$ = {f:g} Hz{tag}")
+        ax.axhline(1.0, color="k", lw=0.6, ls=":")
+        ax.set_title(f"({'abcd'[k]}) {panels[k]}", fontsize=10)
+        ax.set_ylim(-1.0, 3.0)
+        ax.grid(True, alpha=0.3)
+        ax.legend(fontsize=7, loc="upper right")
+    for ax in axes[1]:
+        ax.set_xlabel("time [s]")
+    for ax in axes[:, 0]:
+        ax.set_ylabel("normalized position")
+    if title:
+        fig.suptitle(title, fontsize=11)
+    fig.tight_layout()
+    return fig

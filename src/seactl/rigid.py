@@ -36,6 +36,7 @@ import tomllib
 from dataclasses import asdict, dataclass, fields, replace
 from functools import cached_property
 from pathlib import Path
+from types import SimpleNamespace
 from typing import Any
 
 import numpy as np
@@ -105,10 +106,11 @@ class RigidParams:
     --------
     >>> round(UT_LINEAR.max_force)
     6243
-    >>> RigidParams(mass=-1.0, damping=0.0, current_to_force=1.0)
-    Traceback (most recent call last):
-    ...
-    seactl.errors.InputError: invalid mass = -1.0: must be > 0 and finite [kg]
+    >>> try:
+    ...     RigidParams(mass=-1.0, damping=0.0, current_to_force=1.0)
+    ... except InputError as exc:
+    ...     print(exc)
+    invalid mass = -1.0: must be > 0 and finite [kg]
     """
 
     mass: float
@@ -245,11 +247,11 @@ def rigid_gains(actuator: RigidParams, fn_hz, *, passive_damping: bool = True) -
     >>> g = rigid_gains(UT_LINEAR, 12.0)
     >>> round(float(g.K)), round(float(g.B))
     (1455332, 37354)
-    >>> rigid_gains(UT_LINEAR, 0.2)
-    Traceback (most recent call last):
-    ...
-    seactl.errors.InfeasibleDesignError: no positive damping gain B = 2 m w_n - b exists for \
-f_n = 0.2 Hz on actuator 'ut-linear'; feasible: f_n > 0.3886 Hz
+    >>> try:
+    ...     rigid_gains(UT_LINEAR, 0.2)
+    ... except InfeasibleDesignError as exc:
+    ...     print(exc.feasible_hz[0][0])
+    0.388...
     """
     fn = finite_array("fn [Hz]", fn_hz, minimum=0.0, strict=True)
     a = actuator
@@ -399,3 +401,199 @@ def static_stiffness(design: Any, compliance: Transfer, scale: np.ndarray) -> np
     c = compliance(design, 1j * 1e-6 * np.asarray(scale, float)[..., None])[..., 0]
     with np.errstate(divide="ignore"):
         return 1.0 / np.abs(c)
+
+
+# ------------------------------------------------------------------ the step experiment
+PAPER_DELAYS_MS = ((1.0, 1.0), (15.0, 1.0), (1.0, 15.0), (15.0, 15.0))
+"""The four (stiffness, damping) buffer delays [ms] of the paper's step experiment."""
+
+
+@dataclass(frozen=True)
+class StepExperiment:
+    """Sampled step responses of the rigid actuator (see :func:`step_experiment`).
+
+    Arrays are indexed ``[delay combination, f_n, time]`` (or without the time axis).
+
+    Attributes
+    ----------
+    t_s : sample times [s].
+    position : response normalized to the step (0 before, 1 at the target).
+    force : commanded force [N] (after saturation where enabled).
+    fn_hz : natural frequencies [Hz];  delays_ms : (stiffness, damping) buffer delays [ms].
+    effective_delays_s : (stiffness, damping) effective delays ``T_s/2 + n T_s`` [s], per
+        combination (what the continuous-time margins use).
+    saturated_fraction : fraction of samples at the force limit.
+    residual_pp : peak-to-peak of the normalized response over the last quarter of the
+        window (a limit cycle under saturation keeps this large).
+    out_of_control : the simulator saw divergence, or ``residual_pp > residual_tol``.
+    linear_stable, linear_pm_deg : Nyquist stability and phase margin of the
+        continuous loop with the effective delays (no saturation).
+    overshoot_pct, settling_time_s : of the in-control runs (NaN otherwise).
+    """
+
+    t_s: np.ndarray
+    position: np.ndarray
+    force: np.ndarray
+    fn_hz: np.ndarray
+    delays_ms: tuple[tuple[float, float], ...]
+    effective_delays_s: np.ndarray
+    saturated_fraction: np.ndarray
+    residual_pp: np.ndarray
+    residual_tol: float
+    out_of_control: np.ndarray
+    linear_stable: np.ndarray
+    linear_pm_deg: np.ndarray
+    overshoot_pct: np.ndarray
+    settling_time_s: np.ndarray
+    force_limit_n: float | None
+    rate_hz: float
+
+    def panel_label(self, k: int) -> str:
+        ts, td = self.delays_ms[k]
+        return f"stiffness {ts:g} ms, damping {td:g} ms"
+
+
+def step_experiment(actuator: RigidParams = UT_LINEAR, fn_hz=(4.0, 8.0, 12.0), *,
+                    delays_ms=PAPER_DELAYS_MS, f_v: float | None = 50.0,
+                    passive_damping: bool = True, rate_hz: float = 1000.0,
+                    x_from_m: float = 0.131, x_to_m: float = 0.135, t_end_s: float = 1.0,
+                    saturate: bool = True, residual_tol: float = 0.05,
+                    simulator: str = "auto") -> StepExperiment:
+    """Replica of the paper's step experiment (sampled controllers, delay buffers).
+
+    Both loops run at ``rate_hz`` on the simulator of :mod:`seactl.simulate`
+    (Tustin-discretized derivative filter, zero-order hold on the force, position
+    sampled every tick).  A delay of ``n`` ms is a buffer of ``n`` samples at 1 kHz, so the
+    effective delay is ``n + 0.5`` ms (``T_d = T_s/2 + T_e``).  The step is
+    ``x_from_m -> x_to_m``; the plant is linear, so the response is simulated in deviation
+    from ``x_from_m`` and normalized to 0..1.  With ``saturate`` the force command is
+    clipped at ``beta * max_current``.
+
+    ``simulator``: ``"generic"`` (:func:`seactl.simulate.simulate` on
+    :data:`RIGID_DIAGRAM`), ``"rigid"`` (:func:`simulate_rigid_sampled`, this module's
+    minimal stand-alone simulation with the same conventions) or ``"auto"`` (generic
+    when :mod:`seactl.simulate` is available).
+    """
+    if simulator not in ("auto", "generic", "rigid"):
+        raise InputError("simulator", simulator, "one of auto, generic, rigid")
+    if simulator == "auto":
+        try:
+            import seactl.simulate  # noqa: F401
+            simulator = "generic"
+        except ImportError:
+            simulator = "rigid"
+
+    fn = finite_array("fn [Hz]", fn_hz, minimum=0.0, strict=True).reshape(-1)
+    rate = float(finite_array("rate [Hz]", rate_hz, minimum=0.0, strict=True))
+    dl = np.asarray(delays_ms, float).reshape(-1, 2)
+    finite_array("delays [ms]", dl, minimum=0.0)
+    step = float(x_to_m) - float(x_from_m)
+    if step == 0 or not math.isfinite(step):
+        raise InputError("step [m]", step, "a finite, nonzero displacement")
+    # the simulator maps a delay T to n = round((T - Ts/2)/Ts) samples: pass the effective
+    # delay of an n-sample buffer
+    period = 1.0 / rate
+    eff = np.round(dl * 1e-3 / period) * period + period / 2
+    d = RigidDesign.from_fn(actuator, fn[None, :], T_s=eff[:, :1], T_d=eff[:, 1:],
+                            f_v=f_v, passive_damping=passive_damping)
+    limit = actuator.max_force if saturate else None
+    if simulator == "generic":
+        from .simulate import Step, simulate
+
+        res = simulate(RIGID_DIAGRAM, d, {"x_des": Step(step)}, t_end_s=t_end_s,
+                       mode="sampled", rates_hz=rate, outputs=("x", "F_des"),
+                       saturation={"F_des": limit} if saturate else None)
+        t_s, x, force, stable, left = (res.t_s, res.outputs["x"], res.outputs["F_des"],
+                                       res.stable, res.left_bounds_s)
+    else:
+        t_s, x, force = simulate_rigid_sampled(d, step, t_end_s=t_end_s, rate_hz=rate,
+                                               force_limit=limit)
+        stable = np.abs(x).max(axis=-1) < 1e3 * abs(step)
+        left = np.full(d.shape, np.inf)
+    y = x / step
+    if saturate:
+        force = np.clip(force, -limit, limit)
+        sat = np.mean(np.abs(force) >= limit * (1 - 1e-9), axis=-1)
+    else:
+        sat = np.zeros(d.shape)
+    tail = y[..., -max(2, y.shape[-1] // 4):]
+    resid = np.where(np.isfinite(tail).all(axis=-1), np.ptp(tail, axis=-1), np.inf)
+    ooc = ~stable | (resid > residual_tol)
+    met = _step_metrics(t_s, y, ~ooc, left)
+    lin = rigid_margins(d)
+    return StepExperiment(t_s, y, force, fn, tuple(map(tuple, dl.tolist())), eff, sat,
+                          resid, residual_tol, ooc, lin.stable, lin.phase_margin_deg,
+                          met.overshoot_pct, met.settling_time_s, limit, rate)
+
+
+def _step_metrics(t, y, ok, left):
+    try:
+        from .simulate import step_metrics
+    except ImportError:   # overshoot and 2 % settling time, computed here
+        final = y[..., -max(1, y.shape[-1] // 50):].mean(axis=-1)
+        over = np.maximum(y.max(axis=-1) / final - 1, 0) * 100
+        out = np.abs(y - final[..., None]) > 0.02 * np.abs(final[..., None])
+        last = y.shape[-1] - 1 - np.argmax(out[..., ::-1], axis=-1)
+        settle = np.where(out.any(axis=-1), np.where(last >= y.shape[-1] - 1, np.inf,
+                                                     t[np.minimum(last + 1, t.size - 1)]), t[0])
+        return SimpleNamespace(overshoot_pct=np.where(ok, over, np.nan),
+                               settling_time_s=np.where(ok, settle, np.nan))
+    return step_metrics(t, y, ok, left)
+
+
+# ------------------------------------------------------------------ stand-alone sampled simulation
+def simulate_rigid_sampled(design: RigidDesign, step_m: float, *, t_end_s: float = 1.0,
+                           rate_hz: float = 1000.0, force_limit: float | None = None
+                           ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Minimal sampled simulation of the rigid loop, independent of :mod:`seactl.simulate`.
+
+    The plant ``1/(m s^2 + b s)`` is discretized exactly under a zero-order hold
+    (:func:`scipy.signal.cont2discrete`).  Every tick ``k`` the position is sampled, the
+    stiffness term reads it ``n_s`` ticks old and the damping term ``n_d`` ticks old
+    (``n = round((T - T_s/2)/T_s)``, the effective-delay convention ``T = T_s/2 + n T_s``),
+    the velocity filter ``B s/(T_f s + 1)`` is the Tustin transform, and the force
+    ``K (x_des - x[k-n_s]) - B v[k]`` is clipped to ``force_limit`` and held for one period.
+    Kept as a cross-check of the generic simulator (tests compare the two).
+
+    Returns
+    -------
+    t_s, x, force : times [s] ``(N,)``; position and applied force ``design.shape + (N,)``.
+    """
+    from scipy.signal import cont2discrete
+
+    T = 1.0 / rate_hz
+    n_steps = int(round(t_end_s * rate_hz)) + 1
+    shape = design.shape
+    m, b = float(design.actuator.m), float(design.actuator.b)
+    Ad, Bd, *_ = cont2discrete((np.array([[0.0, 1.0], [0.0, -b / m]]),
+                                np.array([[0.0], [1.0 / m]]), np.eye(2), np.zeros((2, 1))),
+                               T, method="zoh")
+    flat = lambda a: np.broadcast_to(a, shape).reshape(-1)  # noqa: E731
+    K, B, Tf = flat(design.K), flat(design.B), flat(design.Tf_v)
+    n_s = np.maximum(np.floor((flat(design.T_s) - T / 2) / T + 0.5 + 1e-9), 0).astype(int)
+    n_d = np.maximum(np.floor((flat(design.T_d) - T / 2) / T + 0.5 + 1e-9), 0).astype(int)
+    nb = K.size
+    a = 2 * Tf / T                       # Tustin: (a+1) v_k + (1-a) v_{k-1} = 2/T (u_k - u_{k-1})
+    hist = np.zeros((nb, n_steps + 1))   # sampled positions, hist[:, k + 1] = x_k (x_{-1} = 0)
+    state = np.zeros((nb, 2))
+    v_prev = np.zeros(nb)
+    u_prev = np.zeros(nb)
+    x_out = np.zeros((nb, n_steps))
+    f_out = np.zeros((nb, n_steps))
+    rows = np.arange(nb)
+    for k in range(n_steps):
+        xk = state[:, 0]
+        hist[:, k + 1] = xk
+        xs = hist[rows, np.maximum(k - n_s, -1) + 1]
+        ud = hist[rows, np.maximum(k - n_d, -1) + 1]
+        v = ((2 / T) * (ud - u_prev) - (1 - a) * v_prev) / (a + 1)
+        v_prev, u_prev = v, ud
+        f = K * (step_m - xs) - B * v
+        if force_limit is not None:
+            f = np.clip(f, -force_limit, force_limit)
+        x_out[:, k], f_out[:, k] = xk, f
+        state = state @ Ad.T + f[:, None] * Bd[:, 0]
+        if not np.all(np.isfinite(state)):
+            state = np.nan_to_num(state, nan=0.0, posinf=1e300, neginf=-1e300)
+    t = np.arange(n_steps) * T
+    return t, x_out.reshape(shape + (n_steps,)), f_out.reshape(shape + (n_steps,))

@@ -1,0 +1,406 @@
+"""``seactl rigid``, ``seactl latency-map`` and ``seactl place``: where each loop should run."""
+
+from __future__ import annotations
+
+import io
+import os
+import tempfile
+from pathlib import Path
+from typing import Any
+
+import click
+import numpy as np
+from rich.markup import escape
+from rich.table import Table
+
+from ..cli import VARIADIC, cli, console, echo_json, finite_or_none, json_option, parse_values
+from ..errors import InputError
+
+VARIADIC.update({"--fn-rigid", "--fn-sea"})
+
+_FIG_SUFFIXES = (".png", ".svg", ".pdf")
+
+
+def _ms(name: str, value: float) -> float:
+    from .._validate import finite_array
+
+    return float(finite_array(f"{name} [ms]", value, minimum=0.0)) * 1e-3
+
+
+def _f_v(value: float | None) -> float | None:
+    """``--f-v``: cut-off [Hz] > 0; ``inf`` or ``none`` means no filter."""
+    if value is None or str(value).lower() in ("none", "inf"):
+        return None
+    from .._validate import finite_array
+
+    try:
+        v = float(value)
+    except ValueError:
+        raise InputError("--f-v [Hz]", value, "a cut-off > 0 [Hz] or 'none'") from None
+    return float(finite_array("--f-v [Hz]", v, minimum=0.0, strict=True))
+
+
+def load_model(spec: str, f_v: float | None = 50.0):
+    """A :class:`~seactl.latency.LoopModel` from a preset (``ut-linear``, ``ut-sea``) or a
+    TOML file (a rigid actuator has a ``mass`` key, an SEA a ``motor_inertia`` key)."""
+    import tomllib
+
+    from ..actuators import SEA_PRESETS, load_sea
+    from ..latency import rigid_model, sea_model
+    from ..rigid import RIGID_PRESETS, load_rigid
+
+    key = str(spec).lower()
+    if key in RIGID_PRESETS:
+        return rigid_model(load_rigid(key), f_v=f_v)
+    if key in SEA_PRESETS:
+        return sea_model(load_sea(key), f_qd=f_v)
+    path = Path(spec)
+    if path.suffix == ".toml" and path.is_file():
+        try:
+            data = tomllib.loads(path.read_text())
+        except tomllib.TOMLDecodeError as exc:
+            raise InputError("--actuator", spec, f"valid TOML ({exc})") from None
+        table = data.get("actuator", data) if isinstance(data.get("actuator"), dict) else data
+        if "mass" in table:
+            return rigid_model(load_rigid(path), f_v=f_v)
+        return sea_model(load_sea(path), f_qd=f_v)
+    raise InputError("--actuator", spec, "a preset (" + ", ".join([*RIGID_PRESETS, *SEA_PRESETS])
+                     + ") or an existing .toml file")
+
+
+def _save_figure(fig: Any, path: str) -> None:
+    import matplotlib.pyplot as plt
+
+    p = Path(path)
+    p.parent.mkdir(parents=True, exist_ok=True)
+    fd, tmp = tempfile.mkstemp(prefix=f".{p.name}.", suffix=p.suffix, dir=p.parent)
+    os.close(fd)
+    try:
+        fig.savefig(tmp, dpi=120, bbox_inches="tight", format=p.suffix[1:].lower())
+        os.replace(tmp, p)
+    except BaseException:
+        Path(tmp).unlink(missing_ok=True)
+        raise
+    finally:
+        plt.close(fig)
+
+
+def _check_plot(path: str | None) -> None:
+    if path is not None and Path(path).suffix.lower() not in _FIG_SUFFIXES:
+        raise InputError("--plot", path, "a file name ending in " + ", ".join(_FIG_SUFFIXES))
+
+
+def _fmt(x: float | None, spec: str) -> str:
+    return "none" if x is None else format(x, spec)
+
+
+# ---------------------------------------------------------------------------- seactl rigid
+@cli.command()
+@click.option("--fn", "fn", multiple=True, default=("4", "8", "12"), show_default=True,
+              help="Natural frequency f_n [Hz]: values, or START:STOP:STEP.")
+@click.option("--t-s", "t_s", type=float, default=1.5, show_default=True,
+              help="Stiffness-feedback delay T_s [ms] (effective; 1 kHz with a 1-sample buffer "
+                   "is 1.5 ms).")
+@click.option("--t-d", "t_d", type=float, default=1.5, show_default=True,
+              help="Damping-feedback delay T_d [ms] (effective).")
+@click.option("--f-v", "f_v", default="50", show_default=True,
+              help="Velocity filter cut-off [Hz], or 'none'.")
+@click.option("--actuator", default="ut-linear", show_default=True,
+              help="Rigid-actuator preset or TOML file.")
+@click.option("--no-passive-damping", is_flag=True,
+              help="Use B = 2 m w_n instead of B = 2 m w_n - b.")
+@click.option("--step/--no-step", default=True, show_default=True,
+              help="Also run the sampled step 0.131 -> 0.135 m (1 kHz, force saturation) with "
+                   "buffers of round(T - 0.5 ms) samples.")
+@json_option
+def rigid(fn, t_s, t_d, f_v, actuator, no_passive_damping, step, as_json) -> None:
+    """Rigid actuator: critically-damped gains, margins, per-loop delay margins, step.
+
+    \b
+    Example (the paper's step experiment, 15 ms on the damping loop):
+      seactl rigid --fn 4 8 12 --t-s 1.5 --t-d 15.5
+
+    DM stiffness / DM damping: extra latency the stiffness (damping) loop alone
+    tolerates before the closed loop goes unstable. 'none' (null): no such crossing.
+    """
+    from ..latency import rigid_model
+    from ..rigid import load_rigid, step_experiment
+
+    a = load_rigid(actuator)
+    fv = _f_v(f_v)
+    fn_hz = parse_values("--fn", fn)
+    if fn_hz.size == 0:
+        raise InputError("--fn", "", "at least one frequency")
+    from .._validate import finite_array
+
+    finite_array("--fn [Hz]", fn_hz, minimum=0.0, strict=True)
+    ts, td = _ms("--t-s", t_s), _ms("--t-d", t_d)
+    model = rigid_model(a, f_v=fv, passive_damping=not no_passive_damping)
+    d = model.design(fn_hz, ts, td)
+    m = model.margins(d)
+    dm = model.delay_margins(d)
+    exp = None
+    if step:
+        buf = (max(t_s - 0.5, 0.0), max(t_d - 0.5, 0.0))
+        exp = step_experiment(a, fn_hz, delays_ms=(buf,), f_v=fv,
+                              passive_damping=not no_passive_damping)
+    rows = []
+    for i, f in enumerate(fn_hz):
+        r = {"fn_hz": float(f), "K": float(d.K[i]), "B": float(d.B[i]),
+             "phase_margin_deg": finite_or_none(m.phase_margin_deg[i]),
+             "crossover_hz": finite_or_none(m.crossover_hz[i]),
+             "gain_margin_db": finite_or_none(m.gain_margin_db[i]),
+             "delay_margin_ms": finite_or_none(m.delay_margin_ms[i]),
+             "stiffness_delay_margin_ms": finite_or_none(dm.stiffness_s[i] * 1e3),
+             "damping_delay_margin_ms": finite_or_none(dm.damping_s[i] * 1e3),
+             "stable": bool(m.stable[i])}
+        if exp is not None:
+            r["step"] = {"out_of_control": bool(exp.out_of_control[0, i]),
+                         "overshoot_pct": finite_or_none(exp.overshoot_pct[0, i]),
+                         "settling_time_s": finite_or_none(exp.settling_time_s[0, i]),
+                         "peak_force_n": float(np.max(np.abs(exp.force[0, i]))),
+                         "saturated_fraction": float(exp.saturated_fraction[0, i]),
+                         "buffer_ms": list(exp.delays_ms[0])}
+        rows.append(r)
+    if as_json:
+        echo_json({"actuator": a.name, "T_s_ms": t_s, "T_d_ms": t_d, "f_v_hz": fv,
+                   "passive_damping": not no_passive_damping,
+                   "force_limit_n": a.max_force, "designs": rows})
+        return
+    t = Table(title=f"Rigid actuator '{escape(a.name)}' (m = {a.m:g} kg, b = {a.b:g} Ns/m), "
+              f"T_s = {t_s:g} ms, T_d = {t_d:g} ms, f_v = {fv or 'none'} Hz")
+    cols = ["f_n [Hz]", "K [N/m]", "B [Ns/m]", "PM [deg]", "crossover [Hz]", "GM [dB]",
+            "DM [ms]", "DM stiffness [ms]", "DM damping [ms]", "stable"]
+    if exp is not None:
+        cols += ["step", "overshoot [%]", "settling [s]", "peak force [N]"]
+    for c in cols:
+        t.add_column(escape(c), justify="right")
+    for r in rows:
+        cells = [f"{r['fn_hz']:g}", f"{r['K']:.4g}", f"{r['B']:.4g}",
+                 _fmt(r["phase_margin_deg"], ".2f"), _fmt(r["crossover_hz"], ".2f"),
+                 _fmt(r["gain_margin_db"], ".2f"), _fmt(r["delay_margin_ms"], ".2f"),
+                 _fmt(r["stiffness_delay_margin_ms"], ".2f"),
+                 _fmt(r["damping_delay_margin_ms"], ".2f"),
+                 "yes" if r["stable"] else "[red]NO[/red]"]
+        if exp is not None:
+            s = r["step"]
+            cells += ["[red]OUT OF CONTROL[/red]" if s["out_of_control"] else "ok",
+                      _fmt(s["overshoot_pct"], ".1f"), _fmt(s["settling_time_s"], ".3f"),
+                      f"{s['peak_force_n']:.0f}"]
+        t.add_row(*cells)
+    console.print(t)
+    if exp is not None:
+        console.print(f"step: sampled at 1 kHz, delay buffers {exp.delays_ms[0][0]:g} / "
+                      f"{exp.delays_ms[0][1]:g} ms, force limit {a.max_force:.0f} N; "
+                      "'out of control' = diverged or still oscillating (>5% peak-to-peak) in "
+                      "the last quarter of 1 s.")
+
+
+# ---------------------------------------------------------------------- seactl latency-map
+@cli.command("latency-map")
+@click.option("--actuator", "actuators", multiple=True, default=("ut-linear", "ut-sea"),
+              show_default=True, help="Actuator preset(s) or TOML file(s).")
+@click.option("--fn-rigid", multiple=True, default=("8",), show_default=True,
+              help="f_n [Hz] of the rigid-actuator phase-margin map.")
+@click.option("--fn-sea", multiple=True, default=("14",), show_default=True,
+              help="f_n [Hz] of the SEA phase-margin map.")
+@click.option("--t-max", type=float, default=20.0, show_default=True,
+              help="Largest delay on each axis [ms].")
+@click.option("--t-min", type=float, default=0.5, show_default=True,
+              help="Smallest delay on each axis [ms].")
+@click.option("--n", "n", type=click.IntRange(2, 400), default=41, show_default=True,
+              help="Grid points per axis.")
+@click.option("--max-fn/--no-max-fn", default=False, show_default=True,
+              help="Also map the highest stable f_n (slower).")
+@click.option("--f-v", "f_v", default="50", show_default=True,
+              help="Velocity filter cut-off [Hz] (f_qd for the SEA), or 'none'.")
+@click.option("--plot", default=None, metavar="FILE.png|.svg|.pdf", help="Write the maps.")
+@click.option("--csv", default=None, metavar="FILE", help="Write every grid point as CSV.")
+@json_option
+def latency_map_cmd(actuators, fn_rigid, fn_sea, t_max, t_min, n, max_fn, f_v, plot, csv,
+                    as_json) -> None:
+    """Phase margin over (stiffness delay, damping delay) for each actuator.
+
+    \b
+    Example:
+      seactl latency-map --n 61 --max-fn --plot maps.png --csv maps.csv
+
+    The SEA torque loop keeps T_tau = 0.5 ms and f_taud = 100 Hz. The sensitivity
+    ratio is (dPM/dT_d)/(dPM/dT_s) at the smallest delays (T_s = T_d = --t-min).
+    """
+    from ..latency import latency_map, max_stable_fn, pm_sensitivity
+
+    _check_plot(plot)
+    tmin, tmax = _ms("--t-min", t_min), _ms("--t-max", t_max)
+    if tmax <= tmin:
+        raise InputError("--t-max [ms]", t_max, f"> --t-min ({t_min:g} ms)")
+    fv = _f_v(f_v)
+    grid = np.linspace(tmin, tmax, n)
+    maps, maxfns, summary, csv_rows = [], [], [], []
+    for spec in actuators:
+        model = load_model(spec, fv)
+        fns = parse_values("--fn-rigid" if model.kind == "rigid" else "--fn-sea",
+                           fn_rigid if model.kind == "rigid" else fn_sea)
+        for f in fns:
+            mp = latency_map(model, float(f), grid, grid)
+            sens = pm_sensitivity(model, float(f), tmin, tmin)
+            dm = model.delay_margins(model.design(float(f), tmin, tmin))
+            mf = max_stable_fn(model, grid[:, None], grid[None, :]) if max_fn else None
+            maps.append(mp)
+            if mf is not None:
+                maxfns.append((grid, grid, mf))
+            summary.append({
+                "actuator": model.name, "kind": model.kind, "fn_hz": float(f),
+                "n": n, "t_min_ms": t_min, "t_max_ms": t_max,
+                "stable_fraction": float(mp.stable.mean()),
+                "pm_at_min_delays_deg": finite_or_none(mp.phase_margin_deg[0, 0]),
+                "pm_stiffness_max_deg": finite_or_none(mp.phase_margin_deg[-1, 0]),
+                "pm_damping_max_deg": finite_or_none(mp.phase_margin_deg[0, -1]),
+                "stable_stiffness_max": bool(mp.stable[-1, 0]),
+                "stable_damping_max": bool(mp.stable[0, -1]),
+                "dpm_dts_deg_per_ms": finite_or_none(sens.dpm_dTs_deg_per_ms),
+                "dpm_dtd_deg_per_ms": finite_or_none(sens.dpm_dTd_deg_per_ms),
+                "sensitivity_ratio": finite_or_none(sens.ratio),
+                "stiffness_delay_margin_ms": finite_or_none(dm.stiffness_s * 1e3),
+                "damping_delay_margin_ms": finite_or_none(dm.damping_s * 1e3),
+            })
+            for i, ts in enumerate(grid):
+                for j, td in enumerate(grid):
+                    row = [model.name, float(f), ts * 1e3, td * 1e3,
+                           finite_or_none(mp.phase_margin_deg[i, j]), bool(mp.stable[i, j])]
+                    if mf is not None:
+                        row.append(finite_or_none(mf.fn_hz[i, j]))
+                        row.append(str(mf.status[i, j]))
+                    csv_rows.append(row)
+    if csv:
+        from ..report import write_atomic
+
+        head = ["actuator", "fn_hz", "T_s_ms", "T_d_ms", "phase_margin_deg", "stable"]
+        if max_fn:
+            head += ["max_stable_fn_hz", "max_fn_status"]
+        buf = io.StringIO()
+        buf.write(",".join(head) + "\n")
+        for r in csv_rows:
+            buf.write(",".join("none" if x is None else
+                               (f"{x:.10g}" if isinstance(x, float) else str(x)) for x in r)
+                      + "\n")
+        write_atomic(Path(csv), buf.getvalue())
+    if plot:
+        from ..plots import latency_map_figure
+
+        _save_figure(latency_map_figure(maps, maxfns or None), plot)
+    if as_json:
+        echo_json({"maps": summary, "csv": csv, "plot": plot})
+        return
+    t = Table(title=f"Latency maps: {n} x {n} grid, delays {t_min:g}..{t_max:g} ms on each loop")
+    for c in ("actuator", "f_n [Hz]", "stable [%]", "PM min delays", "PM max T_s",
+              "PM max T_d", "dPM/dT_s [deg/ms]", "dPM/dT_d [deg/ms]", "ratio",
+              "DM stiffness [ms]", "DM damping [ms]"):
+        t.add_column(escape(c), justify="right" if c != "actuator" else "left")
+    for s in summary:
+        t.add_row(s["actuator"], f"{s['fn_hz']:g}", f"{100 * s['stable_fraction']:.1f}",
+                  _fmt(s["pm_at_min_delays_deg"], ".1f"),
+                  _fmt(s["pm_stiffness_max_deg"], ".1f")
+                  + ("" if s["stable_stiffness_max"] else " (unstable)"),
+                  _fmt(s["pm_damping_max_deg"], ".1f")
+                  + ("" if s["stable_damping_max"] else " (unstable)"),
+                  _fmt(s["dpm_dts_deg_per_ms"], ".3f"), _fmt(s["dpm_dtd_deg_per_ms"], ".3f"),
+                  _fmt(s["sensitivity_ratio"], ".3g"),
+                  _fmt(s["stiffness_delay_margin_ms"], ".2f"),
+                  _fmt(s["damping_delay_margin_ms"], ".2f"))
+    console.print(t)
+    console.print("PM max T_s: stiffness delay at --t-max, damping at --t-min (and vice versa). "
+                  "DM: extra latency each loop alone tolerates at the smallest delays.")
+    for what, path in (("plot", plot), ("csv", csv)):
+        if path:
+            console.print(f"{what}: {escape(path)}")
+
+
+# ---------------------------------------------------------------------------- seactl place
+def advice_json(a) -> dict[str, Any]:
+    def opt(o):
+        return {"placement": o.placement, "stiffness_delay_ms": o.T_s * 1e3,
+                "damping_delay_ms": o.T_d * 1e3,
+                "torque_delay_ms": None if o.T_inner is None else o.T_inner * 1e3,
+                "max_fn_hz": None if o.fn_hz is None else finite_or_none(o.fn_hz),
+                "status": o.status, "gains": {k: finite_or_none(v) for k, v in o.gains.items()},
+                "static_stiffness": None if o.static_stiffness is None
+                else finite_or_none(o.static_stiffness),
+                "phase_margin_deg": None if o.phase_margin_deg is None
+                else finite_or_none(o.phase_margin_deg),
+                "crossover_hz": None if o.crossover_hz is None else finite_or_none(o.crossover_hz),
+                "stiffness_delay_margin_ms": None if o.stiffness_dm_s is None
+                else finite_or_none(o.stiffness_dm_s * 1e3),
+                "damping_delay_margin_ms": None if o.damping_dm_s is None
+                else finite_or_none(o.damping_dm_s * 1e3)}
+
+    return {"actuator": a.actuator, "kind": a.kind, "high_latency_ms": a.high_latency_s * 1e3,
+            "low_latency_ms": a.low_latency_s * 1e3, "min_pm_deg": a.min_pm_deg,
+            "stiffness_embeddable": a.stiffness_embeddable, "stiffness_unit": a.stiffness_unit,
+            "recommended": a.recommended,
+            "stiffness_gain_vs_centralized": None if a.stiffness_gain_vs_centralized is None
+            else finite_or_none(a.stiffness_gain_vs_centralized),
+            "fraction_of_embedded": None if a.fraction_of_embedded is None
+            else finite_or_none(a.fraction_of_embedded),
+            "placements": [opt(o) for o in a.options], "reason": a.reason}
+
+
+@cli.command()
+@click.option("--high-latency", type=float, default=22.0, show_default=True,
+              help="Feedback latency of the high-level (centralized) process [ms].")
+@click.option("--low-latency", type=float, default=0.5, show_default=True,
+              help="Feedback latency of the embedded process [ms].")
+@click.option("--actuator", default="ut-linear", show_default=True,
+              help="Preset (ut-linear, ut-sea) or TOML file.")
+@click.option("--min-pm", type=float, default=45.0, show_default=True,
+              help="Required phase margin [deg].")
+@click.option("--f-v", "f_v", default="50", show_default=True,
+              help="Velocity filter cut-off [Hz] (f_qd for the SEA), or 'none'.")
+@click.option("--stiffness-embeddable", is_flag=True,
+              help="Allow the stiffness loop on the embedded process (default: it needs the "
+                   "high-level process; 'embedded' is then only the upper bound).")
+@json_option
+def place(high_latency, low_latency, actuator, min_pm, f_v, stiffness_embeddable,
+          as_json) -> None:
+    """Which process should run the stiffness and damping loops?
+
+    \b
+    Example (the mobile base: 7 ms + 15 ms centralized, 0.5 ms embedded):
+      seactl place --high-latency 22 --low-latency 0.5
+
+    For each placement (centralized: all loops high-level; distributed: stiffness
+    high-level, damping embedded; embedded: all embedded) it finds the highest
+    critically-damped f_n whose loop is stable with PM >= --min-pm (and every
+    lower f_n too), and recommends the best allowed placement.
+    """
+    from ..placement import advise
+
+    hi, lo = _ms("--high-latency", high_latency), _ms("--low-latency", low_latency)
+    if not 0 <= min_pm < 180:
+        raise InputError("--min-pm [deg]", min_pm, ">= 0 and < 180")
+    model = load_model(actuator, _f_v(f_v))
+    a = advise(model, hi, lo, min_pm_deg=min_pm, stiffness_embeddable=stiffness_embeddable)
+    if as_json:
+        echo_json(advice_json(a))
+        return
+    t = Table(title=f"Loop placement for '{escape(a.actuator)}': high-level "
+              f"{high_latency:g} ms, embedded {low_latency:g} ms, PM >= {min_pm:g} deg")
+    gnames = list(next((o.gains for o in a.options if o.gains), {}))
+    for c in ["placement", "T_s [ms]", "T_d [ms]"] + (["T_tau [ms]"] if a.kind == "sea" else []) \
+            + ["max f_n [Hz]"] + gnames + [f"stiffness [{a.stiffness_unit}]", "PM [deg]",
+                                            "DM stiff. [ms]", "DM damp. [ms]"]:
+        t.add_column(escape(c), justify="right" if c != "placement" else "left")
+    for o in a.options:
+        mark = " *" if o.placement == a.recommended else ""
+        cells = [o.placement + mark, f"{o.T_s * 1e3:g}", f"{o.T_d * 1e3:g}"]
+        if a.kind == "sea":
+            cells.append(f"{o.T_inner * 1e3:g}")
+        cells.append("none" if o.fn_hz is None else
+                     f"{o.fn_hz:.3f}" + ("+" if o.status == "capped" else ""))
+        cells += [f"{o.gains[g]:.4g}" if g in o.gains else "-" for g in gnames]
+        cells += [_fmt(o.static_stiffness, ".4g"), _fmt(o.phase_margin_deg, ".1f"),
+                  _fmt(None if o.stiffness_dm_s is None else o.stiffness_dm_s * 1e3, ".2f"),
+                  _fmt(None if o.damping_dm_s is None else o.damping_dm_s * 1e3, ".2f")]
+        t.add_row(*cells)
+    console.print(t)
+    console.print(escape(a.reason))
