@@ -291,3 +291,126 @@ def step_experiment_figure(t, y, panels, fn_hz, unstable, saturated, title: str 
         fig.suptitle(title, fontsize=11)
     fig.tight_layout()
     return fig
+
+
+# ---------------------------------------------------------------- mobile base (seactl.base)
+_BASE_COLORS = {"cosc": "tab:red", "dosc": "tab:blue"}
+
+
+def base_tracking_figure(comparison, paper_kx: dict | None = None):
+    """COSC vs DOSC: circle paths, errors over time, the two gain searches, the limits."""
+    p = comparison.params
+    res = comparison.track
+    archs = list(comparison.results)
+    fig, axs = plt.subplots(2, 3, figsize=(14, 8.2))
+    ax = axs[0, 0]
+    ax.plot(res.x_d[:, 0], res.x_d[:, 1], "k--", lw=1, label="reference")
+    mag = 50.0   # errors are millimetres on a half-metre circle: magnify them to be seen
+    for i, a in enumerate(archs):
+        path = res.x_d[:, :2] + mag * (res.x[:, i, :2] - res.x_d[:, :2])
+        ax.plot(path[:, 0], path[:, 1], color=_BASE_COLORS[a], lw=1.0, label=a.upper())
+    ax.set_aspect("equal")
+    ax.set_xlabel("x [m]")
+    ax.set_ylabel("y [m]")
+    ax.set_title(f"circle tracked (errors magnified x{mag:g})")
+    ax.legend(fontsize=8)
+    for ax, err, unit, name in ((axs[0, 1], res.position_error() * 1e3, "mm", "position"),
+                                (axs[0, 2], res.velocity_error() * 1e3, "mm/s", "velocity")):
+        for i, a in enumerate(archs):
+            r = comparison.results[a]
+            rms = (r.rms_position_m if name == "position" else r.rms_velocity_mps) * 1e3
+            ax.plot(res.t, err[:, i], color=_BASE_COLORS[a], lw=0.8,
+                    label=f"{a.upper()} (RMS {rms:.3g} {unit})")
+        ax.axvline(p.circle_ramp, color="k", lw=0.6, ls=":")
+        ax.set_xlabel("time [s]")
+        ax.set_ylabel(f"{name} error [{unit}]")
+        ax.set_title(f"{name} error (RMS after the {p.circle_ramp:g} s ramp)")
+        ax.set_yscale("log")
+        ax.set_ylim(bottom=np.nanmax(err) * 1e-3)
+        ax.legend(fontsize=8)
+    for ax, key, label, unit in ((axs[1, 0], "damping_search", "damping", "N s/(m kg)"),
+                                 (axs[1, 1], "kx_search", "stiffness $K_x$", "N/(m kg)")):
+        for a in archs:
+            s = getattr(comparison.results[a], key)
+            c = _BASE_COLORS[a]
+            ax.plot(s.gains, s.oscillation / p.criterion_oscillation_threshold, "o-", ms=3,
+                    color=c, lw=1, label=f"{a.upper()} oscillation")
+            ax.plot(s.gains, s.vibration / p.criterion_vibration_threshold, "s--", ms=3,
+                    color=c, lw=0.8, alpha=0.6, label=f"{a.upper()} torque ripple")
+            if s.limit > 0:
+                ax.axvline(s.limit, color=c, lw=1.5, alpha=0.5)
+        ax.axhline(1.0, color="k", lw=0.8)
+        ax.set_xscale("log")
+        ax.set_yscale("log")
+        ax.set_xlabel(f"{label} [{unit}]")
+        ax.set_ylabel("criterion / threshold")
+        step = "1, $K_x$ = 0" if key == "damping_search" else "2, damping at safety x limit"
+        ax.set_title(f"gain search, step {step}")
+        ax.legend(fontsize=7)
+    ax = axs[1, 2]
+    w = 0.38
+    xs = np.arange(len(archs))
+    ax.bar(xs - w / 2, [comparison.results[a].max_kx for a in archs], w,
+           color=[_BASE_COLORS[a] for a in archs], label="seactl (model)")
+    if paper_kx:
+        ax.bar(xs + w / 2, [paper_kx.get(a, np.nan) for a in archs], w, color="0.6",
+               label="paper (hardware)")
+    ax.set_xticks(xs, [a.upper() for a in archs])
+    ax.set_yscale("log")
+    ax.set_ylabel("maximum $K_x$ [N/(m kg)]")
+    ax.set_title("maximum Cartesian stiffness")
+    ax.legend(fontsize=8)
+    fig.tight_layout()
+    return fig
+
+
+def base_animation(comparison, path, fps: int = 12, seconds: float | None = None) -> None:
+    """Animated GIF of the bases tracking the circle side by side (Pillow writer)."""
+    from matplotlib.animation import FuncAnimation, PillowWriter
+
+    p = comparison.params
+    res = comparison.track
+    archs = list(comparison.results)
+    T = res.t[-1] if seconds is None else min(seconds, res.t[-1])
+    idx = np.searchsorted(res.t, np.arange(0.0, T, 1.0 / fps))
+    fig, axs = plt.subplots(1, len(archs), figsize=(4.2 * len(archs), 4.2), squeeze=False)
+    axs = axs[0]
+    R = p.circle_radius
+    a_w = p.alpha
+    L = p.wheel_distance
+    artists = []
+    for ax, (i, a) in zip(axs, enumerate(archs)):
+        ax.plot(res.x_d[:, 0], res.x_d[:, 1], "k--", lw=0.8)
+        ax.set_xlim(-2 * R - 0.4, 0.4)
+        ax.set_ylim(-R - 0.4, R + 0.4)
+        ax.set_aspect("equal")
+        r = comparison.results[a]
+        ax.set_title(f"{a.upper()}: K_x = {r.kx:.3g} N/(m kg)\nRMS error "
+                     f"{r.rms_position_m * 1e3:.3g} mm", fontsize=9)
+        body, = ax.fill([], [], color=_BASE_COLORS[a], alpha=0.35)
+        wheels, = ax.plot([], [], "k-", lw=3, solid_capstyle="butt")
+        trace, = ax.plot([], [], color=_BASE_COLORS[a], lw=1)
+        target, = ax.plot([], [], "kx", ms=6)
+        artists.append((i, body, wheels, trace, target))
+
+    def frame(j):
+        k = idx[j]
+        out = []
+        for i, body, wheels, trace, target in artists:
+            x, y, th = res.x[k, i]
+            pts = np.stack([x + L * np.cos(a_w + th), y + L * np.sin(a_w + th)], axis=-1)
+            body.set_xy(pts)
+            seg = []
+            for (px, py), ang in zip(pts, a_w + th):
+                d = 0.06 * np.array([-np.sin(ang), np.cos(ang)])
+                seg += [[px - d[0], py - d[1]], [px + d[0], py + d[1]], [np.nan, np.nan]]
+            seg = np.asarray(seg)
+            wheels.set_data(seg[:, 0], seg[:, 1])
+            trace.set_data(res.x[:k + 1, i, 0], res.x[:k + 1, i, 1])
+            target.set_data([res.x_d[k, 0]], [res.x_d[k, 1]])
+            out += [body, wheels, trace, target]
+        return out
+
+    anim = FuncAnimation(fig, frame, frames=len(idx), blit=True)
+    anim.save(str(path), writer=PillowWriter(fps=fps))
+    plt.close(fig)

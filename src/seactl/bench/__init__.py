@@ -61,6 +61,7 @@ def median_time(func: Callable[[], Any], repeat: int, warmup: int = 1) -> float:
 
 def registered() -> dict[str, Callable]:
     from . import core  # noqa: F401 - registration side effects
+    from . import base  # noqa: F401
     from . import impedance  # noqa: F401
     from . import placement  # noqa: F401
 

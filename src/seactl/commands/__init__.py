@@ -6,3 +6,4 @@ Each module imports ``cli`` (the click group) and the shared helpers from
 from . import impedance  # noqa: F401
 from . import sweep  # noqa: F401
 from . import placement  # noqa: F401
+from . import base  # noqa: F401

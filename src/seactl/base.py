@@ -1,0 +1,891 @@
+"""Omnidirectional (kiwi-drive) mobile base: distributed (DOSC) versus centralized (COSC)
+operational space control on simulated processors.
+
+The base is Trikey (paper section "Distributed operational space control of a mobile
+base", background.md section 7): a planar rigid body with three omni wheels at 0/120/240
+degrees rolling tangentially, each driven through a compliant, geared, frictional and
+torque-limited drivetrain.  Two kinds of simulated processors close the loops:
+
+* the **centralized** process (period ``central_period``) reads the wheel encoders through
+  a delay of ``(1 - downlink_fraction) * round_trip + extra_delay``, runs odometry and the
+  operational space controller, and sends wheel torques (and desired wheel speeds) that
+  arrive ``downlink_fraction * round_trip`` later: 7 ms + 15 ms = 22 ms around the loop;
+* three **embedded** processes (period ``embedded_period`` = 0.5 ms), one per wheel, that
+  never talk to each other: each reads its own quantized encoder, differentiates it, adds
+  its joint-space damping to the held central torque and saturates the result.
+
+Both architectures are the same controller with different gains:
+
+* COSC: ``F = Lambda (a_d + K_x e + D_x (v_d - v_hat))`` on the central process, ``B_q = 0``;
+* DOSC: ``F = Lambda (a_d + K_x e)`` on the central process and
+  ``tau_i += B_q (qdot_d,i - qdot_hat,i)`` on each embedded process, ``D_x = 0``.
+
+``K_x`` and ``D_x`` are acceleration gains (1/s^2 = N/(m kg), 1/s = N s/(m kg)), i.e. the
+Cartesian stiffness and damping divided by the task inertia ``Lambda``, as in the paper.
+The same acceleration gains act on the yaw task.  DOSC damping is searched and reported
+as its Cartesian equivalent ``D_x = B_q G_xx / Lambda_xx`` (``G = J_b^T J_b``), so the
+two architectures share one damping axis.
+
+The simulator is fixed-step (semi-implicit Euler, ``substeps`` per embedded period),
+vectorized over a batch of gain settings: one Python loop over time, numpy over the batch.
+Delays are whole embedded samples held in ring buffers (no Pade anywhere).
+
+Examples
+--------
+>>> import numpy as np
+>>> from seactl.base import TRIKEY, wheel_speeds
+>>> np.round(wheel_speeds(TRIKEY, [0.0, 0.0, 1.0]), 4)   # pure rotation at 1 rad/s
+array([2.3762, 2.3762, 2.3762])
+"""
+
+from __future__ import annotations
+
+import math
+import tomllib
+from dataclasses import asdict, dataclass, field, fields, replace
+from importlib.resources import files
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+from pydantic import BaseModel, ConfigDict, Field, ValidationError
+
+from .errors import InputError
+
+ARCHS = ("cosc", "dosc")
+
+# TOML table -> prefix of the flat field names.
+_TABLES = {"body": "", "drivetrain": "", "sensing": "", "timing": "",
+           "criterion": "criterion_", "tuning": "", "circle": "circle_"}
+
+_POS = dict(gt=0, allow_inf_nan=False)
+_NONNEG = dict(ge=0, allow_inf_nan=False)
+
+
+class _BaseModel(BaseModel):
+    """Validation schema of :class:`BaseParams` (flat; the TOML groups it in tables)."""
+
+    model_config = ConfigDict(extra="forbid", frozen=True)
+
+    name: str = "custom"
+    base_mass: float = Field(description="chassis mass [kg]", **_POS)
+    base_yaw_inertia: float = Field(description="chassis yaw inertia [kg m^2]", **_POS)
+    wheel_mass: float = Field(description="mass of one wheel [kg]", **_NONNEG)
+    wheel_radius: float = Field(description="wheel radius [m]", **_POS)
+    wheel_distance: float = Field(description="wheel centre to base centre [m]", **_POS)
+    wheel_angles_deg: tuple[float, float, float] = Field(description="wheel positions [deg]")
+    wheel_spin_inertia: float = Field(description="wheel inertia about its axle [kg m^2]",
+                                      **_NONNEG)
+    wheel_yaw_inertia: float = Field(description="wheel inertia about the vertical [kg m^2]",
+                                     **_NONNEG)
+    gear_ratio: float = Field(description="motor-to-wheel reduction [-]", **_POS)
+    rotor_inertia: float = Field(description="rotor inertia, motor side [kg m^2]", **_POS)
+    viscous_friction: float = Field(description="wheel side [N m s/rad]", **_NONNEG)
+    coulomb_friction: float = Field(description="wheel side [N m]", **_NONNEG)
+    friction_velocity: float = Field(description="tanh smoothing [rad/s]", **_POS)
+    stiffness: float = Field(description="drivetrain stiffness, wheel side [N m/rad]", **_POS)
+    compliance_damping: float = Field(description="[N m s/rad]", **_NONNEG)
+    torque_limit: float = Field(description="wheel torque limit [N m]", **_POS)
+    encoder_counts: int = Field(description="motor encoder counts/rev (0 = ideal)", ge=0)
+    velocity_filter_hz: float = Field(description="velocity filter cut-off [Hz], 0 = none",
+                                      **_NONNEG)
+    embedded_period: float = Field(description="embedded servo period [s]", **_POS)
+    central_period: float = Field(description="central servo period [s]", **_POS)
+    round_trip: float = Field(description="central round-trip latency [s]", **_NONNEG)
+    extra_delay: float = Field(description="extra buffered central delay [s]", **_NONNEG)
+    downlink_fraction: float = Field(description="share of the round trip on the command "
+                                     "path [-]", ge=0, le=1)
+    substeps: int = Field(description="physics steps per embedded period", ge=1, le=50)
+    criterion_duration: float = Field(description="criterion test run [s]", **_POS)
+    criterion_window: float = Field(description="final window measured [s]", **_POS)
+    criterion_speed: float = Field(description="reference speed in x and y [m/s]", **_POS)
+    criterion_oscillation_threshold: float = Field(description="[m/s]", **_POS)
+    criterion_vibration_threshold: float = Field(description="[N m]", **_POS)
+    damping_min: float = Field(description="[N s/(m kg)]", **_POS)
+    damping_max: float = Field(description="[N s/(m kg)]", **_POS)
+    kx_min: float = Field(description="[N/(m kg)]", **_POS)
+    kx_max: float = Field(description="[N/(m kg)]", **_POS)
+    grid_points: int = Field(description="coarse search candidates", ge=3, le=400)
+    refine_points: int = Field(description="refining search candidates", ge=0, le=400)
+    safety_factor: float = Field(description="fraction of each limit used [-]", gt=0, le=1)
+    circle_radius: float = Field(description="[m]", **_POS)
+    circle_period: float = Field(description="[s]", **_POS)
+    circle_duration: float = Field(description="[s]", **_POS)
+    circle_ramp: float = Field(description="[s]", **_NONNEG)
+
+
+def _input_error(exc: ValidationError) -> InputError:
+    err = exc.errors()[0]
+    name = ".".join(str(p) for p in err["loc"])
+    if err["type"] == "extra_forbidden":
+        return InputError(name, err.get("input"), "one of the known keys")
+    if err["type"] == "missing":
+        return InputError(name, None, "given (required field)")
+    info = _BaseModel.model_fields.get(str(err["loc"][0]))
+    bounds = []
+    if info is not None:
+        for m in info.metadata:
+            for attr, sym in (("gt", ">"), ("ge", ">="), ("le", "<=")):
+                if getattr(m, attr, None) is not None:
+                    bounds.append(f"{sym} {getattr(m, attr)}")
+    valid = " and ".join(bounds) if bounds else err["msg"].lower()
+    if info is not None and info.description and "[" in info.description:
+        valid += " " + info.description[info.description.index("["):]
+    return InputError(name, err.get("input"), valid)
+
+
+@dataclass(frozen=True)
+class BaseParams:
+    """Validated parameters of the base, its processors, the criterion and the tuning (SI).
+
+    The fields mirror ``presets/trikey.toml``, where each one is documented with its unit
+    and marked as a robot value or a seactl assumption.  Derived quantities (geometry,
+    task inertia, delays in samples) are properties.
+    """
+
+    base_mass: float
+    base_yaw_inertia: float
+    wheel_mass: float
+    wheel_radius: float
+    wheel_distance: float
+    wheel_angles_deg: tuple[float, float, float]
+    wheel_spin_inertia: float
+    wheel_yaw_inertia: float
+    gear_ratio: float
+    rotor_inertia: float
+    viscous_friction: float
+    coulomb_friction: float
+    friction_velocity: float
+    stiffness: float
+    compliance_damping: float
+    torque_limit: float
+    encoder_counts: int
+    velocity_filter_hz: float
+    embedded_period: float
+    central_period: float
+    round_trip: float
+    extra_delay: float
+    downlink_fraction: float
+    substeps: int
+    criterion_duration: float
+    criterion_window: float
+    criterion_speed: float
+    criterion_oscillation_threshold: float
+    criterion_vibration_threshold: float
+    damping_min: float
+    damping_max: float
+    kx_min: float
+    kx_max: float
+    grid_points: int
+    refine_points: int
+    safety_factor: float
+    circle_radius: float
+    circle_period: float
+    circle_duration: float
+    circle_ramp: float
+    name: str = "custom"
+
+    def __post_init__(self) -> None:
+        try:
+            _BaseModel.model_validate(asdict(self))
+        except ValidationError as exc:
+            raise _input_error(exc) from None
+        object.__setattr__(self, "wheel_angles_deg", tuple(float(a) for a in
+                                                           self.wheel_angles_deg))
+        a = np.sort(np.mod(self.wheel_angles_deg, 360.0))
+        if not np.allclose(np.diff(np.r_[a, a[0] + 360.0]), 120.0, atol=1e-9):
+            # The simulator relies on G = J^T J being rotation invariant (kiwi symmetry).
+            raise InputError("wheel_angles_deg", list(self.wheel_angles_deg),
+                             "three angles 120 degrees apart [deg]")
+        n = self.central_period / self.embedded_period
+        if abs(n - round(n)) > 1e-9:
+            raise InputError("central_period", self.central_period,
+                             f"a whole multiple of embedded_period = {self.embedded_period} [s]")
+        if self.criterion_window >= self.criterion_duration:
+            raise InputError("criterion.window", self.criterion_window,
+                             f"< criterion.duration = {self.criterion_duration} [s]")
+        if self.damping_max <= self.damping_min:
+            raise InputError("damping_max", self.damping_max, f"> damping_min = "
+                             f"{self.damping_min} [N s/(m kg)]")
+        if self.kx_max <= self.kx_min:
+            raise InputError("kx_max", self.kx_max, f"> kx_min = {self.kx_min} [N/(m kg)]")
+
+    # ---------------------------------------------------------------- derived
+    @property
+    def alpha(self) -> np.ndarray:
+        """Wheel position angles [rad], shape (3,)."""
+        return np.deg2rad(np.asarray(self.wheel_angles_deg))
+
+    @property
+    def reflected_rotor_inertia(self) -> float:
+        """Rotor inertia seen at the wheel, ``N^2 I_rotor`` [kg m^2]."""
+        return self.rotor_inertia * self.gear_ratio**2
+
+    @property
+    def encoder_resolution(self) -> float:
+        """Wheel-side angle of one encoder count [rad] (0: ideal encoder)."""
+        if self.encoder_counts == 0:
+            return 0.0
+        return 2 * math.pi / (self.encoder_counts * self.gear_ratio)
+
+    @property
+    def central_every(self) -> int:
+        """Embedded samples per central sample."""
+        return int(round(self.central_period / self.embedded_period))
+
+    @property
+    def command_delay_samples(self) -> int:
+        """Whole embedded samples on the central-to-wheel (command) path."""
+        return int(round(self.downlink_fraction * self.round_trip / self.embedded_period))
+
+    @property
+    def measurement_delay_samples(self) -> int:
+        """Whole embedded samples on the wheel-to-central (measurement) path + buffer."""
+        d = (1 - self.downlink_fraction) * self.round_trip + self.extra_delay
+        return int(round(d / self.embedded_period))
+
+    @property
+    def central_delay(self) -> float:
+        """Total central loop delay as simulated [s] (whole samples)."""
+        return (self.command_delay_samples + self.measurement_delay_samples) \
+            * self.embedded_period
+
+    @property
+    def body_mass_matrix(self) -> np.ndarray:
+        """Chassis and wheels as rigid bodies riding along (no wheel spin), (3, 3)."""
+        m = self.base_mass + 3 * self.wheel_mass
+        iz = (self.base_yaw_inertia + 3 * self.wheel_mass * self.wheel_distance**2
+              + 3 * self.wheel_yaw_inertia)
+        return np.diag([m, m, iz])
+
+    def with_(self, **changes: Any) -> BaseParams:
+        """A validated copy with some fields changed."""
+        return replace(self, **changes)
+
+
+def _flatten(data: dict[str, Any]) -> dict[str, Any]:
+    flat: dict[str, Any] = {}
+    for key, value in data.items():
+        if isinstance(value, dict):
+            if key not in _TABLES:
+                raise InputError(key, "[table]", "one of the tables " + ", ".join(_TABLES))
+            for k, v in value.items():
+                flat[_TABLES[key] + k] = v
+        else:
+            flat[key] = value
+    return flat
+
+
+def load_base(spec: str | Path = "trikey") -> BaseParams:
+    """Load base parameters by preset name (``trikey``) or from a TOML file.
+
+    The file has the tables of ``presets/trikey.toml`` (``[body]``, ``[drivetrain]``,
+    ``[sensing]``, ``[timing]``, ``[criterion]``, ``[tuning]``, ``[circle]``); keys left
+    out keep the Trikey preset's values.
+
+    Raises
+    ------
+    InputError
+        Unknown preset, unreadable file, unknown key or out-of-range value.
+    """
+    key = str(spec)
+    preset = files("seactl") / "presets" / f"{key.lower()}.toml"
+    if preset.is_file():
+        data = _flatten(tomllib.loads(preset.read_text()))
+    else:
+        path = Path(key)
+        if path.suffix != ".toml" or not path.is_file():
+            raise InputError("base", key, "a preset (trikey) or an existing .toml file")
+        try:
+            user = _flatten(tomllib.loads(path.read_text()))
+        except tomllib.TOMLDecodeError as exc:
+            raise InputError("base", key, f"valid TOML ({exc})") from None
+        data = _flatten(tomllib.loads((files("seactl") / "presets" / "trikey.toml")
+                                      .read_text()))
+        data["name"] = path.stem
+        data.update(user)
+    try:
+        model = _BaseModel.model_validate(data)
+    except ValidationError as exc:
+        raise _input_error(exc) from None
+    return BaseParams(**{f.name: getattr(model, f.name) for f in fields(BaseParams)})
+
+
+TRIKEY = load_base("trikey")
+"""Trikey with the documented assumptions of ``presets/trikey.toml``."""
+
+
+# -------------------------------------------------------------------- kinematics
+def body_jacobian(p: BaseParams) -> np.ndarray:
+    """``J_b`` (3, 3): wheel speeds [rad/s] from body-frame velocity (v_x, v_y, omega).
+
+    Wheel ``i`` at angle ``alpha_i`` rolls along the tangent ``(-sin a_i, cos a_i)``, so its
+    rim speed is ``-sin(a_i) v_x + cos(a_i) v_y + L omega``.
+    """
+    a = p.alpha
+    return np.stack([-np.sin(a), np.cos(a), np.full(3, p.wheel_distance)], axis=-1) \
+        / p.wheel_radius
+
+
+def wheel_jacobian(p: BaseParams, theta) -> np.ndarray:
+    """``J(theta)`` (..., 3, 3): wheel speeds from world-frame velocity (xdot, ydot, thetadot).
+
+    ``J(theta) = J_b R(theta)^T``; ``theta`` broadcasts over leading axes.
+    """
+    th = np.asarray(theta, float)[..., None] + p.alpha
+    L = np.broadcast_to(p.wheel_distance, th.shape)
+    return np.stack([-np.sin(th), np.cos(th), L], axis=-1) / p.wheel_radius
+
+
+def wheel_speeds(p: BaseParams, velocity, theta=0.0) -> np.ndarray:
+    """Wheel angular speeds [rad/s] for a world-frame base velocity (..., 3)."""
+    J = wheel_jacobian(p, theta)
+    return np.einsum("...ij,...j->...i", J, np.asarray(velocity, float))
+
+
+def _rot(v: np.ndarray, theta: np.ndarray) -> np.ndarray:
+    """Rotate the planar part of (..., 3) vectors by theta (yaw component unchanged)."""
+    c, s = np.cos(theta), np.sin(theta)
+    return np.stack([c * v[..., 0] - s * v[..., 1], s * v[..., 0] + c * v[..., 1],
+                     v[..., 2]], axis=-1)
+
+
+def task_inertia(p: BaseParams, theta=0.0) -> np.ndarray:
+    """Operational space inertia ``Lambda = (J_t A^-1 J_t^T)^-1`` of the (x, y, yaw) task.
+
+    Joint space = the three wheel angles; ``A = J^-T M_body J^-1 + (I_spin + N^2 I_rotor) 1``
+    (rigid drivetrain) and the task Jacobian is ``J_t = J^-1``, hence
+    ``Lambda = M_body + (I_spin + N^2 I_rotor) J^T J``.  Shape (..., 3, 3).
+    """
+    J = wheel_jacobian(p, theta)
+    A_w = p.wheel_spin_inertia + p.reflected_rotor_inertia
+    return p.body_mass_matrix + A_w * np.einsum("...ki,...kj->...ij", J, J)
+
+
+def kinetic_energy(p: BaseParams, pose_rate, wheel_rates, motor_rates, theta=0.0
+                   ) -> np.ndarray:
+    """Kinetic energy [J] of chassis, wheels (translation, yaw, spin) and rotors."""
+    v = np.asarray(pose_rate, float)
+    return (0.5 * np.einsum("...i,ij,...j->...", v, p.body_mass_matrix, v)
+            + 0.5 * p.wheel_spin_inertia * np.sum(np.asarray(wheel_rates) ** 2, axis=-1)
+            + 0.5 * p.reflected_rotor_inertia * np.sum(np.asarray(motor_rates) ** 2, axis=-1))
+
+
+def damping_to_joint(p: BaseParams, d_x) -> np.ndarray:
+    """Joint damping ``B_q`` [N m s/rad] whose Cartesian equivalent is ``d_x`` [N s/(m kg)]."""
+    G = body_jacobian(p).T @ body_jacobian(p)
+    return np.asarray(d_x, float) * task_inertia(p)[0, 0] / G[0, 0]
+
+
+def joint_to_damping(p: BaseParams, b_q) -> np.ndarray:
+    """Cartesian-equivalent damping [N s/(m kg)] of the joint damping ``b_q`` [N m s/rad]."""
+    G = body_jacobian(p).T @ body_jacobian(p)
+    return np.asarray(b_q, float) * G[0, 0] / task_inertia(p)[0, 0]
+
+
+# -------------------------------------------------------------------- references
+@dataclass(frozen=True)
+class Circle:
+    """Circle reference starting at the origin at rest; the angular speed ramps in smoothly.
+
+    ``x_d = (R cos psi - R, R sin psi, 0)``, ``psi' = omega s(t)``, ``s`` a half-cosine
+    ramp over ``ramp`` seconds, then ``psi' = omega = 2 pi / period``.
+    """
+
+    radius: float
+    period: float
+    ramp: float = 1.0
+
+    def __call__(self, t: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        t = np.asarray(t, float)
+        w = 2 * math.pi / self.period
+        tr = self.ramp
+        if tr > 0:
+            inr = t < tr
+            psi = np.where(inr, w * (t / 2 - tr / (2 * math.pi) * np.sin(math.pi * t / tr)),
+                           w * (t - tr / 2))
+            dpsi = np.where(inr, w * 0.5 * (1 - np.cos(math.pi * t / tr)), w)
+            ddpsi = np.where(inr, w * 0.5 * math.pi / tr * np.sin(math.pi * t / tr), 0.0)
+        else:
+            psi, dpsi, ddpsi = w * t, np.full_like(t, w), np.zeros_like(t)
+        R = self.radius
+        c, s = np.cos(psi), np.sin(psi)
+        z = np.zeros_like(t)
+        x = np.stack([R * c - R, R * s, z], axis=-1)
+        v = np.stack([-R * s * dpsi, R * c * dpsi, z], axis=-1)
+        a = np.stack([-R * s * ddpsi - R * c * dpsi**2, R * c * ddpsi - R * s * dpsi**2, z],
+                     axis=-1)
+        return x, v, a
+
+
+def _hold(t: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    z = np.zeros(np.shape(t) + (3,))
+    return z, z, z
+
+
+# -------------------------------------------------------------------- simulation
+@dataclass(frozen=True)
+class SimResult:
+    """Sampled trajectories of a batch of simulations (one row per embedded sample).
+
+    Attributes
+    ----------
+    t : (n,) time [s];  x, v : (n, B, 3) true pose and world velocity;
+    x_d, v_d : (n, 3) reference;  tau : (n, B, 3) wheel torques applied [N m];
+    saturation : (B,) fraction of wheel-samples saturated;
+    energy : (n, B) mechanical energy [J] (kinetic + compliance) when recorded, else None.
+    """
+
+    t: np.ndarray
+    x: np.ndarray
+    v: np.ndarray
+    x_d: np.ndarray
+    v_d: np.ndarray
+    tau: np.ndarray
+    saturation: np.ndarray
+    energy: np.ndarray | None = None
+
+    def position_error(self) -> np.ndarray:
+        """Planar position error norm [m], (n, B)."""
+        return np.linalg.norm(self.x[..., :2] - self.x_d[:, None, :2], axis=-1)
+
+    def velocity_error(self) -> np.ndarray:
+        """Planar velocity error norm [m/s], (n, B)."""
+        return np.linalg.norm(self.v[..., :2] - self.v_d[:, None, :2], axis=-1)
+
+    def rms(self, after: float = 0.0) -> tuple[np.ndarray, np.ndarray]:
+        """RMS position [m] and velocity [m/s] errors over ``t >= after``, each (B,)."""
+        m = self.t >= after
+        return (np.sqrt(np.mean(self.position_error()[m] ** 2, axis=0)),
+                np.sqrt(np.mean(self.velocity_error()[m] ** 2, axis=0)))
+
+
+def _as_batch(*arrays) -> list[np.ndarray]:
+    out = np.broadcast_arrays(*(np.atleast_1d(np.asarray(a, float)) for a in arrays))
+    if out[0].ndim != 1:
+        raise InputError("gains", out[0].shape, "scalars or 1-D batches")
+    return [np.ascontiguousarray(o) for o in out]
+
+
+def simulate(p: BaseParams, kx, dx, bq, *, reference=None, duration: float,
+             push: float = 0.0, record_energy: bool = False) -> SimResult:
+    """Simulate a batch of gain settings on the sampled multi-rate base.
+
+    Parameters
+    ----------
+    p : BaseParams
+    kx : array_like, (B,) or scalar
+        Cartesian stiffness (acceleration gain) [N/(m kg)] on the central process.
+    dx : array_like
+        Cartesian damping (acceleration gain) [N s/(m kg)] on the central process (COSC).
+    bq : array_like
+        Joint damping [N m s/rad] on each embedded process (DOSC).
+    reference : callable ``t -> (x_d, v_d, a_d)`` or None (hold the start pose).
+    duration : float
+        Simulated time [s].
+    push : float
+        Initial chassis velocity [m/s] in x and in y (and ``3 push`` rad/s in yaw).
+    record_energy : bool
+        Also record the mechanical energy (for tests).
+
+    Examples
+    --------
+    >>> from seactl.base import TRIKEY, simulate
+    >>> r = simulate(TRIKEY, 0.0, 0.0, 0.0, duration=0.1)   # no gains, at rest: stays at rest
+    >>> float(abs(r.x).max())
+    0.0
+    """
+    kx, dx, bq = _as_batch(kx, dx, bq)
+    for name, arr in (("kx", kx), ("dx", dx), ("bq", bq)):
+        if not np.all(np.isfinite(arr)) or np.any(arr < 0):
+            raise InputError(name, arr[~(np.isfinite(arr) & (arr >= 0))][0].item(),
+                             ">= 0 and finite")
+    if not (duration > 0 and math.isfinite(duration)):
+        raise InputError("duration", duration, "> 0 [s]")
+    B = kx.size
+    Te = p.embedded_period
+    n = int(round(duration / Te))
+    dt = Te / p.substeps
+    ref = reference or _hold
+    t = np.arange(n) * Te
+    x_d, v_d, _ = (np.asarray(r, float) for r in ref(t))
+
+    Jb = body_jacobian(p)
+    Jb_inv = np.linalg.inv(Jb)
+    Lam = task_inertia(p)                       # constant for the kiwi layout
+    M = p.body_mass_matrix + p.wheel_spin_inertia * (Jb.T @ Jb)
+    M_inv_diag = 1.0 / np.diag(M)               # M is diagonal for the 120-degree layout
+    alpha = p.alpha
+    r, L = p.wheel_radius, p.wheel_distance
+    kd, cd = p.stiffness, p.compliance_damping
+    Ir = p.reflected_rotor_inertia
+    I_sp = p.wheel_spin_inertia
+    bv, tc, vf = p.viscous_friction, p.coulomb_friction, p.friction_velocity
+    tau_max = p.torque_limit
+    res = p.encoder_resolution
+    m_c = p.central_every
+    Tc = m_c * Te
+    d_cmd, d_meas = p.command_delay_samples, p.measurement_delay_samples
+    # The reference is a known trajectory: the central process compares the odometry with
+    # the reference at the (time-stamped) measurement time and previews the feedforward
+    # (acceleration, wheel speeds) for the time the command reaches the wheels.  Row j of
+    # the extended reference is time (j - d_meas) Te, clamped at 0.
+    t_ext = np.maximum(np.arange(-d_meas, n + d_cmd) * Te, 0.0)
+    xr, vr, ar = (np.asarray(r, float) for r in ref(t_ext))
+    fv = p.velocity_filter_hz
+    a_e = 1.0 if fv == 0 else 1.0 - math.exp(-2 * math.pi * fv * Te)
+    a_c = 1.0 if fv == 0 else 1.0 - math.exp(-2 * math.pi * fv * Tc)
+    kvec = kx[:, None] * np.array([1.0, 1.0, 1.0])
+    dvec = dx[:, None] * np.array([1.0, 1.0, 1.0])
+    bqc = bq[:, None]
+
+    # State: pose X, world velocity V, wheel angles PHI, wheel-side motor angles QM, rates WM.
+    X = np.zeros((B, 3))
+    V = np.zeros((B, 3))
+    V[:, :2] = push
+    V[:, 2] = 3.0 * push
+    PHI = np.zeros((B, 3))
+    QM = np.zeros((B, 3))
+    WM = (V @ Jb.T).copy()                     # drivetrain moving with the wheels
+    # Processors.
+    meas = np.zeros((d_meas + 1, B, 3))        # ring of encoder readings (wheel side)
+    cmd = np.zeros((d_cmd + 1, B, 6))          # ring of central outputs (tau, qdot_d)
+    held = np.zeros((B, 6))
+    pose_hat = np.zeros((B, 3))
+    prev_c = np.zeros((B, 3))
+    vel_c = np.zeros((B, 3))
+    prev_e = np.zeros((B, 3))
+    vel_e = np.zeros((B, 3))
+    # Records.
+    xs = np.empty((n, B, 3))
+    vs = np.empty((n, B, 3))
+    taus = np.empty((n, B, 3))
+    es = np.empty((n, B)) if record_energy else None
+    sat = np.zeros(B)
+
+    for k in range(n):
+        xs[k] = X
+        vs[k] = V
+        q = QM if res == 0 else np.floor(QM / res + 0.5) * res
+        if record_energy:
+            es[k] = kinetic_energy(p, V, _wheel_rates(V, X, alpha, r, L), WM) \
+                + 0.5 * kd * np.sum((QM - PHI) ** 2, axis=-1)
+        meas[k % (d_meas + 1)] = q
+        if k % m_c == 0:
+            # copy: the ring slot is overwritten later
+            qc = meas[(k - d_meas) % (d_meas + 1)].copy() if k >= d_meas else np.zeros((B, 3))
+            dq = qc - prev_c
+            prev_c = qc
+            body = dq @ Jb_inv.T                # body-frame displacement since last sample
+            pose_hat = pose_hat + _rot(body, pose_hat[:, 2] + 0.5 * body[:, 2])
+            vel_c += a_c * (dq / Tc - vel_c)
+            v_hat = _rot(vel_c @ Jb_inv.T, pose_hat[:, 2])
+            ka = k + d_meas + d_cmd                 # row of the arrival time
+            err = xr[k] - pose_hat
+            err[:, 2] = np.angle(np.exp(1j * err[:, 2]))
+            acc = ar[ka] + kvec * err + dvec * (vr[k] - v_hat)
+            F = acc @ Lam.T
+            th = pose_hat[:, 2]
+            held = np.concatenate([_rot(F, -th) @ Jb_inv,                 # J^-T F
+                                   _rot(np.broadcast_to(vr[ka], (B, 3)), -th) @ Jb.T],
+                                  axis=1)
+        cmd[k % (d_cmd + 1)] = held
+        c = cmd[(k - d_cmd) % (d_cmd + 1)] if k >= d_cmd else np.zeros((B, 6))
+        vel_e += a_e * ((q - prev_e) / Te - vel_e) if k > 0 else 0.0
+        prev_e = q
+        tau = c[:, :3] + bqc * (c[:, 3:] - vel_e)
+        over = np.abs(tau) > tau_max
+        sat += over.sum(axis=1)
+        tau = np.clip(tau, -tau_max, tau_max)
+        taus[k] = tau
+        for _ in range(p.substeps):
+            th = X[:, 2:3] + alpha
+            s, co = np.sin(th), np.cos(th)
+            phid = (-s * V[:, 0:1] + co * V[:, 1:2] + L * V[:, 2:3]) / r
+            tk = kd * (QM - PHI) + cd * (WM - phid)
+            WM = WM + dt / Ir * (tau - tk - bv * WM - tc * np.tanh(WM / vf))
+            # Wheel spin inertia rides on the non-holonomic constraint phidot = J(theta) xdot:
+            # the gyroscopic term -I_spin J^T Jdot xdot (Lagrange-d'Alembert) couples x and y
+            # while the base turns.  (The rotors get theirs through the compliance.)
+            tq = tk - I_sp * V[:, 2:3] * (-co * V[:, 0:1] - s * V[:, 1:2]) / r
+            F = np.stack([-(s * tq).sum(1), (co * tq).sum(1), L * tq.sum(1)], axis=1) / r
+            V = V + dt * F * M_inv_diag
+            X = X + dt * V
+            PHI = PHI + dt * (-s * V[:, 0:1] + co * V[:, 1:2] + L * V[:, 2:3]) / r
+            QM = QM + dt * WM
+    if not np.all(np.isfinite(xs)):
+        raise FloatingPointError("base simulation diverged to non-finite values")
+    return SimResult(t, xs, vs, x_d, v_d, taus, sat / (3 * n), es)
+
+
+def _wheel_rates(V, X, alpha, r, L):
+    th = X[:, 2:3] + alpha
+    return (-np.sin(th) * V[:, 0:1] + np.cos(th) * V[:, 1:2] + L * V[:, 2:3]) / r
+
+
+# -------------------------------------------------------------------- criterion
+@dataclass(frozen=True)
+class Vibration:
+    """The measurable "vibrates or oscillates" criterion of one batch of test runs.
+
+    Over the final ``criterion_window`` seconds of a :func:`criterion_test` run,
+    ``oscillation`` is the RMS of the chassis velocity (x, y and ``L * yaw rate``) after
+    removing a straight-line fit per component (so a slow drift or creep does not count),
+    and ``vibration`` the RMS of the wheel torque ripple (torques minus a straight-line fit
+    per wheel, RMS over the wheels): the drivetrain buzz an operator hears and feels. The
+    base *vibrates* when either exceeds its threshold (``criterion_oscillation_threshold``
+    [m/s], ``criterion_vibration_threshold`` [N m]); the same test and thresholds are used
+    for both architectures.
+    """
+
+    oscillation: np.ndarray
+    vibration: np.ndarray
+    fired: np.ndarray
+
+
+def vibration_criterion(p: BaseParams, result: SimResult) -> Vibration:
+    """Evaluate :class:`Vibration` on a :func:`criterion_test` :class:`SimResult`."""
+    m = result.t >= result.t[-1] - p.criterion_window + 1e-12
+    t = result.t[m]
+    v = result.v[m].copy()                                 # (n, B, 3)
+    v[..., 2] *= p.wheel_distance
+    tc = t - t.mean()
+
+    def detrend(y: np.ndarray) -> np.ndarray:
+        slope = np.einsum("n,nbc->bc", tc, y) / np.sum(tc**2)
+        return y - y.mean(axis=0) - tc[:, None, None] * slope
+
+    osc = np.sqrt(np.mean(np.sum(detrend(v) ** 2, axis=-1), axis=0))
+    vib = np.sqrt(np.mean(detrend(result.tau[m]) ** 2, axis=(0, 2)))
+    fired = (osc > p.criterion_oscillation_threshold) | (vib > p.criterion_vibration_threshold)
+    return Vibration(osc, vib, fired)
+
+
+@dataclass(frozen=True)
+class Drive:
+    """Constant-velocity reference ``x_d = (s t, s t, 0)`` used by the criterion test runs.
+
+    Driving keeps the encoders counting, so quantization noise excites the loops all the
+    time, as the floor and the operator's hand do on the real robot.
+    """
+
+    speed: float
+
+    def __call__(self, t: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        t = np.asarray(t, float)
+        z = np.zeros_like(t)
+        s = self.speed
+        return (np.stack([s * t, s * t, z], axis=-1),
+                np.stack([z + s, z + s, z], axis=-1), np.zeros(t.shape + (3,)))
+
+
+def criterion_test(p: BaseParams, kx, dx, bq) -> Vibration:
+    """Start at rest, drive at ``criterion_speed`` and evaluate the criterion, batched."""
+    r = simulate(p, kx, dx, bq, reference=Drive(p.criterion_speed),
+                 duration=p.criterion_duration)
+    return vibration_criterion(p, r)
+
+
+# -------------------------------------------------------------------- tuning procedure
+@dataclass(frozen=True)
+class Search:
+    """One gain search: every candidate tried (sorted), whether it fired, and the limit.
+
+    ``limit`` is the largest candidate below the first one that fired; ``reached`` is False
+    when no candidate fired (the limit is then the top of the range, a lower bound), and
+    ``limit`` is 0 when even the smallest candidate fired.
+    """
+
+    gains: np.ndarray
+    fired: np.ndarray
+    oscillation: np.ndarray
+    vibration: np.ndarray
+    limit: float
+    reached: bool
+
+
+def _limit(g: np.ndarray, fired: np.ndarray) -> tuple[float, float | None]:
+    """(largest gain below the first firing one, first firing gain or None)."""
+    idx = np.flatnonzero(fired)
+    if idx.size == 0:
+        return float(g[-1]), None
+    i = idx[0]
+    return (float(g[i - 1]) if i > 0 else 0.0), float(g[i])
+
+
+def _search(p: BaseParams, archs: tuple[str, ...], which: str, lo: float, hi: float,
+            fixed: dict[str, np.ndarray]) -> dict[str, Search]:
+    """Coarse log grid then a linear refinement, all architectures in one batch each."""
+    def run(grids: dict[str, np.ndarray]) -> dict[str, Vibration]:
+        kx, dx, bq, owner = [], [], [], []
+        for a in grids:
+            g = grids[a]
+            d_op = fixed.get(a, 0.0)
+            if which == "damping":
+                kx.append(np.zeros_like(g))
+                dx.append(g if a == "cosc" else np.zeros_like(g))
+                bq.append(damping_to_joint(p, g) if a == "dosc" else np.zeros_like(g))
+            else:
+                kx.append(g)
+                dx.append(np.full_like(g, d_op if a == "cosc" else 0.0))
+                bq.append(np.full_like(g, float(damping_to_joint(p, d_op)) if a == "dosc"
+                                       else 0.0))
+            owner += [a] * g.size
+        vib = criterion_test(p, np.concatenate(kx), np.concatenate(dx), np.concatenate(bq))
+        owner_a = np.asarray(owner)
+        return {a: Vibration(vib.oscillation[owner_a == a], vib.vibration[owner_a == a],
+                             vib.fired[owner_a == a]) for a in grids}
+
+    grids = {a: np.geomspace(lo, hi, p.grid_points) for a in archs}
+    first = run(grids)
+    refine: dict[str, np.ndarray] = {}
+    for a in archs:
+        ok, bad = _limit(grids[a], first[a].fired)
+        if bad is not None and p.refine_points > 0:
+            refine[a] = np.linspace(ok if ok > 0 else bad / 10, bad, p.refine_points + 2)[1:-1]
+    second = run(refine) if refine else {}
+    out = {}
+    for a in archs:
+        g = grids[a]
+        osc, vib, fired = first[a].oscillation, first[a].vibration, first[a].fired
+        if a in second:
+            g = np.r_[g, refine[a]]
+            osc = np.r_[osc, second[a].oscillation]
+            vib = np.r_[vib, second[a].vibration]
+            fired = np.r_[fired, second[a].fired]
+        order = np.argsort(g, kind="stable")
+        g, osc, vib, fired = g[order], osc[order], vib[order], fired[order]
+        lim, bad = _limit(g, fired)
+        out[a] = Search(g, fired, osc, vib, lim, bad is not None)
+    return out
+
+
+@dataclass(frozen=True)
+class ArchResult:
+    """The tuning procedure's outcome for one architecture (gains as acceleration gains).
+
+    ``max_damping`` [N s/(m kg)] (DOSC: Cartesian equivalent of the joint damping
+    ``max_joint_damping`` [N m s/rad]), ``max_kx`` [N/(m kg)] found with the damping set to
+    ``damping`` = safety x max_damping; the circle is tracked with ``kx`` = safety x max_kx.
+    """
+
+    arch: str
+    max_damping: float
+    max_joint_damping: float
+    max_kx: float
+    damping: float
+    kx: float
+    damping_search: Search
+    kx_search: Search
+    rms_position_m: float
+    rms_velocity_mps: float
+    saturation: float
+
+
+@dataclass(frozen=True)
+class BaseComparison:
+    """COSC versus DOSC: limits, tracking errors and the paper's ratios."""
+
+    params: BaseParams
+    results: dict[str, ArchResult]
+    circle: Circle
+    track: SimResult | None = field(default=None, repr=False)
+
+    @property
+    def kx_ratio(self) -> float:
+        """``max_kx(DOSC) / max_kx(COSC)`` (inf when COSC's limit is 0)."""
+        c, d = self.results["cosc"].max_kx, self.results["dosc"].max_kx
+        return d / c if c > 0 else math.inf
+
+    def _reduction(self, key: str) -> float:
+        c = getattr(self.results["cosc"], key)
+        d = getattr(self.results["dosc"], key)
+        return 100.0 * (1.0 - d / c)
+
+    @property
+    def position_rms_reduction_pct(self) -> float:
+        """How much smaller DOSC's RMS position error is than COSC's [%]."""
+        return self._reduction("rms_position_m")
+
+    @property
+    def velocity_rms_reduction_pct(self) -> float:
+        """How much smaller DOSC's RMS velocity error is than COSC's [%]."""
+        return self._reduction("rms_velocity_mps")
+
+
+def tune(p: BaseParams = TRIKEY, archs: tuple[str, ...] = ARCHS, *, track: bool = True
+         ) -> BaseComparison:
+    """Run the paper's tuning procedure, automated, for the given architectures.
+
+    1. ``K_x = 0``: raise the damping (COSC: Cartesian on the central process; DOSC: joint
+       damping on the embedded processes) until :func:`vibration_criterion` fires.
+    2. Damping at ``safety_factor`` x its limit: raise ``K_x`` until the criterion fires.
+    3. Track the circle with ``K_x`` at ``safety_factor`` x its limit; RMS errors after the
+       ramp-in.
+
+    Each search is a log-spaced grid (``grid_points``) refined linearly (``refine_points``)
+    between the last quiet and the first firing candidate, every candidate of every
+    architecture in one batched simulation.
+    """
+    for a in archs:
+        if a not in ARCHS:
+            raise InputError("arch", a, "cosc, dosc or both")
+    archs = tuple(a for a in ARCHS if a in archs)
+    sf = p.safety_factor
+    dsearch = _search(p, archs, "damping", p.damping_min, p.damping_max, {})
+    d_op = {a: sf * dsearch[a].limit for a in archs}
+    ksearch = _search(p, archs, "kx", p.kx_min, p.kx_max, d_op)
+    circle = Circle(p.circle_radius, p.circle_period, p.circle_ramp)
+    k_op = {a: sf * ksearch[a].limit for a in archs}
+    res = None
+    rms_p = {a: math.nan for a in archs}
+    rms_v = dict(rms_p)
+    sat = dict(rms_p)
+    if track:
+        kx = np.array([k_op[a] for a in archs])
+        dx = np.array([d_op[a] if a == "cosc" else 0.0 for a in archs])
+        bq = np.array([float(damping_to_joint(p, d_op[a])) if a == "dosc" else 0.0
+                       for a in archs])
+        res = simulate(p, kx, dx, bq, reference=circle, duration=p.circle_duration)
+        ep, ev = res.rms(after=p.circle_ramp)
+        for i, a in enumerate(archs):
+            rms_p[a], rms_v[a], sat[a] = float(ep[i]), float(ev[i]), float(res.saturation[i])
+    results = {a: ArchResult(a, dsearch[a].limit, float(damping_to_joint(p, dsearch[a].limit)),
+                             ksearch[a].limit, d_op[a], k_op[a], dsearch[a], ksearch[a],
+                             rms_p[a], rms_v[a], sat[a]) for a in archs}
+    return BaseComparison(p, results, circle, res)
+
+
+# -------------------------------------------------------------------- continuous baseline
+def continuous_rhs(p: BaseParams, kx: float, dx: float, bq: float, reference=None):
+    """Right-hand side ``f(t, y)`` of the same plant with a continuous, delay-free,
+    sensor-perfect controller (no sampling, quantization or saturation): the baseline for
+    ``scipy.integrate.solve_ivp``.  ``y`` = (X, V, PHI, QM, WM, X_hat), 18 states; the
+    odometry ``X_hat`` integrates the motor rates, as the sampled odometry does.
+    """
+    Jb = body_jacobian(p)
+    Jb_inv = np.linalg.inv(Jb)
+    Lam = task_inertia(p)
+    M_inv = 1.0 / np.diag(p.body_mass_matrix + p.wheel_spin_inertia * (Jb.T @ Jb))
+    ref = reference or _hold
+    Ir = p.reflected_rotor_inertia
+
+    def f(t: float, y: np.ndarray) -> np.ndarray:
+        X, V, PHI, QM, WM, Xh = y.reshape(6, 3)
+        xd, vd, ad = (np.asarray(r)[0] for r in ref(np.array([t])))
+        th = Xh[2]
+        v_hat = _rot((WM @ Jb_inv.T)[None], th)[0]          # odometry from motor rates
+        F = Lam @ (ad + kx * (xd - Xh) + dx * (vd - v_hat))
+        qd_d = _rot(vd[None], -th)[0] @ Jb.T
+        tau = _rot(F[None], -th)[0] @ Jb_inv + bq * (qd_d - WM)
+        s, co = np.sin(X[2] + p.alpha), np.cos(X[2] + p.alpha)
+        phid = (-s * V[0] + co * V[1] + p.wheel_distance * V[2]) / p.wheel_radius
+        tk = p.stiffness * (QM - PHI) + p.compliance_damping * (WM - phid)
+        dWM = (tau - tk - p.viscous_friction * WM
+               - p.coulomb_friction * np.tanh(WM / p.friction_velocity)) / Ir
+        tq = tk - p.wheel_spin_inertia * V[2] * (-co * V[0] - s * V[1]) / p.wheel_radius
+        Fb = np.array([-(s * tq).sum(), (co * tq).sum(), p.wheel_distance * tq.sum()]) \
+            / p.wheel_radius
+        return np.concatenate([V, Fb * M_inv, phid, WM, dWM, v_hat])
+
+    return f
