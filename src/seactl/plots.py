@@ -414,3 +414,93 @@ def base_animation(comparison, path, fps: int = 12, seconds: float | None = None
     anim = FuncAnimation(fig, frame, frames=len(idx), blit=True)
     anim.save(str(path), writer=PillowWriter(fps=fps))
     plt.close(fig)
+
+
+# --- time-domain responses (seactl.simulate) -------------------------------------------------
+def response_figure(t, y, labels, *, title="", ylabel="", current=None, unstable=None):
+    """Responses ``y[k, T]`` versus time, one curve per label; with ``current`` (same
+    shape, [A]) a second panel shows the motor current. Unstable curves are dashed."""
+    rows = 2 if current is not None else 1
+    fig, axes = plt.subplots(rows, 1, figsize=(7.5, 4.2 * rows if rows == 1 else 6.5),
+                             sharex=True, squeeze=False)
+    colors = plt.cm.viridis(np.linspace(0, 0.9, max(len(labels), 1)))
+    unstable = unstable or [False] * len(labels)
+    for k, (lab, c) in enumerate(zip(labels, colors)):
+        ls = "--" if unstable[k] else "-"
+        axes[0, 0].plot(t, y[k], color=c, ls=ls,
+                        label=lab + (" (unstable)" if unstable[k] else ""))
+        if current is not None:
+            axes[1, 0].plot(t, current[k], color=c, ls=ls)
+    axes[0, 0].set_ylabel(ylabel)
+    axes[0, 0].set_title(title, fontsize=10)
+    axes[0, 0].legend(fontsize=8)
+    if current is not None:
+        axes[1, 0].set_ylabel("motor current [A]")
+    axes[-1, 0].set_xlabel("time [s]")
+    for ax in axes[:, 0]:
+        ax.grid(True, alpha=0.3)
+    fig.tight_layout()
+    return fig
+
+
+def panels_figure(panels, *, ncols=None, figsize=None):
+    """Several response panels side by side.  ``panels``: list of dicts with ``title``,
+    ``ylabel``, ``curves`` = list of ``(t, y, label, style_kwargs)`` and optional ``xlim``."""
+    n = len(panels)
+    ncols = ncols or n
+    nrows = int(np.ceil(n / ncols))
+    fig, axes = plt.subplots(nrows, ncols, figsize=figsize or (4.6 * ncols, 3.8 * nrows),
+                             squeeze=False)
+    for ax, p in zip(axes.flat, panels):
+        for t, y, lab, kw in p["curves"]:
+            ax.plot(t, y, label=lab, **kw)
+        ax.set_title(p.get("title", ""), fontsize=9)
+        ax.set_ylabel(p.get("ylabel", ""))
+        ax.set_xlabel("time [s]")
+        if "xlim" in p:
+            ax.set_xlim(*p["xlim"])
+        if "ylim" in p:
+            ax.set_ylim(*p["ylim"])
+        ax.grid(True, alpha=0.3)
+        ax.legend(fontsize=7)
+    for ax in list(axes.flat)[n:]:
+        ax.set_visible(False)
+    fig.tight_layout()
+    return fig
+
+
+def latency_sensitivity_figure(fn_hz, t_qs_ms, t_qd_ms, pm, stable, mark=None):
+    """Phase margin over (T_qs, T_qd), one panel per f_n (``pm[k, i_qs, i_qd]``), with the
+    stability boundary (red) and an optional marked point ``(T_qs, T_qd)``."""
+    n = len(fn_hz)
+    cols = 2 if n > 1 else 1
+    rows = -(-n // cols)
+    fig, axes = plt.subplots(rows, cols, figsize=(5.2 * cols, 4.0 * rows), squeeze=False,
+                             sharex=True, sharey=True)
+    finite = np.isfinite(pm) & stable
+    lo, hi = (np.percentile(pm[finite], [1, 99]) if finite.any() else (0.0, 1.0))
+    for k, ax in enumerate(axes.flat):
+        if k >= n:
+            ax.axis("off")
+            continue
+        z = np.ma.masked_invalid(np.where(stable[k], pm[k], np.nan)).T
+        mesh = ax.pcolormesh(t_qs_ms, t_qd_ms, z, shading="nearest", cmap="viridis",
+                             vmin=max(lo, 0.0), vmax=hi)
+        ax.set_facecolor("0.8")
+        cs = ax.contour(t_qs_ms, t_qd_ms, np.where(stable[k], pm[k], np.nan).T,
+                        levels=[10, 20, 30, 40], colors="white", linewidths=0.7)
+        ax.clabel(cs, fontsize=7, fmt="%g°")
+        s = stable[k].astype(float).T
+        if 0 < s.min() < 1 or (s.min() == 0 < s.max()):
+            ax.contour(t_qs_ms, t_qd_ms, s, levels=[0.5], colors="red", linewidths=1.6)
+        if mark is not None:
+            ax.plot(*mark, "w*", ms=9, mec="k")
+        ax.set_title(f"$f_n$ = {fn_hz[k]:g} Hz")
+        if k % cols == 0:
+            ax.set_ylabel("damping delay $T_{qd}$ [ms]")
+        if k >= n - cols:
+            ax.set_xlabel("stiffness delay $T_{qs}$ [ms]")
+    fig.colorbar(mesh, ax=axes, label="phase margin [deg] (grey: unstable)", shrink=0.85)
+    fig.suptitle("SEA phase margin over stiffness and damping latency (red: stability "
+                 "boundary)")
+    return fig

@@ -431,15 +431,15 @@ def to_table(spec: SweepSpec, start: int, values: dict[str, np.ndarray],
 
 
 def evaluate_chunk(spec: SweepSpec, i: int) -> tuple[Any, dict[str, float]]:
-    """Compute chunk ``i``: returns its Arrow table and stats (wall seconds, the
+    """Compute chunk ``i``: returns its Arrow table and stats (wall and CPU seconds, the
     evaluating process's peak RSS in MB).  Runs on Dask workers."""
-    t0 = time.perf_counter()
+    t0, c0 = time.perf_counter(), time.process_time()
     start, stop = spec.chunk_range(i)
     values = spec.points(start, stop, chunk=i)
     res = evaluate_points(spec, values, stop - start)
     table = to_table(spec, start, values, res)
-    return table, {"seconds": time.perf_counter() - t0, "peak_rss_mb": _peak_rss_mb(),
-                   "pid": os.getpid()}
+    return table, {"seconds": time.perf_counter() - t0, "cpu_seconds": time.process_time() - c0,
+                   "peak_rss_mb": _peak_rss_mb(), "pid": os.getpid()}
 
 
 def _peak_rss_mb() -> float:
@@ -582,6 +582,7 @@ class SweepResult:
     seconds: float
     workers: int
     worker_peak_rss_mb: float
+    worker_cpu_seconds: float = 0.0
     summary: dict[str, Any] = field(default_factory=dict)
 
     @property
@@ -655,13 +656,15 @@ def run_sweep(spec: SweepSpec, out: Path | str, *, resume: bool = False,
                         TextColumn("chunks"), TimeElapsedColumn(), TimeRemainingColumn(),
                         console=console, disable=console is None, transient=False)
     computed = points = 0
+    cpu = 0.0
     try:
         with progress:
             task = progress.add_task("sweep", total=spec.n_chunks, completed=done)
 
             def finish(i: int, table: Any, stats: dict[str, float]) -> None:
-                nonlocal peak, computed, points
+                nonlocal peak, computed, points, cpu
                 write_chunk(out, i, table)
+                cpu += stats["cpu_seconds"]
                 points += table.num_rows
                 peak = max(peak, stats["peak_rss_mb"])
                 computed += 1
@@ -707,13 +710,14 @@ def run_sweep(spec: SweepSpec, out: Path | str, *, resume: bool = False,
     seconds = time.perf_counter() - t0
     summary = summarize(spec, out)
     summary["run"] = {"chunks_computed": computed, "seconds": round(seconds, 3),
-                      "workers": n_workers, "worker_peak_rss_mb": round(peak, 1)}
+                      "workers": n_workers, "worker_peak_rss_mb": round(peak, 1),
+                      "worker_cpu_seconds": round(cpu, 3)}
     from .report import write_atomic
 
     write_atomic(out / "_summary.json", json.dumps(summary, indent=2) + "\n")
     _write_manifest(spec, out, "complete")
     return SweepResult(out, spec.hash, spec.n_points, spec.n_chunks, computed, points, seconds,
-                       n_workers, peak, summary)
+                       n_workers, peak, cpu, summary)
 
 
 def _connect(address: str):

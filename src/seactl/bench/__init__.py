@@ -64,6 +64,7 @@ def registered() -> dict[str, Callable]:
     from . import base  # noqa: F401
     from . import impedance  # noqa: F401
     from . import placement  # noqa: F401
+    from . import sweep  # noqa: F401
 
     return dict(_BENCHMARKS)
 

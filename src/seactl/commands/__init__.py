@@ -7,3 +7,4 @@ from . import impedance  # noqa: F401
 from . import sweep  # noqa: F401
 from . import placement  # noqa: F401
 from . import base  # noqa: F401
+from . import simulate  # noqa: F401

@@ -1,0 +1,274 @@
+"""``seactl step`` and ``seactl impulse``: time-domain responses of SEA designs.
+
+Both take the design options of ``seactl gains`` (every f_n x GS combination is
+simulated in one vectorized batch) and::
+
+    --mode continuous|sampled   exact-delay continuous loop, or the loop as it runs on the
+                                robot (Tustin controllers at --rate, ZOH, whole-sample delay
+                                buffers, current saturation)
+    --rate HZ                   servo rate of both processes (sampled mode)
+    --no-zero                   torque derivative on the feedback only (no zero in P_CL)
+    --t-end S                   simulated time
+    --saturation A              motor current limit (sampled mode; default: the actuator's,
+                                'none' for no limit)
+    --plot FILE, --csv FILE, --json
+
+JSON for one design: ``{"mode", "t_s", "position", "stable", "metrics", ...}``; for several
+designs: ``{"mode", "t_s", "runs": [{"fn_hz", "gs", "position", "stable", "metrics", ...}]}``.
+Metrics that do not exist (unstable response, never settled) are ``null``.
+"""
+
+from __future__ import annotations
+
+import csv
+import functools
+import io
+import math
+from collections.abc import Callable
+from pathlib import Path
+from typing import Any
+
+import click
+import numpy as np
+from rich.markup import escape
+from rich.table import Table
+
+from ..cli import DesignSpec, cli, console, design_options, echo_json, finite_or_none
+from ..errors import InputError
+from ..report import write_atomic
+
+
+def _parse_saturation(value: str | None) -> float | None:
+    if value is None:
+        return None
+    if value.strip().lower() in ("none", "inf", "off"):
+        return math.inf
+    try:
+        sat = float(value)
+    except ValueError:
+        raise InputError("--saturation [A]", value, "a current > 0 or 'none'") from None
+    if not (sat > 0) or math.isnan(sat):
+        raise InputError("--saturation [A]", value, "a current > 0 or 'none'")
+    return sat
+
+
+def sim_options(func: Callable) -> Callable:
+    """Options shared by ``step`` and ``impulse``."""
+    opts = [
+        click.option("--mode", type=click.Choice(["continuous", "sampled"]),
+                     default="continuous", show_default=True,
+                     help="Exact-delay continuous loop, or sampled as on the hardware."),
+        click.option("--rate", "rate_hz", type=float, default=1000.0, show_default=True,
+                     help="Servo rate [Hz] of the controllers (sampled mode)."),
+        click.option("--no-zero", is_flag=True,
+                     help="Torque derivative on the feedback only (no zero in P_CL)."),
+        click.option("--t-end", "t_end", type=float, default=None,
+                     help="Simulated time [s] (default 0.5 for steps, 1 for impulses)."),
+        click.option("--saturation", default=None,
+                     help="Motor current limit [A] in sampled mode (default: the actuator's "
+                          "max_current; 'none': no limit)."),
+        click.option("--plot", "plot", type=click.Path(dir_okay=False), default=None,
+                     help="Write a PNG of the responses."),
+        click.option("--csv", "csv_path", type=click.Path(dir_okay=False), default=None,
+                     help="Write the responses as CSV (t_s, one column per design)."),
+        click.option("--json", "as_json", is_flag=True, help="Print JSON instead of a table."),
+    ]
+
+    @functools.wraps(func)
+    def wrapper(*args, mode, rate_hz, no_zero, t_end, saturation, **kwargs):
+        if not (math.isfinite(rate_hz) and rate_hz > 0):
+            raise InputError("--rate [Hz]", rate_hz, "a finite rate > 0")
+        if t_end is not None and not (math.isfinite(t_end) and 0 < t_end <= 60):
+            raise InputError("--t-end [s]", t_end, "> 0 and <= 60")
+        sat = _parse_saturation(saturation)
+        if sat is not None and mode != "sampled":
+            raise InputError("--saturation", saturation, "used with --mode sampled only")
+        return func(*args, mode=mode, rate_hz=rate_hz, zero=not no_zero, t_end=t_end,
+                    saturation=sat, **kwargs)
+
+    for opt in reversed(opts):
+        wrapper = opt(wrapper)
+    return wrapper
+
+
+def _labels(spec: DesignSpec) -> list[tuple[float, float]]:
+    return [(float(f), float(g)) for f in spec.fn_hz for g in spec.gs]
+
+
+def _metrics_json(m: Any, i: int) -> dict[str, Any]:
+    from ..simulate import StepMetrics
+
+    if isinstance(m, StepMetrics):
+        return {"rise_time_s": finite_or_none(m.rise_time_s.flat[i]),
+                "overshoot_pct": finite_or_none(m.overshoot_pct.flat[i]),
+                "settling_time_s": finite_or_none(m.settling_time_s.flat[i]),
+                "steady_state_error": finite_or_none(m.steady_state_error.flat[i])}
+    return {"peak_deviation_rad": finite_or_none(m.peak_deviation.flat[i]),
+            "peak_deviation_deg": finite_or_none(np.degrees(m.peak_deviation.flat[i])),
+            "peak_time_s": finite_or_none(m.peak_time_s.flat[i]),
+            "recovery_time_s": finite_or_none(m.recovery_time_s.flat[i]),
+            "recovery_band": m.band}
+
+
+def _output(spec: DesignSpec, resp: Any, mode: str, zero: bool, extra: dict[str, Any],
+            plot: str | None, csv_path: str | None, as_json: bool, title: str,
+            ylabel: str) -> None:
+    from ..plots import response_figure
+
+    res, m = resp.result, resp.metrics
+    labels = _labels(spec)
+    pos = resp.position.reshape(len(labels), -1)
+    cur = resp.current.reshape(len(labels), -1)
+    stable = res.stable.reshape(-1)
+    left = res.left_bounds_s.reshape(-1)
+    t = res.t_s
+    names = [f"fn={f:g}Hz gs={g:g}" for f, g in labels]
+    if csv_path:
+        buf = io.StringIO()
+        w = csv.writer(buf)
+        w.writerow(["t_s"] + names)
+        for k in range(t.size):
+            w.writerow([f"{t[k]:.9g}"] + [f"{pos[i, k]:.9g}" for i in range(len(labels))])
+        write_atomic(Path(csv_path), buf.getvalue())
+    if plot:
+        from ..report import write_atomic as _wa
+
+        fig = response_figure(t, pos, names, title=title, ylabel=ylabel,
+                              current=cur if mode == "sampled" else None,
+                              unstable=[not s for s in stable])
+        out = io.BytesIO()
+        fig.savefig(out, format="png", dpi=110, bbox_inches="tight")
+        import matplotlib.pyplot as plt
+
+        plt.close(fig)
+        _wa(Path(plot), out.getvalue())
+    runs = []
+    for i, (f, g) in enumerate(labels):
+        runs.append({"fn_hz": f, "gs": g, "position": [round(float(x), 9) for x in pos[i]],
+                     "stable": bool(stable[i]), "left_bounds_s": finite_or_none(left[i]),
+                     "peak_current_a": finite_or_none(np.max(np.abs(cur[i]))),
+                     "metrics": _metrics_json(m, i)})
+    common = {"mode": mode, "zero": zero, **extra}
+    if as_json:
+        t_list = [round(float(x), 9) for x in t]
+        if len(runs) == 1:
+            echo_json({**common, "t_s": t_list, **runs[0]})
+        else:
+            echo_json({**common, "t_s": t_list, "runs": runs})
+        return
+    tab = Table(title=escape(title))
+    step = resp.kind == "step"
+    cols = ["f_n [Hz]", "GS", "stable"] + (
+        ["rise [ms]", "overshoot [%]", "settling 2% [ms]", "ss error"] if step else
+        ["peak [deg]", "peak at [ms]", f"recovery {m.band:.0%} [ms]"]) + ["peak |i_m| [A]"]
+    for c in cols:
+        tab.add_column(escape(c), justify="right")
+
+    def ms(x: float | None) -> str:
+        return "none" if x is None else f"{1e3 * x:.1f}"
+
+    for r in runs:
+        mt = r["metrics"]
+        st = "yes" if r["stable"] else (
+            f"[red]NO[/red] (left bounds at {r['left_bounds_s']:.3f} s)"
+            if r["left_bounds_s"] is not None else "[red]NO[/red] (not decaying)")
+        vals = ([ms(mt["rise_time_s"]), "none" if mt["overshoot_pct"] is None else
+                 f"{mt['overshoot_pct']:.2f}", ms(mt["settling_time_s"]),
+                 "none" if mt["steady_state_error"] is None else
+                 f"{mt['steady_state_error']:.2e}"] if step else
+                ["none" if mt["peak_deviation_deg"] is None else f"{mt['peak_deviation_deg']:.3f}",
+                 ms(mt["peak_time_s"]), ms(mt["recovery_time_s"])])
+        tab.add_row(f"{r['fn_hz']:g}", f"{r['gs']:g}", st, *vals,
+                    "none" if r["peak_current_a"] is None else f"{r['peak_current_a']:.2f}")
+    console.print(tab)
+    eff = extra.get("effective_delays_ms", {})
+    if eff:
+        console.print(escape("effective delays [ms]: " + ", ".join(
+            f"{k} {v:g}" for k, v in eff.items())), highlight=False)
+    if mode == "sampled" and (spec.f_qd_hz is None or spec.f_taud_hz is None):
+        console.print("note: an unfiltered derivative discretized with Tustin rings at the "
+                      "Nyquist frequency (pole at z = -1); give --f-qd and --f-taud for a "
+                      "realistic sampled controller", highlight=False)
+    if mode == "sampled" and eff:
+        asked = {"Kq_fb": spec.t_qs_ms, "Bq_fb": spec.t_qd_ms, "tau_delay": spec.t_tau_ms}
+        off = [f"{k} {asked[k]:g} -> {v:g}" for k, v in eff.items()
+               if k in asked and abs(asked[k] - v) > 1e-9]
+        if off:
+            console.print(escape("note: at this rate the whole-sample buffers give effective "
+                                 "delays T_s/2 + n T_s that differ from the requested ones: "
+                                 + ", ".join(off) + " ms"), highlight=False)
+
+
+def _extra(res: Any, mode: str, rate_hz: float, saturation: float | None) -> dict[str, Any]:
+    eff = {k: float(np.max(v)) * 1e3 for k, v in res.info.get("effective_delays_s", {}).items()}
+    out: dict[str, Any] = {"effective_delays_ms": {k: round(v, 9) for k, v in eff.items()}}
+    if mode == "sampled":
+        sat = res.info["saturation"].get("i_m", math.inf)
+        out.update({"rate_hz": rate_hz, "saturation_a": finite_or_none(sat)})
+    else:
+        out["dt_s"] = res.info["dt_s"]
+    return out
+
+
+@cli.command()
+@design_options
+@click.option("--amplitude", type=float, default=0.01, show_default=True,
+              help="Step size [rad] (responses are normalized by it; it matters only with "
+                   "saturation).")
+@sim_options
+def step(spec: DesignSpec, amplitude: float, mode: str, rate_hz: float, zero: bool,
+         t_end: float | None, saturation: float | None, plot: str | None,
+         csv_path: str | None, as_json: bool) -> None:
+    """Step response of the joint position to a position reference step.
+
+    \b
+    Example (the paper's Fig. ExperimentGS conditions):
+      seactl step --fn 14 --t-tau 1 --t-qs 1 --t-qd 1 --f-qd 50 --f-taud 100 --gs 2 \\
+          --mode sampled --plot s.png
+    """
+    from ..simulate import sea_step
+
+    if not (math.isfinite(amplitude) and amplitude != 0):
+        raise InputError("--amplitude [rad]", amplitude, "a finite non-zero number")
+    design = spec.designs()
+    resp = sea_step(design, zero=zero, mode=mode, rate_hz=rate_hz, t_end_s=t_end or 0.5,
+                    saturation_a=saturation, amplitude=amplitude,
+                    record_dt=5e-4 if mode == "continuous" else None)
+    extra = _extra(resp.result, mode, rate_hz, saturation) | {"amplitude_rad": amplitude}
+    title = (f"Step response ({mode}{f', {rate_hz:g} Hz' if mode == 'sampled' else ''}, "
+             f"{'with' if zero else 'without'} the torque-derivative zero)")
+    _output(spec, resp, mode, zero, extra, plot, csv_path, as_json, title,
+            "joint position / step size")
+
+
+@cli.command()
+@design_options
+@click.option("--impulse", "impulse_nms", type=float, default=0.05, show_default=True,
+              help="Angular impulse of external torque on the joint [N m s] at t = 0.")
+@click.option("--band", type=float, default=0.05, show_default=True,
+              help="Recovery band, as a fraction of the peak deviation.")
+@sim_options
+def impulse(spec: DesignSpec, impulse_nms: float, band: float, mode: str, rate_hz: float,
+            zero: bool, t_end: float | None, saturation: float | None, plot: str | None,
+            csv_path: str | None, as_json: bool) -> None:
+    """Joint position after an impulse of external torque (q_des = 0), e.g. a ball hitting
+    the arm (Fig. ExperimentImpulse). Position in rad; recovery = last exit from the band.
+
+    \b
+    Example:
+      seactl impulse --fn 14 --t-tau 0.5 --t-qs 2 --t-qd 0.5 --f-qd 50 --f-taud 100 \\
+          --mode sampled --plot i.png
+    """
+    from ..simulate import sea_impulse
+
+    if not (0 < band < 1):
+        raise InputError("--band", band, "a fraction in (0, 1)")
+    design = spec.designs()
+    resp = sea_impulse(design, impulse_nms=impulse_nms, zero=zero, mode=mode, rate_hz=rate_hz,
+                       t_end_s=t_end or 1.0, saturation_a=saturation, band=band,
+                       record_dt=5e-4 if mode == "continuous" else None)
+    extra = _extra(resp.result, mode, rate_hz, saturation) | {"impulse_nms": impulse_nms}
+    title = (f"Impulse response, {impulse_nms:g} N m s ({mode}"
+             f"{f', {rate_hz:g} Hz' if mode == 'sampled' else ''})")
+    _output(spec, resp, mode, zero, extra, plot, csv_path, as_json, title,
+            "joint position [rad]")

@@ -1,0 +1,327 @@
+"""Time-domain simulation against independent routes: the paper's printed P_CL
+coefficients (scipy), the block diagram's frequency response, python-control on a
+separately built loop, and the Nyquist criterion."""
+
+from __future__ import annotations
+
+import json
+from types import SimpleNamespace
+
+import control as ct
+import numpy as np
+import pytest
+from scipy import signal
+
+from seactl.actuators import UT_SEA
+from seactl.blockdiagram import Block, BlockDiagram
+from seactl.cli import main
+from seactl.design import critically_damped_gains
+from seactl.errors import InputError
+from seactl.loops import SEA_DIAGRAM, SEA_DIAGRAM_NO_ZERO, SEADesign, Timing, closed_loop
+from seactl.margins import sea_margins
+from seactl.simulate import (
+    Friction,
+    Sine,
+    Step,
+    impulse_metrics,
+    realize_tustin,
+    sea_impulse,
+    sea_step,
+    simulate,
+    step_metrics,
+)
+
+G14 = critically_damped_gains(UT_SEA, 14.0)
+
+
+def paper_pcl(a, g, Tv, Tt, zero=True):
+    """P_CL (eq. closedloop, no delays) as polynomials, multiplied through by the filters'
+    denominators (Tv s + 1)(Tt s + 1): an independent route to the rational transfer."""
+    P = np.polynomial.polynomial
+    u = 1 + a.beta * g.Kt
+    fv, ft = [1.0, Tv], [1.0, Tt]        # ascending powers
+    fvt = P.polymul(fv, ft)
+    base = [u * g.Kq, a.bj * u + a.bm, a.Ij * u + a.Im + a.bj * a.bm / a.k,
+            (a.Ij * a.bm + a.Im * a.bj) / a.k, a.Im * a.Ij / a.k]
+    den = P.polymul(fvt, base)
+    den = P.polyadd(den, P.polymul(fv, [0, a.beta * g.Bt * g.Kq, a.bj * a.beta * g.Bt,
+                                        a.Ij * a.beta * g.Bt]))
+    den = P.polyadd(den, [0, 0, a.beta * g.Bt * g.Bq])
+    den = P.polyadd(den, P.polymul(ft, [0, u * g.Bq]))
+    num = P.polymul(fv, [g.Kq * u, g.Kq * (u * Tt + a.beta * g.Bt)] if zero else
+                    P.polymul([g.Kq * u], ft))
+    return num[::-1], den[::-1]
+
+
+def gains(g):
+    return SimpleNamespace(Kq=float(g.Kq), Bq=float(g.Bq), Kt=float(g.Ktau), Bt=float(g.Btau))
+
+
+@pytest.mark.parametrize("zero", [True, False])
+def test_delay_free_step_equals_rational_transfer(zero):
+    d = SEADesign(UT_SEA, G14, Timing(f_qd=50.0, f_taud=100.0))
+    r = sea_step(d, zero=zero, t_end_s=0.3)
+    num, den = paper_pcl(UT_SEA, gains(G14), float(d.Tf_qd), float(d.Tf_taud), zero)
+    _, y = signal.step(signal.lti(num, den), T=r.t_s)
+    assert np.max(np.abs(r.position - y)) < 1e-6
+    assert r.result.stable
+
+
+def test_unfiltered_step_close_to_rational_transfer():
+    # unfiltered derivatives are realized with a 1e-7 s roll-off
+    d = SEADesign(UT_SEA, G14)
+    r = sea_step(d, t_end_s=0.2)
+    num, den = paper_pcl(UT_SEA, gains(G14), 0.0, 0.0)
+    _, y = signal.step(signal.lti(num, den), T=r.t_s)
+    assert np.max(np.abs(r.position - y)) < 1e-4
+
+
+@pytest.mark.parametrize("zero", [True, False])
+def test_delayed_sinusoid_matches_closed_loop_frequency_response(zero):
+    # designs (2 timings) x (3 frequencies), one batch; steady state fitted over 2 periods
+    timing = Timing.from_ms(np.array([[1.0], [0.5]]), np.array([[1.0], [2.0]]),
+                            np.array([[1.0], [0.5]]), 50.0, 100.0)
+    d = SEADesign(UT_SEA, G14, timing)
+    f = np.array([[8.0, 20.0, 60.0]]) * np.ones((2, 1))
+    shape = (2, 3)
+    D = SimpleNamespace(shape=shape, **{k: getattr(d, k) * np.ones(shape) for k in
+                                        ("Im", "Ij", "bm", "bj", "k", "beta", "Kq", "Bq",
+                                         "Ktau", "Btau", "T_tau", "T_qs", "T_qd", "Tf_qd",
+                                         "Tf_taud")})
+    t_end = 0.8
+    res = simulate(SEA_DIAGRAM if zero else SEA_DIAGRAM_NO_ZERO, D,
+                   {"q_des": lambda t: np.sin(2 * np.pi * f[..., None] * t)}, t_end,
+                   outputs=("q_j",))
+    t, y = res.t_s, res.outputs["q_j"]
+    G = closed_loop(zero)(D, 1j * 2 * np.pi * f[..., None])[..., 0]
+    for i in range(2):
+        for j in range(3):
+            keep = t >= t_end - 2 / f[i, j] - 1e-12
+            A = np.stack([np.sin(2 * np.pi * f[i, j] * t[keep]),
+                          np.cos(2 * np.pi * f[i, j] * t[keep])], axis=1)
+            a, b = np.linalg.lstsq(A, y[i, j, keep], rcond=None)[0]
+            assert abs((a + 1j * b) - G[i, j]) < 1e-3 * abs(G[i, j]), (i, j)
+
+
+def independent_pade_loop(g, T_s, order=5):
+    """The SEA loop built with python-control blocks, each delay a Pade(order)."""
+    a = UT_SEA
+    A = np.array([[0, 1, 0, 0], [-a.k / a.Im, -a.bm / a.Im, a.k / a.Im, 0], [0, 0, 0, 1],
+                  [a.k / a.Ij, 0, -a.k / a.Ij, -a.bj / a.Ij]])
+    B = np.array([[0, 0], [a.beta / a.Im, 0], [0, 0], [0, 1 / a.Ij]])
+    C = np.array([[0, 0, 1, 0], [a.k, 0, -a.k, 0]])
+    plant = ct.ss(A, B, C, 0, inputs=["i_m", "tau_ext"], outputs=["q_j", "tau_k"])
+    wv, wt = 2 * np.pi * 50, 2 * np.pi * 100
+
+    def delay(inp, out):
+        if T_s == 0:
+            return ct.ss([], [], [], [[1.0]], inputs=inp, outputs=out)
+        return ct.ss(ct.tf(*ct.pade(T_s, order)), inputs=inp, outputs=out)
+
+    Kq, Bq, Kt, Bt = (float(x) for x in (g.Kq, g.Bq, g.Ktau, g.Btau))
+    blocks = [plant, delay("q_j", "q_s"), delay("q_j", "q_d"), delay("tau_k", "tau_meas"),
+              ct.ss(ct.tf([-Bq * wv, 0], [1, wv]), inputs="q_d", outputs="fb_d"),
+              ct.ss(ct.tf([-Kq], [1]), inputs="q_s", outputs="fb_s"),
+              ct.ss(ct.tf([Kq], [1]), inputs="q_des", outputs="ref"),
+              ct.summing_junction(inputs=["ref", "fb_s", "fb_d"], output="tau_des"),
+              ct.summing_junction(inputs=["tau_des", "-tau_meas"], output="e"),
+              ct.ss(ct.tf([Bt * wt + Kt, Kt * wt], [1, wt]), inputs="e", outputs="ipd"),
+              ct.ss(ct.tf([1 / a.beta], [1]), inputs="tau_des", outputs="iff"),
+              ct.summing_junction(inputs=["ipd", "iff"], output="i_m")]
+    return ct.interconnect(blocks, inplist=["q_des", "tau_ext"], outlist=["q_j"])
+
+
+def test_delayed_step_close_to_pade_loop_and_not_open_loop():
+    d = SEADesign(UT_SEA, G14, Timing.from_ms(1, 1, 1, 50, 100))
+    r = sea_step(d, t_end_s=0.3)
+    sys = independent_pade_loop(G14, 1e-3)
+    y = ct.forced_response(sys[0, 0], r.t_s, np.ones_like(r.t_s)).outputs
+    err = np.max(np.abs(r.position - y))
+    assert err < 3e-4  # what remains is Pade(5)'s own error (ours is converged in dt:)
+    r2 = sea_step(d, t_end_s=0.3, dt=2.5e-5, record_dt=1e-4)
+    assert np.max(np.abs(r2.position - r.position)) < 2e-5
+    # a delay error (e.g. 1 ms vs 2 ms) would be visible at this tolerance
+    y2 = ct.forced_response(independent_pade_loop(G14, 2e-3)[0, 0], r.t_s,
+                            np.ones_like(r.t_s)).outputs
+    assert np.max(np.abs(r.position - y2)) > 100 * err
+
+
+def test_impulse_matches_python_control():
+    d = SEADesign(UT_SEA, G14, Timing(f_qd=50.0, f_taud=100.0))
+    r = sea_impulse(d, impulse_nms=0.1, t_end_s=0.3)
+    full = independent_pade_loop(G14, 0.0)
+    y = ct.impulse_response(full[0, 1], r.t_s).outputs * 0.1
+    assert np.max(np.abs(r.position - y)) < 1e-6 * np.max(np.abs(y)) + 1e-9
+
+
+def test_sampled_converges_to_continuous_with_effective_delay():
+    # design delay 1.5 ms = T_s/2 + n T_s exactly at these rates (n = 1, 2, 4)
+    d = SEADesign(UT_SEA, G14, Timing.from_ms(1.5, 1.5, 1.5, 50, 100))
+    rc = sea_step(d, t_end_s=0.25)
+    errs = []
+    for rate in (1000.0, 5000.0 / 3, 3000.0):
+        r = sea_step(d, t_end_s=0.25, mode="sampled", rate_hz=rate, saturation_a=np.inf)
+        assert np.allclose(r.result.info["effective_delays_s"]["Kq_fb"], 1.5e-3)
+        errs.append(np.max(np.abs(r.position - np.interp(r.t_s, rc.t_s, rc.position))))
+    assert errs[0] > errs[1] > errs[2]
+    assert errs[2] < 1e-4
+
+
+def test_sampled_buffers_reproduce_half_sample_rule():
+    d = SEADesign(UT_SEA, G14, Timing.from_ms(0.5, 2.0, 1.0, 50, 100))
+    r = sea_step(d, t_end_s=0.05, mode="sampled")
+    eff = r.result.info["effective_delays_s"]
+    assert eff["tau_delay"] == pytest.approx(0.5e-3)   # T_s/2, no buffer
+    assert eff["Kq_fb"] == pytest.approx(1.5e-3)  # n = (2 - 0.5)/1 = 1.5 -> 1 (tie: shorter)
+    assert eff["Bq_fb"] == pytest.approx(0.5e-3)       # (1 - 0.5)/1 = 0.5 -> 0
+
+
+def test_saturation_limits_current():
+    d = SEADesign(UT_SEA, G14, Timing.from_ms(0.5, 0.5, 0.5, 50, 100))
+    free = sea_step(d, t_end_s=0.3, mode="sampled", saturation_a=np.inf, amplitude=0.1)
+    lim = sea_step(d, t_end_s=0.3, mode="sampled", saturation_a=5.0, amplitude=0.1)
+    assert np.max(np.abs(free.current)) > 20
+    assert np.max(np.abs(lim.current)) <= 5.0 + 1e-12
+    assert lim.result.info["peak_actuation"]["i_m"] <= 5.0 + 1e-12
+    assert lim.metrics.rise_time_s > 1.5 * free.metrics.rise_time_s
+    assert lim.result.stable and abs(lim.metrics.steady_state_error) < 1e-3
+
+
+def test_unstable_designs_reported_like_nyquist():
+    timing = Timing.from_ms(1.0, 1.0, np.array([1.0, 5.0, 8.0, 12.0]), 50, 100)
+    d = SEADesign(UT_SEA, critically_damped_gains(UT_SEA, 20.0), timing)
+    ny = sea_margins(d).stable
+    assert ny.tolist() == [True, True, False, False]
+    r = sea_step(d, t_end_s=1.0)
+    assert r.result.stable.tolist() == ny.tolist()
+    assert np.all(np.isfinite(r.position))
+    assert np.isnan(r.metrics.overshoot_pct[~ny]).all()
+    # a violently unstable one leaves the bounds, with the time it did
+    d2 = SEADesign(UT_SEA, critically_damped_gains(UT_SEA, 20.0, gs=4.0),
+                   Timing.from_ms(3.0, 1.0, 1.0, 50, 100))
+    r2 = sea_step(d2, t_end_s=1.0)
+    assert not r2.result.stable
+    assert 0 < r2.result.left_bounds_s < 1.0
+    assert np.all(np.isfinite(r2.position))
+
+
+def test_tustin_block_matches_scipy():
+    b = Block("f", "u", "y", num=lambda p: (p.B, 0.0), den=lambda p: (p.T, 1.0))
+    p = SimpleNamespace(B=np.array([2.0, 3.0]), T=np.array([0.003, 0.0]))
+    A, Bm, C, D = realize_tustin(b, p, (2,), 2, 1e-3)
+    z = np.exp(1j * np.array([0.1, 1.0, 2.5]))
+    ref0 = signal.cont2discrete(([p.B[0], 0.0], [p.T[0], 1.0]), 1e-3, method="bilinear")
+    refs = [np.polyval(np.ravel(ref0[0]), z) / np.polyval(np.ravel(ref0[1]), z),
+            p.B[1] * 2e3 * (z - 1) / (z + 1)]  # unfiltered: s -> (2/T)(z-1)/(z+1) by hand
+    for i in range(2):
+        for zk, want in zip(z, refs[i]):
+            ours = C[i] @ np.linalg.solve(zk * np.eye(A.shape[1]) - A[i], Bm[i]) + D[i]
+            assert abs(ours - want) < 1e-9 * max(1.0, abs(want))
+
+
+def test_multirate_and_friction_and_quantization():
+    d = SEADesign(UT_SEA, G14, Timing.from_ms(0.5, 2.0, 0.5, 50, 100))
+    from seactl.loops import SEA_DIAGRAM as D
+
+    base = simulate(D, d, {"q_des": Step(0.01)}, 0.3, mode="sampled", outputs=("q_j",),
+                    rates_hz={"embedded": 1000.0, "high-level": 1000.0})
+    same = simulate(D, d, {"q_des": Step(0.01)}, 0.3, mode="sampled", outputs=("q_j",),
+                    rates_hz=1000.0)
+    assert np.array_equal(base.outputs["q_j"], same.outputs["q_j"])
+    slow = simulate(D, d, {"q_des": Step(0.01)}, 0.3, mode="sampled", outputs=("q_j",),
+                    rates_hz={"embedded": 1000.0, "high-level": 250.0})
+    assert slow.info["effective_delays_s"]["Kq_fb"] == pytest.approx(2e-3)
+    assert slow.stable and not np.allclose(slow.outputs["q_j"], base.outputs["q_j"])
+    with pytest.raises(InputError):
+        simulate(D, d, {"q_des": Step()}, 0.1, mode="sampled", rates_hz={"embedded": 1000.0,
+                                                                          "high-level": 300.0})
+    # viscous friction on the motor equals a larger motor damping b_m
+    c = 0.5
+    fr = simulate(D, d, {"q_des": Step(0.01)}, 0.3, mode="sampled", outputs=("q_j",),
+                  rates_hz=1000.0, friction=Friction("tau_net_m", "q_m", viscous=c),
+                  friction_substeps=20)
+    from dataclasses import replace
+
+    d2 = SEADesign(replace(UT_SEA, motor_damping=UT_SEA.motor_damping + c), G14, d.timing)
+    ref = simulate(D, d2, {"q_des": Step(0.01)}, 0.3, mode="sampled", outputs=("q_j",),
+                   rates_hz=1000.0)
+    assert np.max(np.abs(fr.outputs["q_j"] - ref.outputs["q_j"])) < 2e-3 * 0.01
+    # Coulomb friction on the motor makes it stall short of the target, inside the band
+    # where the static motor torque Kq e (1 + beta Ktau) is below the Coulomb level
+    fc = 10.0
+    cf = simulate(D, d, {"q_des": Step(0.01)}, 0.3, mode="sampled", outputs=("q_j",),
+                  rates_hz=1000.0, friction=Friction("tau_net_m", "q_m", coulomb=fc))
+    err = 0.01 - cf.outputs["q_j"][-1]
+    assert 1e-5 < abs(err) <= fc / (float(G14.Kq) * (1 + UT_SEA.beta * float(G14.Ktau)))
+    # quantization: the sampled joint angle is a whole number of encoder counts
+    q = 2 * np.pi / 4096
+    qz = simulate(D, d, {"q_des": Step(0.01)}, 0.3, mode="sampled", outputs=("q_j", "q_sens"),
+                  rates_hz=1000.0, quantization={"q_j": q})
+    k = qz.outputs["q_sens"] / q
+    assert np.allclose(k, np.round(k))
+
+
+def test_metrics_on_known_responses():
+    t = np.linspace(0, 3, 30001)
+    wn, z = 10.0, 0.5
+    y = 1 - np.exp(-z * wn * t) * (np.cos(wn * np.sqrt(1 - z**2) * t)
+                                    + z / np.sqrt(1 - z**2) * np.sin(wn * np.sqrt(1 - z**2) * t))
+    m = step_metrics(t, y)
+    assert m.overshoot_pct == pytest.approx(100 * np.exp(-np.pi * z / np.sqrt(1 - z**2)), rel=1e-4)
+    # second-order 2 % settling: last exit of the envelope-bounded response, within the
+    # classical 4/(z wn) estimate
+    assert 0.5 * 4 / (z * wn) < m.settling_time_s < 1.2 * 4 / (z * wn)
+    im = impulse_metrics(t, np.exp(-t) - np.exp(-2 * t), band=0.05)
+    assert im.peak_time_s == pytest.approx(np.log(2), abs=1e-4)
+    assert im.peak_deviation == pytest.approx(0.25, abs=1e-8)
+
+
+def test_bad_input():
+    d = SEADesign(UT_SEA, G14)
+    with pytest.raises(InputError, match="mode"):
+        sea_step(d, mode="fast")
+    with pytest.raises(InputError, match="t_end"):
+        sea_step(d, t_end_s=-1)
+    with pytest.raises(InputError, match="inputs"):
+        simulate(SEA_DIAGRAM, d, {"nope": Step()}, 0.1)
+    with pytest.raises(InputError, match="saturation"):
+        sea_step(d, saturation_a=5.0)
+
+
+def test_generic_diagram_sine():
+    # first-order loop 10/(s+10) with a 20 ms delay in the feedback: compare with the
+    # diagram's own transfer at 2 Hz
+    d = BlockDiagram("lag", [
+        Block("ref", "r", "e"), Block("fb", "y", "e", num=lambda p: (-1.0,), delay="T"),
+        Block("ctrl", "e", "u", num=lambda p: (p.K,)),
+        Block("plant", "u", "y", den=lambda p: (1.0, 0.0), role="plant")])
+    p = SimpleNamespace(K=np.array(10.0), T=np.array(0.02), shape=())
+    res = simulate(d, p, {"r": Sine(1.0, 2.0)}, 3.0, outputs=("y",), dt=1e-3)
+    t, y = res.t_s, res.outputs["y"]
+    keep = t >= 2.0
+    A = np.stack([np.sin(4 * np.pi * t[keep]), np.cos(4 * np.pi * t[keep])], axis=1)
+    a, b = np.linalg.lstsq(A, y[keep], rcond=None)[0]
+    G = d.transfer("y", "r")(p, 1j * 4 * np.pi)[0]
+    assert abs(a + 1j * b - G) < 1e-3 * abs(G)
+
+
+def test_cli_step_and_impulse(tmp_path, capsys):
+    png, csvf = tmp_path / "s.png", tmp_path / "s.csv"
+    assert main(["step", "--fn", "14", "--t-tau", "1", "--t-qs", "1", "--t-qd", "1", "--f-qd",
+                 "50", "--f-taud", "100", "--gs", "2", "--mode", "sampled", "--t-end", "0.3",
+                 "--plot", str(png), "--csv", str(csvf), "--json"]) == 0
+    out = json.loads(capsys.readouterr().out)
+    assert out["mode"] == "sampled" and out["stable"] is True
+    assert len(out["t_s"]) == len(out["position"]) == 301
+    assert abs(out["position"][-1] - 1) < 1e-2
+    assert out["metrics"]["overshoot_pct"] > 10
+    assert png.stat().st_size > 1000 and csvf.read_text().startswith("t_s,")
+    assert main(["step", "--fn", "14", "16", "--json", "--t-end", "0.2"]) == 0
+    out = json.loads(capsys.readouterr().out)
+    assert len(out["runs"]) == 2 and out["mode"] == "continuous"
+    assert main(["impulse", "--fn", "14", "--json", "--t-end", "0.5"]) == 0
+    out = json.loads(capsys.readouterr().out)
+    assert out["metrics"]["peak_deviation_rad"] > 0 and out["metrics"]["recovery_time_s"] < 0.3
+    assert main(["step", "--saturation", "5"]) == 2
+    assert main(["step", "--mode", "sampled", "--saturation", "-1"]) == 2
+    assert main(["step", "--t-end", "0"]) == 2
