@@ -65,6 +65,7 @@ def registered() -> dict[str, Callable]:
     from . import impedance  # noqa: F401
     from . import placement  # noqa: F401
     from . import sweep  # noqa: F401
+    from . import simulate  # noqa: F401
 
     return dict(_BENCHMARKS)
 
