@@ -325,3 +325,17 @@ def test_cli_step_and_impulse(tmp_path, capsys):
     assert main(["step", "--saturation", "5"]) == 2
     assert main(["step", "--mode", "sampled", "--saturation", "-1"]) == 2
     assert main(["step", "--t-end", "0"]) == 2
+
+
+def test_expm_batched_matches_scipy():
+    from scipy.linalg import expm
+
+    from seactl.simulate import expm_batched
+
+    rng = np.random.default_rng(0)
+    A = rng.normal(size=(50, 7, 7)) * np.logspace(-3, 2.5, 50)[:, None, None]
+    A[0] = 0.0
+    E = expm_batched(A)
+    for i in range(50):
+        ref = expm(A[i])
+        assert np.max(np.abs(E[i] - ref)) <= 1e-10 * max(1.0, np.max(np.abs(ref)))
