@@ -297,7 +297,8 @@ def robust(fn, gs, zeta1, zeta2, ratio, t_tau, t_qs, t_qd, f_qd, f_taud, actuato
         from ..plots import robust_histogram_figure
         from ..report import write_atomic
 
-        unc_text = ", ".join(f"{AXES[n].option[2:]} {given[n]}" for n in given)
+        unc_text = ", ".join(f"{n} " + (f"±{v}" if v.endswith("%") else v)
+                             for n, v in given.items())
         fig = robust_histogram_figure(r.phase_margin_deg, r.stable, r.nominal_phase_margin_deg,
                                       f"f_n = {fn:g} Hz, GS = {gs:g}: {unc_text} "
                                       f"({r.n} samples)")

@@ -129,3 +129,53 @@ def latency_sweep(ctx: Context) -> Section:
         + ": the paper's 'SEA stability is more sensitive to damping delays' holds where "
           "listed, and is reported as failing elsewhere.")
     return sec
+
+
+MC_UNCERTAINTY = {"Ij": 20.0, "bm": 20.0, "k": 20.0}   # +/- percent
+MC_SAMPLES = 4000
+
+
+@section(71, "robustness-mc")
+def robustness_mc(ctx: Context) -> Section:
+    from ..plots import robust_histogram_figure
+    from ..sweep import monte_carlo, relative_interval
+
+    sec = Section(
+        "robustness-mc", "Robustness to actuator parameter uncertainty (Monte Carlo)",
+        intro="Table I designs (critically damped for the nominal UT-SEA, GS = 1, T_tau = "
+              "T_qd = 0.5 ms, T_qs = 2 ms, f_qd = 50 Hz, f_taud = 100 Hz) evaluated on "
+              f"{MC_SAMPLES} plants drawn uniformly with "
+              + ", ".join(f"{n} +/-{p:g}%" for n, p in MC_UNCERTAINTY.items())
+              + " (seed 0). The gains stay those of the nominal actuator. Equivalent command: "
+                "seactl robust --fn 14 --t-tau 0.5 --t-qs 2 --t-qd 0.5 --f-qd 50 "
+                "--f-taud 100 --ij 20% --bm 20% --k 20% --n 4000 --plot pm.png")
+    rows = []
+    for fn in (12.0, 14.0, 20.0):
+        axes = [("fn_hz", (fn,)), ("t_tau_ms", (0.5,)), ("t_qs_ms", (T_QS0,)),
+                ("t_qd_ms", (T_QD0,)), ("f_qd_hz", (50.0,)), ("f_taud_hz", (100.0,))]
+        axes += [(n, relative_interval(UT_SEA, n, p)) for n, p in MC_UNCERTAINTY.items()]
+        r = monte_carlo(SweepSpec(UT_SEA, tuple(axes), sampling="random",
+                                  n_samples=MC_SAMPLES, seed=0))
+        lo, hi = r.p_unstable_ci95()
+        q = r.percentiles((1, 5, 50, 95))
+        rows.append([f"{fn:g}", f"{r.nominal_phase_margin_deg:.2f}"]
+                    + [f"{q[k]:.2f}" for k in ("p1", "p5", "p50", "p95")]
+                    + [f"{r.p_unstable:.4f} ({lo:.4f}-{hi:.4f})"])
+        sec.claims.append(Claim(
+            f"robustness.p_unstable.fn{fn:g}", "Robustness",
+            f"f_n = {fn:g} Hz, Table I delays, +/-20% on I_j, b_m, k: probability of "
+            "instability (Monte Carlo)", None, r.p_unstable, None, "info",
+            f"Wilson 95% interval {lo:.4g}-{hi:.4g}; PM 5th percentile {q['p5']:.2f} deg "
+            f"(nominal {r.nominal_phase_margin_deg:.2f})"))
+        if fn == 14.0:
+            fig = robust_histogram_figure(
+                r.phase_margin_deg, r.stable, r.nominal_phase_margin_deg,
+                f"f_n = 14 Hz (Table I delays): I_j, b_m, k +/-20% ({r.n} plants)")
+            sec.figures.append(Figure(ctx.savefig(fig, "robustness_mc_fn14.png"),
+                                      "Phase margin of the f_n = 14 Hz Table I design over "
+                                      "perturbed plants; dashed: nominal plant."))
+    sec.tables.append(("Phase margin [deg] over perturbed plants (stable samples) and "
+                       "probability of instability",
+                       ["f_n [Hz]", "nominal PM", "p1", "p5", "median", "p95",
+                        "P(unstable) (Wilson 95%)"], rows))
+    return sec
