@@ -95,7 +95,10 @@ class Block:
     def response(self, design: Any, s: np.ndarray) -> np.ndarray:
         """``G(s) exp(-s T)`` for a batch of designs; ``s`` varies on the last axis."""
         num, den = self.coefficients(design)
-        out = horner(num, s) / horner(den, s) if len(den) > 1 else horner(num, s) / den[0][..., None]
+        if len(den) > 1:
+            out = horner(num, s) / horner(den, s)
+        else:
+            out = horner(num, s) / den[0][..., None]
         if self.delay is not None:
             delay = np.asarray(getattr(design, self.delay), dtype=float)
             out = out * np.exp(-s * delay[..., None])

@@ -27,64 +27,6 @@ def gain_scale_figure(fn: np.ndarray, gs: np.ndarray, pm: np.ndarray):
     return fig
 
 
-
-def sweep_map_figure(m: dict, title: str = ""):
-    """Heatmap (with contours) of a sweep output over two axes (:func:`seactl.sweep.sweep_map`);
-    grey: no feasible design; red line: stability boundary of the cells' designs."""
-    fig, ax = plt.subplots(figsize=(6.4, 4.6))
-    x, y, z = m["x"], m["y"], np.ma.masked_invalid(m["z"])
-    ax.set_facecolor("0.85")
-    finite = np.isfinite(m["z"])
-    if finite.any():
-        lo, hi = np.nanpercentile(m["z"][finite], [1, 99])
-        mesh = ax.pcolormesh(x, y, z, shading="nearest", cmap="viridis", vmin=lo, vmax=hi)
-        cb = fig.colorbar(mesh, ax=ax)
-        cb.set_label(f"{m['z_name']} ({m['reduce']} per cell)")
-        if x.size > 2 and y.size > 2 and np.ptp(z[finite]) > 0:
-            cs = ax.contour(x, y, z, levels=8, colors="white", linewidths=0.6)
-            ax.clabel(cs, fontsize=7, fmt="%.3g")
-    # worst case (min): the boundary of "every design of the cell stable"; best case (max):
-    # of "some design stable"; mean: half of them
-    frac = m["stable_fraction"]
-    level, what = {"min": (1 - 1e-9, "all"), "max": (1e-9, "some")}.get(m["reduce"],
-                                                                        (0.5, "half"))
-    if x.size > 1 and y.size > 1 and np.nanmin(frac) < level < np.nanmax(frac):
-        ax.contour(x, y, np.nan_to_num(frac, nan=1.0), levels=[level], colors="red",
-                   linewidths=1.6)
-        ax.plot([], [], color="red", label=f"stability boundary ({what} designs of a "
-                "cell stable)")
-    if (~np.isfinite(m["z"])).any():
-        ax.fill_between([], [], color="0.85", label="no feasible design")
-    if ax.get_legend_handles_labels()[0]:
-        ax.legend(loc="upper right", fontsize=7)
-    ax.set_xlabel(m["x_name"])
-    ax.set_ylabel(m["y_name"])
-    ax.set_title(title or f"{m['z_name']} over {m['x_name']} x {m['y_name']}")
-    return fig
-
-
-def robust_histogram_figure(pm: np.ndarray, stable: np.ndarray, nominal_pm: float,
-                            title: str = ""):
-    """Histogram of the phase margin over Monte Carlo samples (stable ones), with the
-    nominal margin and the share of unstable samples."""
-    fig, ax = plt.subplots(figsize=(6.4, 4.0))
-    ok = stable & np.isfinite(pm)
-    if ok.any():
-        ax.hist(pm[ok], bins=min(60, max(10, int(np.sqrt(ok.sum())))), color="tab:blue",
-                alpha=0.8, label=f"stable samples ({ok.sum()})")
-    ax.axvline(nominal_pm, color="k", ls="--", lw=1.2, label=f"nominal {nominal_pm:.2f} deg")
-    n_bad = int((~stable).sum())
-    ax.set_xlabel("phase margin [deg]")
-    ax.set_ylabel("samples")
-    ax.set_title(title or "Phase margin under actuator parameter uncertainty")
-    ax.text(0.02, 0.95, f"unstable: {n_bad} of {stable.size} "
-            f"({100.0 * n_bad / max(stable.size, 1):.2f}%)", transform=ax.transAxes,
-            va="top", fontsize=9, color="tab:red" if n_bad else "k")
-    ax.legend(fontsize=8, loc="upper right")
-    ax.grid(True, alpha=0.3)
-    return fig
-
-
 # ----------------------------------------------------------------------- impedance (issue 3)
 def impedance_bode_figure(columns, *, suptitle: str | None = None, unit: str = "N m s/rad",
                           col_width: float = 4.6):
@@ -175,40 +117,60 @@ def zregion_figure(region, fn_hz, gs, *, spring=None, unit: str = "N m s/rad"):
     return fig
 
 
-def latency_sensitivity_figure(fn_hz, t_qs_ms, t_qd_ms, pm, stable, mark=None):
-    """Phase margin over (T_qs, T_qd), one panel per f_n (``pm[k, i_qs, i_qd]``), with the
-    stability boundary (red) and an optional marked point ``(T_qs, T_qd)``."""
-    n = len(fn_hz)
-    cols = 2 if n > 1 else 1
-    rows = -(-n // cols)
-    fig, axes = plt.subplots(rows, cols, figsize=(5.2 * cols, 4.0 * rows), squeeze=False,
-                             sharex=True, sharey=True)
-    finite = np.isfinite(pm) & stable
-    lo, hi = (np.percentile(pm[finite], [1, 99]) if finite.any() else (0.0, 1.0))
-    for k, ax in enumerate(axes.flat):
-        if k >= n:
-            ax.axis("off")
-            continue
-        z = np.ma.masked_invalid(np.where(stable[k], pm[k], np.nan)).T
-        mesh = ax.pcolormesh(t_qs_ms, t_qd_ms, z, shading="nearest", cmap="viridis",
-                             vmin=max(lo, 0.0), vmax=hi)
-        ax.set_facecolor("0.8")
-        cs = ax.contour(t_qs_ms, t_qd_ms, np.where(stable[k], pm[k], np.nan).T,
-                        levels=[10, 20, 30, 40], colors="white", linewidths=0.7)
-        ax.clabel(cs, fontsize=7, fmt="%g°")
-        s = stable[k].astype(float).T
-        if 0 < s.min() < 1 or (s.min() == 0 < s.max()):
-            ax.contour(t_qs_ms, t_qd_ms, s, levels=[0.5], colors="red", linewidths=1.6)
-        if mark is not None:
-            ax.plot(*mark, "w*", ms=9, mec="k")
-        ax.set_title(f"$f_n$ = {fn_hz[k]:g} Hz")
-        if k % cols == 0:
-            ax.set_ylabel("damping delay $T_{qd}$ [ms]")
-        if k >= n - cols:
-            ax.set_xlabel("stiffness delay $T_{qs}$ [ms]")
-    fig.colorbar(mesh, ax=axes, label="phase margin [deg] (grey: unstable)", shrink=0.85)
-    fig.suptitle("SEA phase margin over stiffness and damping latency (red: stability "
-                 "boundary)")
+def sweep_map_figure(m: dict, title: str = ""):
+    """Heatmap (with contours) of a sweep output over two axes (:func:`seactl.sweep.sweep_map`);
+    grey: no feasible design; red line: stability boundary of the cells' designs."""
+    fig, ax = plt.subplots(figsize=(6.4, 4.6))
+    x, y, z = m["x"], m["y"], np.ma.masked_invalid(m["z"])
+    ax.set_facecolor("0.85")
+    finite = np.isfinite(m["z"])
+    if finite.any():
+        lo, hi = np.nanpercentile(m["z"][finite], [1, 99])
+        mesh = ax.pcolormesh(x, y, z, shading="nearest", cmap="viridis", vmin=lo, vmax=hi)
+        cb = fig.colorbar(mesh, ax=ax)
+        cb.set_label(f"{m['z_name']} ({m['reduce']} per cell)")
+        if x.size > 2 and y.size > 2 and np.ptp(z[finite]) > 0:
+            cs = ax.contour(x, y, z, levels=8, colors="white", linewidths=0.6)
+            ax.clabel(cs, fontsize=7, fmt="%.3g")
+    # worst case (min): the boundary of "every design of the cell stable"; best case (max):
+    # of "some design stable"; mean: half of them
+    frac = m["stable_fraction"]
+    level, what = {"min": (1 - 1e-9, "all"), "max": (1e-9, "some")}.get(m["reduce"],
+                                                                        (0.5, "half"))
+    if x.size > 1 and y.size > 1 and np.nanmin(frac) < level < np.nanmax(frac):
+        ax.contour(x, y, np.nan_to_num(frac, nan=1.0), levels=[level], colors="red",
+                   linewidths=1.6)
+        ax.plot([], [], color="red", label=f"stability boundary ({what} designs of a "
+                "cell stable)")
+    if (~np.isfinite(m["z"])).any():
+        ax.fill_between([], [], color="0.85", label="no feasible design")
+    if ax.get_legend_handles_labels()[0]:
+        ax.legend(loc="upper right", fontsize=7)
+    ax.set_xlabel(m["x_name"])
+    ax.set_ylabel(m["y_name"])
+    ax.set_title(title or f"{m['z_name']} over {m['x_name']} x {m['y_name']}")
+    return fig
+
+
+def robust_histogram_figure(pm: np.ndarray, stable: np.ndarray, nominal_pm: float,
+                            title: str = ""):
+    """Histogram of the phase margin over Monte Carlo samples (stable ones), with the
+    nominal margin and the share of unstable samples."""
+    fig, ax = plt.subplots(figsize=(6.4, 4.0))
+    ok = stable & np.isfinite(pm)
+    if ok.any():
+        ax.hist(pm[ok], bins=min(60, max(10, int(np.sqrt(ok.sum())))), color="tab:blue",
+                alpha=0.8, label=f"stable samples ({ok.sum()})")
+    ax.axvline(nominal_pm, color="k", ls="--", lw=1.2, label=f"nominal {nominal_pm:.2f} deg")
+    n_bad = int((~stable).sum())
+    ax.set_xlabel("phase margin [deg]")
+    ax.set_ylabel("samples")
+    ax.set_title(title or "Phase margin under actuator parameter uncertainty")
+    ax.text(0.02, 0.95, f"unstable: {n_bad} of {stable.size} "
+            f"({100.0 * n_bad / max(stable.size, 1):.2f}%)", transform=ax.transAxes,
+            va="top", fontsize=9, color="tab:red" if n_bad else "k")
+    ax.legend(fontsize=8, loc="upper right")
+    ax.grid(True, alpha=0.3)
     return fig
 
 

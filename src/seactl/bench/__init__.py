@@ -60,12 +60,14 @@ def median_time(func: Callable[[], Any], repeat: int, warmup: int = 1) -> float:
 
 
 def registered() -> dict[str, Callable]:
-    from . import core  # noqa: F401 - registration side effects
-    from . import base  # noqa: F401
-    from . import impedance  # noqa: F401
-    from . import placement  # noqa: F401
-    from . import sweep  # noqa: F401
-    from . import simulate  # noqa: F401
+    from . import (
+        base,  # noqa: F401
+        core,  # noqa: F401 - registration side effects
+        impedance,  # noqa: F401
+        placement,  # noqa: F401
+        simulate,  # noqa: F401
+        sweep,  # noqa: F401
+    )
 
     return dict(_BENCHMARKS)
 

@@ -3,8 +3,10 @@
 Each module imports ``cli`` (the click group) and the shared helpers from
 :mod:`seactl.cli` and registers its commands with ``@cli.command()``.
 """
-from . import impedance  # noqa: F401
-from . import sweep  # noqa: F401
-from . import placement  # noqa: F401
-from . import base  # noqa: F401
-from . import simulate  # noqa: F401
+from . import (
+    base,  # noqa: F401
+    impedance,  # noqa: F401
+    placement,  # noqa: F401
+    simulate,  # noqa: F401
+    sweep,  # noqa: F401
+)

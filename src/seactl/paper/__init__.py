@@ -3,9 +3,11 @@
 Importing this package registers every section with :mod:`seactl.report`.
 """
 
-from . import gain_design  # noqa: F401
-from . import impedance  # noqa: F401
-from . import sweep  # noqa: F401
-from . import placement  # noqa: F401
-from . import base  # noqa: F401
-from . import simulation  # noqa: F401
+from . import (
+    base,  # noqa: F401
+    gain_design,  # noqa: F401
+    impedance,  # noqa: F401
+    placement,  # noqa: F401
+    simulation,  # noqa: F401
+    sweep,  # noqa: F401
+)

@@ -133,7 +133,8 @@ def feasibility(ctx: Context) -> Section:
     sec.claims.append(numeric_claim("design.feasible_fn_min", "Gain design",
                                     "lowest f_n with four positive gains (background.md: "
                                     "about 9.5 Hz)", 9.5, lo, 0.1))
-    sec.notes.append(f"Feasible f_n for the UT-SEA: {', '.join(f'{a:.4g}-{b:.4g} Hz' for a, b in ranges)}"
+    spans = ", ".join(f"{a:.4g}-{b:.4g} Hz" for a, b in ranges)
+    sec.notes.append(f"Feasible f_n for the UT-SEA: {spans}"
                      " (upper end is the search limit). Below the lower bound B_q would be "
                      "negative; seactl refuses such designs instead of returning a "
                      "non-solution.")
