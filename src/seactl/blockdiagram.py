@@ -86,21 +86,25 @@ class Block:
     role: str = "controller"
     process: str | None = None
 
-    def coefficients(self, design: Any) -> tuple[list[np.ndarray], list[np.ndarray]]:
+    def coefficients(self, design: Any, dtype: Any = float
+                     ) -> tuple[list[np.ndarray], list[np.ndarray]]:
         """Numerator and denominator coefficient arrays for ``design``."""
-        num = [np.asarray(c, dtype=float) for c in self.num(design)]
-        den = [np.asarray(c, dtype=float) for c in self.den(design)]
+        num = [np.asarray(c, dtype=dtype) for c in self.num(design)]
+        den = [np.asarray(c, dtype=dtype) for c in self.den(design)]
         return num, den
 
     def response(self, design: Any, s: np.ndarray) -> np.ndarray:
-        """``G(s) exp(-s T)`` for a batch of designs; ``s`` varies on the last axis."""
-        num, den = self.coefficients(design)
+        """``G(s) exp(-s T)`` for a batch of designs; ``s`` varies on the last axis.
+
+        The precision follows ``s`` (complex64 ``s`` gives a single-precision result)."""
+        real = np.float32 if s.dtype == np.complex64 else float
+        num, den = self.coefficients(design, real)
         if len(den) > 1:
             out = horner(num, s) / horner(den, s)
         else:
             out = horner(num, s) / den[0][..., None]
         if self.delay is not None:
-            delay = np.asarray(getattr(design, self.delay), dtype=float)
+            delay = np.asarray(getattr(design, self.delay), dtype=real)
             out = out * np.exp(-s * delay[..., None])
         return out
 
@@ -198,7 +202,9 @@ class Transfer:
         ``cache`` (block name -> response) lets several transfers of the same diagram
         share block evaluations for the same ``design`` and ``s``."""
         func, blocks = self._compiled
-        s = np.asarray(s, dtype=complex)
+        s = np.asarray(s)
+        if s.dtype != np.complex64:
+            s = s.astype(complex)
         if s.ndim == 0:
             s = s[None]
         if cache is None:

@@ -29,7 +29,7 @@ from typing import Any
 import numpy as np
 from scipy.optimize import elementwise
 
-from .blockdiagram import DesignSubset
+from .blockdiagram import DesignSubset, Transfer
 
 LoopFn = Callable[[Any, np.ndarray], np.ndarray]
 
@@ -55,8 +55,9 @@ class Margins:
     crossover_hz : gain-crossover frequency of that margin [Hz], NaN where none
         (see ``has_crossover``).
     gain_margin : gain margin (absolute), ``inf`` where the phase never reaches -180.
-        Phase crossovers are resolved wherever ``|L| > 0.05``; a gain margin above
-        26 dB comes from the weaker crossings the grid found and means "> 26 dB".
+        Phase crossovers are resolved wherever ``0.05 < |L| < 20``; a gain margin
+        beyond +-26 dB comes from the crossings the grid found and means "> 26 dB"
+        (or "< -26 dB").
     phase_crossover_hz : frequency of that gain margin [Hz], NaN where none.
     delay_margin_s : smallest extra latency that destabilizes the loop [s];
         0 for an unstable loop, ``inf`` without crossover.
@@ -89,8 +90,8 @@ class Margins:
         return self.delay_margin_s * 1e3
 
 
-def default_grid(scale: np.ndarray | float, decades_below: float = 2.0,
-                 decades_above: float = 2.0, per_decade: int = 30) -> np.ndarray:
+def default_grid(scale: np.ndarray | float, decades_below: float = 1.5,
+                 decades_above: float = 1.5, per_decade: int = 12) -> np.ndarray:
     """Log frequency grid [rad/s] around ``scale`` (per design: shape ``scale.shape + (F,)``)."""
     rel = np.logspace(-decades_below, decades_above,
                       int(round((decades_below + decades_above) * per_decade)) + 1)
@@ -115,15 +116,34 @@ def _refine(loop: LoopFn, design: Any, shape: tuple[int, ...], b: np.ndarray,
             return np.log(np.abs(val))
         return np.angle(-val)  # zero where L is on the negative real axis
 
-    res = elementwise.find_root(f, (np.log(lo), np.log(hi)), args=(b.astype(float),),
-                                tolerances=_TOL)
+    xl, xr = np.log(lo), np.log(hi)
+    res = elementwise.find_root(f, (xl, xr), args=(b.astype(float),), tolerances=_TOL)
     x = res.x
-    # A grid point that sits on the crossing (to rounding) gives a bracket without a
-    # strict sign change: the root is then that endpoint.
-    failed = ~res.success
-    if failed.any():
-        (xl, xr), (fl, fr) = res.bracket, res.f_bracket
-        x = np.where(failed, np.where(np.abs(fl) <= np.abs(fr), xl, xr), x)
+    failed = np.nonzero(~res.success)[0]
+    if failed.size:
+        # The single-precision scan can flag a crossing whose bracket shows no sign change
+        # in double precision (|L| within ~1e-7 of 1): re-bracket around it in double.
+        n_pts = 33
+        span = (xr[failed] - xl[failed])[:, None]
+        xs = xl[failed][:, None] + span * np.linspace(-1.0, 2.0, n_pts)
+        idx = np.repeat(b[failed].astype(float), n_pts)
+        fs = f(xs.ravel(), idx).reshape(xs.shape)
+        change = np.signbit(fs[:, 1:]) != np.signbit(fs[:, :-1])
+        has = change.any(axis=1)
+        # the sign change nearest the original bracket
+        centre = np.abs(np.arange(n_pts - 1) - (n_pts - 1) / 2.0)
+        k = np.argmin(np.where(change, centre, np.inf), axis=1)
+        rows = np.arange(failed.size)
+        lo2, hi2 = xs[rows, k], xs[rows, k + 1]
+        exact = np.where(fs[rows, k] == 0, lo2, np.where(fs[rows, k + 1] == 0, hi2, np.nan))
+        ok = has & np.isnan(exact)
+        if ok.any():
+            res2 = elementwise.find_root(f, (lo2[ok], hi2[ok]),
+                                         args=(b[failed][ok].astype(float),), tolerances=_TOL)
+            exact[ok] = res2.x
+        # no sign change at all in double precision: a tangency; keep the closest point
+        closest = xs[rows, np.argmin(np.abs(fs), axis=1)]
+        x[failed] = np.where(np.isnan(exact), closest, exact)
     return np.exp(x)
 
 
@@ -143,9 +163,10 @@ def loop_margins(loop: LoopFn, design: Any, omega: np.ndarray, *,
         Bracketing grid [rad/s], shape ``(F,)`` or ``design.shape + (F,)``;
         its first point must lie below the loop's low-frequency features.
         Grid intervals where the phase of ``L`` (where ``|L| > 0.05``) or of
-        ``1 + L`` (where ``|L| > 0.5``) turns by more than 60 degrees, or whose
-        chord is longer than its endpoints' distance to the unit circle or to
-        the negative real axis (a pair of crossings could hide between them), are
+        ``1 + L`` (where ``|L| > 0.5``) turns by more than 60 degrees, or where
+        the step of ``log L`` exceeds the endpoints' distances (in ``log L``) to
+        the unit circle or to the negative real axis (a pair of crossings could
+        hide between them), are
         subdivided, recursively (``max_depth``), and the grid is extended
         upwards while ``|L| > 0.5`` at its top, so that no crossing and no
         encirclement is missed.
@@ -245,25 +266,32 @@ class _Scan:
     def __init__(self, loop: LoopFn, design: Any, shape: tuple[int, ...], stability_only: bool):
         self.loop, self.design, self.shape = loop, design, shape
         self.stability_only = stability_only
+        self.single = isinstance(loop, Transfer)
         self.wind_design: list[np.ndarray] = []
         self.wind_value: list[np.ndarray] = []
         self.brackets: dict[str, list[tuple[np.ndarray, np.ndarray, np.ndarray]]] = {
             "gain": [], "phase": []}
 
-    def at(self, didx: np.ndarray, omega: np.ndarray, cache: dict | None = None) -> np.ndarray:
-        """``L(j omega)`` for designs ``didx`` (``omega`` of shape ``(n, F)`` or ``(n,)``)."""
+    def at(self, didx: np.ndarray, omega: np.ndarray, cache: dict | None = None,
+           single: bool = False) -> np.ndarray:
+        """``L(j omega)`` for designs ``didx`` (``omega`` of shape ``(n, F)`` or ``(n,)``);
+        ``single``: in complex64 (enough to bracket crossings and count turns)."""
         if didx.size == 0:
             return np.empty(np.shape(omega), complex)
         w = omega if omega.ndim == 2 else omega[:, None]
+        s = 1j * w.astype(np.float32) if single else 1j * w
         sub = DesignSubset(self.design, didx, self.shape)
-        L = self.loop(sub, 1j * w, cache=cache) if cache is not None else self.loop(sub, 1j * w)
+        L = self.loop(sub, s, cache=cache) if cache is not None else self.loop(sub, s)
         L = np.broadcast_to(L, w.shape)
         return L if omega.ndim == 2 else L[:, 0]
 
     def segments(self, didx: np.ndarray, omega: np.ndarray, depth: int,
                  cache: dict | None = None) -> np.ndarray:
-        """Scan rows of grid ``omega`` (one row per design in ``didx``); returns ``L``."""
-        L = self.at(didx, omega, cache)
+        """Scan rows of grid ``omega`` (one row per design in ``didx``); returns ``L``.
+
+        The scan runs in single precision where the loop allows it (a block-diagram
+        transfer); every reported value is then solved and evaluated in double."""
+        L = self.at(didx, omega, cache, single=self.single)
         dphi = np.angle(L[:, 1:] / L[:, :-1])
         ret = 1.0 + L
         dphi_f = np.angle(ret[:, 1:] / ret[:, :-1])
@@ -272,22 +300,26 @@ class _Scan:
         coarse = (np.abs(dphi_f) > np.pi / 3) & (big > 0.5)
         if not self.stability_only:
             coarse |= (np.abs(dphi) > np.pi / 3) & (big > 0.05)
-            # A chord longer than the endpoints' distance to the unit circle (or to the
-            # negative real axis) could hide a pair of crossings between the samples.
-            chord = np.abs(L[:, 1:] - L[:, :-1])
-            to_circle = np.minimum(np.abs(mag[:, 1:] - 1), np.abs(mag[:, :-1] - 1))
-            same_side = (mag[:, 1:] >= 1) == (mag[:, :-1] >= 1)
-            coarse |= same_side & (chord > to_circle)
-            to_axis = np.where(L.real < 0, np.abs(L.imag), mag)
+            # A pair of crossings can hide between two samples on the same side of the unit
+            # circle (or of the negative real axis) only if log L moves between them by more
+            # than their distance to it, |log|L|| (or pi - |arg L|).  Comparing the step of
+            # log L with the larger of the two distances never fires on a plain approach to
+            # a crossing (step = difference of distances), so refinement stays local.
+            logmag = np.log(mag)
+            step = np.hypot(logmag[:, 1:] - logmag[:, :-1], dphi)
+            to_circle = np.abs(logmag)
+            same_side = (logmag[:, 1:] >= 0) == (logmag[:, :-1] >= 0)
+            coarse |= same_side & (step > np.maximum(to_circle[:, 1:], to_circle[:, :-1]))
+            to_axis = np.pi - np.abs(np.angle(L))
             same_half = (L.imag[:, 1:] >= 0) == (L.imag[:, :-1] >= 0)
-            coarse |= same_half & (big > 0.05) & (chord > np.minimum(to_axis[:, 1:],
-                                                                        to_axis[:, :-1]))
+            small = np.minimum(mag[:, 1:], mag[:, :-1])
+            coarse |= (same_half & (big > 0.05) & (small < 20.0)
+                       & (step > np.maximum(to_axis[:, 1:], to_axis[:, :-1])))
         if depth <= 0:
             coarse[:] = False
         fine = ~coarse
-        r, i = np.nonzero(fine)
-        self.wind_design.append(didx[r])
-        self.wind_value.append(dphi_f[r, i])
+        self.wind_design.append(didx)
+        self.wind_value.append(np.where(fine, dphi_f, 0.0).sum(axis=1, dtype=float))
         if not self.stability_only:
             above = mag >= 1.0
             g = fine & (above[:, 1:] != above[:, :-1])
@@ -316,10 +348,10 @@ class _Scan:
 
     def winding(self, n: int) -> np.ndarray:
         """Total phase change of ``1 + L`` [rad] per design."""
-        out = np.zeros(n)
-        if self.wind_design:
-            np.add.at(out, np.concatenate(self.wind_design), np.concatenate(self.wind_value))
-        return out
+        if not self.wind_design:
+            return np.zeros(n)
+        return np.bincount(np.concatenate(self.wind_design),
+                           weights=np.concatenate(self.wind_value), minlength=n)
 
 
 def _first_per_design(groups: np.ndarray, key: np.ndarray) -> np.ndarray:
