@@ -66,7 +66,7 @@ def _cubic_roots(c3, c2, c1, c0) -> np.ndarray:
     with np.errstate(divide="ignore", invalid="ignore"):
         t = np.where(np.abs(Ck) > 0, Ck - p[..., None] / (3 * Ck), 0)
     u = t - a[..., None] / 3
-    for _ in range(3):
+    for _ in range(2):
         f = ((u + a[..., None]) * u + b[..., None]) * u + c[..., None]
         df = (3 * u + 2 * a[..., None]) * u + b[..., None]
         with np.errstate(divide="ignore", invalid="ignore"):
