@@ -1,3 +1,10 @@
+import os
+import tempfile
+
 import matplotlib
 
 matplotlib.use("Agg")
+
+# Derive block-diagram transfers afresh in every test session (the on-disk cache of
+# derived expressions is tested explicitly in test_blockdiagram.py).
+os.environ["SEACTL_CACHE_DIR"] = tempfile.mkdtemp(prefix="seactl-test-cache-")

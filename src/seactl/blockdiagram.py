@@ -41,9 +41,12 @@ True
 
 from __future__ import annotations
 
+import hashlib
+import os
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from functools import cached_property, lru_cache
+from pathlib import Path
 from typing import Any
 
 import numpy as np
@@ -256,9 +259,58 @@ class DesignSubset:
         return value.reshape(-1)[self._idx]
 
 
+def _cache_dir() -> Path | None:
+    """Where derived expressions persist between runs (``SEACTL_CACHE_DIR``; ``off``
+    disables)."""
+    env = os.environ.get("SEACTL_CACHE_DIR")
+    if env == "off":
+        return None
+    base = Path(env) if env else Path(os.environ.get("XDG_CACHE_HOME",
+                                                      Path.home() / ".cache")) / "seactl"
+    return base
+
+
+def _structure_key(diagram: BlockDiagram, output: str, input: str, cut: tuple[str, ...],
+                   kind: str | None) -> str:
+    """Hash of everything the symbolic solution depends on: the wiring, which blocks
+    are constants (and their values), the query, and the sympy version."""
+    import sympy as sp
+
+    parts = [f"v1|{sp.__version__}|{output}|{input}|{','.join(cut)}|{kind}"]
+    for b in diagram.blocks:
+        parts.append(f"{b.name}|{b.src}|{b.dst}|{_constant_gain(b)!r}")
+    return hashlib.sha256("\n".join(parts).encode()).hexdigest()[:32]
+
+
 @lru_cache(maxsize=256)
 def _symbolic(diagram: BlockDiagram, output: str, input: str, cut: tuple[str, ...],
               kind: str | None) -> Any:
+    """The transfer as a sympy expression of block names, derived once and kept on disk
+    (the derivation takes seconds for larger diagrams; loading it, milliseconds)."""
+    import sympy as sp
+
+    folder = _cache_dir()
+    path = folder / f"{_structure_key(diagram, output, input, cut, kind)}.srepr" \
+        if folder else None
+    if path is not None and path.is_file():
+        try:
+            return sp.sympify(path.read_text())
+        except (SyntaxError, TypeError, ValueError):  # a damaged entry: derive again
+            pass
+    expr = _derive(diagram, output, input, cut, kind)
+    if path is not None:
+        try:
+            folder.mkdir(parents=True, exist_ok=True)
+            tmp = path.with_suffix(f".{os.getpid()}.tmp")
+            tmp.write_text(sp.srepr(expr))
+            os.replace(tmp, path)
+        except OSError:  # read-only home, full disk: the cache is only an optimization
+            pass
+    return expr
+
+
+def _derive(diagram: BlockDiagram, output: str, input: str, cut: tuple[str, ...],
+            kind: str | None) -> Any:
     import sympy as sp
 
     if kind == "loop":

@@ -19,6 +19,9 @@ def gain_scale_figure(fn: np.ndarray, gs: np.ndarray, pm: np.ndarray):
         ax.plot(gs[j], row[j], "o", color=c, ms=4)
     ax.axvline(1.0, color="k", ls="--", lw=0.8)
     ax.set_xscale("log")
+    ticks = [t for t in (0.3, 0.5, 0.7, 1.0, 1.5, 2.0, 3.0) if gs.min() <= t <= gs.max()]
+    ax.set_xticks(ticks, [f"{t:g}" for t in ticks])
+    ax.minorticks_off()
     ax.set_xlabel("gain scale GS")
     ax.set_ylabel("phase margin [deg]")
     ax.set_title("Ideal SEA loop: phase margin vs gain scale")
