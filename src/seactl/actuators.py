@@ -12,14 +12,13 @@ space agree once converted (Kq r^2, Bq r^2, Ktau / r, Btau / r).
 from __future__ import annotations
 
 import math
-import tomllib
-from dataclasses import asdict, dataclass, fields
+from dataclasses import asdict, dataclass
 from pathlib import Path
 from typing import Any
 
-from pydantic import BaseModel, ConfigDict, Field, ValidationError
+from pydantic import BaseModel, ConfigDict, Field
 
-from .errors import InputError
+from ._params import load_params, validate
 
 _POS = dict(gt=0, allow_inf_nan=False)
 
@@ -44,36 +43,6 @@ class _SEAModel(BaseModel):
     pulley_radius: float = Field(0.025, description="joint pulley radius r [m], for the "
                                  "linear-space view", **_POS)
     max_current: float = Field(30.0, description="motor current limit [A]", **_POS)
-
-
-_UNITS = {
-    "motor_inertia": "kg m^2", "joint_inertia": "kg m^2", "motor_damping": "N m s/rad",
-    "joint_damping": "N m s/rad", "spring_stiffness": "N m/rad",
-    "current_to_torque": "N m/A", "motor_torque_constant": "N m/A", "pulley_radius": "m",
-    "max_current": "A",
-}
-
-
-def _raise_from_pydantic(exc: ValidationError, prefix: str = "") -> None:
-    err = exc.errors()[0]
-    field = prefix + ".".join(str(p) for p in err["loc"])
-    if err["type"] == "extra_forbidden":
-        known = ", ".join(_SEAModel.model_fields)
-        raise InputError(field, err.get("input"), f"one of the known keys ({known})") from None
-    if err["type"] == "missing":
-        raise InputError(field, None, "given (required field)") from None
-    name = field.split(".")[-1]
-    bounds = []
-    if name in _SEAModel.model_fields:
-        for m in _SEAModel.model_fields[name].metadata:
-            for attr, sym in (("gt", ">"), ("ge", ">=")):
-                if getattr(m, attr, None) is not None:
-                    bounds.append(f"{sym} {getattr(m, attr)}")
-    valid = (" and ".join(bounds) + " and finite") if bounds else err["msg"].lower()
-    unit = _UNITS.get(field.split(".")[-1])
-    if unit:
-        valid += f" [{unit}]"
-    raise InputError(field, err.get("input"), valid) from None
 
 
 @dataclass(frozen=True)
@@ -123,10 +92,7 @@ class SEAParams:
     name: str = "custom"
 
     def __post_init__(self) -> None:
-        try:
-            _SEAModel.model_validate(asdict(self))
-        except ValidationError as exc:
-            _raise_from_pydantic(exc)
+        validate(_SEAModel, asdict(self))
 
     # Paper symbols, for readable equations.
     @property
@@ -213,22 +179,4 @@ def load_sea(spec: str | Path) -> SEAParams:
     InputError
         Unknown preset, unreadable file, unknown key or out-of-range value.
     """
-    key = str(spec)
-    if key.lower() in SEA_PRESETS:
-        return SEA_PRESETS[key.lower()]
-    path = Path(key)
-    if not path.suffix == ".toml" or not path.is_file():
-        raise InputError("actuator", key, f"a preset ({', '.join(SEA_PRESETS)}) or an "
-                         "existing .toml file")
-    try:
-        data = tomllib.loads(path.read_text())
-    except tomllib.TOMLDecodeError as exc:
-        raise InputError("actuator", key, f"valid TOML ({exc})") from None
-    if "actuator" in data and isinstance(data["actuator"], dict) and len(data) == 1:
-        data = data["actuator"]
-    data.setdefault("name", path.stem)
-    try:
-        model = _SEAModel.model_validate(data)
-    except ValidationError as exc:
-        _raise_from_pydantic(exc)
-    return SEAParams(**{f.name: getattr(model, f.name) for f in fields(SEAParams)})
+    return load_params(spec, SEA_PRESETS, _SEAModel, SEAParams)

@@ -48,8 +48,9 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
-from pydantic import BaseModel, ConfigDict, Field, ValidationError
+from pydantic import BaseModel, ConfigDict, Field
 
+from ._params import read_toml, validate
 from .errors import InputError
 
 ARCHS = ("cosc", "dosc")
@@ -114,26 +115,6 @@ class _BaseModel(BaseModel):
     circle_ramp: float = Field(description="[s]", **_NONNEG)
 
 
-def _input_error(exc: ValidationError) -> InputError:
-    err = exc.errors()[0]
-    name = ".".join(str(p) for p in err["loc"])
-    if err["type"] == "extra_forbidden":
-        return InputError(name, err.get("input"), "one of the known keys")
-    if err["type"] == "missing":
-        return InputError(name, None, "given (required field)")
-    info = _BaseModel.model_fields.get(str(err["loc"][0]))
-    bounds = []
-    if info is not None:
-        for m in info.metadata:
-            for attr, sym in (("gt", ">"), ("ge", ">="), ("le", "<=")):
-                if getattr(m, attr, None) is not None:
-                    bounds.append(f"{sym} {getattr(m, attr)}")
-    valid = " and ".join(bounds) if bounds else err["msg"].lower()
-    if info is not None and info.description and "[" in info.description:
-        valid += " " + info.description[info.description.index("["):]
-    return InputError(name, err.get("input"), valid)
-
-
 @dataclass(frozen=True)
 class BaseParams:
     """Validated parameters of the base, its processors, the criterion and the tuning (SI).
@@ -186,10 +167,7 @@ class BaseParams:
     name: str = "custom"
 
     def __post_init__(self) -> None:
-        try:
-            _BaseModel.model_validate(asdict(self))
-        except ValidationError as exc:
-            raise _input_error(exc) from None
+        validate(_BaseModel, asdict(self))
         object.__setattr__(self, "wheel_angles_deg", tuple(float(a) for a in
                                                            self.wheel_angles_deg))
         a = np.sort(np.mod(self.wheel_angles_deg, 360.0))
@@ -294,20 +272,12 @@ def load_base(spec: str | Path = "trikey") -> BaseParams:
         data = _flatten(tomllib.loads(preset.read_text()))
     else:
         path = Path(key)
-        if path.suffix != ".toml" or not path.is_file():
-            raise InputError("base", key, "a preset (trikey) or an existing .toml file")
-        try:
-            user = _flatten(tomllib.loads(path.read_text()))
-        except tomllib.TOMLDecodeError as exc:
-            raise InputError("base", key, f"valid TOML ({exc})") from None
+        user = _flatten(read_toml("base", key, "a preset (trikey)"))
         data = _flatten(tomllib.loads((files("seactl") / "presets" / "trikey.toml")
                                       .read_text()))
         data["name"] = path.stem
         data.update(user)
-    try:
-        model = _BaseModel.model_validate(data)
-    except ValidationError as exc:
-        raise _input_error(exc) from None
+    model = validate(_BaseModel, data)
     return BaseParams(**{f.name: getattr(model, f.name) for f in fields(BaseParams)})
 
 

@@ -32,7 +32,6 @@ Examples
 from __future__ import annotations
 
 import math
-import tomllib
 from dataclasses import asdict, dataclass, fields, replace
 from functools import cached_property
 from pathlib import Path
@@ -40,8 +39,9 @@ from types import SimpleNamespace
 from typing import Any
 
 import numpy as np
-from pydantic import BaseModel, ConfigDict, Field, ValidationError
+from pydantic import BaseModel, ConfigDict, Field
 
+from ._params import load_params, validate
 from ._validate import finite_array
 from .actuators import UT_SEA
 from .blockdiagram import Block, BlockDiagram, Transfer
@@ -62,29 +62,6 @@ class _RigidModel(BaseModel):
     damping: float = Field(description="passive damping b [N s/m]", ge=0, allow_inf_nan=False)
     current_to_force: float = Field(description="beta, motor current to force [N/A]", **_POS)
     max_current: float = Field(30.0, description="motor current limit [A]", **_POS)
-
-
-_UNITS = {"mass": "kg", "damping": "N s/m", "current_to_force": "N/A", "max_current": "A"}
-
-
-def _raise_from_pydantic(exc: ValidationError) -> None:
-    err = exc.errors()[0]
-    field = ".".join(str(p) for p in err["loc"])
-    if err["type"] == "extra_forbidden":
-        known = ", ".join(_RigidModel.model_fields)
-        raise InputError(field, err.get("input"), f"one of the known keys ({known})") from None
-    if err["type"] == "missing":
-        raise InputError(field, None, "given (required field)") from None
-    bounds = []
-    if field in _RigidModel.model_fields:
-        for m in _RigidModel.model_fields[field].metadata:
-            for attr, sym in (("gt", ">"), ("ge", ">=")):
-                if getattr(m, attr, None) is not None:
-                    bounds.append(f"{sym} {getattr(m, attr)}")
-    valid = (" and ".join(bounds) + " and finite") if bounds else err["msg"].lower()
-    if field in _UNITS:
-        valid += f" [{_UNITS[field]}]"
-    raise InputError(field, err.get("input"), valid) from None
 
 
 @dataclass(frozen=True)
@@ -120,10 +97,7 @@ class RigidParams:
     name: str = "custom"
 
     def __post_init__(self) -> None:
-        try:
-            _RigidModel.model_validate(asdict(self))
-        except ValidationError as exc:
-            _raise_from_pydantic(exc)
+        validate(_RigidModel, asdict(self))
 
     @property
     def m(self) -> float:
@@ -175,25 +149,7 @@ def load_rigid(spec: str | Path) -> RigidParams:
     >>> load_rigid("ut-linear").mass
     256.0
     """
-    key = str(spec)
-    if key.lower() in RIGID_PRESETS:
-        return RIGID_PRESETS[key.lower()]
-    path = Path(key)
-    if path.suffix != ".toml" or not path.is_file():
-        raise InputError("actuator", key, f"a rigid-actuator preset ({', '.join(RIGID_PRESETS)})"
-                         " or an existing .toml file")
-    try:
-        data = tomllib.loads(path.read_text())
-    except tomllib.TOMLDecodeError as exc:
-        raise InputError("actuator", key, f"valid TOML ({exc})") from None
-    if "actuator" in data and isinstance(data["actuator"], dict) and len(data) == 1:
-        data = data["actuator"]
-    data.setdefault("name", path.stem)
-    try:
-        model = _RigidModel.model_validate(data)
-    except ValidationError as exc:
-        _raise_from_pydantic(exc)
-    return RigidParams(**{f.name: getattr(model, f.name) for f in fields(RigidParams)})
+    return load_params(spec, RIGID_PRESETS, _RigidModel, RigidParams)
 
 
 # ------------------------------------------------------------------ gains and designs

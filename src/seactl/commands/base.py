@@ -35,22 +35,18 @@ def comparison_json(comp) -> dict[str, Any]:
 
 
 def _save_plot(comp, path: Path) -> None:
-    """PNG (or any matplotlib format) of the comparison, or an animated GIF; atomic."""
-    from ..plots import base_animation, base_tracking_figure
+    """PNG/SVG/PDF of the comparison, or an animated GIF; atomic."""
+    from ..plots import base_animation, base_tracking_figure, save_figure
 
     path = Path(path)
+    if path.suffix.lower() != ".gif":
+        save_figure(base_tracking_figure(comp, PAPER_KX), path, dpi=110)
+        return
     path.parent.mkdir(parents=True, exist_ok=True)
     fd, tmp = tempfile.mkstemp(prefix=f".{path.stem}.", suffix=path.suffix, dir=path.parent)
     os.close(fd)
     try:
-        if path.suffix.lower() == ".gif":
-            base_animation(comp, tmp)
-        else:
-            import matplotlib.pyplot as plt
-
-            fig = base_tracking_figure(comp, PAPER_KX)
-            fig.savefig(tmp, dpi=110, bbox_inches="tight")
-            plt.close(fig)
+        base_animation(comp, tmp)
         os.replace(tmp, path)
     except BaseException:
         Path(tmp).unlink(missing_ok=True)

@@ -3,8 +3,6 @@
 from __future__ import annotations
 
 import io
-import os
-import tempfile
 from pathlib import Path
 from typing import Any
 
@@ -25,6 +23,7 @@ from ..cli import (
     parse_values,
 )
 from ..errors import InputError
+from ..plots import save_figure
 
 VARIADIC.add("--freq")
 
@@ -44,24 +43,6 @@ def _freq(tokens: tuple[str, ...]) -> np.ndarray:
 def _check_plot_path(path: str | None) -> None:
     if path is not None and Path(path).suffix.lower() not in _FIG_SUFFIXES:
         raise InputError("--plot", path, "a file name ending in " + ", ".join(_FIG_SUFFIXES))
-
-
-def save_figure_atomic(fig: Any, path: str | Path) -> None:
-    """Save a matplotlib figure through a temporary sibling file and a rename."""
-    import matplotlib.pyplot as plt
-
-    path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=path.suffix, dir=path.parent)
-    os.close(fd)
-    try:
-        fig.savefig(tmp, dpi=120, bbox_inches="tight", format=path.suffix[1:].lower())
-        os.replace(tmp, path)
-    except BaseException:
-        Path(tmp).unlink(missing_ok=True)
-        raise
-    finally:
-        plt.close(fig)
 
 
 def _write_csv(path: str, header: list[str], rows: list[list[Any]]) -> None:
@@ -174,7 +155,7 @@ def impedance(spec: DesignSpec, freq: tuple[str, ...], model: str, load: bool, u
         _write_csv(csv, ["fn_hz", "gs", "f_hz", f"magnitude [{unit}]", "magnitude_db",
                          "phase_deg", f"re [{unit}]", f"im [{unit}]"], rows)
     if plot:
-        save_figure_atomic(_impedance_plot(spec, designs, resp, asym, model, load, unit), plot)
+        save_figure(_impedance_plot(spec, designs, resp, asym, model, load, unit), plot)
     if as_json:
         echo_json(out[0] if len(out) == 1 else out)
         return
@@ -314,7 +295,7 @@ def zregion(spec: DesignSpec, freq: tuple[str, ...], model: str, load: bool, min
 
         fig = zregion_figure(reg, spec.fn_hz, spec.gs, spring=spec.actuator.k / (2j * np.pi * f))
         fig.suptitle(f"Z-region, {_timing_text(spec)}", fontsize=10, y=1.02)
-        save_figure_atomic(fig, plot)
+        save_figure(fig, plot)
     if as_json:
         echo_json(out)
         return

@@ -3,8 +3,6 @@
 from __future__ import annotations
 
 import io
-import os
-import tempfile
 from pathlib import Path
 from typing import Any
 
@@ -15,6 +13,7 @@ from rich.table import Table
 
 from ..cli import VARIADIC, cli, console, echo_json, finite_or_none, json_option, parse_values
 from ..errors import InputError
+from ..plots import save_figure
 
 VARIADIC.update({"--fn-rigid", "--fn-sea"})
 
@@ -66,23 +65,6 @@ def load_model(spec: str, f_v: float | None = 50.0):
         return sea_model(load_sea(path), f_qd=f_v)
     raise InputError("--actuator", spec, "a preset (" + ", ".join([*RIGID_PRESETS, *SEA_PRESETS])
                      + ") or an existing .toml file")
-
-
-def _save_figure(fig: Any, path: str) -> None:
-    import matplotlib.pyplot as plt
-
-    p = Path(path)
-    p.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(prefix=f".{p.name}.", suffix=p.suffix, dir=p.parent)
-    os.close(fd)
-    try:
-        fig.savefig(tmp, dpi=120, bbox_inches="tight", format=p.suffix[1:].lower())
-        os.replace(tmp, p)
-    except BaseException:
-        Path(tmp).unlink(missing_ok=True)
-        raise
-    finally:
-        plt.close(fig)
 
 
 def _check_plot(path: str | None) -> None:
@@ -288,7 +270,7 @@ def latency_map_cmd(actuators, fn_rigid, fn_sea, t_max, t_min, n, max_fn, f_v, p
     if plot:
         from ..plots import latency_map_figure
 
-        _save_figure(latency_map_figure(maps, maxfns or None), plot)
+        save_figure(latency_map_figure(maps, maxfns or None), plot)
     if as_json:
         echo_json({"maps": summary, "csv": csv, "plot": plot})
         return

@@ -113,7 +113,7 @@ def _metrics_json(m: Any, i: int) -> dict[str, Any]:
 def _output(spec: DesignSpec, resp: Any, mode: str, zero: bool, extra: dict[str, Any],
             plot: str | None, csv_path: str | None, as_json: bool, title: str,
             ylabel: str) -> None:
-    from ..plots import response_figure
+    from ..plots import response_figure, save_figure
 
     res, m = resp.result, resp.metrics
     labels = _labels(spec)
@@ -131,17 +131,10 @@ def _output(spec: DesignSpec, resp: Any, mode: str, zero: bool, extra: dict[str,
             w.writerow([f"{t[k]:.9g}"] + [f"{pos[i, k]:.9g}" for i in range(len(labels))])
         write_atomic(Path(csv_path), buf.getvalue())
     if plot:
-        from ..report import write_atomic as _wa
-
         fig = response_figure(t, pos, names, title=title, ylabel=ylabel,
                               current=cur if mode == "sampled" else None,
                               unstable=[not s for s in stable])
-        out = io.BytesIO()
-        fig.savefig(out, format="png", dpi=110, bbox_inches="tight")
-        import matplotlib.pyplot as plt
-
-        plt.close(fig)
-        _wa(Path(plot), out.getvalue())
+        save_figure(fig, plot, dpi=110)
     runs = []
     for i, (f, g) in enumerate(labels):
         runs.append({"fn_hz": f, "gs": g, "position": [round(float(x), 9) for x in pos[i]],

@@ -204,21 +204,14 @@ def _parse_plot_axes(text: str, spec) -> tuple[str, str]:
 
 
 def _plot(out: Path, xy: tuple[str, str], z: str, reduce: str, plot_file: str | None) -> str:
-    import io
 
-    from ..plots import sweep_map_figure
-    from ..report import write_atomic
+    from ..plots import save_figure, sweep_map_figure
     from ..sweep import sweep_map
 
     m = sweep_map(out, xy[0], xy[1], z, reduce)
     fig = sweep_map_figure(m)
     path = Path(plot_file) if plot_file else out / f"_plot-{z}-{xy[0]}-{xy[1]}.png"
-    buf = io.BytesIO()
-    fig.savefig(buf, format=path.suffix.lstrip(".") or "png", dpi=120, bbox_inches="tight")
-    import matplotlib.pyplot as plt
-
-    plt.close(fig)
-    write_atomic(path, buf.getvalue())
+    save_figure(fig, path)
     return str(path)
 
 

@@ -1,0 +1,76 @@
+"""Validated parameter sets: pydantic schemas to clear errors, presets and TOML files.
+
+A schema's numeric fields carry their bounds (``gt``, ``ge``, ``le``, ``lt``) and a
+description ending in the unit in brackets, e.g. ``"joint inertia I_j [kg m^2]"``; errors
+then read ``invalid joint_inertia = -1.0: must be > 0 and finite [kg m^2]``.
+"""
+
+from __future__ import annotations
+
+import tomllib
+from collections.abc import Callable, Mapping
+from dataclasses import fields
+from pathlib import Path
+from typing import Any
+
+from pydantic import BaseModel, ValidationError
+
+from .errors import InputError
+
+_BOUNDS = (("gt", ">"), ("ge", ">="), ("lt", "<"), ("le", "<="))
+
+
+def input_error(exc: ValidationError, model: type[BaseModel], prefix: str = "") -> InputError:
+    """The first pydantic error as an :class:`InputError` naming field, value and range."""
+    err = exc.errors()[0]
+    field = prefix + ".".join(str(p) for p in err["loc"])
+    if err["type"] == "extra_forbidden":
+        known = ", ".join(model.model_fields)
+        return InputError(field, err.get("input"), f"one of the known keys ({known})")
+    if err["type"] == "missing":
+        return InputError(field, None, "given (required field)")
+    info = model.model_fields.get(str(err["loc"][0]))
+    bounds = []
+    if info is not None:
+        for meta in info.metadata:
+            bounds += [f"{sym} {getattr(meta, attr)}" for attr, sym in _BOUNDS
+                       if getattr(meta, attr, None) is not None]
+    valid = (" and ".join(bounds) + " and finite") if bounds else err["msg"].lower()
+    desc = (info.description or "") if info is not None else ""
+    if desc.endswith("]") and "[" in desc:
+        valid += " " + desc[desc.rindex("["):]
+    return InputError(field, err.get("input"), valid)
+
+
+def validate(model: type[BaseModel], data: Mapping[str, Any]) -> BaseModel:
+    """``model.model_validate(data)`` raising :class:`InputError` instead."""
+    try:
+        return model.model_validate(dict(data))
+    except ValidationError as exc:
+        raise input_error(exc, model) from None
+
+
+def read_toml(field: str, spec: str, what: str) -> dict[str, Any]:
+    """Read a user's TOML file (``field`` names the option for error messages)."""
+    path = Path(spec)
+    if path.suffix != ".toml" or not path.is_file():
+        raise InputError(field, spec, f"{what} or an existing .toml file")
+    try:
+        return tomllib.loads(path.read_text())
+    except tomllib.TOMLDecodeError as exc:
+        raise InputError(field, spec, f"valid TOML ({exc})") from None
+
+
+def load_params(spec: str | Path, presets: Mapping[str, Any], model: type[BaseModel],
+                cls: Callable[..., Any], field: str = "actuator") -> Any:
+    """A preset by name, or a TOML file whose top level (or single ``[actuator]`` table)
+    holds the fields of ``cls``, validated by ``model``."""
+    key = str(spec)
+    if key.lower() in presets:
+        return presets[key.lower()]
+    data = read_toml(field, key, f"a preset ({', '.join(presets)})")
+    if "actuator" in data and isinstance(data["actuator"], dict) and len(data) == 1:
+        data = data["actuator"]
+    data.setdefault("name", Path(key).stem)
+    obj = validate(model, data)
+    return cls(**{f.name: getattr(obj, f.name) for f in fields(cls)})
