@@ -242,6 +242,33 @@ def _constant_gain(b: Block) -> float | None:
     return None
 
 
+class DesignBatch:
+    """Mixin for (frozen dataclass) design batches: :meth:`_fields` names the arrays the
+    diagram's blocks read; they are broadcast together once and served as attributes,
+    with the common batch shape as ``shape``."""
+
+    def _fields(self) -> dict[str, Any]:
+        raise NotImplementedError
+
+    @cached_property
+    def _arrays(self) -> dict[str, np.ndarray]:
+        raw = self._fields()
+        arrays = np.broadcast_arrays(*(np.asarray(v, float) for v in raw.values()))
+        return dict(zip(raw, arrays, strict=True))
+
+    def __getattr__(self, name: str) -> np.ndarray:
+        if name.startswith("_"):
+            raise AttributeError(name)
+        try:
+            return self._arrays[name]
+        except KeyError:
+            raise AttributeError(name) from None
+
+    @property
+    def shape(self) -> tuple[int, ...]:
+        return next(iter(self._arrays.values())).shape
+
+
 class DesignSubset:
     """Elements ``idx`` of a flattened design batch, with the same attribute access."""
 

@@ -25,20 +25,19 @@ Controller (paper Fig. ControlBlock)::
 from __future__ import annotations
 
 from dataclasses import dataclass, fields, replace
-from functools import cached_property
 
 import numpy as np
 
 from ._validate import finite_array
 from .actuators import SEAParams
-from .blockdiagram import Block, BlockDiagram, Transfer
+from .blockdiagram import Block, BlockDiagram, DesignBatch, Transfer
 
 
-def _tau_filter(f_hz) -> np.ndarray:
-    """First-order filter time constant 1/(2 pi f_c); no filter (None/inf) -> 0."""
+def filter_time_constant(f_hz, name: str = "filter cut-off [Hz]") -> np.ndarray:
+    """First-order filter time constant 1/(2 pi f_c) [s]; no filter (None/inf) -> 0."""
     if f_hz is None:
         return np.asarray(0.0)
-    f = finite_array("filter cut-off [Hz]", f_hz, minimum=0.0, strict=True, allow_inf=True)
+    f = finite_array(name, f_hz, minimum=0.0, strict=True, allow_inf=True)
     return 1.0 / (2 * np.pi * f)
 
 
@@ -112,7 +111,7 @@ class Timing:
 
 
 @dataclass(frozen=True)
-class SEADesign:
+class SEADesign(DesignBatch):
     """A batch of SEA designs: actuator, gains and timing broadcast together.
 
     The attributes used by the block diagram are arrays of the common batch
@@ -124,27 +123,12 @@ class SEADesign:
     gains: Gains
     timing: Timing = Timing()
 
-    @cached_property
-    def _arrays(self) -> dict[str, np.ndarray]:
+    def _fields(self) -> dict[str, object]:
         a, g, t = self.actuator, self.gains, self.timing
-        raw = dict(Im=a.Im, Ij=a.Ij, bm=a.bm, bj=a.bj, k=a.k, beta=a.beta,
-                   Kq=g.Kq, Bq=g.Bq, Ktau=g.Ktau, Btau=g.Btau,
-                   T_tau=t.T_tau, T_qs=t.T_qs, T_qd=t.T_qd,
-                   Tf_qd=_tau_filter(t.f_qd), Tf_taud=_tau_filter(t.f_taud))
-        arrays = np.broadcast_arrays(*(np.asarray(v, float) for v in raw.values()))
-        return dict(zip(raw, arrays))
-
-    def __getattr__(self, name: str) -> np.ndarray:
-        if name.startswith("_"):
-            raise AttributeError(name)
-        try:
-            return self._arrays[name]
-        except KeyError:
-            raise AttributeError(name) from None
-
-    @property
-    def shape(self) -> tuple[int, ...]:
-        return self._arrays["Kq"].shape
+        return dict(Im=a.Im, Ij=a.Ij, bm=a.bm, bj=a.bj, k=a.k, beta=a.beta,
+                    Kq=g.Kq, Bq=g.Bq, Ktau=g.Ktau, Btau=g.Btau,
+                    T_tau=t.T_tau, T_qs=t.T_qs, T_qd=t.T_qd,
+                    Tf_qd=filter_time_constant(t.f_qd), Tf_taud=filter_time_constant(t.f_taud))
 
     def with_timing(self, timing: Timing) -> SEADesign:
         return replace(self, timing=timing)

@@ -33,7 +33,6 @@ from __future__ import annotations
 
 import math
 from dataclasses import asdict, dataclass, fields, replace
-from functools import cached_property
 from pathlib import Path
 from types import SimpleNamespace
 from typing import Any
@@ -44,8 +43,9 @@ from pydantic import BaseModel, ConfigDict, Field
 from ._params import load_params, validate
 from ._validate import finite_array
 from .actuators import UT_SEA
-from .blockdiagram import Block, BlockDiagram, Transfer
+from .blockdiagram import Block, BlockDiagram, DesignBatch, Transfer
 from .errors import InfeasibleDesignError, InputError
+from .loops import filter_time_constant
 from .margins import Margins, default_grid, loop_margins
 
 # ------------------------------------------------------------------ parameters
@@ -224,15 +224,8 @@ def rigid_gains(actuator: RigidParams, fn_hz, *, passive_damping: bool = True) -
     return RigidGains(a.m * wn**2, B)
 
 
-def _tau_filter(f_hz) -> np.ndarray:
-    if f_hz is None:
-        return np.asarray(0.0)
-    f = finite_array("f_v [Hz]", f_hz, minimum=0.0, strict=True, allow_inf=True)
-    return 1.0 / (2 * np.pi * f)
-
-
 @dataclass(frozen=True)
-class RigidDesign:
+class RigidDesign(DesignBatch):
     """A batch of rigid-actuator designs: actuator, gains, delays, velocity filter.
 
     Attributes used by :data:`RIGID_DIAGRAM` are arrays of the common batch shape:
@@ -269,25 +262,10 @@ class RigidDesign:
         return cls(actuator, rigid_gains(actuator, fn_hz, passive_damping=passive_damping),
                    T_s, T_d, f_v)
 
-    @cached_property
-    def _arrays(self) -> dict[str, np.ndarray]:
+    def _fields(self) -> dict[str, Any]:
         a, g = self.actuator, self.gains
-        raw = dict(m=a.m, b=a.b, K=g.K, B=g.B, T_s=self.T_s, T_d=self.T_d,
-                   Tf_v=_tau_filter(self.f_v))
-        arrays = np.broadcast_arrays(*(np.asarray(v, float) for v in raw.values()))
-        return dict(zip(raw, arrays))
-
-    def __getattr__(self, name: str) -> np.ndarray:
-        if name.startswith("_"):
-            raise AttributeError(name)
-        try:
-            return self._arrays[name]
-        except KeyError:
-            raise AttributeError(name) from None
-
-    @property
-    def shape(self) -> tuple[int, ...]:
-        return self._arrays["K"].shape
+        return dict(m=a.m, b=a.b, K=g.K, B=g.B, T_s=self.T_s, T_d=self.T_d,
+                    Tf_v=filter_time_constant(self.f_v, "f_v [Hz]"))
 
     @property
     def wn(self) -> np.ndarray:
