@@ -148,7 +148,7 @@ def _refine(loop: LoopFn, design: Any, shape: tuple[int, ...], b: np.ndarray,
 
 
 def loop_margins(loop: LoopFn, design: Any, omega: np.ndarray, *,
-                 open_loop_rhp_poles: np.ndarray | int = 0, max_depth: int = 6,
+                 open_loop_rhp_poles: np.ndarray | int = 0, max_depth: int = 9,
                  stability_only: bool = False,
                  block_cache: dict[str, np.ndarray] | None = None) -> Margins:
     """Margins and Nyquist stability of ``L`` for a batch of designs.
@@ -333,7 +333,7 @@ class _Scan:
         rc, ic = np.nonzero(coarse)
         if rc.size:
             lo, hi = omega[rc, ic], omega[rc, ic + 1]
-            sub = lo[:, None] * (hi / lo)[:, None] ** np.linspace(0.0, 1.0, 9)
+            sub = lo[:, None] * (hi / lo)[:, None] ** np.linspace(0.0, 1.0, 5)
             self.segments(didx[rc], sub, depth - 1)
         return L
 
