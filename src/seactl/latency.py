@@ -43,7 +43,7 @@ from typing import Any
 import numpy as np
 
 from .blockdiagram import BlockDiagram
-from .margins import Margins, default_grid, loop_margins
+from .margins import Margins, default_grid, first_per_design, loop_margins
 
 # ------------------------------------------------------------------ per-loop delay margins
 
@@ -136,10 +136,7 @@ def _dm_crossover(m: Margins) -> np.ndarray:
     out = np.full(n, np.nan)
     c = m.gain_crossovers
     if c.design.size:
-        dm = np.radians(np.remainder(c.value, 360.0)) / c.omega
-        order = np.lexsort((dm, c.design))
-        g = c.design[order]
-        first = order[np.r_[True, g[1:] != g[:-1]]]
+        first = first_per_design(c.design, c.delay_margin_s)
         out[c.design[first]] = c.omega[first] / (2 * np.pi)
     return out.reshape(shape)
 

@@ -212,10 +212,3 @@ def force_plant() -> Transfer:
 def torque_closed_loop() -> Transfer:
     """``P_C = tau_k / tau_des`` with the inner loop closed, outer loop open."""
     return SEA_DIAGRAM.transfer("tau_k", "tau_des", cut=("tau_des", "q_sens"))
-
-
-def sea_loops(design: SEADesign, omega: np.ndarray) -> dict[str, np.ndarray]:
-    """Outer loop, inner loop and closed loop at ``s = j omega`` (convenience)."""
-    s = 1j * np.asarray(omega, float)
-    return {"outer": outer_loop()(design, s), "inner": inner_loop()(design, s),
-            "closed": closed_loop()(design, s)}

@@ -44,6 +44,11 @@ class Crossings:
     omega: np.ndarray
     value: np.ndarray  # phase margin [deg] for gain crossovers, 1/|L| for phase crossovers
 
+    @property
+    def delay_margin_s(self) -> np.ndarray:
+        """For gain crossovers: the extra loop latency that puts each through -1 [s]."""
+        return np.radians(np.remainder(self.value, 360.0)) / self.omega
+
 
 @dataclass(frozen=True)
 class Margins:
@@ -239,21 +244,22 @@ def loop_margins(loop: LoopFn, design: Any, omega: np.ndarray, *,
     pm_best = np.full(n, np.inf)
     wc_best = np.full(n, np.nan)
     if b.size:
-        first = _first_per_design(b, np.abs(pm))
+        first = first_per_design(b, np.abs(pm))
         pm_best[b[first]], wc_best[b[first]] = pm[first], wc[first]
     gm_best = np.full(n, np.inf)
     w180_best = np.full(n, np.nan)
     if bp.size:
         with np.errstate(divide="ignore"):
-            first = _first_per_design(bp, np.abs(np.log(gm)))
+            first = first_per_design(bp, np.abs(np.log(gm)))
         gm_best[bp[first]], w180_best[bp[first]] = gm[first], w180[first]
+    gain_crossovers = Crossings(b, wc, pm)
     dm = np.full(n, np.inf)
     if b.size:
-        np.minimum.at(dm, b, np.radians(np.remainder(pm, 360.0)) / wc)
+        np.minimum.at(dm, b, gain_crossovers.delay_margin_s)
     dm = np.where(stable, dm, 0.0)
     res = (pm_best, wc_best / (2 * np.pi), gm_best, w180_best / (2 * np.pi), dm, stable, Z)
     return Margins(*(x.reshape(shape) for x in res),
-                   gain_crossovers=Crossings(b, wc, pm), phase_crossovers=Crossings(bp, w180, gm))
+                   gain_crossovers=gain_crossovers, phase_crossovers=Crossings(bp, w180, gm))
 
 
 class _Scan:
@@ -354,7 +360,8 @@ class _Scan:
                            weights=np.concatenate(self.wind_value), minlength=n)
 
 
-def _first_per_design(groups: np.ndarray, key: np.ndarray) -> np.ndarray:
+def first_per_design(groups: np.ndarray, key: np.ndarray) -> np.ndarray:
+    """Index, per group, of the element with the smallest ``key`` (groups in sorted order)."""
     order = np.lexsort((key, groups))
     g = groups[order]
     return order[np.r_[True, g[1:] != g[:-1]]] if g.size else order
