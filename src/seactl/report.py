@@ -21,6 +21,8 @@ from dataclasses import asdict, dataclass, field
 from pathlib import Path
 from typing import Any
 
+import numpy as np
+
 STATUSES = ("pass", "fail", "info")
 
 
@@ -66,15 +68,10 @@ def numeric_claim(id: str, section: str, claim: str, paper: float, ours: float,
 
 def _clean(v: Any) -> Any:
     """JSON-stable values: floats rounded to 10 significant digits, NaN/inf as strings."""
-    try:
-        import numpy as np
-
-        if isinstance(v, np.generic):
-            v = v.item()
-        elif isinstance(v, np.ndarray):
-            v = v.tolist()
-    except ImportError:  # pragma: no cover
-        pass
+    if isinstance(v, np.generic):
+        v = v.item()
+    elif isinstance(v, np.ndarray):
+        v = v.tolist()
     if isinstance(v, float):
         if not math.isfinite(v):
             return str(v)
