@@ -1,0 +1,78 @@
+"""The whole report under test: every claim of ``seactl reproduce`` against a committed snapshot.
+
+Oracle: ``tests/data/claims_snapshot.json``, a reviewed earlier run.  A claim whose status
+changes, whose value moves by more than its own tolerance, or that appears or disappears makes
+this test fail, so a change to margins, simulation or design that flips a paper claim is a
+reviewed change.  After reviewing such a change, refresh the snapshot with::
+
+    .venv/bin/python -m pytest tests/test_claims_snapshot.py --update-claims-snapshot
+"""
+
+from __future__ import annotations
+
+import json
+import math
+from pathlib import Path
+
+import pytest
+
+from seactl.cli import main
+
+SNAPSHOT = Path(__file__).parent / "data" / "claims_snapshot.json"
+REL_TOL = 1e-6  # for claims whose tolerance is a relation, not a number
+
+
+@pytest.fixture(scope="module")
+def report_dir(tmp_path_factory):
+    out = tmp_path_factory.mktemp("report") / "seactl-report"
+    assert main(["reproduce", "--out", str(out)]) == 0
+    return out
+
+
+def _snapshot_of(claims: list[dict]) -> list[dict]:
+    keep = ("id", "status", "our_value", "tolerance")
+    return [{k: c[k] for k in keep} for c in claims]
+
+
+def _close(ours, snap, tol) -> bool:
+    """Values equal within ``tol`` (numbers), element-wise for lists and dicts."""
+    if isinstance(snap, list) and isinstance(ours, list):
+        return len(ours) == len(snap) and all(_close(a, b, tol) for a, b in zip(ours, snap))
+    if isinstance(snap, dict) and isinstance(ours, dict):
+        return ours.keys() == snap.keys() and all(_close(ours[k], snap[k], tol) for k in snap)
+    if isinstance(snap, (int, float)) and isinstance(ours, (int, float)) \
+            and not isinstance(snap, bool):
+        if isinstance(tol, (int, float)) and not isinstance(tol, bool) and tol > 0:
+            return abs(ours - snap) <= tol
+        return math.isclose(ours, snap, rel_tol=REL_TOL, abs_tol=1e-12)
+    return ours == snap
+
+
+def test_claims_match_snapshot(report_dir, request):
+    claims = json.loads((report_dir / "claims.json").read_text())
+    current = _snapshot_of(claims)
+    if request.config.getoption("--update-claims-snapshot"):
+        SNAPSHOT.write_text(json.dumps(current, indent=1, sort_keys=True) + "\n")
+        pytest.skip(f"snapshot rewritten: {SNAPSHOT}")
+    snap = {c["id"]: c for c in json.loads(SNAPSHOT.read_text())}
+    now = {c["id"]: c for c in current}
+    problems = [f"{i}: new claim" for i in sorted(now.keys() - snap.keys())]
+    problems += [f"{i}: claim disappeared" for i in sorted(snap.keys() - now.keys())]
+    for i in sorted(now.keys() & snap.keys()):
+        a, b = now[i], snap[i]
+        if a["status"] != b["status"]:
+            problems.append(f"{i}: status {b['status']} -> {a['status']}")
+        elif not _close(a["our_value"], b["our_value"], b["tolerance"]):
+            problems.append(f"{i}: value {b['our_value']!r} -> {a['our_value']!r} "
+                            f"(tolerance {b['tolerance']!r})")
+    assert not problems, "claims changed (review, then --update-claims-snapshot):\n" + \
+        "\n".join(problems)
+
+
+def test_report_html_lists_every_claim_and_figure(report_dir):
+    """Oracle: claims.json and the figures directory of the same run."""
+    html = (report_dir / "index.html").read_text()
+    claims = json.loads((report_dir / "claims.json").read_text())
+    assert all(c["id"] in html for c in claims)
+    figures = sorted(p.name for p in (report_dir / "figures").iterdir())
+    assert figures and all(f"figures/{name}" in html for name in figures)
