@@ -1,7 +1,5 @@
 """Sphinx configuration of the seactl documentation (build: see README, "Documentation")."""
 
-import os
-
 import seactl
 
 project = "seactl"
@@ -30,7 +28,6 @@ nb_execution_show_tb = True
 nb_merge_streams = True
 myst_enable_extensions = ["dollarmath", "colon_fence", "deflist"]
 myst_heading_anchors = 3
-os.environ.setdefault("MPLBACKEND", "Agg")
 
 # --- API reference
 autosummary_generate = False

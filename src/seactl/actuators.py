@@ -161,7 +161,7 @@ class SEAParams:
 
 
 def _ut_sea() -> SEAParams:
-    # Table II and background.md section 1: linear-space values with r = 0.025 m.
+    # Table II and docs/theory/units.md: linear-space values with r = 0.025 m.
     n_gear = 2 * math.pi * 4 / 0.003          # pulley reduction 4, ball-screw lead 3 mm/rev
     beta_lin = 0.9 * n_gear * 0.0276          # eta N k_tau = 208.1 N/A
     return SEAParams.from_linear(motor_mass=360.0, joint_mass=22.4, motor_damping=2200.0,

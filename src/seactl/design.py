@@ -3,7 +3,7 @@
 The delay- and filter-free closed-loop denominator of ``P_CL`` is matched to
 ``(s^2 + 2 zeta1 w1 s + w1^2)(s^2 + 2 zeta2 w2 s + w2^2)`` with
 ``w1 = 2 pi f_n`` and ``w2 = ratio * w1``.  The four equations have a closed
-form (background.md section 3): the first gives ``B_tau`` directly; with
+form (docs/theory/gain-design.md): the first gives ``B_tau`` directly; with
 ``u = 1 + beta K_tau`` the fourth gives ``K_q = c/u``, the second makes ``B_q``
 linear in ``u``, and the third becomes a cubic in ``u``.  All roots are taken,
 each candidate is substituted back into the four original equations, and only

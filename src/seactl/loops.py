@@ -152,7 +152,7 @@ class SEADesign(DesignBatch):
 def _sea_blocks(zero: bool = True) -> list[Block]:
     ctrl, plant = "controller", "plant"
     # The torque derivative acts on the whole error tau_des - tau_meas (P_CL has the zero),
-    # or only on its feedback part tau_fb - tau_meas (no zero; background.md section 5).
+    # or only on its feedback part tau_fb - tau_meas (no zero; docs/theory/loop.md).
     derivative_input = Block("ed_des", "tau_des", "e_d", role=ctrl) if zero else \
         Block("ed_fb", "tau_fb", "e_d", role=ctrl)
     return [
@@ -205,7 +205,7 @@ def sea_diagram(zero: bool = True) -> BlockDiagram:
 # Views derived from the one diagram -------------------------------------------------------
 def outer_loop() -> Transfer:
     """Outer impedance loop ``L = P_C P_L (B_q Q_qd s e^{-sT_qd} + K_q e^{-sT_qs})``
-    with the inner torque loop closed (background.md section 2)."""
+    with the inner torque loop closed (docs/theory/loop.md)."""
     return SEA_DIAGRAM.loop("q_sens")
 
 
