@@ -10,7 +10,7 @@ VALID = dict(motor_inertia=0.2, joint_inertia=0.01, motor_damping=1.0, joint_dam
 
 
 def test_ut_sea_matches_table_ii_rotary_and_linear():
-    # Table II (rotary) and background.md section 1 (linear, r = 0.025 m)
+    # Table II (rotary) and docs/theory/units.md (linear, r = 0.025 m)
     assert UT_SEA.motor_inertia == pytest.approx(0.225)
     assert UT_SEA.joint_inertia == pytest.approx(0.014)
     assert UT_SEA.motor_damping == pytest.approx(1.375)

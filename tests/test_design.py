@@ -107,7 +107,7 @@ def test_infeasible_fn_reports_range():
     assert "f_n = 8 Hz" in str(exc.value)
     assert "9.45" in str(exc.value)
     lo = feasible_fn_range(UT_SEA)[0][0]
-    assert lo == pytest.approx(9.5, abs=0.1)   # background.md section 3
+    assert lo == pytest.approx(9.5, abs=0.1)   # docs/theory/gain-design.md
     # the boundary is where B_q crosses zero: just above it the solution is valid, below not
     above, below = solve_gains(UT_SEA, [lo * (1 + 1e-5), lo * (1 - 1e-5)]).n_valid
     assert above >= 1 and below == 0

@@ -157,7 +157,7 @@ def test_paper_model(timing):
     num = sum(c * s**i for i, c in enumerate(N))
     den = sum(c * s**i for i, c in enumerate(D))
     np.testing.assert_allclose(z.z, num / den, rtol=1e-13)
-    # equals the block diagram only with k_tau replaced by beta (background.md section 4)
+    # equals the block diagram only with k_tau replaced by beta (docs/theory/ktau-beta.md)
     np.testing.assert_allclose(impedance(d, F, model="paper", k_tau=A.beta).z,
                                impedance(d, F).z, rtol=1e-10)
     assert np.max(np.abs(z.z / impedance(d, F).z - 1)) > 0.1
@@ -168,7 +168,7 @@ def test_paper_low_frequency_stiffness_value():
     kt, beta = A.motor_torque_constant, A.beta
     expect = d.Kq * kt * (1 / beta + d.Ktau) / (1 + d.Ktau * kt)
     assert float(low_frequency_stiffness(d, "paper")) == pytest.approx(float(expect), rel=1e-12)
-    assert float(expect) == pytest.approx(72.9, abs=0.05)  # background.md section 4
+    assert float(expect) == pytest.approx(72.9, abs=0.05)  # docs/theory/ktau-beta.md
     assert float(low_frequency_stiffness(d)) == pytest.approx(293.6, abs=0.05)
     for t in TIMINGS:
         z = impedance(design(30.0, t), [1e-5], model="paper")

@@ -68,7 +68,7 @@ def test_closed_loop_equals_printed_coefficient_form():
     den = D4 * s**4 + D3 * s**3 + D2 * s**2 + D1 * s + D0
     np.testing.assert_allclose(closed_loop()(d, s), Kq * (1 + b * Kt + b * Bt * Qt * s) / den,
                                rtol=1e-8)
-    # Without the torque-derivative zero (the authors' H_CL, background.md section 5)
+    # Without the torque-derivative zero (the authors' H_CL, docs/theory/loop.md)
     np.testing.assert_allclose(closed_loop(zero=False)(d, s), Kq * (1 + b * Kt) / den, rtol=1e-8)
 
 

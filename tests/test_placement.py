@@ -34,7 +34,7 @@ M, B_PASSIVE = 256.0, 1250.0
 
 
 def hand_loop(K, B, Ts, Td, Tf, s):
-    """The rigid loop typed from the model equations (background.md section 6)."""
+    """The rigid loop typed from the model equations (docs/theory/delays.md)."""
     return (K * np.exp(-s * Ts) + B * s / (Tf * s + 1) * np.exp(-s * Td)) / (M * s**2
                                                                              + B_PASSIVE * s)
 

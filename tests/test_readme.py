@@ -22,3 +22,12 @@ def test_readme_opens_with_exactly_two_commands():
 def test_ci_runs_the_readme_test_command():
     ci = ROOT.joinpath(".ci", "run").read_text().splitlines()
     assert readme_commands()[1] in ci
+
+
+def test_ci_builds_the_docs_with_the_readme_command():
+    # The README's "Documentation" section names the one command that builds the site.
+    lines = ROOT.joinpath("README.md").read_text().splitlines()
+    start = lines.index("## Documentation")
+    cmd = next(line for line in lines[start:] if "sphinx-build" in line)
+    assert "-W" in cmd.split()
+    assert cmd in ROOT.joinpath(".ci", "run").read_text().splitlines()

@@ -49,7 +49,10 @@ class _SEAModel(BaseModel):
 class SEAParams:
     """Immutable, validated SEA parameters in rotary joint space (SI units).
 
-    Attributes
+    Out-of-range values raise :class:`~seactl.errors.InputError` naming the field,
+    the value and the unit.
+
+    Parameters
     ----------
     motor_inertia : float
         Reflected motor inertia ``I_m`` [kg m^2].
@@ -70,6 +73,8 @@ class SEAParams:
         Joint pulley radius ``r`` [m], for the linear-space view.
     max_current : float
         Motor current limit [A].
+    name : str
+        Name shown in tables and reports.
 
     Examples
     --------
@@ -120,7 +125,19 @@ class SEAParams:
         return self.current_to_torque
 
     def linear(self) -> dict[str, float]:
-        """The same actuator in linear (pushrod) space: kg, N s/m, N/m, N/A."""
+        """The same actuator in linear (pushrod) space: kg, N s/m, N/m, N/A.
+
+        Returns
+        -------
+        dict of str to float
+            Inertias [kg], dampings [N s/m], stiffness [N/m] and ``current_to_force``
+            [N/A], each the rotary value divided by ``r^2`` (``r`` for the last).
+
+        Examples
+        --------
+        >>> round(UT_SEA.linear()["spring_stiffness"])
+        350000
+        """
         r = self.pulley_radius
         return {
             "motor_inertia": self.motor_inertia / r**2,
@@ -144,7 +161,7 @@ class SEAParams:
 
 
 def _ut_sea() -> SEAParams:
-    # Table II and background.md section 1: linear-space values with r = 0.025 m.
+    # Table II and docs/theory/units.md: linear-space values with r = 0.025 m.
     n_gear = 2 * math.pi * 4 / 0.003          # pulley reduction 4, ball-screw lead 3 mm/rev
     beta_lin = 0.9 * n_gear * 0.0276          # eta N k_tau = 208.1 N/A
     return SEAParams.from_linear(motor_mass=360.0, joint_mass=22.4, motor_damping=2200.0,
@@ -174,9 +191,24 @@ def load_sea(spec: str | Path) -> SEAParams:
         spring_stiffness = 218.75  # N m/rad
         current_to_torque = 5.2    # N m/A
 
+    Parameters
+    ----------
+    spec : str or path
+        A preset name (case-insensitive) or the path of a ``.toml`` file.
+
+    Returns
+    -------
+    SEAParams
+        The validated actuator.
+
     Raises
     ------
     InputError
         Unknown preset, unreadable file, unknown key or out-of-range value.
+
+    Examples
+    --------
+    >>> round(load_sea("UT-SEA").spring_stiffness, 2)
+    218.75
     """
     return load_params(spec, SEA_PRESETS, _SEAModel, SEAParams)

@@ -2,7 +2,7 @@
 operational space control on simulated processors.
 
 The base is Trikey (paper section "Distributed operational space control of a mobile
-base", background.md section 7): a planar rigid body with three omni wheels at 0/120/240
+base", docs/theory/mobile-base.md): a planar rigid body with three omni wheels at 0/120/240
 degrees rolling tangentially, each driven through a compliant, geared, frictional and
 torque-limited drivetrain.  Two kinds of simulated processors close the loops:
 

@@ -206,25 +206,14 @@ def cli() -> None:
 
 
 def gains_rows(spec: DesignSpec) -> list[dict[str, Any]]:
-    """Table I rows (rotary units) with margins, one per design and valid solution."""
-    from .margins import sea_margins
+    """Table I rows (rotary units) with margins, one per design and valid solution: the
+    public API's :meth:`seactl.MarginsResult.records` of each solution's (f_n x GS) batch."""
+    from .api import Design
 
     rows = []
     for design in spec.all_designs():
-        m = sea_margins(design)
-        g = design.gains
-        for i, fn in enumerate(spec.fn_hz):
-            for j, gs in enumerate(spec.gs):
-                rows.append({
-                    "fn_hz": float(fn), "gs": float(gs),
-                    "Kq": float(g.Kq[i, j]), "Bq": float(g.Bq[i, j]),
-                    "Ktau": float(g.Ktau[i, j]), "Btau": float(g.Btau[i, j]),
-                    "phase_margin_deg": finite_or_none(m.phase_margin_deg[i, j]),
-                    "crossover_hz": finite_or_none(m.crossover_hz[i, j]),
-                    "gain_margin_db": finite_or_none(m.gain_margin_db[i, j]),
-                    "delay_margin_ms": finite_or_none(m.delay_margin_ms[i, j]),
-                    "stable": bool(m.stable[i, j]),
-                })
+        fn, gs = np.broadcast_arrays(spec.fn_hz[:, None], spec.gs[None, :])
+        rows += Design(design, fn, gs).margins().records()
     return rows
 
 

@@ -3,7 +3,7 @@
 The delay- and filter-free closed-loop denominator of ``P_CL`` is matched to
 ``(s^2 + 2 zeta1 w1 s + w1^2)(s^2 + 2 zeta2 w2 s + w2^2)`` with
 ``w1 = 2 pi f_n`` and ``w2 = ratio * w1``.  The four equations have a closed
-form (background.md section 3): the first gives ``B_tau`` directly; with
+form (docs/theory/gain-design.md): the first gives ``B_tau`` directly; with
 ``u = 1 + beta K_tau`` the fourth gives ``K_q = c/u``, the second makes ``B_q``
 linear in ``u``, and the third becomes a cubic in ``u``.  All roots are taken,
 each candidate is substituted back into the four original equations, and only
@@ -144,8 +144,34 @@ def solve_gains(actuator: SEAParams, fn_hz, *, zeta1=1.0, zeta2=1.0,
 
 def feasible_fn_range(actuator: SEAParams, *, zeta1=1.0, zeta2=1.0, ratio=1.0,
                       lo_hz: float = 1e-2, hi_hz: float = 1e5) -> list[tuple[float, float]]:
-    """Intervals of ``f_n`` [Hz] (within ``[lo_hz, hi_hz]``) with at least one valid
-    solution, boundaries refined by bisection to 1e-6 relative."""
+    """Intervals of ``f_n`` [Hz] for which a critically-damped gain set exists.
+
+    A gain set counts when all four gains are positive and satisfy the four
+    equations.  The intervals are found on a log grid and their ends refined by
+    bisection to 1e-6 relative.
+
+    Parameters
+    ----------
+    actuator : SEAParams
+        The actuator.
+    zeta1, zeta2 : float
+        Damping ratios of the two target pole pairs.
+    ratio : float
+        ``w2 / w1`` of the two pole pairs.
+    lo_hz, hi_hz : float
+        Frequency range searched [Hz].
+
+    Returns
+    -------
+    list of tuple of float
+        ``(start, end)`` intervals [Hz]; ``end == hi_hz`` means unbounded above.
+
+    Examples
+    --------
+    >>> from seactl.actuators import UT_SEA
+    >>> [(round(a, 3), b) for a, b in feasible_fn_range(UT_SEA)]
+    [(9.456, 100000.0)]
+    """
     grid = np.logspace(np.log10(lo_hz), np.log10(hi_hz), 4001)
     ok = solve_gains(actuator, grid, zeta1=zeta1, zeta2=zeta2, ratio=ratio).n_valid > 0
     edges = np.nonzero(ok[1:] != ok[:-1])[0]

@@ -10,7 +10,17 @@ from typing import Any
 
 
 class SeactlError(Exception):
-    """Base class of all seactl errors."""
+    """Base class of all seactl errors.
+
+    Examples
+    --------
+    >>> import seactl as sc
+    >>> try:
+    ...     sc.design(5.0)
+    ... except sc.SeactlError as exc:
+    ...     print(type(exc).__name__)
+    InfeasibleDesignError
+    """
 
 
 class InputError(SeactlError, ValueError):
@@ -24,6 +34,15 @@ class InputError(SeactlError, ValueError):
         The rejected value.
     valid : str
         Human-readable description of the valid range.
+
+    Examples
+    --------
+    >>> import seactl as sc
+    >>> try:
+    ...     sc.design(14, delays_ms=(0.5, 2000, 0.5))
+    ... except sc.InputError as exc:
+    ...     print(exc)
+    invalid T_qs [ms] = 2000.0: must be <= 1000 ms (delays_ms takes milliseconds)
     """
 
     def __init__(self, field: str, value: Any, valid: str):
@@ -34,7 +53,26 @@ class InputError(SeactlError, ValueError):
 
 
 class InfeasibleDesignError(SeactlError, ValueError):
-    """No critically-damped gain set with four positive gains exists."""
+    """No critically-damped gain set with four positive gains exists.
+
+    Parameters
+    ----------
+    message : str
+        What failed and the feasible range.
+    fn_hz : array_like, optional
+        The natural frequencies [Hz] without a solution.
+    feasible_hz : list of tuple of float, optional
+        The feasible ``f_n`` intervals [Hz].
+
+    Examples
+    --------
+    >>> import seactl as sc
+    >>> try:
+    ...     sc.design([8, 12])
+    ... except sc.InfeasibleDesignError as exc:
+    ...     print(exc.fn_hz, round(exc.feasible_hz[0][0], 3))
+    [8.] 9.456
+    """
 
     def __init__(self, message: str, fn_hz: Any = None, feasible_hz: Any = None):
         self.fn_hz = fn_hz

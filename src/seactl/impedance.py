@@ -11,7 +11,7 @@ Two models are available and every result says which one it used:
     The paper's printed coefficients ``N_zi``/``D_zi`` (eq. SEA_impedance),
     with the motor torque constant ``k_tau`` (``actuator.motor_torque_constant``,
     rotary N m/A) where the paper prints it.  It equals the block diagram only
-    when ``k_tau`` is replaced by ``beta`` (background.md section 4); its
+    when ``k_tau`` is replaced by ``beta`` (docs/theory/ktau-beta.md); its
     low-frequency stiffness is ``K_q k_tau (1/beta + K_tau) / (1 + K_tau k_tau)``.
     Kept to reproduce the published curves.
 

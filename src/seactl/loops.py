@@ -31,6 +31,7 @@ import numpy as np
 from ._validate import finite_array
 from .actuators import SEAParams
 from .blockdiagram import Block, BlockDiagram, DesignBatch, Transfer
+from .errors import InputError
 
 
 def filter_time_constant(f_hz, name: str = "filter cut-off [Hz]") -> np.ndarray:
@@ -75,9 +76,17 @@ class Gains:
         return np.broadcast_shapes(*(np.shape(getattr(self, f.name)) for f in fields(self)))
 
 
+MAX_DELAY_S = 1.0
+"""Largest loop delay :class:`Timing` accepts [s] (larger values are unit slips)."""
+
+
 @dataclass(frozen=True)
 class Timing:
     """Loop latencies [s] and filter cut-offs [Hz] (``None``/inf: no filter).
+
+    Delays are in **seconds** and at most :data:`MAX_DELAY_S`; a larger value (``2.0``
+    meant as 2 ms) raises :class:`~seactl.errors.InputError`.  :meth:`from_ms` and
+    :func:`seactl.design` take milliseconds.
 
     Attributes
     ----------
@@ -94,7 +103,13 @@ class Timing:
 
     def __post_init__(self) -> None:
         for name in ("T_tau", "T_qs", "T_qd"):
-            object.__setattr__(self, name, finite_array(name, getattr(self, name), minimum=0.0))
+            value = finite_array(name + " [s]", getattr(self, name), minimum=0.0)
+            if np.any(value > MAX_DELAY_S):
+                # Timing takes seconds: 2.0 here is two seconds, almost surely meant as 2 ms.
+                raise InputError(name + " [s]", float(value[value > MAX_DELAY_S].flat[0]),
+                                 f"<= {MAX_DELAY_S:g} s (Timing takes seconds; use "
+                                 "Timing.from_ms or seactl.design(delays_ms=...) for ms)")
+            object.__setattr__(self, name, value)
         for name in ("f_qd", "f_taud"):
             val = getattr(self, name)
             if val is not None:
@@ -137,7 +152,7 @@ class SEADesign(DesignBatch):
 def _sea_blocks(zero: bool = True) -> list[Block]:
     ctrl, plant = "controller", "plant"
     # The torque derivative acts on the whole error tau_des - tau_meas (P_CL has the zero),
-    # or only on its feedback part tau_fb - tau_meas (no zero; background.md section 5).
+    # or only on its feedback part tau_fb - tau_meas (no zero; docs/theory/loop.md).
     derivative_input = Block("ed_des", "tau_des", "e_d", role=ctrl) if zero else \
         Block("ed_fb", "tau_fb", "e_d", role=ctrl)
     return [
@@ -190,7 +205,7 @@ def sea_diagram(zero: bool = True) -> BlockDiagram:
 # Views derived from the one diagram -------------------------------------------------------
 def outer_loop() -> Transfer:
     """Outer impedance loop ``L = P_C P_L (B_q Q_qd s e^{-sT_qd} + K_q e^{-sT_qs})``
-    with the inner torque loop closed (background.md section 2)."""
+    with the inner torque loop closed (docs/theory/loop.md)."""
     return SEA_DIAGRAM.loop("q_sens")
 
 

@@ -1,4 +1,4 @@
-"""Rigid actuator with distributed impedance control (background.md section 6).
+"""Rigid actuator with distributed impedance control (docs/theory/delays.md).
 
 Plant ``1/(m s^2 + b s)`` driven by a force command; controller::
 
@@ -119,7 +119,7 @@ class RigidParams:
 
 UT_LINEAR = RigidParams(
     mass=256.0, damping=1250.0,
-    # same drivetrain as the UT-SEA: beta = eta N k_tau = 208.1 N/A (background.md section 1)
+    # same drivetrain as the UT-SEA: beta = eta N k_tau = 208.1 N/A (docs/theory/units.md)
     current_to_force=UT_SEA.current_to_torque / UT_SEA.pulley_radius,
     max_current=30.0, name="ut-linear")
 """The UT linear actuator of the paper's step experiment (m = 256 kg, b = 1250 N s/m)."""

@@ -315,7 +315,7 @@ def impedance_magnitude(design: Any, f_hz: np.ndarray) -> np.ndarray:
 
     Examples
     --------
-    The static stiffness is ``K_q`` (background.md section 4): ``|Z| w -> K_q``.
+    The static stiffness is ``K_q`` (docs/theory/ktau-beta.md): ``|Z| w -> K_q``.
 
     >>> from seactl.actuators import UT_SEA
     >>> from seactl.design import critically_damped_gains

@@ -1,6 +1,6 @@
 """Section: distributed (DOSC) versus centralized (COSC) operational space control of the
 Trikey mobile base, simulated (paper section "Distributed operational space control of a
-mobile base", background.md section 7)."""
+mobile base", docs/theory/mobile-base.md)."""
 
 from __future__ import annotations
 
@@ -165,7 +165,7 @@ def mobile_base(ctx: Context) -> Section:
         "higher damping carries a higher K_x through the same 22 ms.")
     sec.notes.append(
         "Not reproduced: the absolute limits (ours are several times the paper's 30 and 140) "
-        "and hence the exact ratio and error reductions. background.md section 7: an ideal "
+        "and hence the exact ratio and error reductions. docs/theory/mobile-base.md: an ideal "
         "rigid model keeps ample phase margin at both of the paper's gains, so the robot's "
         "limits came from effects whose values are not published (sensor noise, gearbox "
         "backlash and compliance, roller vibration, a human judging 'vibrating'). The "

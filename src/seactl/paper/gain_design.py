@@ -52,7 +52,7 @@ def table_i(ctx: Context) -> Section:
             unit = {"Kq": "Nm/rad", "Bq": "Nms/rad", "Ktau": "A/Nm", "Btau": "As/Nm",
                     "PM": "deg"}[name]
             note = ("the paper prints 43.2; the margin is 43.26, so the printed value is "
-                    "truncated (background.md section 2)") if (name == "PM" and fn == 14) else ""
+                    "truncated (docs/theory/loop.md)") if (name == "PM" and fn == 14) else ""
             sec.claims.append(numeric_claim(f"table1.fn{fn}.{name}", "Table I",
                                             f"f_n = {fn} Hz: {name} [{unit}]", p, float(o), tol,
                                             note))
@@ -127,12 +127,12 @@ def feasibility(ctx: Context) -> Section:
     ranges = feasible_fn_range(UT_SEA)
     lo = ranges[0][0] if ranges else float("nan")
     sec = Section("feasibility", "Gain design feasibility",
-                  intro="The four gain equations reduce to one cubic (background.md section 3); "
+                  intro="The four gain equations reduce to one cubic (docs/theory/gain-design.md); "
                         "every root is checked against the original equations and only "
                         "solutions with four positive gains are kept.")
     sec.claims.append(numeric_claim("design.feasible_fn_min", "Gain design",
-                                    "lowest f_n with four positive gains (background.md: "
-                                    "about 9.5 Hz)", 9.5, lo, 0.1))
+                                    "lowest f_n with four positive gains "
+                                    "(docs/theory/gain-design.md: about 9.5 Hz)", 9.5, lo, 0.1))
     spans = ", ".join(f"{a:.4g}-{b:.4g} Hz" for a, b in ranges)
     sec.notes.append(f"Feasible f_n for the UT-SEA: {spans}"
                      " (upper end is the search limit). Below the lower bound B_q would be "

@@ -342,7 +342,7 @@ def ktau_finding(ctx: Context) -> Section:
     sec = Section("impedance-ktau",
                   "Finding: the printed impedance formula uses k_tau where its block diagram "
                   "has beta",
-                  intro="background.md section 4. The printed N_zi/D_zi equal the block "
+                  intro="docs/theory/ktau-beta.md. The printed N_zi/D_zi equal the block "
                         "diagram's impedance only after replacing k_tau by beta. With k_tau "
                         f"= {UT_SEA.motor_torque_constant} N m/A (rotary; 1.104 N/A linear) "
                         f"and beta = {UT_SEA.beta:.4g} N m/A (208.1 N/A linear) the printed "
@@ -365,7 +365,8 @@ def ktau_finding(ctx: Context) -> Section:
     kp = float(low_frequency_stiffness(d30, "paper"))
     sec.claims.append(numeric_claim(
         f"{sec.id}.low_paper", "Impedance transfer function",
-        "printed form: low-frequency stiffness at f_n = 30 Hz [Nm/rad] (background.md: 72.9)",
+        "printed form: low-frequency stiffness at f_n = 30 Hz [Nm/rad] "
+        "(docs/theory/ktau-beta.md: 72.9)",
         72.9, kp, 0.05))
     kb = float(impedance(d30, F_LOW).stiffness[0].real)
     sec.claims.append(numeric_claim(

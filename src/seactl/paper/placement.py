@@ -102,7 +102,7 @@ def rigid_step(ctx: Context) -> Section:
         "rigid.step.damping15_fn8", "Step response implementation",
         "f_n = 8 Hz with 15 ms on the damping loop (the paper only omits 12 Hz)",
         "not stated", "out of control" if lost8 else "in control", "-", "info",
-        "background.md section 6 reconstructs '15 ms on the damping loop destabilizes "
+        "docs/theory/delays.md reconstructs '15 ms on the damping loop destabilizes "
         "f_n = 8-12 Hz'; this model agrees" if lost8 else ""))
     agree = bool(np.all(e.out_of_control == ~e.linear_stable))
     sec.claims.append(Claim(
@@ -261,7 +261,7 @@ def placement_advisor(ctx: Context) -> Section:
                 "recommended = distributed and gain > 1", "pass" if ok else "fail",
                 f"f_n {cen.fn_hz:.3g} -> {dist.fn_hz:.3g} Hz. The paper's mobile base "
                 "reached 140 vs 30 N/(m kg) (4.7x) experimentally; its limits came from "
-                "effects an ideal rigid model does not have (background.md section 7), so "
+                "effects an ideal rigid model does not have (docs/theory/mobile-base.md), so "
                 "this factor is not expected to match."))
         else:
             sec.claims.append(Claim(

@@ -1,0 +1,290 @@
+"""Result objects of the public API: the computed arrays plus ``to_dict`` and ``plot``.
+
+Each result wraps the object the core module computed (attribute access is forwarded to
+it, so ``d.margins().phase_margin_deg`` is the core array) and adds a JSON-ready
+``to_dict()`` and a ``plot(ax=None)`` that imports matplotlib only when called.
+"""
+
+from __future__ import annotations
+
+import math
+from typing import Any
+
+import numpy as np
+
+
+def json_value(x: Any, digits: int = 10) -> Any:
+    """A JSON-safe scalar: NaN and infinities become ``None``, numpy scalars Python ones."""
+    if isinstance(x, (bool, np.bool_)):
+        return bool(x)
+    if isinstance(x, (int, np.integer)):
+        return int(x)
+    x = float(x)
+    return round(x, digits) if math.isfinite(x) else None
+
+
+def json_array(a: Any) -> Any:
+    """A nested list of JSON-safe values (a scalar for a 0-d array)."""
+    arr = np.asarray(a)
+    if arr.ndim == 0:
+        return json_value(arr[()])
+    return [json_array(x) for x in arr]
+
+
+def _axes(ax: Any) -> Any:
+    if ax is None:
+        import matplotlib.pyplot as plt
+
+        _, ax = plt.subplots(figsize=(6.0, 3.6), layout="constrained")
+    return ax
+
+
+class _Wrapped:
+    """Forward unknown attributes to ``self._inner`` (the core result)."""
+
+    _inner: Any
+
+    def __getattr__(self, name: str) -> Any:
+        if name.startswith("_"):
+            raise AttributeError(name)
+        return getattr(self._inner, name)
+
+    def __dir__(self) -> list[str]:
+        return sorted(set(super().__dir__()) | set(dir(self._inner)))
+
+
+MARGIN_COLUMNS = ("phase_margin_deg", "crossover_hz", "gain_margin_db", "delay_margin_ms",
+                  "stable")
+
+
+class MarginsResult(_Wrapped):
+    """Stability margins of a design batch (arrays of the batch shape).
+
+    Every attribute of :class:`seactl.margins.Margins` is available
+    (``phase_margin_deg``, ``crossover_hz``, ``gain_margin``, ``gain_margin_db``,
+    ``delay_margin_s``, ``delay_margin_ms``, ``stable``, ``unstable_poles``, ...).
+
+    Parameters
+    ----------
+    margins : seactl.margins.Margins
+        The computed margins.
+    labels : dict
+        Per-design columns (e.g. ``fn_hz``, ``gs`` and gains) of the batch shape, repeated
+        in :meth:`records` and :meth:`to_dict`.
+
+    Examples
+    --------
+    >>> import seactl as sc
+    >>> m = sc.design([12, 14], delays_ms=(0.5, 2, 0.5), filters_hz=(50, 100)).margins()
+    >>> round(m.records()[1]["phase_margin_deg"], 2), m.to_dict()["stable"]
+    (43.26, [True, True])
+    """
+
+    def __init__(self, margins: Any, labels: dict[str, Any]):
+        self._inner = margins
+        self.labels = labels
+
+    def __repr__(self) -> str:
+        pm = np.round(np.asarray(self._inner.phase_margin_deg, float), 2)
+        return f"MarginsResult(phase_margin_deg={pm.tolist()}, stable=" \
+               f"{np.asarray(self._inner.stable).tolist()})"
+
+    def _columns(self) -> dict[str, np.ndarray]:
+        cols = dict(self.labels)
+        for name in MARGIN_COLUMNS:
+            cols[name] = getattr(self._inner, name)
+        shape = np.shape(self._inner.phase_margin_deg)
+        return {k: np.broadcast_to(np.asarray(v), shape) for k, v in cols.items()}
+
+    def to_dict(self) -> dict[str, Any]:
+        """Every column as a (nested) list of the batch shape; NaN/inf become ``None``.
+
+        Returns
+        -------
+        dict
+            ``labels`` columns then ``phase_margin_deg``, ``crossover_hz``,
+            ``gain_margin_db``, ``delay_margin_ms``, ``stable``.
+        """
+        return {k: json_array(v) for k, v in self._columns().items()}
+
+    def records(self) -> list[dict[str, Any]]:
+        """One JSON-ready dict per design, in C order of the batch (the CLI's rows).
+
+        Returns
+        -------
+        list of dict
+            Keys as in :meth:`to_dict`; a margin that does not exist is ``None``.
+        """
+        cols = {k: np.ravel(v) for k, v in self._columns().items()}
+        n = len(next(iter(cols.values())))
+        return [{k: json_value(v[i]) for k, v in cols.items()} for i in range(n)]
+
+    def plot(self, ax: Any = None, x: str = "fn_hz") -> Any:
+        """Phase margin against a label column (default ``fn_hz``); unstable designs in red.
+
+        Parameters
+        ----------
+        ax : matplotlib.axes.Axes, optional
+            Where to draw (default: a new figure).
+        x : str
+            Label column on the horizontal axis.
+
+        Returns
+        -------
+        matplotlib.axes.Axes
+            The axes drawn on.
+        """
+        ax = _axes(ax)
+        cols = self._columns()
+        xs = np.ravel(cols[x]) if x in cols else np.arange(np.size(cols["stable"]))
+        pm = np.ravel(cols["phase_margin_deg"]).astype(float)
+        ok = np.ravel(cols["stable"]).astype(bool)
+        order = np.argsort(xs, kind="stable")
+        ax.plot(xs[order], pm[order], "-", color="0.6", lw=1)
+        ax.plot(xs[ok], pm[ok], "o", color="tab:blue", label="stable")
+        if (~ok).any():
+            ax.plot(xs[~ok], pm[~ok], "x", color="tab:red", label="unstable")
+        ax.set_xlabel(x)
+        ax.set_ylabel("phase margin [deg]")
+        ax.grid(True, alpha=0.3)
+        ax.legend(loc="best")
+        return ax
+
+
+class ImpedanceResult(_Wrapped):
+    """Impedance ``Z(j 2 pi f)`` of a design batch.
+
+    Every attribute of :class:`seactl.impedance.ImpedanceResponse` is available (``z``,
+    ``f_hz``, ``magnitude``, ``magnitude_db``, ``phase_deg``, ``stiffness``, ``unit``).
+
+    Parameters
+    ----------
+    response : seactl.impedance.ImpedanceResponse
+        The computed impedance.
+    labels : list of str
+        One legend label per design (flattened batch).
+
+    Examples
+    --------
+    >>> import seactl as sc
+    >>> z = sc.design([12, 30]).impedance([1.0, 10.0, 100.0])
+    >>> z.z.shape, z.unit
+    ((2, 3), 'N m s/rad')
+    """
+
+    def __init__(self, response: Any, labels: list[str]):
+        self._inner = response
+        self.labels = labels
+
+    def __repr__(self) -> str:
+        r = self._inner
+        return f"ImpedanceResult(model={r.model!r}, unit={r.unit!r}, shape={r.z.shape})"
+
+    def to_dict(self) -> dict[str, Any]:
+        """Frequencies, magnitude [unit] and phase [deg] as nested lists.
+
+        Returns
+        -------
+        dict
+            ``model``, ``unit``, ``load``, ``f_hz``, ``magnitude``, ``phase_deg``.
+        """
+        r = self._inner
+        return {"model": r.model, "unit": r.unit, "load": r.load, "f_hz": json_array(r.f_hz),
+                "magnitude": json_array(r.magnitude), "phase_deg": json_array(r.phase_deg)}
+
+    def plot(self, ax: Any = None) -> Any:
+        """Magnitude ``|Z|`` against frequency, log-log, one line per design.
+
+        Parameters
+        ----------
+        ax : matplotlib.axes.Axes, optional
+            Where to draw (default: a new figure).
+
+        Returns
+        -------
+        matplotlib.axes.Axes
+            The axes drawn on.
+        """
+        ax = _axes(ax)
+        r = self._inner
+        mags = np.reshape(r.magnitude, (-1, r.f_hz.size))
+        for mag, label in zip(mags, self.labels):
+            ax.loglog(r.f_hz, mag, label=label)
+        ax.set_xlabel("frequency [Hz]")
+        ax.set_ylabel(f"|Z| [{r.unit}]")
+        ax.grid(True, which="both", alpha=0.3)
+        if len(mags) <= 8:
+            ax.legend(loc="best")
+        return ax
+
+
+class ResponseResult(_Wrapped):
+    """A simulated step or impulse response with its metrics.
+
+    Every attribute of :class:`seactl.simulate.SEAResponse` is available (``t_s``,
+    ``position``, ``current``, ``metrics``, ``result``).
+
+    Parameters
+    ----------
+    response : seactl.simulate.SEAResponse
+        The simulated response.
+    labels : list of str
+        One legend label per design (flattened batch).
+
+    Examples
+    --------
+    >>> import seactl as sc
+    >>> r = sc.design([14, 20], filters_hz=(50, 100)).step(t_end_s=0.3)
+    >>> r.position.shape[0], sorted(r.to_dict())[:3]
+    (2, ['current', 'final_value', 'kind'])
+    """
+
+    def __init__(self, response: Any, labels: list[str]):
+        self._inner = response
+        self.labels = labels
+
+    def __repr__(self) -> str:
+        r = self._inner
+        return f"ResponseResult(kind={r.kind!r}, mode={r.result.mode!r}, " \
+               f"shape={r.position.shape})"
+
+    def to_dict(self) -> dict[str, Any]:
+        """Time, position, current and every metric as nested lists.
+
+        Returns
+        -------
+        dict
+            ``kind``, ``mode``, ``t_s``, ``position``, ``current``, ``stable`` and the
+            metrics' fields (e.g. ``overshoot_pct``).
+        """
+        r = self._inner
+        out = {"kind": r.kind, "mode": r.result.mode, "t_s": json_array(r.t_s),
+               "position": json_array(r.position), "current": json_array(r.current)}
+        for name, value in vars(r.metrics).items():
+            out[name] = json_array(value)
+        return out
+
+    def plot(self, ax: Any = None) -> Any:
+        """Joint position against time, one line per design.
+
+        Parameters
+        ----------
+        ax : matplotlib.axes.Axes, optional
+            Where to draw (default: a new figure).
+
+        Returns
+        -------
+        matplotlib.axes.Axes
+            The axes drawn on.
+        """
+        ax = _axes(ax)
+        r = self._inner
+        ys = np.reshape(r.position, (-1, r.t_s.size))
+        for y, label in zip(ys, self.labels):
+            ax.plot(r.t_s, y, label=label)
+        ax.set_xlabel("time [s]")
+        ax.set_ylabel("q_j / step" if r.kind == "step" else "q_j [rad]")
+        ax.grid(True, alpha=0.3)
+        if len(ys) <= 8:
+            ax.legend(loc="best")
+        return ax

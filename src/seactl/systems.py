@@ -1,0 +1,535 @@
+"""Public entry points beyond the SEA batch: rigid actuator, latency maps, placement,
+sweeps and the mobile base.
+
+Each function is a thin, documented front to the module that does the work
+(:mod:`seactl.rigid`, :mod:`seactl.latency`, :mod:`seactl.placement`,
+:mod:`seactl.sweep`, :mod:`seactl.base`), with the units in its keyword names
+(milliseconds for delays, hertz for frequencies) and results that have ``to_dict()``.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import asdict, dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from ._results import MarginsResult, _axes, json_array, json_value
+from ._validate import finite_array
+from .api import delays_from_ms, resolve_actuator
+from .errors import InputError
+
+KINDS = ("sea", "rigid")
+
+
+def _jsonify(obj: Any) -> Any:
+    """Dataclass dicts, tuples and arrays to JSON-ready values."""
+    if isinstance(obj, dict):
+        return {str(k): _jsonify(v) for k, v in obj.items()}
+    if isinstance(obj, (list, tuple)):
+        return [_jsonify(v) for v in obj]
+    if isinstance(obj, (str, type(None))):
+        return obj
+    if isinstance(obj, Path):
+        return str(obj)
+    if isinstance(obj, np.ndarray):
+        return json_array(obj) if obj.dtype.kind in "biuf" else obj.tolist()
+    if isinstance(obj, (bool, int, float, np.generic)):
+        return json_value(obj)
+    return str(obj)
+
+
+# ------------------------------------------------------------------ rigid actuator
+@dataclass(frozen=True, eq=False)
+class RigidBatch:
+    """A batch of critically-damped rigid-actuator designs (build with :func:`rigid`).
+
+    Parameters
+    ----------
+    rigid : seactl.rigid.RigidDesign
+        The underlying batch (actuator, gains ``K`` [N/m], ``B`` [N s/m], delays [s]).
+    fn_hz : numpy.ndarray
+        Natural frequencies [Hz] the gains were designed for.
+
+    Examples
+    --------
+    >>> import seactl as sc
+    >>> r = sc.rigid([8, 12], delays_ms=(15, 1))
+    >>> r.shape, r.margins().stable.tolist()
+    ((2,), [True, True])
+    """
+
+    rigid: Any
+    fn_hz: np.ndarray
+
+    @property
+    def shape(self) -> tuple[int, ...]:
+        """The batch shape."""
+        return self.rigid.shape
+
+    def __getitem__(self, idx: Any) -> RigidBatch:
+        from dataclasses import replace
+
+        from .rigid import RigidGains
+
+        shape = self.shape
+
+        def pick(x: Any) -> Any:
+            return None if x is None else np.broadcast_to(np.asarray(x, float), shape)[idx]
+
+        g = self.rigid.gains
+        sub = replace(self.rigid, gains=RigidGains(pick(g.K), pick(g.B)),
+                      T_s=pick(self.rigid.T_s), T_d=pick(self.rigid.T_d),
+                      f_v=pick(self.rigid.f_v))
+        return RigidBatch(sub, pick(self.fn_hz))
+
+    def margins(self) -> MarginsResult:
+        """Whole-loop phase, gain and delay margins and Nyquist stability.
+
+        Returns
+        -------
+        MarginsResult
+            Arrays of the batch shape, labelled by ``fn_hz``, ``K`` and ``B``.
+
+        Examples
+        --------
+        >>> import seactl as sc
+        >>> round(float(sc.rigid(8, delays_ms=(1.5, 1.5)).margins().phase_margin_deg), 1)
+        52.6
+        """
+        from .rigid import rigid_margins
+
+        r = self.rigid
+        return MarginsResult(rigid_margins(r), {"fn_hz": self.fn_hz, "K": r.K, "B": r.B})
+
+    def delay_margins(self) -> Any:
+        """Extra latency the stiffness loop alone, the damping loop alone, and both tolerate.
+
+        Returns
+        -------
+        seactl.latency.LoopDelayMargins
+            ``stiffness_s``, ``damping_s``, ``overall_s`` [s] and their ``ratio``.
+
+        Examples
+        --------
+        >>> import seactl as sc
+        >>> dm = sc.rigid(8, delays_ms=(1.5, 1.5)).delay_margins()
+        >>> round(float(dm.stiffness_s) * 1e3, 2), round(float(dm.damping_s) * 1e3, 2)
+        (55.47, 9.55)
+        """
+        from .latency import rigid_model
+
+        model = rigid_model(self.rigid.actuator)
+        return model.delay_margins(self.rigid)
+
+
+def rigid(fn_hz: Any, *, actuator: Any = "ut-linear", delays_ms: Sequence[Any] = (0.0, 0.0),
+          velocity_filter_hz: float | None = 50.0, passive_damping: bool = True) -> RigidBatch:
+    """Critically-damped rigid-actuator designs ``K = m w_n^2``, ``B = 2 m w_n - b``.
+
+    Parameters
+    ----------
+    fn_hz : array_like
+        Natural frequency [Hz].
+    actuator : str or path or RigidParams
+        Preset (``"ut-linear"``), TOML file or :class:`~seactl.rigid.RigidParams`.
+    delays_ms : tuple of array_like
+        ``(T_s, T_d)``: stiffness-loop and damping-loop delays [ms].
+    velocity_filter_hz : float or None
+        Cut-off of the first-order velocity filter [Hz]; None: no filter.
+    passive_damping : bool
+        Subtract the actuator's own damping ``b`` from ``B``.
+
+    Returns
+    -------
+    RigidBatch
+        The batch, of the broadcast shape of ``fn_hz`` and the delays.
+
+    Examples
+    --------
+    >>> import seactl as sc
+    >>> r = sc.rigid(12, delays_ms=(1, 15))
+    >>> bool(r.margins().stable)                # 15 ms on the damping loop: unstable
+    False
+    >>> bool(sc.rigid(12, delays_ms=(15, 1)).margins().stable)
+    True
+    """
+    from .rigid import RigidDesign, RigidParams, load_rigid
+
+    act = resolve_actuator(actuator, load_rigid, RigidParams)
+    fn = finite_array("fn_hz [Hz]", fn_hz, minimum=0.0, strict=True)
+    t_s, t_d = delays_from_ms(delays_ms, ("T_s", "T_d"))
+    d = RigidDesign.from_fn(act, fn, T_s=t_s, T_d=t_d, f_v=velocity_filter_hz,
+                            passive_damping=passive_damping)
+    return RigidBatch(d, np.broadcast_to(fn, d.shape))
+
+
+# ------------------------------------------------------------------ latency maps
+def loop_model(kind: str = "sea", actuator: Any = None, *, torque_delay_ms: float = 0.5,
+               filters_hz: Sequence[Any] = (50.0, 100.0)) -> Any:
+    """How designs of one actuator depend on ``(f_n, T_s, T_d)`` (for maps and placement).
+
+    Parameters
+    ----------
+    kind : {"sea", "rigid"}
+        SEA (stiffness ``K_q``, damping ``B_q`` around a torque loop) or rigid actuator.
+    actuator : str or path or parameters, optional
+        Default: the UT-SEA, or the UT linear actuator for ``"rigid"``.
+    torque_delay_ms : float
+        SEA only: torque-loop delay [ms].
+    filters_hz : tuple
+        SEA: ``(f_qd, f_taud)`` [Hz]; rigid: only the first (velocity filter) is used.
+
+    Returns
+    -------
+    seactl.latency.LoopModel
+        The model.
+
+    Examples
+    --------
+    >>> import seactl as sc
+    >>> sc.loop_model("rigid").name
+    'ut-linear'
+    """
+    from .latency import rigid_model, sea_model
+
+    if kind not in KINDS:
+        raise InputError("kind", kind, " or ".join(KINDS))
+    if kind == "rigid":
+        from .rigid import RigidParams, load_rigid
+
+        act = None if actuator is None else resolve_actuator(actuator, load_rigid, RigidParams)
+        return rigid_model(act, f_v=filters_hz[0])
+    from .actuators import SEAParams, load_sea
+
+    act = None if actuator is None else resolve_actuator(actuator, load_sea, SEAParams)
+    (t_tau,) = delays_from_ms((torque_delay_ms,), ("T_tau",))
+    return sea_model(act, T_tau=float(t_tau), f_qd=filters_hz[0], f_taud=filters_hz[1])
+
+
+@dataclass(frozen=True)
+class LatencyMapResult:
+    """Phase margin and stability over (stiffness delay, damping delay) at one ``f_n``.
+
+    Parameters
+    ----------
+    map : seactl.latency.LatencyMap
+        The computed map; arrays indexed ``[i_stiffness, i_damping]``.
+
+    Examples
+    --------
+    >>> import seactl as sc
+    >>> m = sc.latency_map(14, [0, 5, 10], [0, 1], torque_delay_ms=0.5)
+    >>> m.to_dict()["damping_delay_ms"], m.map.phase_margin_deg.shape
+    ([0.0, 1.0], (3, 2))
+    """
+
+    map: Any
+
+    def to_dict(self) -> dict[str, Any]:
+        """The map as JSON-ready lists (delays in ms).
+
+        Returns
+        -------
+        dict
+            ``actuator``, ``fn_hz``, ``stiffness_delay_ms``, ``damping_delay_ms``,
+            ``phase_margin_deg``, ``stable``.
+        """
+        m = self.map
+        return {"actuator": m.actuator, "kind": m.kind, "fn_hz": m.fn_hz,
+                "stiffness_delay_ms": json_array(m.T_s * 1e3),
+                "damping_delay_ms": json_array(m.T_d * 1e3),
+                "phase_margin_deg": json_array(m.phase_margin_deg),
+                "stable": json_array(m.stable)}
+
+    def plot(self, ax: Any = None) -> Any:
+        """Phase-margin contours over the two delays; unstable region hatched.
+
+        Parameters
+        ----------
+        ax : matplotlib.axes.Axes, optional
+            Where to draw (default: a new figure).
+
+        Returns
+        -------
+        matplotlib.axes.Axes
+            The axes drawn on.
+        """
+        ax = _axes(ax)
+        m = self.map
+        x, y = m.T_d * 1e3, m.T_s * 1e3
+        pm = np.where(m.stable, m.phase_margin_deg, np.nan)
+        cs = ax.contourf(x, y, pm, levels=12, cmap="viridis")
+        ax.figure.colorbar(cs, ax=ax, label="phase margin [deg]")
+        if (~m.stable).any():
+            ax.contourf(x, y, (~m.stable).astype(float), levels=[0.5, 1.5], colors="none",
+                        hatches=["//"])
+        ax.set_xlabel("damping-loop delay [ms]")
+        ax.set_ylabel("stiffness-loop delay [ms]")
+        ax.set_title(f"{m.actuator}, f_n = {m.fn_hz:g} Hz")
+        return ax
+
+
+def latency_map(fn_hz: float, stiffness_delays_ms: Any, damping_delays_ms: Any, *,
+                kind: str = "sea", actuator: Any = None, torque_delay_ms: float = 0.5,
+                filters_hz: Sequence[Any] = (50.0, 100.0)) -> LatencyMapResult:
+    """Phase margin and Nyquist stability on a grid of (stiffness delay, damping delay).
+
+    Parameters
+    ----------
+    fn_hz : float
+        Natural frequency [Hz] of the (critically-damped) design.
+    stiffness_delays_ms, damping_delays_ms : array_like
+        The grid's axes [ms].
+    kind : {"sea", "rigid"}
+        Actuator kind.
+    actuator : str or path or parameters, optional
+        As for :func:`loop_model`.
+    torque_delay_ms : float
+        SEA only: torque-loop delay [ms].
+    filters_hz : tuple
+        SEA: ``(f_qd, f_taud)`` [Hz]; rigid: the velocity filter first.
+
+    Returns
+    -------
+    LatencyMapResult
+        ``map.phase_margin_deg[i, j]`` at stiffness delay ``i`` and damping delay ``j``.
+
+    Examples
+    --------
+    >>> import seactl as sc
+    >>> m = sc.latency_map(12, [1, 15], [1, 15], kind="rigid")
+    >>> m.map.stable.tolist()                 # rows: stiffness delay, columns: damping
+    [[True, False], [True, False]]
+    """
+    model = loop_model(kind, actuator, torque_delay_ms=torque_delay_ms, filters_hz=filters_hz)
+    ts = delays_from_ms((stiffness_delays_ms,), ("stiffness delay",))[0]
+    td = delays_from_ms((damping_delays_ms,), ("damping delay",))[0]
+    from .latency import latency_map as compute
+
+    return LatencyMapResult(compute(model, float(fn_hz), np.ravel(ts), np.ravel(td)))
+
+
+# ------------------------------------------------------------------ placement
+@dataclass(frozen=True)
+class PlacementResult:
+    """Which loop to run on which processor (see :func:`place`).
+
+    Parameters
+    ----------
+    advice : seactl.placement.Advice
+        The advisor's answer: ``recommended``, ``options`` per placement, ``reason``.
+
+    Examples
+    --------
+    >>> import seactl as sc
+    >>> p = sc.place(22, 0.5)
+    >>> [o["placement"] for o in p.to_dict()["options"]]
+    ['centralized', 'distributed', 'embedded']
+    """
+
+    advice: Any
+
+    @property
+    def recommended(self) -> str | None:
+        """``"centralized"``, ``"distributed"``, ``"embedded"`` or None."""
+        return self.advice.recommended
+
+    def to_dict(self) -> dict[str, Any]:
+        """The advice as JSON-ready values (delays in seconds, as in the advice).
+
+        Returns
+        -------
+        dict
+            Every field of :class:`seactl.placement.Advice`.
+        """
+        return _jsonify(asdict(self.advice))
+
+
+def place(high_latency_ms: float, low_latency_ms: float, *, kind: str = "rigid",
+          actuator: Any = None, min_pm_deg: float = 45.0,
+          stiffness_embeddable: bool = False) -> PlacementResult:
+    """Recommend where the stiffness and damping loops should run.
+
+    Parameters
+    ----------
+    high_latency_ms, low_latency_ms : float
+        Feedback latency of the high-level and of the embedded process [ms].
+    kind : {"rigid", "sea"}
+        Actuator kind (see :func:`loop_model`).
+    actuator : str or path or parameters, optional
+        Default: the UT linear actuator (rigid) or the UT-SEA.
+    min_pm_deg : float
+        Required whole-loop phase margin [deg].
+    stiffness_embeddable : bool
+        Whether the stiffness loop may run on the embedded process too.
+
+    Returns
+    -------
+    PlacementResult
+        ``recommended`` and, per placement, the highest admissible ``f_n`` and gains.
+
+    Examples
+    --------
+    >>> import seactl as sc
+    >>> sc.place(22, 0.5).recommended
+    'distributed'
+    """
+    model = loop_model(kind, actuator)
+    high, low = delays_from_ms((high_latency_ms, low_latency_ms), ("high latency",
+                                                                    "low latency"))
+    from .placement import advise
+
+    return PlacementResult(advise(model, float(high), float(low), min_pm_deg=min_pm_deg,
+                                  stiffness_embeddable=stiffness_embeddable))
+
+
+# ------------------------------------------------------------------ sweeps
+def sweep(out: str | Path, *, actuator: Any = "ut-sea", sampling: str = "grid",
+          n_samples: int = 0, seed: int = 0, chunk_size: int = 5000,
+          z_freqs_hz: Sequence[float] = (), workers: int | None = None,
+          scheduler: str | None = None, client: Any = None, resume: bool = False,
+          overwrite: bool = False, **axes: Any) -> Any:
+    """Sweep the SEA design space into a resumable Parquet dataset.
+
+    Parameters
+    ----------
+    out : str or path
+        Output directory (created; refused if it holds something else).
+    actuator : str or path or SEAParams
+        Nominal actuator.
+    sampling : {"grid", "random", "lhs"}
+        Cartesian grid, or ``n_samples`` random / Latin-hypercube points in the axes'
+        ranges.
+    n_samples, seed : int
+        Sample count and seed of the sampling modes.
+    chunk_size : int
+        Points per chunk (one Parquet file each).
+    z_freqs_hz : sequence of float
+        Frequencies [Hz] at which to store ``|Z|``.
+    workers : int, optional
+        Local Dask worker processes (default: all cores; 0: in this process).
+    scheduler : str, optional
+        Address of a Dask scheduler, e.g. ``"tcp://10.0.0.5:8786"``.
+    client : distributed.Client, optional
+        An existing Dask client.
+    resume, overwrite : bool
+        Finish an interrupted sweep / replace a previous one.
+    **axes : array_like
+        Values per axis, units in the names: ``fn_hz``, ``gs``, ``zeta1``, ``zeta2``,
+        ``ratio``, ``t_tau_ms``, ``t_qs_ms``, ``t_qd_ms``, ``f_qd_hz``, ``f_taud_hz`` and
+        plant parameters ``Im``, ``Ij``, ``bm``, ``bj``, ``k``, ``beta`` (rotary SI).
+
+    Returns
+    -------
+    seactl.sweep.SweepResult
+        Where the data went, counts, timing; read it with :func:`read_sweep`.
+
+    Examples
+    --------
+    >>> import tempfile, seactl as sc
+    >>> out = tempfile.mkdtemp() + "/s"
+    >>> res = sc.sweep(out, fn_hz=[12, 14, 16], t_qs_ms=[0, 2], workers=0)
+    >>> res.n_points, len(sc.read_sweep(out))
+    (6, 6)
+    """
+    from .actuators import SEAParams, load_sea
+    from .sweep import SweepSpec, run_sweep
+
+    act = resolve_actuator(actuator, load_sea, SEAParams)
+    spec = SweepSpec(act, axes=tuple((k, tuple(np.ravel(v))) for k, v in axes.items()),
+                     sampling=sampling, n_samples=n_samples, seed=seed, chunk_size=chunk_size,
+                     z_freqs_hz=tuple(z_freqs_hz))
+    return run_sweep(spec, out, resume=resume, overwrite=overwrite, workers=workers,
+                     scheduler=scheduler, client=client)
+
+
+def read_sweep(out: str | Path, columns: Sequence[str] | None = None) -> Any:
+    """Read a sweep dataset as one table sorted by point index.
+
+    Parameters
+    ----------
+    out : str or path
+        The sweep's output directory.
+    columns : sequence of str, optional
+        Columns to read (default: all).
+
+    Returns
+    -------
+    pyarrow.Table
+        One row per design point; ``.to_pandas()`` if pandas is installed.
+
+    Examples
+    --------
+    >>> import tempfile, seactl as sc
+    >>> out = tempfile.mkdtemp() + "/s"
+    >>> _ = sc.sweep(out, fn_hz=[12, 14], workers=0)
+    >>> [round(x, 2) for x in sc.read_sweep(out).column("phase_margin_deg").to_pylist()]
+    [54.37, 55.51]
+    """
+    from .sweep import read_sweep as read
+
+    return read(Path(out), columns)
+
+
+# ------------------------------------------------------------------ mobile base
+def mobile_base(params: Any = "trikey", *, archs: Sequence[str] = ("cosc", "dosc"),
+                track: bool = True) -> Any:
+    """Tune the omnidirectional base's controllers, centralized (COSC) vs distributed (DOSC).
+
+    Runs the paper's procedure: raise damping until the base vibrates, then stiffness,
+    then track a circle at a safety factor of both limits.
+
+    Parameters
+    ----------
+    params : str or path or BaseParams
+        Preset (``"trikey"``), TOML file, or :class:`~seactl.base.BaseParams`.
+    archs : sequence of {"cosc", "dosc"}
+        Architectures to tune.
+    track : bool
+        Also simulate the circle tracking (RMS errors).
+
+    Returns
+    -------
+    seactl.base.BaseComparison
+        Per architecture: damping and stiffness limits, gains, RMS tracking errors;
+        ``kx_ratio`` DOSC/COSC.
+
+    Examples
+    --------
+    >>> import seactl as sc
+    >>> sc.base_params().name
+    'trikey'
+    >>> c = sc.mobile_base()                    # doctest: +SKIP
+    >>> round(c.kx_ratio, 1)                    # doctest: +SKIP
+    6.4
+    """
+    from .base import tune
+
+    return tune(base_params(params), tuple(archs), track=track)
+
+
+def base_params(params: Any = "trikey") -> Any:
+    """The mobile base's parameters: a preset name, a TOML file, or the object itself.
+
+    Parameters
+    ----------
+    params : str or path or BaseParams
+        ``"trikey"`` (default), a TOML file, or a :class:`~seactl.base.BaseParams`.
+
+    Returns
+    -------
+    seactl.base.BaseParams
+        Validated parameters.
+
+    Examples
+    --------
+    >>> import seactl as sc
+    >>> round(sc.base_params().base_mass, 1)
+    32.7
+    """
+    from .base import BaseParams, load_base
+
+    return resolve_actuator(params, load_base, BaseParams)

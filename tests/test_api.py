@@ -1,0 +1,166 @@
+"""The public API (``import seactl as sc``): designs, results, units, python-control export.
+
+Oracles are named per test: the paper's Table I, python-control's own margin routines on
+the exported systems, analytic identities (P_CL(0) = 1, s Z -> K_q), the gain design
+called directly, and the rigid actuator's latency asymmetry stated in the paper.
+"""
+
+from __future__ import annotations
+
+import json
+import subprocess
+import sys
+import warnings
+
+import control as ct
+import numpy as np
+import pytest
+
+import seactl as sc
+from seactl.actuators import UT_SEA
+from seactl.design import critically_damped_gains
+from seactl.loops import Timing
+
+TABLE_I = dict(delays_ms=(0.5, 2, 0.5), filters_hz=(50, 100))
+
+
+@pytest.fixture(scope="module")
+def table1():
+    return sc.design([12, 14, 16], gs=1.0, **TABLE_I)
+
+
+def test_three_line_example_reproduces_table_i(table1):
+    # Oracle: the paper's Table I (45.13, 43.2(6), 40.03 degrees).
+    pm = table1.margins().phase_margin_deg
+    np.testing.assert_allclose(pm, [45.13, 43.26, 40.03], atol=0.005)
+
+
+def test_gains_equal_the_gain_design_called_directly(table1):
+    # Oracle: seactl.design.critically_damped_gains with the same arguments.
+    g = critically_damped_gains(UT_SEA, np.array([12.0, 14.0, 16.0]))
+    for name in ("Kq", "Bq", "Ktau", "Btau"):
+        np.testing.assert_allclose(getattr(table1.gains, name), getattr(g, name), rtol=1e-12)
+    np.testing.assert_allclose(table1.timing.T_qs, 2e-3)
+
+
+def test_broadcasting_grid_and_indexing(table1):
+    d = sc.design(np.array([12.0, 14.0])[:, None], gs=[0.5, 1.0, 2.0], **TABLE_I)
+    assert d.shape == (2, 3)
+    m = d.margins().phase_margin_deg
+    # indexing a batch gives the same designs: its margins equal the batch's entries
+    np.testing.assert_allclose(d[1, 2].margins().phase_margin_deg, m[1, 2], rtol=1e-9)
+    np.testing.assert_allclose(d[:, 1].margins().phase_margin_deg, table1[:2].margins()
+                               .phase_margin_deg, rtol=1e-9)
+    assert d.reshape(6).shape == (6,) and len(d) == 2
+    # gain scale: torque gains x GS, impedance gains / GS
+    np.testing.assert_allclose(d.gains.Ktau[:, 2], 2 * d.gains.Ktau[:, 1])
+    np.testing.assert_allclose(d.gains.Kq[:, 0], 2 * d.gains.Kq[:, 1])
+
+
+def test_actuator_from_toml_and_object(tmp_path):
+    fields = dict(motor_inertia=0.225, joint_inertia=0.014, motor_damping=1.375,
+                  joint_damping=0.1, spring_stiffness=218.75, current_to_torque=5.2025)
+    path = tmp_path / "mine.toml"
+    path.write_text("\n".join(f"{k} = {v}" for k, v in fields.items()))
+    a = sc.design(14, actuator=path).margins().phase_margin_deg
+    b = sc.design(14, actuator=sc.SEAParams(**fields)).margins().phase_margin_deg
+    assert a == b
+    assert sc.design(14, actuator=path).actuator.name == "mine"
+
+
+def test_units_are_checked_with_the_unit_in_the_message():
+    with pytest.raises(sc.InputError, match=r"T_qs \[ms\] = 2000.0.*milliseconds"):
+        sc.design(14, delays_ms=(0.5, 2000, 0.5))
+    with pytest.raises(sc.InputError, match="delays_ms"):
+        sc.design(14, delays_ms=(0.5, 2))
+    with pytest.raises(sc.InputError, match=r"f_qd \[Hz\]"):
+        sc.design(14, filters_hz=(-50, 100))
+    with pytest.raises(sc.InputError, match=r"fn_hz \[Hz\]"):
+        sc.design(0)
+    with pytest.warns(sc.UnitWarning, match="milliseconds"):
+        sc.design(14, delays_ms=(0.0005, 0.002, 0.0005))
+    # Timing takes seconds: 2.0 (two seconds, meant as 2 ms) is refused, naming the unit.
+    with pytest.raises(sc.InputError, match=r"T_qs \[s\] = 2.0.*Timing takes seconds"):
+        Timing(0.5e-3, 2.0, 0.5e-3)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        sc.design(14, **TABLE_I)          # ordinary values: no warning
+
+
+def test_infeasible_design_names_the_bound():
+    with pytest.raises(sc.InfeasibleDesignError, match=r"f_n >= 9.456 Hz"):
+        sc.design(8)
+
+
+def test_frd_export_matches_python_control_margins(table1):
+    # Oracle: python-control's stability_margins on the exported exact-delay FRD.
+    ours = table1.margins()
+    for i, L in enumerate(table1.to_control("frd")):
+        gm, pm, sm, wpc, wgc, wms = ct.stability_margins(L)
+        assert pm == pytest.approx(ours.phase_margin_deg[i], abs=0.02)
+        assert wgc / (2 * np.pi) == pytest.approx(ours.crossover_hz[i], rel=1e-3)
+
+
+def test_pade_export_margins_dc_gain_and_stiffness(table1):
+    d = table1[0]
+    # Oracle: python-control's margin on the rational Pade model (order 3) vs exact delays.
+    L = d.to_control("pade", order=3)
+    assert isinstance(L, ct.TransferFunction)
+    assert ct.margin(L)[1] == pytest.approx(float(d.margins().phase_margin_deg), abs=0.01)
+    # Analytic: the closed loop has unit DC gain (P_CL(0) = 1) and is stable.
+    C = d.to_control("pade", transfer="closed", order=3)
+    assert ct.dcgain(C) == pytest.approx(1.0, rel=1e-6)
+    assert np.all(C.poles().real < 0)
+    # Analytic: s Z(s) -> K_q at low frequency (impedance export, state space form).
+    Z = d.to_control("pade-ss", transfer="impedance", order=2)
+    assert isinstance(Z, ct.StateSpace)
+    w = 1e-3
+    assert (1j * w * Z(1j * w)).real == pytest.approx(float(d.gains.Kq), rel=1e-4)
+    with pytest.raises(sc.InputError, match="order"):
+        d.to_control("pade", order=9)
+    with pytest.raises(sc.InputError, match="kind"):
+        d.to_control("tf")
+
+
+def test_results_to_dict_is_json_and_plot_draws(table1):
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    m = table1.margins()
+    json.dumps(m.to_dict())
+    rows = m.records()
+    assert [r["fn_hz"] for r in rows] == [12.0, 14.0, 16.0]
+    assert rows[0]["phase_margin_deg"] == pytest.approx(45.13, abs=0.005)
+    z = table1.impedance([1.0, 10.0])
+    assert np.shape(z.to_dict()["magnitude"]) == (3, 2)
+    r = table1[1].step(t_end_s=0.3)
+    # Analytic: unit steady state (P_CL(0) = 1)
+    assert r.metrics.final_value == pytest.approx(1.0, abs=1e-3)
+    json.dumps(r.to_dict())
+    for res in (m, z, r):
+        fig, ax = plt.subplots()
+        assert res.plot(ax=ax) is ax and ax.lines
+        plt.close(fig)
+
+
+def test_rigid_latency_asymmetry_and_placement():
+    # Oracle: the paper's claim for the rigid actuator (15 ms on the damping loop
+    # destabilizes f_n = 12 Hz, 15 ms on the stiffness loop does not).
+    assert sc.rigid(12, delays_ms=(15, 1)).margins().stable
+    assert not sc.rigid(12, delays_ms=(1, 15)).margins().stable
+    dm = sc.rigid(8, delays_ms=(1.5, 1.5)).delay_margins()
+    assert dm.stiffness_s > 5 * dm.damping_s
+    m = sc.latency_map(12, [1, 15], [1, 15], kind="rigid")
+    assert m.map.stable.tolist() == [[True, False], [True, False]]
+    json.dumps(m.to_dict())
+    assert sc.place(22, 0.5).recommended == "distributed"
+
+
+def test_import_is_light():
+    # `import seactl` must not pull in matplotlib (plots import it lazily) nor dask.
+    code = "import sys, seactl; print('matplotlib' in sys.modules, 'dask' in sys.modules)"
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                         check=True).stdout.split()
+    assert out == ["False", "False"]
