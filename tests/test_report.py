@@ -4,7 +4,7 @@ import json
 
 import pytest
 
-from seactl import report
+from seactl import paper
 from seactl.cli import main
 
 
@@ -43,9 +43,10 @@ def test_interrupted_run_leaves_previous_report_intact(tmp_path, monkeypatch, ca
     def boom(ctx):
         raise KeyboardInterrupt
 
-    monkeypatch.setattr(report, "_SECTIONS", report._SECTIONS + [(999, "boom", boom)])
+    boom.section_id = "boom"
+    monkeypatch.setattr(paper, "SECTIONS", paper.SECTIONS + (boom,))
     with pytest.raises(KeyboardInterrupt):
-        report.reproduce(out, only=["table-i", "boom"])
+        paper.reproduce(out, only=["table-i", "boom"])
     assert (out / "claims.json").read_bytes() == before
     assert sorted(p.name for p in tmp_path.iterdir()) == ["rep"]  # no temp leftovers
 

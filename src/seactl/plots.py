@@ -2,15 +2,23 @@
 
 from __future__ import annotations
 
-import matplotlib
+import numpy as np
 
-matplotlib.use("Agg")
-import matplotlib.pyplot as plt  # noqa: E402
-import numpy as np  # noqa: E402
+
+def _pyplot():
+    """matplotlib.pyplot on the Agg backend, imported on first use so that ``import seactl``
+    and ``seactl --help`` stay free of matplotlib."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    return plt
 
 
 def gain_scale_figure(fn: np.ndarray, gs: np.ndarray, pm: np.ndarray):
     """Phase margin versus GS, one curve per f_n, with each maximum marked."""
+    plt = _pyplot()
     fig, ax = plt.subplots(figsize=(7, 4.2))
     colors = plt.cm.viridis(np.linspace(0, 0.9, len(fn)))
     for f, row, c in zip(fn, pm, colors):
@@ -39,6 +47,7 @@ def impedance_bode_figure(columns, *, suptitle: str | None = None, unit: str = "
     (complex), ``label`` and optional ``color``, ``dashed`` (asymptotes and references:
     drawn dashed and excluded from the axis limits), ``lw``.
     """
+    plt = _pyplot()
     n = len(columns)
     fig, axes = plt.subplots(2, n, figsize=(col_width * n, 6.2), sharex="col", squeeze=False,
                              gridspec_kw={"height_ratios": [1.6, 1]})
@@ -73,6 +82,7 @@ def impedance_bode_figure(columns, *, suptitle: str | None = None, unit: str = "
 
 def zregion_figure(region, fn_hz, gs, *, spring=None, unit: str = "N m s/rad"):
     """Z-region: admissible |Z| envelope, Z-width with the Z-depth, admissible design map."""
+    plt = _pyplot()
     f = region.f_hz
     fig, axes = plt.subplots(1, 3, figsize=(15, 4.4),
                              gridspec_kw={"width_ratios": [1.3, 1.0, 0.9]})
@@ -123,6 +133,7 @@ def zregion_figure(region, fn_hz, gs, *, spring=None, unit: str = "N m s/rad"):
 def sweep_map_figure(m: dict, title: str = ""):
     """Heatmap (with contours) of a sweep output over two axes (:func:`seactl.sweep.sweep_map`);
     grey: no feasible design; red line: stability boundary of the cells' designs."""
+    plt = _pyplot()
     fig, ax = plt.subplots(figsize=(6.4, 4.6))
     x, y, z = m["x"], m["y"], np.ma.masked_invalid(m["z"])
     ax.set_facecolor("0.85")
@@ -159,6 +170,7 @@ def robust_histogram_figure(pm: np.ndarray, stable: np.ndarray, nominal_pm: floa
                             title: str = ""):
     """Histogram of the phase margin over Monte Carlo samples (stable ones), with the
     nominal margin and the share of unstable samples."""
+    plt = _pyplot()
     fig, ax = plt.subplots(figsize=(6.4, 4.0))
     ok = stable & np.isfinite(pm)
     if ok.any():
@@ -185,6 +197,7 @@ def latency_map_figure(maps, maxfn=None, title: str = ""):
     (same order) of ``(T_s [s], T_d [s], MaxFn)`` drawn in a second column.  The thick
     black line is the stability boundary; unstable points are hatched.
     """
+    plt = _pyplot()
     ncol = 2 if maxfn else 1
     fig, axes = plt.subplots(len(maps), ncol, figsize=(5.6 * ncol, 4.4 * len(maps)),
                              squeeze=False)
@@ -234,6 +247,7 @@ def latency_map_figure(maps, maxfn=None, title: str = ""):
 def step_experiment_figure(t, y, panels, fn_hz, unstable, saturated, title: str = ""):
     """Four-panel normalized step responses: ``y[panel, fn, time]``; ``panels`` are
     labels; unstable runs are drawn dashed and marked in the legend."""
+    plt = _pyplot()
     fig, axes = plt.subplots(2, 2, figsize=(10, 6.5), sharex=True, sharey=True)
     colors = plt.cm.plasma(np.linspace(0.05, 0.8, len(fn_hz)))
     for k, ax in enumerate(axes.ravel()):
@@ -264,6 +278,7 @@ _BASE_COLORS = {"cosc": "tab:red", "dosc": "tab:blue"}
 
 def base_tracking_figure(comparison, paper_kx: dict | None = None):
     """COSC vs DOSC: circle paths, errors over time, the two gain searches, the limits."""
+    plt = _pyplot()
     p = comparison.params
     res = comparison.track
     archs = list(comparison.results)
@@ -331,6 +346,7 @@ def base_tracking_figure(comparison, paper_kx: dict | None = None):
 
 def base_animation(comparison, path, fps: int = 12, seconds: float | None = None) -> None:
     """Animated GIF of the bases tracking the circle side by side (Pillow writer)."""
+    plt = _pyplot()
     from matplotlib.animation import FuncAnimation, PillowWriter
 
     p = comparison.params
@@ -385,6 +401,7 @@ def base_animation(comparison, path, fps: int = 12, seconds: float | None = None
 def response_figure(t, y, labels, *, title="", ylabel="", current=None, unstable=None):
     """Responses ``y[k, T]`` versus time, one curve per label; with ``current`` (same
     shape, [A]) a second panel shows the motor current. Unstable curves are dashed."""
+    plt = _pyplot()
     rows = 2 if current is not None else 1
     fig, axes = plt.subplots(rows, 1, figsize=(7.5, 4.2 * rows if rows == 1 else 6.5),
                              sharex=True, squeeze=False)
@@ -411,6 +428,7 @@ def response_figure(t, y, labels, *, title="", ylabel="", current=None, unstable
 def panels_figure(panels, *, ncols=None, figsize=None):
     """Several response panels side by side.  ``panels``: list of dicts with ``title``,
     ``ylabel``, ``curves`` = list of ``(t, y, label, style_kwargs)`` and optional ``xlim``."""
+    plt = _pyplot()
     n = len(panels)
     ncols = ncols or n
     nrows = int(np.ceil(n / ncols))
@@ -437,6 +455,7 @@ def panels_figure(panels, *, ncols=None, figsize=None):
 def latency_sensitivity_figure(fn_hz, t_qs_ms, t_qd_ms, pm, stable, mark=None):
     """Phase margin over (T_qs, T_qd), one panel per f_n (``pm[k, i_qs, i_qd]``), with the
     stability boundary (red) and an optional marked point ``(T_qs, T_qd)``."""
+    plt = _pyplot()
     n = len(fn_hz)
     cols = 2 if n > 1 else 1
     rows = -(-n // cols)
@@ -477,6 +496,7 @@ FIGURE_FORMATS = ("png", "svg", "pdf")
 def save_figure(fig, path, dpi: int = 120) -> None:
     """Write ``fig`` to ``path`` atomically (temporary sibling + rename) and close it; the
     format follows the suffix (png, svg or pdf)."""
+    plt = _pyplot()
     import os
     import tempfile
     from pathlib import Path

@@ -1,9 +1,10 @@
 """The reproduction report: sections, claims, figures, HTML, written atomically.
 
-A *section* is a function ``f(ctx) -> Section`` registered with
-:func:`section`; the sections of the paper live in :mod:`seactl.paper`.  Each
-returns prose, tables, figures and :class:`Claim` objects comparing a number
-of the paper with the value seactl computes.  :func:`reproduce` runs them all,
+A *section* is a function ``f(ctx) -> Section`` tagged with :func:`section`;
+the sections of the paper, and their order, live in :mod:`seactl.paper`, which
+imports this module (never the reverse).  Each returns prose, tables, figures
+and :class:`Claim` objects comparing a number of the paper with the value
+seactl computes.  :func:`build` runs a list of sections,
 writes ``figures/*.png``, ``claims.json`` and ``index.html`` into a temporary
 directory next to the target and renames it into place at the end, so an
 interrupted run never leaves a half report.
@@ -117,46 +118,31 @@ class Context:
         return name
 
 
-_SECTIONS: list[tuple[int, str, Callable[[Context], Section]]] = []
+SectionFn = Callable[[Context], Section]
 
 
-def section(order: int, id: str) -> Callable:
-    """Register a report section builder (sections run in ``order``)."""
+def section(order: int, id: str) -> Callable[[SectionFn], SectionFn]:
+    """Tag a report section builder with its id (``order`` is kept for readers; the order of
+    the report is the explicit list in :data:`seactl.paper.SECTIONS`)."""
 
-    def deco(func: Callable[[Context], Section]) -> Callable[[Context], Section]:
-        if any(s[1] == id for s in _SECTIONS):
-            raise ValueError(f"duplicate report section {id!r}")
-        _SECTIONS.append((order, id, func))
+    def deco(func: SectionFn) -> SectionFn:
+        func.section_id = id  # type: ignore[attr-defined]
+        func.section_order = order  # type: ignore[attr-defined]
         return func
 
     return deco
 
 
-def registered_sections() -> list[tuple[int, str, Callable[[Context], Section]]]:
-    from . import paper  # noqa: F401 - registers the sections
-
-    return sorted(_SECTIONS, key=lambda s: (s[0], s[1]))
-
-
-def reproduce(out: Path, only: Iterable[str] | None = None, console: Any = None
-              ) -> list[dict[str, Any]]:
-    """Build the report into ``out`` (atomically) and return the claims as JSON dicts."""
+def build(out: Path, sections: Iterable[SectionFn], console: Any = None
+          ) -> list[dict[str, Any]]:
+    """Run ``sections`` and write the report into ``out`` (atomically); return the claims."""
     import matplotlib
 
     matplotlib.use("Agg")
     from rich.progress import Progress
 
+    sections = list(sections)
     out = Path(out)
-    sections = registered_sections()
-    if only:
-        wanted = set(only)
-        unknown = wanted - {s[1] for s in sections}
-        if unknown:
-            from .errors import InputError
-
-            raise InputError("--only", ", ".join(sorted(unknown)),
-                             "one of " + ", ".join(s[1] for s in sections))
-        sections = [s for s in sections if s[1] in wanted]
     out.parent.mkdir(parents=True, exist_ok=True)
     tmp = Path(tempfile.mkdtemp(prefix=f".{out.name}.tmp-", dir=out.parent))
     try:
@@ -165,8 +151,8 @@ def reproduce(out: Path, only: Iterable[str] | None = None, console: Any = None
         built: list[Section] = []
         with Progress(console=console, transient=True, disable=console is None) as progress:
             task = progress.add_task("reproducing the paper", total=len(sections))
-            for _, sid, func in sections:
-                progress.update(task, description=f"section {sid}")
+            for func in sections:
+                progress.update(task, description=f"section {func.section_id}")
                 built.append(func(ctx))
                 progress.advance(task)
         claims = [c.as_json() for s in built for c in s.claims]

@@ -1,75 +1,33 @@
 """``seactl bench``: benchmarks against baselines measured in the same run.
 
-A benchmark is a function registered with :func:`benchmark`; it returns a
+A benchmark is a function tagged with :func:`benchmark` and listed in
+:data:`BENCHMARKS`; it returns a
 :class:`BenchResult`.  Use :func:`median_time` to time both sides (median of
 ``repeat`` runs, after one warm-up).  Speed is never asserted in tests.
 """
 
 from __future__ import annotations
 
-import statistics
-import time
 from collections.abc import Callable, Iterable
-from dataclasses import asdict, dataclass
 from typing import Any
 
+from . import base, core, impedance, placement, simulate, sweep
+from ._harness import BenchResult, benchmark, median_time
 
-@dataclass(frozen=True)
-class BenchResult:
-    name: str
-    throughput_per_s: float
-    baseline: str
-    baseline_throughput_per_s: float
-    max_error: float
-    note: str = ""
-    max_error_text: str = ""
-
-    @property
-    def ratio(self) -> float:
-        return self.throughput_per_s / self.baseline_throughput_per_s
-
-    def as_json(self) -> dict[str, Any]:
-        d = asdict(self)
-        d["ratio"] = self.ratio
-        return d
+__all__ = ["BENCHMARKS", "BenchResult", "benchmark", "median_time", "registered",
+           "run_benchmarks"]
 
 
-_BENCHMARKS: dict[str, Callable[[int], BenchResult | list[BenchResult]]] = {}
-
-
-def benchmark(name: str) -> Callable:
-    """Register ``func(repeat) -> BenchResult | list[BenchResult]`` under ``name``."""
-
-    def deco(func):
-        _BENCHMARKS[name] = func
-        return func
-
-    return deco
-
-
-def median_time(func: Callable[[], Any], repeat: int, warmup: int = 1) -> float:
-    """Median wall time [s] of ``func()`` over ``repeat`` runs after ``warmup`` runs."""
-    for _ in range(warmup):
-        func()
-    times = []
-    for _ in range(repeat):
-        t0 = time.perf_counter()
-        func()
-        times.append(time.perf_counter() - t0)
-    return statistics.median(times)
+BENCHMARKS: tuple[Callable, ...] = (
+    core.bench_gain_design, core.bench_margins, impedance.bench_impedance,
+    simulate.bench_simulate, placement.bench_latency_map, sweep.bench_sweep,
+    base.bench_circle, base.bench_tuning,
+)
 
 
 def registered() -> dict[str, Callable]:
-    from . import (
-        base,  # noqa: F401
-        core,  # noqa: F401 - registration side effects
-        impedance,  # noqa: F401
-        placement,  # noqa: F401
-        simulate,  # noqa: F401
-        sweep,  # noqa: F401
-    )
-
-    return dict(_BENCHMARKS)
+    """The benchmarks by name, in run order."""
+    return {f.bench_name: f for f in BENCHMARKS}
 
 
 def run_benchmarks(only: Iterable[str] | None = None, repeat: int = 5,

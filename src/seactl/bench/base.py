@@ -6,7 +6,7 @@ import time
 
 import numpy as np
 
-from . import BenchResult, benchmark, median_time
+from ._harness import BenchResult, benchmark, median_time
 
 
 @benchmark("base-circle")

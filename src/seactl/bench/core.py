@@ -6,7 +6,7 @@ import warnings
 
 import numpy as np
 
-from . import BenchResult, benchmark, median_time
+from ._harness import BenchResult, benchmark, median_time
 
 # Initial guess of the authors' MATLAB (linear units Kq, Bq, Ktau, Btau, solved in log space).
 MATLAB_X0 = np.log([1e4, 1e3, 1.0, 0.1])

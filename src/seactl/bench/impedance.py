@@ -5,7 +5,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from . import BenchResult, benchmark, median_time
+from ._harness import BenchResult, benchmark, median_time
 
 N_DESIGNS = 10_000
 N_FREQ = 1_000

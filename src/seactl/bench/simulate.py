@@ -6,7 +6,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from . import BenchResult, benchmark, median_time
+from ._harness import BenchResult, benchmark, median_time
 
 T_END = 0.5
 DELAY = 1e-3

@@ -29,7 +29,7 @@ from pathlib import Path
 
 import numpy as np
 
-from . import BenchResult, benchmark
+from ._harness import BenchResult, benchmark
 
 _ONE_BY_ONE = 120  # points of the scalar baseline
 

@@ -1,12 +1,16 @@
-"""CLI commands beyond the core ones in :mod:`seactl.cli`, one module per topic.
+"""The ``seactl`` commands, one module per topic, on the click group of :mod:`._common`.
 
-Each module imports ``cli`` (the click group) and the shared helpers from
-:mod:`seactl.cli` and registers its commands with ``@cli.command()``.
+Importing this package attaches every command to :data:`cli`; :mod:`seactl.cli` is the
+entry point and the only importer of this package.
 """
 from . import (
     base,  # noqa: F401
+    core,  # noqa: F401
     impedance,  # noqa: F401
     placement,  # noqa: F401
     simulate,  # noqa: F401
     sweep,  # noqa: F401
 )
+from ._common import cli
+
+__all__ = ["cli"]

@@ -11,7 +11,7 @@ import click
 from rich.markup import escape
 from rich.table import Table
 
-from ..cli import cli, console, echo_json, finite_or_none
+from ._common import cli, console, echo_json, finite_or_none
 
 PAPER_KX = {"cosc": 30.0, "dosc": 140.0}
 """Maximum Cartesian stiffness reported by the paper [N/(m kg)] (hardware)."""

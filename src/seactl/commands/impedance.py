@@ -11,7 +11,9 @@ import numpy as np
 from rich.markup import escape
 from rich.table import Table
 
-from ..cli import (
+from ..errors import InputError
+from ..plots import save_figure
+from ._common import (
     VARIADIC,
     DesignSpec,
     cli,
@@ -22,8 +24,6 @@ from ..cli import (
     json_option,
     parse_values,
 )
-from ..errors import InputError
-from ..plots import save_figure
 
 VARIADIC.add("--freq")
 

@@ -11,9 +11,9 @@ import numpy as np
 from rich.markup import escape
 from rich.table import Table
 
-from ..cli import VARIADIC, cli, console, echo_json, finite_or_none, json_option, parse_values
 from ..errors import InputError
 from ..plots import save_figure
+from ._common import VARIADIC, cli, console, echo_json, finite_or_none, json_option, parse_values
 
 VARIADIC.update({"--fn-rigid", "--fn-sea"})
 

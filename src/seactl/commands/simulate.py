@@ -33,9 +33,9 @@ import numpy as np
 from rich.markup import escape
 from rich.table import Table
 
-from ..cli import DesignSpec, cli, console, design_options, echo_json, finite_or_none
 from ..errors import InputError
 from ..report import write_atomic
+from ._common import DesignSpec, cli, console, design_options, echo_json, finite_or_none
 
 
 def _parse_saturation(value: str | None) -> float | None:

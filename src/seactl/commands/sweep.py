@@ -12,9 +12,9 @@ import numpy as np
 from rich.markup import escape
 from rich.table import Table
 
-from ..cli import VARIADIC, cli, console, echo_json, err_console, finite_or_none, parse_values
 from ..errors import InputError
 from ..sweep import ACTUATOR_AXES, AXES, SAMPLINGS, relative_interval
+from ._common import VARIADIC, cli, console, echo_json, err_console, finite_or_none, parse_values
 
 VARIADIC.add("--z-freq")
 

@@ -1,13 +1,56 @@
-"""Report sections reproducing the paper, one module per topic.
+"""Report sections reproducing the paper, one module per topic, and :func:`reproduce`.
 
-Importing this package registers every section with :mod:`seactl.report`.
+:data:`SECTIONS` is the report's table of contents: an explicit list, in reading order.
 """
 
-from . import (
-    base,  # noqa: F401
-    gain_design,  # noqa: F401
-    impedance,  # noqa: F401
-    placement,  # noqa: F401
-    simulation,  # noqa: F401
-    sweep,  # noqa: F401
+from __future__ import annotations
+
+from collections.abc import Iterable
+from pathlib import Path
+from typing import Any
+
+from ..errors import InputError
+from ..report import SectionFn, build
+from . import base, gain_design, impedance, placement, simulation, sweep
+
+SECTIONS: tuple[SectionFn, ...] = (
+    gain_design.table_i,
+    gain_design.feasibility,
+    gain_design.gain_scale,
+    impedance.filter_delay,
+    impedance.natural_freq,
+    impedance.load_inertia,
+    impedance.delay_sets,
+    impedance.ktau_finding,
+    impedance.zregion_section,
+    simulation.impedance_delay,
+    simulation.gain_scale_step,
+    simulation.experiment_gs,
+    simulation.experiment_impulse,
+    placement.rigid_step,
+    placement.latency_maps,
+    sweep.latency_sweep,
+    sweep.robustness_mc,
+    placement.placement_advisor,
+    base.mobile_base,
 )
+
+
+def section_ids() -> list[str]:
+    """The ids of :data:`SECTIONS`, in report order."""
+    return [f.section_id for f in SECTIONS]
+
+
+def reproduce(out: Path, only: Iterable[str] | None = None, console: Any = None
+              ) -> list[dict[str, Any]]:
+    """Build the paper's report into ``out`` (all sections, or those in ``only``) and return
+    the claims as JSON dicts."""
+    sections = list(SECTIONS)
+    if only:
+        wanted = set(only)
+        unknown = wanted - set(section_ids())
+        if unknown:
+            raise InputError("--only", ", ".join(sorted(unknown)),
+                             "one of " + ", ".join(section_ids()))
+        sections = [f for f in sections if f.section_id in wanted]
+    return build(Path(out), sections, console=console)

@@ -1,0 +1,102 @@
+"""The core commands: ``gains``, ``reproduce`` and ``bench``."""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Any
+
+import click
+import numpy as np
+from rich.markup import escape
+from rich.table import Table
+
+from ._common import DesignSpec, cli, console, design_options, echo_json, err_console, json_option
+
+
+def gains_rows(spec: DesignSpec) -> list[dict[str, Any]]:
+    """Table I rows (rotary units) with margins, one per design and valid solution: the
+    public API's :meth:`seactl.MarginsResult.records` of each solution's (f_n x GS) batch."""
+    from ..api import Design
+
+    rows = []
+    for design in spec.all_designs():
+        fn, gs = np.broadcast_arrays(spec.fn_hz[:, None], spec.gs[None, :])
+        rows += Design(design, fn, gs).margins().records()
+    return rows
+
+
+def _fmt(x: float | None, spec: str) -> str:
+    return "none" if x is None else format(x, spec)
+
+
+@cli.command()
+@design_options
+@json_option
+def gains(spec: DesignSpec, as_json: bool) -> None:
+    """Critically-damped gains (Table I units) with phase, gain and delay margins.
+
+    \b
+    Example (the paper's Table I):
+      seactl gains --fn 12 14 16 18 20 --t-tau 0.5 --t-qs 2 --t-qd 0.5 --f-qd 50 --f-taud 100
+
+    A margin printed as 'none' (null in JSON) means the loop has no such crossing:
+    no gain crossover (phase and delay margin), or no phase crossover (gain margin).
+    """
+    rows = gains_rows(spec)
+    if as_json:
+        echo_json(rows)
+        return
+    t = Table(title=f"Critically-damped gains, actuator '{spec.actuator.name}' "
+              f"(T_tau={spec.t_tau_ms:g} ms, T_qs={spec.t_qs_ms:g} ms, T_qd={spec.t_qd_ms:g} ms,"
+              f" f_qd={spec.f_qd_hz or 'none'} Hz, f_taud={spec.f_taud_hz or 'none'} Hz)")
+    for col in ("f_n [Hz]", "GS", "Kq [Nm/rad]", "Bq [Nms/rad]", "Ktau [A/Nm]", "Btau [As/Nm]",
+                "PM [deg]", "crossover [Hz]", "GM [dB]", "DM [ms]", "stable"):
+        t.add_column(escape(col), justify="right")
+    for r in rows:
+        t.add_row(f"{r['fn_hz']:g}", f"{r['gs']:g}", f"{r['Kq']:.2f}", f"{r['Bq']:.3f}",
+                  f"{r['Ktau']:.3f}", f"{r['Btau']:.4f}", _fmt(r["phase_margin_deg"], ".2f"),
+                  _fmt(r["crossover_hz"], ".2f"), _fmt(r["gain_margin_db"], ".2f"),
+                  _fmt(r["delay_margin_ms"], ".3f"),
+                  "yes" if r["stable"] else "[red]NO[/red]")
+    console.print(t)
+
+
+@cli.command()
+@click.option("--out", "out", default="seactl-report", show_default=True,
+              type=click.Path(file_okay=False), help="Report directory.")
+@click.option("--only", multiple=True, help="Only the named section(s) (ids).")
+def reproduce(out: str, only: tuple[str, ...]) -> None:
+    """Regenerate every table, figure and numeric claim of the paper into a report."""
+    from ..paper import reproduce as run
+
+    summary = run(Path(out), only=only or None, console=err_console)
+    counts = {s: sum(1 for c in summary if c["status"] == s) for s in ("pass", "fail", "info")}
+    console.print(f"report: {Path(out) / 'index.html'}  claims: {counts['pass']} pass, "
+                  f"{counts['fail']} fail, {counts['info']} info")
+
+
+@cli.command()
+@click.option("--json", "as_json", is_flag=True, help="Print the results as JSON.")
+@click.option("--only", multiple=True, help="Only the named benchmark(s).")
+@click.option("--repeat", type=click.IntRange(1, 50), default=5, show_default=True,
+              help="Timed repetitions (the median is reported).")
+def bench(as_json: bool, only: tuple[str, ...], repeat: int) -> None:
+    """Benchmarks with throughput and the ratio to a baseline measured in the same run."""
+    from ..bench import run_benchmarks
+
+    results = run_benchmarks(only=only or None, repeat=repeat,
+                             console=None if as_json else err_console)
+    if as_json:
+        echo_json({"benchmarks": results})
+        return
+    t = Table(title="seactl benchmarks (medians; ratio = ours / baseline throughput)")
+    for col in ("name", "throughput/s", "baseline", "baseline/s", "ratio", "max error"):
+        t.add_column(col, justify="right" if col != "name" and col != "baseline" else "left")
+    for r in results:
+        t.add_row(r["name"], f"{r['throughput_per_s']:.4g}", r["baseline"],
+                  f"{r['baseline_throughput_per_s']:.4g}", f"{r['ratio']:.3g}",
+                  r.get("max_error_text") or f"{r['max_error']:.3g}")
+    console.print(t)
+    for r in results:
+        if r.get("note"):
+            console.print(f"- {r['name']}: {r['note']}")
