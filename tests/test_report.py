@@ -4,7 +4,7 @@ import json
 
 import pytest
 
-from seactl import paper
+from seactl import paper, report
 from seactl.cli import main
 
 
@@ -53,3 +53,31 @@ def test_interrupted_run_leaves_previous_report_intact(tmp_path, monkeypatch, ca
 
 def test_unknown_section_is_an_input_error(tmp_path, capsys):
     assert main(["reproduce", "--out", str(tmp_path / "x"), "--only", "nope"]) == 2
+
+
+@pytest.mark.parametrize("value, tol, unit, text", [
+    (65.16832287, 1.0, "Nm/rad", "65.2 Nm/rad"),      # one digit finer than the tolerance
+    (43.2641, 0.1, "deg", "43.26 deg"),
+    (0.000123456, None, "", "0.0001235"),              # no numeric tolerance: 4 digits
+    ([True, False, True], "equal", "", "2 of 3 yes"),
+    (None, None, "", "n/a"),
+    (float("nan"), 1.0, "", "nan"),
+])
+def test_claim_values_are_formatted_for_people(value, tol, unit, text):
+    assert report.format_value(value, tol, unit) == text
+
+
+def test_summary_lists_every_claim_that_is_not_a_pass(tmp_path, capsys):
+    """Oracle: claims.json of the same run."""
+    out = tmp_path / "rep"
+    assert main(["reproduce", "--out", str(out), "--only", "gain-scale", "--only",
+                 "feasibility"]) == 0
+    claims = json.loads((out / "claims.json").read_text())
+    html = (out / "index.html").read_text()
+    summary = html[html.index('id="summary"'):html.index('<section id="', html.index(
+        'id="summary"') + 1)]
+    flagged = [c["id"] for c in claims if c["status"] != "pass"]
+    assert flagged and all(f'href="#claim-{i}"' in summary for i in flagged)
+    assert all(f'href="#claim-{c["id"]}"' not in summary for c in claims
+               if c["status"] == "pass")
+    assert all(f'id="claim-{c["id"]}"' in html for c in claims)

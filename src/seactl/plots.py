@@ -453,8 +453,10 @@ def panels_figure(panels, *, ncols=None, figsize=None):
 
 
 def latency_sensitivity_figure(fn_hz, t_qs_ms, t_qd_ms, pm, stable, mark=None):
-    """Phase margin over (T_qs, T_qd), one panel per f_n (``pm[k, i_qs, i_qd]``), with the
-    stability boundary (red) and an optional marked point ``(T_qs, T_qd)``."""
+    """Phase margin over (T_qd, T_qs), one panel per f_n (``pm[k, i_qs, i_qd]``), with the
+    stability boundary (red) and an optional marked point ``(T_qs, T_qd)``.
+
+    Axes as in :func:`latency_map_figure`: damping delay across, stiffness delay up."""
     plt = _pyplot()
     n = len(fn_hz)
     cols = 2 if n > 1 else 1
@@ -467,23 +469,23 @@ def latency_sensitivity_figure(fn_hz, t_qs_ms, t_qd_ms, pm, stable, mark=None):
         if k >= n:
             ax.axis("off")
             continue
-        z = np.ma.masked_invalid(np.where(stable[k], pm[k], np.nan)).T
-        mesh = ax.pcolormesh(t_qs_ms, t_qd_ms, z, shading="nearest", cmap="viridis",
+        z = np.ma.masked_invalid(np.where(stable[k], pm[k], np.nan))
+        mesh = ax.pcolormesh(t_qd_ms, t_qs_ms, z, shading="nearest", cmap="viridis",
                              vmin=max(lo, 0.0), vmax=hi)
         ax.set_facecolor("0.8")
-        cs = ax.contour(t_qs_ms, t_qd_ms, np.where(stable[k], pm[k], np.nan).T,
+        cs = ax.contour(t_qd_ms, t_qs_ms, np.where(stable[k], pm[k], np.nan),
                         levels=[10, 20, 30, 40], colors="white", linewidths=0.7)
         ax.clabel(cs, fontsize=7, fmt="%g°")
-        s = stable[k].astype(float).T
+        s = stable[k].astype(float)
         if 0 < s.min() < 1 or (s.min() == 0 < s.max()):
-            ax.contour(t_qs_ms, t_qd_ms, s, levels=[0.5], colors="red", linewidths=1.6)
+            ax.contour(t_qd_ms, t_qs_ms, s, levels=[0.5], colors="red", linewidths=1.6)
         if mark is not None:
-            ax.plot(*mark, "w*", ms=9, mec="k")
+            ax.plot(mark[1], mark[0], "w*", ms=9, mec="k")
         ax.set_title(f"$f_n$ = {fn_hz[k]:g} Hz")
         if k % cols == 0:
-            ax.set_ylabel("damping delay $T_{qd}$ [ms]")
+            ax.set_ylabel("stiffness delay $T_{qs}$ [ms]")
         if k >= n - cols:
-            ax.set_xlabel("stiffness delay $T_{qs}$ [ms]")
+            ax.set_xlabel("damping delay $T_{qd}$ [ms]")
     fig.colorbar(mesh, ax=axes, label="phase margin [deg] (grey: unstable)", shrink=0.85)
     fig.suptitle("SEA phase margin over stiffness and damping latency (red: stability "
                  "boundary)")
