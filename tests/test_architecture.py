@@ -92,3 +92,13 @@ def test_command_line_and_import_do_not_load_matplotlib():
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
                          check=True).stdout.strip()
     assert out == "[]"
+
+
+def test_public_functions_keep_their_names_after_use():
+    """A public function named like a submodule must survive the submodule's first import."""
+    code = ("import seactl as sc, types; "
+            "import seactl.mobile_base, seactl.rigid, seactl.sweep, seactl.design; "
+            "print([n for n in sc.__all__ if isinstance(getattr(sc, n), types.ModuleType)])")
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                         check=True).stdout.strip()
+    assert out == "[]"

@@ -29,10 +29,10 @@ from .systems import (
     LatencyMapResult,
     PlacementResult,
     RigidBatch,
-    base_params,
+    compare_mobile_base,
     latency_map,
     loop_model,
-    mobile_base,
+    mobile_base_params,
     place,
     read_sweep,
     rigid,
@@ -52,7 +52,7 @@ __all__ = [
     "MarginsResult", "ImpedanceResult", "ResponseResult",
     # other systems
     "rigid", "RigidBatch", "loop_model", "latency_map", "place", "sweep", "read_sweep",
-    "mobile_base", "base_params", "LatencyMapResult", "PlacementResult",
+    "compare_mobile_base", "mobile_base_params", "LatencyMapResult", "PlacementResult",
     # errors and warnings
     "SeactlError", "InputError", "InfeasibleDesignError", "UnitWarning",
 ]

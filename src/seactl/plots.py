@@ -272,7 +272,7 @@ def step_experiment_figure(t, y, panels, fn_hz, unstable, saturated, title: str 
     return fig
 
 
-# ---------------------------------------------------------------- mobile base (seactl.base)
+# ---------------------------------------------------------------- mobile base (seactl.mobile_base)
 _BASE_COLORS = {"cosc": "tab:red", "dosc": "tab:blue"}
 
 

@@ -3,7 +3,7 @@ sweeps and the mobile base.
 
 Each function is a thin, documented front to the module that does the work
 (:mod:`seactl.rigid`, :mod:`seactl.latency`, :mod:`seactl.placement`,
-:mod:`seactl.sweep`, :mod:`seactl.base`), with the units in its keyword names
+:mod:`seactl.sweep`, :mod:`seactl.mobile_base`), with the units in its keyword names
 (milliseconds for delays, hertz for frequencies) and results that have ``to_dict()``.
 """
 
@@ -475,7 +475,7 @@ def read_sweep(out: str | Path, columns: Sequence[str] | None = None) -> Any:
 
 
 # ------------------------------------------------------------------ mobile base
-def mobile_base(params: Any = "trikey", *, archs: Sequence[str] = ("cosc", "dosc"),
+def compare_mobile_base(params: Any = "trikey", *, archs: Sequence[str] = ("cosc", "dosc"),
                 track: bool = True) -> Any:
     """Tune the omnidirectional base's controllers, centralized (COSC) vs distributed (DOSC).
 
@@ -484,8 +484,8 @@ def mobile_base(params: Any = "trikey", *, archs: Sequence[str] = ("cosc", "dosc
 
     Parameters
     ----------
-    params : str or path or BaseParams
-        Preset (``"trikey"``), TOML file, or :class:`~seactl.base.BaseParams`.
+    params : str or path or MobileBaseParams
+        Preset (``"trikey"``), TOML file, or :class:`~seactl.mobile_base.MobileBaseParams`.
     archs : sequence of {"cosc", "dosc"}
         Architectures to tune.
     track : bool
@@ -493,43 +493,43 @@ def mobile_base(params: Any = "trikey", *, archs: Sequence[str] = ("cosc", "dosc
 
     Returns
     -------
-    seactl.base.BaseComparison
+    seactl.mobile_base.MobileBaseComparison
         Per architecture: damping and stiffness limits, gains, RMS tracking errors;
         ``kx_ratio`` DOSC/COSC.
 
     Examples
     --------
     >>> import seactl as sc
-    >>> sc.base_params().name
+    >>> sc.mobile_base_params().name
     'trikey'
-    >>> c = sc.mobile_base()                    # doctest: +SKIP
+    >>> c = sc.compare_mobile_base()                    # doctest: +SKIP
     >>> round(c.kx_ratio, 1)                    # doctest: +SKIP
     6.4
     """
-    from .base import tune
+    from .mobile_base import tune
 
-    return tune(base_params(params), tuple(archs), track=track)
+    return tune(mobile_base_params(params), tuple(archs), track=track)
 
 
-def base_params(params: Any = "trikey") -> Any:
+def mobile_base_params(params: Any = "trikey") -> Any:
     """The mobile base's parameters: a preset name, a TOML file, or the object itself.
 
     Parameters
     ----------
-    params : str or path or BaseParams
-        ``"trikey"`` (default), a TOML file, or a :class:`~seactl.base.BaseParams`.
+    params : str or path or MobileBaseParams
+        ``"trikey"`` (default), a TOML file, or a :class:`~seactl.mobile_base.MobileBaseParams`.
 
     Returns
     -------
-    seactl.base.BaseParams
+    seactl.mobile_base.MobileBaseParams
         Validated parameters.
 
     Examples
     --------
     >>> import seactl as sc
-    >>> round(sc.base_params().base_mass, 1)
+    >>> round(sc.mobile_base_params().base_mass, 1)
     32.7
     """
-    from .base import BaseParams, load_base
+    from .mobile_base import MobileBaseParams, load_base
 
-    return resolve_actuator(params, load_base, BaseParams)
+    return resolve_actuator(params, load_base, MobileBaseParams)

@@ -4,9 +4,9 @@ Importing this package attaches every command to :data:`cli`; :mod:`seactl.cli` 
 entry point and the only importer of this package.
 """
 from . import (
-    base,  # noqa: F401
     core,  # noqa: F401
     impedance,  # noqa: F401
+    mobile_base,  # noqa: F401
     placement,  # noqa: F401
     simulate,  # noqa: F401
     sweep,  # noqa: F401

@@ -11,7 +11,7 @@ from typing import Any
 
 from ..errors import InputError
 from ..report import SectionFn, build
-from . import base, gain_design, impedance, placement, simulation, sweep
+from . import gain_design, impedance, mobile_base, placement, simulation, sweep
 
 SECTIONS: tuple[SectionFn, ...] = (
     gain_design.table_i,
@@ -32,7 +32,7 @@ SECTIONS: tuple[SectionFn, ...] = (
     sweep.latency_sweep,
     sweep.robustness_mc,
     placement.placement_advisor,
-    base.mobile_base,
+    mobile_base.mobile_base,
 )
 
 

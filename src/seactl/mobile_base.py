@@ -33,7 +33,7 @@ Delays are whole embedded samples held in ring buffers (no Pade anywhere).
 Examples
 --------
 >>> import numpy as np
->>> from seactl.base import TRIKEY, wheel_speeds
+>>> from seactl.mobile_base import TRIKEY, wheel_speeds
 >>> np.round(wheel_speeds(TRIKEY, [0.0, 0.0, 1.0]), 4)   # pure rotation at 1 rad/s
 array([2.3762, 2.3762, 2.3762])
 """
@@ -63,8 +63,8 @@ _POS = dict(gt=0, allow_inf_nan=False)
 _NONNEG = dict(ge=0, allow_inf_nan=False)
 
 
-class _BaseModel(BaseModel):
-    """Validation schema of :class:`BaseParams` (flat; the TOML groups it in tables)."""
+class _MobileBaseSchema(BaseModel):
+    """Validation schema of :class:`MobileBaseParams` (flat; the TOML groups it in tables)."""
 
     model_config = ConfigDict(extra="forbid", frozen=True)
 
@@ -116,7 +116,7 @@ class _BaseModel(BaseModel):
 
 
 @dataclass(frozen=True)
-class BaseParams:
+class MobileBaseParams:
     """Validated parameters of the base, its processors, the criterion and the tuning (SI).
 
     The fields mirror ``presets/trikey.toml``, where each one is documented with its unit
@@ -167,7 +167,7 @@ class BaseParams:
     name: str = "custom"
 
     def __post_init__(self) -> None:
-        validate(_BaseModel, asdict(self))
+        validate(_MobileBaseSchema, asdict(self))
         object.__setattr__(self, "wheel_angles_deg", tuple(float(a) for a in
                                                            self.wheel_angles_deg))
         a = np.sort(np.mod(self.wheel_angles_deg, 360.0))
@@ -236,7 +236,7 @@ class BaseParams:
               + 3 * self.wheel_yaw_inertia)
         return np.diag([m, m, iz])
 
-    def with_(self, **changes: Any) -> BaseParams:
+    def with_(self, **changes: Any) -> MobileBaseParams:
         """A validated copy with some fields changed."""
         return replace(self, **changes)
 
@@ -254,7 +254,7 @@ def _flatten(data: dict[str, Any]) -> dict[str, Any]:
     return flat
 
 
-def load_base(spec: str | Path = "trikey") -> BaseParams:
+def load_base(spec: str | Path = "trikey") -> MobileBaseParams:
     """Load base parameters by preset name (``trikey``) or from a TOML file.
 
     The file has the tables of ``presets/trikey.toml`` (``[body]``, ``[drivetrain]``,
@@ -277,8 +277,8 @@ def load_base(spec: str | Path = "trikey") -> BaseParams:
                                       .read_text()))
         data["name"] = path.stem
         data.update(user)
-    model = validate(_BaseModel, data)
-    return BaseParams(**{f.name: getattr(model, f.name) for f in fields(BaseParams)})
+    model = validate(_MobileBaseSchema, data)
+    return MobileBaseParams(**{f.name: getattr(model, f.name) for f in fields(MobileBaseParams)})
 
 
 TRIKEY = load_base("trikey")
@@ -286,7 +286,7 @@ TRIKEY = load_base("trikey")
 
 
 # -------------------------------------------------------------------- kinematics
-def body_jacobian(p: BaseParams) -> np.ndarray:
+def body_jacobian(p: MobileBaseParams) -> np.ndarray:
     """``J_b`` (3, 3): wheel speeds [rad/s] from body-frame velocity (v_x, v_y, omega).
 
     Wheel ``i`` at angle ``alpha_i`` rolls along the tangent ``(-sin a_i, cos a_i)``, so its
@@ -297,7 +297,7 @@ def body_jacobian(p: BaseParams) -> np.ndarray:
         / p.wheel_radius
 
 
-def wheel_jacobian(p: BaseParams, theta) -> np.ndarray:
+def wheel_jacobian(p: MobileBaseParams, theta) -> np.ndarray:
     """``J(theta)`` (..., 3, 3): wheel speeds from world-frame velocity (xdot, ydot, thetadot).
 
     ``J(theta) = J_b R(theta)^T``; ``theta`` broadcasts over leading axes.
@@ -307,7 +307,7 @@ def wheel_jacobian(p: BaseParams, theta) -> np.ndarray:
     return np.stack([-np.sin(th), np.cos(th), L], axis=-1) / p.wheel_radius
 
 
-def wheel_speeds(p: BaseParams, velocity, theta=0.0) -> np.ndarray:
+def wheel_speeds(p: MobileBaseParams, velocity, theta=0.0) -> np.ndarray:
     """Wheel angular speeds [rad/s] for a world-frame base velocity (..., 3)."""
     J = wheel_jacobian(p, theta)
     return np.einsum("...ij,...j->...i", J, np.asarray(velocity, float))
@@ -320,7 +320,7 @@ def _rot(v: np.ndarray, theta: np.ndarray) -> np.ndarray:
                      v[..., 2]], axis=-1)
 
 
-def task_inertia(p: BaseParams, theta=0.0) -> np.ndarray:
+def task_inertia(p: MobileBaseParams, theta=0.0) -> np.ndarray:
     """Operational space inertia ``Lambda = (J_t A^-1 J_t^T)^-1`` of the (x, y, yaw) task.
 
     Joint space = the three wheel angles; ``A = J^-T M_body J^-1 + (I_spin + N^2 I_rotor) 1``
@@ -332,7 +332,7 @@ def task_inertia(p: BaseParams, theta=0.0) -> np.ndarray:
     return p.body_mass_matrix + A_w * np.einsum("...ki,...kj->...ij", J, J)
 
 
-def kinetic_energy(p: BaseParams, pose_rate, wheel_rates, motor_rates, theta=0.0
+def kinetic_energy(p: MobileBaseParams, pose_rate, wheel_rates, motor_rates, theta=0.0
                    ) -> np.ndarray:
     """Kinetic energy [J] of chassis, wheels (translation, yaw, spin) and rotors."""
     v = np.asarray(pose_rate, float)
@@ -341,13 +341,13 @@ def kinetic_energy(p: BaseParams, pose_rate, wheel_rates, motor_rates, theta=0.0
             + 0.5 * p.reflected_rotor_inertia * np.sum(np.asarray(motor_rates) ** 2, axis=-1))
 
 
-def damping_to_joint(p: BaseParams, d_x) -> np.ndarray:
+def damping_to_joint(p: MobileBaseParams, d_x) -> np.ndarray:
     """Joint damping ``B_q`` [N m s/rad] whose Cartesian equivalent is ``d_x`` [N s/(m kg)]."""
     G = body_jacobian(p).T @ body_jacobian(p)
     return np.asarray(d_x, float) * task_inertia(p)[0, 0] / G[0, 0]
 
 
-def joint_to_damping(p: BaseParams, b_q) -> np.ndarray:
+def joint_to_damping(p: MobileBaseParams, b_q) -> np.ndarray:
     """Cartesian-equivalent damping [N s/(m kg)] of the joint damping ``b_q`` [N m s/rad]."""
     G = body_jacobian(p).T @ body_jacobian(p)
     return np.asarray(b_q, float) * G[0, 0] / task_inertia(p)[0, 0]
@@ -437,13 +437,13 @@ def _as_batch(*arrays) -> list[np.ndarray]:
     return [np.ascontiguousarray(o) for o in out]
 
 
-def simulate(p: BaseParams, kx, dx, bq, *, reference=None, duration: float,
+def simulate(p: MobileBaseParams, kx, dx, bq, *, reference=None, duration: float,
              push: float = 0.0, record_energy: bool = False) -> SimResult:
     """Simulate a batch of gain settings on the sampled multi-rate base.
 
     Parameters
     ----------
-    p : BaseParams
+    p : MobileBaseParams
     kx : array_like, (B,) or scalar
         Cartesian stiffness (acceleration gain) [N/(m kg)] on the central process.
     dx : array_like
@@ -460,7 +460,7 @@ def simulate(p: BaseParams, kx, dx, bq, *, reference=None, duration: float,
 
     Examples
     --------
-    >>> from seactl.base import TRIKEY, simulate
+    >>> from seactl.mobile_base import TRIKEY, simulate
     >>> r = simulate(TRIKEY, 0.0, 0.0, 0.0, duration=0.1)   # no gains, at rest: stays at rest
     >>> float(abs(r.x).max())
     0.0
@@ -613,7 +613,7 @@ class Vibration:
     fired: np.ndarray
 
 
-def vibration_criterion(p: BaseParams, result: SimResult) -> Vibration:
+def vibration_criterion(p: MobileBaseParams, result: SimResult) -> Vibration:
     """Evaluate :class:`Vibration` on a :func:`criterion_test` :class:`SimResult`."""
     m = result.t >= result.t[-1] - p.criterion_window + 1e-12
     t = result.t[m]
@@ -649,7 +649,7 @@ class Drive:
                 np.stack([z + s, z + s, z], axis=-1), np.zeros(t.shape + (3,)))
 
 
-def criterion_test(p: BaseParams, kx, dx, bq) -> Vibration:
+def criterion_test(p: MobileBaseParams, kx, dx, bq) -> Vibration:
     """Start at rest, drive at ``criterion_speed`` and evaluate the criterion, batched."""
     r = simulate(p, kx, dx, bq, reference=Drive(p.criterion_speed),
                  duration=p.criterion_duration)
@@ -683,7 +683,7 @@ def _limit(g: np.ndarray, fired: np.ndarray) -> tuple[float, float | None]:
     return (float(g[i - 1]) if i > 0 else 0.0), float(g[i])
 
 
-def _search(p: BaseParams, archs: tuple[str, ...], which: str, lo: float, hi: float,
+def _search(p: MobileBaseParams, archs: tuple[str, ...], which: str, lo: float, hi: float,
             fixed: dict[str, np.ndarray]) -> dict[str, Search]:
     """Coarse log grid then a linear refinement, all architectures in one batch each."""
     def run(grids: dict[str, np.ndarray]) -> dict[str, Vibration]:
@@ -753,10 +753,10 @@ class ArchResult:
 
 
 @dataclass(frozen=True)
-class BaseComparison:
+class MobileBaseComparison:
     """COSC versus DOSC: limits, tracking errors and the paper's ratios."""
 
-    params: BaseParams
+    params: MobileBaseParams
     results: dict[str, ArchResult]
     circle: Circle
     track: SimResult | None = field(default=None, repr=False)
@@ -783,8 +783,8 @@ class BaseComparison:
         return self._reduction("rms_velocity_mps")
 
 
-def tune(p: BaseParams = TRIKEY, archs: tuple[str, ...] = ARCHS, *, track: bool = True
-         ) -> BaseComparison:
+def tune(p: MobileBaseParams = TRIKEY, archs: tuple[str, ...] = ARCHS, *, track: bool = True
+         ) -> MobileBaseComparison:
     """Run the paper's tuning procedure, automated, for the given architectures.
 
     1. ``K_x = 0``: raise the damping (COSC: Cartesian on the central process; DOSC: joint
@@ -823,11 +823,11 @@ def tune(p: BaseParams = TRIKEY, archs: tuple[str, ...] = ARCHS, *, track: bool 
     results = {a: ArchResult(a, dsearch[a].limit, float(damping_to_joint(p, dsearch[a].limit)),
                              ksearch[a].limit, d_op[a], k_op[a], dsearch[a], ksearch[a],
                              rms_p[a], rms_v[a], sat[a]) for a in archs}
-    return BaseComparison(p, results, circle, res)
+    return MobileBaseComparison(p, results, circle, res)
 
 
 # -------------------------------------------------------------------- continuous baseline
-def continuous_rhs(p: BaseParams, kx: float, dx: float, bq: float, reference=None):
+def continuous_rhs(p: MobileBaseParams, kx: float, dx: float, bq: float, reference=None):
     """Right-hand side ``f(t, y)`` of the same plant with a continuous, delay-free,
     sensor-perfect controller (no sampling, quantization or saturation): the baseline for
     ``scipy.integrate.solve_ivp``.  ``y`` = (X, V, PHI, QM, WM, X_hat), 18 states; the

@@ -1,4 +1,4 @@
-"""Mobile base (seactl.base): kinematics, task inertia, energy, criterion, architectures."""
+"""Mobile base (seactl.mobile_base): kinematics, task inertia, energy, criterion, architectures."""
 
 from __future__ import annotations
 
@@ -8,7 +8,7 @@ import math
 import numpy as np
 import pytest
 
-from seactl import base as mb
+from seactl import mobile_base as mb
 from seactl.cli import main
 from seactl.errors import InputError
 
@@ -144,7 +144,7 @@ def test_tuning_ranks_dosc_above_cosc_and_cli_json(capsys):
     assert d.max_kx > c.max_kx > 0
     assert comp.kx_ratio == pytest.approx(d.max_kx / c.max_kx)
     assert d.rms_position_m < c.rms_position_m
-    from seactl.commands.base import comparison_json
+    from seactl.commands.mobile_base import comparison_json
 
     js = comparison_json(comp)
     assert set(js) == {"cosc", "dosc", "kx_ratio", "position_rms_reduction_pct",

@@ -83,7 +83,7 @@ def base(arch: str, extra_delay: float | None, circle_radius: float | None,
     Example:
       seactl base --arch both --plot base.png
     """
-    from .. import base as mb
+    from .. import mobile_base as mb
     from .._validate import finite_array
     from ..errors import InputError
 

@@ -20,7 +20,7 @@ def bench_circle(repeat: int) -> BenchResult:
     """
     from scipy.integrate import solve_ivp
 
-    from .. import base as mb
+    from .. import mobile_base as mb
 
     p = mb.TRIKEY.with_(encoder_counts=0, round_trip=0.0, extra_delay=0.0,
                         central_period=mb.TRIKEY.embedded_period)
@@ -53,7 +53,7 @@ def bench_circle(repeat: int) -> BenchResult:
 def bench_tuning(repeat: int) -> BenchResult:
     """The full tuning procedure (both architectures, searches + circle) versus the same
     candidates simulated one at a time (estimated: one unbatched criterion run x count)."""
-    from .. import base as mb
+    from .. import mobile_base as mb
 
     p = mb.TRIKEY
     n = max(1, min(repeat, 2))            # each run takes seconds

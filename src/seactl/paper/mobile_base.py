@@ -6,7 +6,7 @@ from __future__ import annotations
 
 import math
 
-from .. import base as mb
+from .. import mobile_base as mb
 from ..report import Claim, Context, Figure, Section, section
 
 PAPER = {"cosc_kx": 30.0, "dosc_kx": 140.0, "ratio": 4.7, "pos_red": (62.0, 65.0),
