@@ -34,9 +34,11 @@ def main(argv: Sequence[str] | None = None) -> int:
     except click.exceptions.Abort:
         err_console.print("aborted")
         return 130
-    except click.ClickException as exc:
-        exc.show()
-        return exc.exit_code
+    except click.ClickException as exc:  # click's own usage errors: the same one line
+        message = " ".join(exc.format_message().split())
+        err_console.print(f"[bold red]error:[/bold red] {escape(message)}", highlight=False,
+                          soft_wrap=True)
+        return 2
     except click.exceptions.Exit as exc:
         return exc.exit_code
     return 0

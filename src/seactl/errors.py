@@ -78,3 +78,27 @@ class InfeasibleDesignError(SeactlError, ValueError):
         self.fn_hz = fn_hz
         self.feasible_hz = feasible_hz
         super().__init__(message)
+
+
+class OutputError(SeactlError, OSError):
+    """An output path cannot be written, or writing it would destroy what seactl did not
+    create.
+
+    Parameters
+    ----------
+    path : str
+        The output path.
+    reason : str
+        Why it cannot be written.
+
+    Examples
+    --------
+    >>> from seactl.errors import OutputError
+    >>> print(OutputError("/proc/x.png", "permission denied"))
+    cannot write /proc/x.png: permission denied
+    """
+
+    def __init__(self, path: Any, reason: str):
+        self.path = str(path)
+        self.reason = reason
+        SeactlError.__init__(self, f"cannot write {path}: {reason}")

@@ -210,7 +210,7 @@ def loop_margins(loop: LoopFn, design: Any, omega: np.ndarray, *,
     scan = _Scan(loop, design, shape, stability_only)
     L0 = scan.segments(np.arange(n), omega, max_depth, block_cache)
     # Extend upwards while the loop is still large at the top of the grid.
-    top, w_top = np.abs(L0[:, -1]), omega[:, -1]
+    top, w_top = np.abs(L0[:, -1]), omega[:, -1].copy()  # omega may be a broadcast view
     todo = np.nonzero(top > 0.5)[0]
     for _ in range(max_depth):
         if todo.size == 0:

@@ -24,6 +24,8 @@ from typing import Any
 
 import numpy as np
 
+from .errors import OutputError
+
 STATUSES = ("pass", "fail", "info")
 
 
@@ -179,10 +181,17 @@ def build(out: Path, sections: Iterable[SectionFn], console: Any = None
     from rich.progress import Progress
 
     sections = list(sections)
-    out = Path(out)
-    out.parent.mkdir(parents=True, exist_ok=True)
-    tmp = Path(tempfile.mkdtemp(prefix=f".{out.name}.tmp-", dir=out.parent))
+    out = Path(out).absolute()
+    check_report_dir(out)
     try:
+        out.parent.mkdir(parents=True, exist_ok=True)
+        tmp = Path(tempfile.mkdtemp(prefix=f".{out.name}.tmp-", dir=out.parent))
+    except OSError as exc:
+        raise OutputError(out, exc.strerror or str(exc)) from None
+    try:
+        os.chmod(tmp, 0o777 & ~_umask())
+        (tmp / MARKER).write_text("written by seactl reproduce; seactl may replace this "
+                                  "directory\n")
         (tmp / "figures").mkdir()
         ctx = Context(tmp / "figures")
         built: list[Section] = []
@@ -196,14 +205,39 @@ def build(out: Path, sections: Iterable[SectionFn], console: Any = None
         (tmp / "claims.json").write_text(json.dumps(claims, indent=2, sort_keys=True) + "\n")
         (tmp / "index.html").write_text(_render(built, claims))
         _swap_into_place(tmp, out)
-    except BaseException:
+    except BaseException as exc:
         shutil.rmtree(tmp, ignore_errors=True)
+        if isinstance(exc, OSError) and not isinstance(exc, OutputError):
+            raise OutputError(out, exc.strerror or str(exc)) from None
         raise
     return claims
 
 
+def _umask() -> int:
+    mask = os.umask(0)
+    os.umask(mask)
+    return mask
+
+
+MARKER = ".seactl-report"
+"""File that marks a directory as a report seactl wrote (and may therefore replace)."""
+
+
+def check_report_dir(out: Path) -> None:
+    """Refuse ``out`` unless it is absent, an empty directory, or a report seactl wrote."""
+    out = Path(out)
+    if not out.exists():
+        return
+    if not out.is_dir():
+        raise OutputError(out, "exists and is not a directory")
+    if any(out.iterdir()) and not (out / MARKER).is_file():
+        raise OutputError(out, "the directory is not empty and is not a report seactl wrote "
+                          "(choose a new or empty directory)")
+
+
 def _swap_into_place(tmp: Path, out: Path) -> None:
     """Replace ``out`` by ``tmp`` with renames only (never a half-written ``out``)."""
+    check_report_dir(out)
     old = None
     if out.exists():
         old = out.with_name(f".{out.name}.old-{os.getpid()}")
