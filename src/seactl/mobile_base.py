@@ -42,15 +42,15 @@ from __future__ import annotations
 
 import math
 import tomllib
-from dataclasses import asdict, dataclass, field, fields, replace
+from dataclasses import dataclass, field, fields, replace
 from importlib.resources import files
 from pathlib import Path
-from typing import Any
+from typing import Annotated, Any
 
 import numpy as np
-from pydantic import BaseModel, ConfigDict, Field
+from pydantic import Field
 
-from ._params import read_toml, validate
+from ._params import check, nonnegative, positive, read_toml, schema_of, validate
 from .errors import InputError
 
 ARCHS = ("cosc", "dosc")
@@ -58,61 +58,6 @@ ARCHS = ("cosc", "dosc")
 # TOML table -> prefix of the flat field names.
 _TABLES = {"body": "", "drivetrain": "", "sensing": "", "timing": "",
            "criterion": "criterion_", "tuning": "", "circle": "circle_"}
-
-_POS = dict(gt=0, allow_inf_nan=False)
-_NONNEG = dict(ge=0, allow_inf_nan=False)
-
-
-class _MobileBaseSchema(BaseModel):
-    """Validation schema of :class:`MobileBaseParams` (flat; the TOML groups it in tables)."""
-
-    model_config = ConfigDict(extra="forbid", frozen=True)
-
-    name: str = "custom"
-    base_mass: float = Field(description="chassis mass [kg]", **_POS)
-    base_yaw_inertia: float = Field(description="chassis yaw inertia [kg m^2]", **_POS)
-    wheel_mass: float = Field(description="mass of one wheel [kg]", **_NONNEG)
-    wheel_radius: float = Field(description="wheel radius [m]", **_POS)
-    wheel_distance: float = Field(description="wheel centre to base centre [m]", **_POS)
-    wheel_angles_deg: tuple[float, float, float] = Field(description="wheel positions [deg]")
-    wheel_spin_inertia: float = Field(description="wheel inertia about its axle [kg m^2]",
-                                      **_NONNEG)
-    wheel_yaw_inertia: float = Field(description="wheel inertia about the vertical [kg m^2]",
-                                     **_NONNEG)
-    gear_ratio: float = Field(description="motor-to-wheel reduction [-]", **_POS)
-    rotor_inertia: float = Field(description="rotor inertia, motor side [kg m^2]", **_POS)
-    viscous_friction: float = Field(description="wheel side [N m s/rad]", **_NONNEG)
-    coulomb_friction: float = Field(description="wheel side [N m]", **_NONNEG)
-    friction_velocity: float = Field(description="tanh smoothing [rad/s]", **_POS)
-    stiffness: float = Field(description="drivetrain stiffness, wheel side [N m/rad]", **_POS)
-    compliance_damping: float = Field(description="[N m s/rad]", **_NONNEG)
-    torque_limit: float = Field(description="wheel torque limit [N m]", **_POS)
-    encoder_counts: int = Field(description="motor encoder counts/rev (0 = ideal)", ge=0)
-    velocity_filter_hz: float = Field(description="velocity filter cut-off [Hz], 0 = none",
-                                      **_NONNEG)
-    embedded_period: float = Field(description="embedded servo period [s]", **_POS)
-    central_period: float = Field(description="central servo period [s]", **_POS)
-    round_trip: float = Field(description="central round-trip latency [s]", **_NONNEG)
-    extra_delay: float = Field(description="extra buffered central delay [s]", **_NONNEG)
-    downlink_fraction: float = Field(description="share of the round trip on the command "
-                                     "path [-]", ge=0, le=1)
-    substeps: int = Field(description="physics steps per embedded period", ge=1, le=50)
-    criterion_duration: float = Field(description="criterion test run [s]", **_POS)
-    criterion_window: float = Field(description="final window measured [s]", **_POS)
-    criterion_speed: float = Field(description="reference speed in x and y [m/s]", **_POS)
-    criterion_oscillation_threshold: float = Field(description="[m/s]", **_POS)
-    criterion_vibration_threshold: float = Field(description="[N m]", **_POS)
-    damping_min: float = Field(description="[N s/(m kg)]", **_POS)
-    damping_max: float = Field(description="[N s/(m kg)]", **_POS)
-    kx_min: float = Field(description="[N/(m kg)]", **_POS)
-    kx_max: float = Field(description="[N/(m kg)]", **_POS)
-    grid_points: int = Field(description="coarse search candidates", ge=3, le=400)
-    refine_points: int = Field(description="refining search candidates", ge=0, le=400)
-    safety_factor: float = Field(description="fraction of each limit used [-]", gt=0, le=1)
-    circle_radius: float = Field(description="[m]", **_POS)
-    circle_period: float = Field(description="[s]", **_POS)
-    circle_duration: float = Field(description="[s]", **_POS)
-    circle_ramp: float = Field(description="[s]", **_NONNEG)
 
 
 @dataclass(frozen=True)
@@ -124,50 +69,54 @@ class MobileBaseParams:
     task inertia, delays in samples) are properties.
     """
 
-    base_mass: float
-    base_yaw_inertia: float
-    wheel_mass: float
-    wheel_radius: float
-    wheel_distance: float
-    wheel_angles_deg: tuple[float, float, float]
-    wheel_spin_inertia: float
-    wheel_yaw_inertia: float
-    gear_ratio: float
-    rotor_inertia: float
-    viscous_friction: float
-    coulomb_friction: float
-    friction_velocity: float
-    stiffness: float
-    compliance_damping: float
-    torque_limit: float
-    encoder_counts: int
-    velocity_filter_hz: float
-    embedded_period: float
-    central_period: float
-    round_trip: float
-    extra_delay: float
-    downlink_fraction: float
-    substeps: int
-    criterion_duration: float
-    criterion_window: float
-    criterion_speed: float
-    criterion_oscillation_threshold: float
-    criterion_vibration_threshold: float
-    damping_min: float
-    damping_max: float
-    kx_min: float
-    kx_max: float
-    grid_points: int
-    refine_points: int
-    safety_factor: float
-    circle_radius: float
-    circle_period: float
-    circle_duration: float
-    circle_ramp: float
+    base_mass: Annotated[float, positive("chassis mass [kg]")]
+    base_yaw_inertia: Annotated[float, positive("chassis yaw inertia [kg m^2]")]
+    wheel_mass: Annotated[float, nonnegative("mass of one wheel [kg]")]
+    wheel_radius: Annotated[float, positive("wheel radius [m]")]
+    wheel_distance: Annotated[float, positive("wheel centre to base centre [m]")]
+    wheel_angles_deg: Annotated[
+        tuple[float, float, float], Field(description="wheel positions [deg]")]
+    wheel_spin_inertia: Annotated[float, nonnegative("wheel inertia about its axle [kg m^2]")]
+    wheel_yaw_inertia: Annotated[
+        float, nonnegative("wheel inertia about the vertical [kg m^2]")]
+    gear_ratio: Annotated[float, positive("motor-to-wheel reduction [-]")]
+    rotor_inertia: Annotated[float, positive("rotor inertia, motor side [kg m^2]")]
+    viscous_friction: Annotated[float, nonnegative("wheel side [N m s/rad]")]
+    coulomb_friction: Annotated[float, nonnegative("wheel side [N m]")]
+    friction_velocity: Annotated[float, positive("tanh smoothing [rad/s]")]
+    stiffness: Annotated[float, positive("drivetrain stiffness, wheel side [N m/rad]")]
+    compliance_damping: Annotated[float, nonnegative("[N m s/rad]")]
+    torque_limit: Annotated[float, positive("wheel torque limit [N m]")]
+    encoder_counts: Annotated[
+        int, Field(description="motor encoder counts/rev (0 = ideal)", ge=0)]
+    velocity_filter_hz: Annotated[float, nonnegative("velocity filter cut-off [Hz], 0 = none")]
+    embedded_period: Annotated[float, positive("embedded servo period [s]")]
+    central_period: Annotated[float, positive("central servo period [s]")]
+    round_trip: Annotated[float, nonnegative("central round-trip latency [s]")]
+    extra_delay: Annotated[float, nonnegative("extra buffered central delay [s]")]
+    downlink_fraction: Annotated[
+        float, nonnegative("share of the round trip on the command path [-]", le=1)]
+    substeps: Annotated[int, Field(description="physics steps per embedded period", ge=1, le=50)]
+    criterion_duration: Annotated[float, positive("criterion test run [s]")]
+    criterion_window: Annotated[float, positive("final window measured [s]")]
+    criterion_speed: Annotated[float, positive("reference speed in x and y [m/s]")]
+    criterion_oscillation_threshold: Annotated[float, positive("[m/s]")]
+    criterion_vibration_threshold: Annotated[float, positive("[N m]")]
+    damping_min: Annotated[float, positive("[N s/(m kg)]")]
+    damping_max: Annotated[float, positive("[N s/(m kg)]")]
+    kx_min: Annotated[float, positive("[N/(m kg)]")]
+    kx_max: Annotated[float, positive("[N/(m kg)]")]
+    grid_points: Annotated[int, Field(description="coarse search candidates", ge=3, le=400)]
+    refine_points: Annotated[int, Field(description="refining search candidates", ge=0, le=400)]
+    safety_factor: Annotated[float, positive("fraction of each limit used [-]", le=1)]
+    circle_radius: Annotated[float, positive("[m]")]
+    circle_period: Annotated[float, positive("[s]")]
+    circle_duration: Annotated[float, positive("[s]")]
+    circle_ramp: Annotated[float, nonnegative("[s]")]
     name: str = "custom"
 
     def __post_init__(self) -> None:
-        validate(_MobileBaseSchema, asdict(self))
+        check(self)
         object.__setattr__(self, "wheel_angles_deg", tuple(float(a) for a in
                                                            self.wheel_angles_deg))
         a = np.sort(np.mod(self.wheel_angles_deg, 360.0))
@@ -277,7 +226,7 @@ def load_base(spec: str | Path = "trikey") -> MobileBaseParams:
                                       .read_text()))
         data["name"] = path.stem
         data.update(user)
-    model = validate(_MobileBaseSchema, data)
+    model = validate(schema_of(MobileBaseParams), data)
     return MobileBaseParams(**{f.name: getattr(model, f.name) for f in fields(MobileBaseParams)})
 
 

@@ -32,15 +32,14 @@ Examples
 from __future__ import annotations
 
 import math
-from dataclasses import asdict, dataclass, fields, replace
+from dataclasses import dataclass, fields, replace
 from pathlib import Path
 from types import SimpleNamespace
-from typing import Any
+from typing import Annotated, Any
 
 import numpy as np
-from pydantic import BaseModel, ConfigDict, Field
 
-from ._params import load_params, validate
+from ._params import check, load_params, nonnegative, positive
 from ._validate import finite_array
 from .actuators import UT_SEA
 from .blockdiagram import Block, BlockDiagram, DesignBatch, Transfer
@@ -48,22 +47,8 @@ from .errors import InfeasibleDesignError, InputError
 from .loops import filter_time_constant
 from .margins import Margins, default_grid, loop_margins
 
+
 # ------------------------------------------------------------------ parameters
-_POS = dict(gt=0, allow_inf_nan=False)
-
-
-class _RigidModel(BaseModel):
-    """Validation schema of :class:`RigidParams` (also the TOML schema)."""
-
-    model_config = ConfigDict(extra="forbid", frozen=True)
-
-    name: str = "custom"
-    mass: float = Field(description="effective output mass m [kg]", **_POS)
-    damping: float = Field(description="passive damping b [N s/m]", ge=0, allow_inf_nan=False)
-    current_to_force: float = Field(description="beta, motor current to force [N/A]", **_POS)
-    max_current: float = Field(30.0, description="motor current limit [A]", **_POS)
-
-
 @dataclass(frozen=True)
 class RigidParams:
     """Immutable, validated rigid (stiff drivetrain) linear actuator, SI units.
@@ -90,14 +75,14 @@ class RigidParams:
     invalid mass = -1.0: must be > 0 and finite [kg]
     """
 
-    mass: float
-    damping: float
-    current_to_force: float
-    max_current: float = 30.0
+    mass: Annotated[float, positive("effective output mass m [kg]")]
+    damping: Annotated[float, nonnegative("passive damping b [N s/m]")]
+    current_to_force: Annotated[float, positive("beta, motor current to force [N/A]")]
+    max_current: Annotated[float, positive("motor current limit [A]")] = 30.0
     name: str = "custom"
 
     def __post_init__(self) -> None:
-        validate(_RigidModel, asdict(self))
+        check(self)
 
     @property
     def m(self) -> float:
@@ -149,7 +134,7 @@ def load_rigid(spec: str | Path) -> RigidParams:
     >>> load_rigid("ut-linear").mass
     256.0
     """
-    return load_params(spec, RIGID_PRESETS, _RigidModel, RigidParams)
+    return load_params(spec, RIGID_PRESETS, RigidParams)
 
 
 # ------------------------------------------------------------------ gains and designs
