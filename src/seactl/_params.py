@@ -48,7 +48,12 @@ def schema_of(cls: type) -> type[BaseModel]:
 
 def check(obj: Any) -> None:
     """Validate a dataclass instance against :func:`schema_of` its class (InputError)."""
-    validate(schema_of(type(obj)), asdict(obj))
+    check_values(type(obj), asdict(obj))
+
+
+def check_values(cls: type, values: Mapping[str, Any]) -> None:
+    """Validate field values of the dataclass ``cls`` (InputError naming the field)."""
+    validate(schema_of(cls), values)
 
 
 def input_error(exc: ValidationError, model: type[BaseModel], prefix: str = "") -> InputError:

@@ -12,11 +12,13 @@ space agree once converted (Kq r^2, Bq r^2, Ktau / r, Btau / r).
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import asdict, dataclass
 from pathlib import Path
 from typing import Annotated, Any
 
-from ._params import check, load_params, nonnegative, positive
+import numpy as np
+
+from ._params import check, check_values, load_params, nonnegative, positive
 
 
 @dataclass(frozen=True)
@@ -100,6 +102,37 @@ class SEAParams:
     @property
     def beta(self) -> float:
         return self.current_to_torque
+
+    def batch(self, **arrays: Any) -> SEAParams:
+        """A copy whose named fields hold arrays: a batch of plants on the leading axes.
+
+        Every element is validated against the same bounds as a single actuator (the
+        extremes of each array are checked).
+
+        Parameters
+        ----------
+        **arrays : array_like
+            Field name to values, e.g. ``motor_inertia=[0.2, 0.25]``.
+
+        Returns
+        -------
+        SEAParams
+            Same type; the block diagram and the gain design broadcast over its arrays.
+
+        Examples
+        --------
+        >>> b = UT_SEA.batch(joint_inertia=[0.01, 0.02])
+        >>> b.Ij.tolist(), b.k
+        ([0.01, 0.02], 218.75000000000003)
+        """
+        values = asdict(self) | {k: np.asarray(v, float) for k, v in arrays.items()}
+        for extreme in (np.min, np.max):
+            check_values(type(self), {k: float(extreme(v)) if isinstance(v, np.ndarray) else v
+                                      for k, v in values.items()})
+        obj = object.__new__(type(self))
+        for k, v in values.items():
+            object.__setattr__(obj, k, v)
+        return obj
 
     def linear(self) -> dict[str, float]:
         """The same actuator in linear (pushrod) space: kg, N s/m, N/m, N/A.

@@ -291,24 +291,6 @@ def _check_axis(name: str, vals: np.ndarray) -> None:
 
 
 # ------------------------------------------------------------------ evaluation
-@dataclass(frozen=True)
-class ActuatorBatch:
-    """Actuator parameters as arrays (a batch of perturbed plants), rotary SI.
-
-    Duck-types the attributes of :class:`~seactl.actuators.SEAParams` that the
-    block diagram and the gain design read."""
-
-    Im: np.ndarray
-    Ij: np.ndarray
-    bm: np.ndarray
-    bj: np.ndarray
-    k: np.ndarray
-    beta: np.ndarray
-    motor_torque_constant: float = 0.0276
-    pulley_radius: float = 0.025
-    name: str = "batch"
-
-
 def impedance_magnitude(design: Any, f_hz: np.ndarray) -> np.ndarray:
     """``|Z(j 2 pi f)|`` [N m s/rad] of the SEA, ``Z = tau_k / (-s q_j)`` with the joint
     motion imposed (``q_des = 0``), from :data:`~seactl.loops.SEA_DIAGRAM`.
@@ -364,9 +346,7 @@ def evaluate_points(spec: SweepSpec, values: dict[str, np.ndarray], n: int
                                 col("f_qd_hz")[ok], col("f_taud_hz")[ok])
         plant: Any = a
         if any(name in dict(spec.axes) for name in ACTUATOR_AXES):
-            plant = ActuatorBatch(*(col(name)[ok] for name in ACTUATOR_AXES),
-                                  motor_torque_constant=a.motor_torque_constant,
-                                  pulley_radius=a.pulley_radius, name=a.name)
+            plant = a.batch(**{_ACTUATOR_FIELDS[n]: col(n)[ok] for n in ACTUATOR_AXES})
         design = SEADesign(plant, gains, timing)
         m = sea_margins(design)
         res = {"Kq": gains.Kq, "Bq": gains.Bq, "Ktau": gains.Ktau, "Btau": gains.Btau,
@@ -861,7 +841,7 @@ def monte_carlo(spec: SweepSpec) -> RobustResult:
 
 
 __all__ = [
-    "AXES", "ActuatorBatch", "RobustResult", "SweepInterrupted", "SweepResult", "SweepSpec",
+    "AXES", "RobustResult", "SweepInterrupted", "SweepResult", "SweepSpec",
     "evaluate_chunk", "evaluate_points", "impedance_magnitude", "missing_chunks",
     "monte_carlo", "read_sweep", "relative_interval", "run_sweep", "summarize",
 ]
