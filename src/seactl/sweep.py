@@ -258,13 +258,8 @@ def impedance_magnitude(design: Any, f_hz: np.ndarray) -> np.ndarray:
     >>> bool(abs(z * 2 * np.pi * f / d.gains.Kq - 1) < 1e-6)
     True
     """
-    try:  # the impedance module, where present, is the project's one entry point
-        from .impedance import impedance
-    except ImportError:  # pragma: no cover - same transfer, straight from the diagram
-        from .loops import SEA_DIAGRAM
+    from .impedance import impedance
 
-        s = 2j * np.pi * np.asarray(f_hz, float)
-        return np.abs(-SEA_DIAGRAM.transfer("tau_k", "q_j", cut=("q_j",))(design, s) / s)
     return impedance(design, f_hz).magnitude
 
 

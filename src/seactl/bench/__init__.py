@@ -39,7 +39,7 @@ def run_benchmarks(only: Iterable[str] | None = None, repeat: int = 5,
     if only:
         unknown = set(only) - set(names)
         if unknown:
-            raise InputError("--only", ", ".join(sorted(unknown)), "one of " + ", ".join(names))
+            raise InputError("only", ", ".join(sorted(unknown)), "one of " + ", ".join(names))
         names = [n for n in names if n in set(only)]
     out: list[dict[str, Any]] = []
     for name in names:

@@ -193,7 +193,37 @@ def echo_json(obj: Any) -> None:
 
 
 # ------------------------------------------------------------------ commands
-@click.group(context_settings={"help_option_names": ["-h", "--help"]})
+class _Command(click.Command):
+    """A command whose library errors are re-worded for the command line: an
+    :class:`InputError` naming a parameter (``t_qs_ms``, ``out``) names the flag the user
+    typed instead (``--t-qs [ms]``, ``--out``)."""
+
+    def invoke(self, ctx: click.Context) -> Any:
+        try:
+            return super().invoke(ctx)
+        except InputError as exc:
+            flag = flag_for(ctx.command, exc.field)
+            if flag is not None:
+                exc.field = flag
+                exc.args = (f"invalid {flag} = {exc.value!r}: must be {exc.valid}",)
+            raise
+
+
+def flag_for(command: click.Command, field: str) -> str | None:
+    """The flag (with the axis unit, if any) of ``command`` whose parameter is ``field``."""
+    name = str(field).split(" [")[0]
+    for param in command.params:
+        if isinstance(param, click.Option) and param.name == name:
+            unit = AXES[name].unit if name in AXES else ""
+            return max(param.opts, key=len) + (f" [{unit}]" if unit else "")
+    return None
+
+
+class _Group(click.Group):
+    command_class = _Command
+
+
+@click.group(context_settings={"help_option_names": ["-h", "--help"]}, cls=_Group)
 @click.version_option(package_name="seactl")
 def cli() -> None:
     """seactl: distributed impedance control of series elastic actuators."""
