@@ -10,17 +10,7 @@ from ..design import critically_damped_gains, feasible_fn_range
 from ..loops import SEADesign, Timing
 from ..margins import sea_margins
 from ..report import Claim, Context, Figure, Section, numeric_claim, section
-
-# Table I of the paper: f_n -> (Kq, Bq, Ktau, Btau, PM) as printed, and printed decimals.
-TABLE_I = {
-    12: (65, 0.46, 1.18, 0.057, 45.1),
-    14: (83, 0.76, 1.80, 0.067, 43.2),
-    16: (103, 1.02, 2.56, 0.077, 40.0),
-    18: (124, 1.26, 3.45, 0.087, 36.5),
-    20: (148, 1.49, 4.48, 0.097, 33.2),
-}
-TABLE_I_DECIMALS = (0, 2, 2, 3, 1)
-TABLE_I_TIMING = dict(t_tau_ms=0.5, t_qs_ms=2.0, t_qd_ms=0.5, f_qd_hz=50.0, f_taud_hz=100.0)
+from .constants import TABLE_I, TABLE_I_DECIMALS, TABLE_I_TIMING
 
 
 def table_i_designs() -> SEADesign:

@@ -25,11 +25,11 @@ from ..impedance import (
 from ..loops import SEADesign, Timing, closed_loop
 from ..margins import sea_margins
 from ..report import Claim, Context, Figure, Section, numeric_claim, section
+from .constants import FILTERS, TABLE_I_TIMING
 
 F_HZ = np.logspace(-1, 3, 600)
 F_LOW = np.array([1e-4])
 F_HIGH = np.array([1e5])
-FILTERS = dict(f_qd_hz=50.0, f_taud_hz=100.0)
 NATFREQ_DELAYS = dict(t_tau_ms=1.0, t_qs_ms=10.0, t_qd_ms=1.0)
 # The reference MATLAB's delay sets at f_n = 30 Hz: (label, T_tau, T_qs, T_qd) [ms].
 DELAY_SETS = [("no delay", 0.0, 0.0, 0.0), ("T_qs=1, T_qd=1, T_tau=1 ms", 1.0, 1.0, 1.0),
@@ -350,7 +350,7 @@ def ktau_finding(ctx: Context) -> Section:
                         "diagram's is exactly K_q, consistent with P_CL(0) = 1.")
     fn = np.array([12.0, 20.0, 30.0])
     timings = [Timing(), Timing.from_ms(1.0, 10.0, 3.0), Timing.from_ms(**FILTERS),
-               Timing.from_ms(0.5, 2.0, 0.5, **FILTERS)]
+               Timing.from_ms(**TABLE_I_TIMING)]
     err = 0.0
     for t in timings:
         d = _design(fn, t)
@@ -423,7 +423,7 @@ def zregion_section(ctx: Context) -> Section:
                         "admissible designs; Z-depth = band from 0.1 Hz where the width stays "
                         ">= 6 dB.")
     g = critically_damped_gains(UT_SEA, ZR_FN[:, None], gs=ZR_GS[None, :])
-    d = SEADesign(UT_SEA, g, Timing.from_ms(0.5, 2.0, 0.5, **FILTERS))
+    d = SEADesign(UT_SEA, g, Timing.from_ms(**TABLE_I_TIMING))
     reg = zregion(d, ZR_F, min_pm_deg=30.0, threshold_db=6.0)
     fig = zregion_figure(reg, ZR_FN, ZR_GS, spring=UT_SEA.k / (2j * np.pi * ZR_F))
     sec.figures.append(Figure(ctx.savefig(fig, "zregion.png"),

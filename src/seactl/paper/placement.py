@@ -6,13 +6,13 @@ from __future__ import annotations
 import numpy as np
 
 from ..report import Claim, Context, Figure, Section, section
+from .constants import TABLE_I_FN, TABLE_I_TIMING
 
 STEP_FN = (4.0, 8.0, 12.0)
 MAP_N = 81                      # grid points per axis of the phase-margin maps
 MAXFN_N = 41                    # ... of the max-stable-f_n maps
 MAP_T = (0.5e-3, 20e-3)         # delay range on each axis [s]
 RIGID_MAP_FN, SEA_MAP_FN = 8.0, 14.0
-TABLE_I_FN = (12.0, 14.0, 16.0, 18.0, 20.0)
 PM_SMALL_DEG = 10.0             # "small effect": phase margin moves by at most this much
 
 
@@ -184,7 +184,7 @@ def latency_maps(ctx: Context) -> Section:
 
     fn = np.array(TABLE_I_FN)
     ds = SEADesign(UT_SEA, critically_damped_gains(UT_SEA, fn),
-                   Timing.from_ms(0.5, 2.0, 0.5, 50.0, 100.0))
+                   Timing.from_ms(**TABLE_I_TIMING))
     dms = sm.delay_margins(ds)
     sens = pm_sensitivity(sm, fn, 2e-3, 0.5e-3)
     srows = []

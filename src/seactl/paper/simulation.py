@@ -12,6 +12,7 @@ from ..loops import SEADesign, Timing
 from ..margins import sea_margins
 from ..report import Claim, Context, Figure, Section, numeric_claim, section
 from ..simulate import impulse_metrics, sea_impulse, sea_step
+from .constants import TABLE_I_TIMING
 
 FN_A = np.array([14.0, 16.0, 18.0, 20.0])
 TIMING_A = dict(t_tau_ms=1.0, t_qs_ms=1.0, t_qd_ms=1.0, f_qd_hz=50.0, f_taud_hz=100.0)
@@ -383,7 +384,7 @@ def experiment_gs(ctx: Context) -> Section:
 def experiment_impulse(ctx: Context) -> Section:
     from ..plots import panels_figure
 
-    timing = dict(t_tau_ms=0.5, t_qs_ms=2.0, t_qd_ms=0.5, f_qd_hz=50.0, f_taud_hz=100.0)
+    timing = TABLE_I_TIMING
     d = _design(14.0, **timing)
     unit = sea_impulse(d, impulse_nms=1.0, t_end_s=1.0)
     J = float(np.radians(2.5) / unit.metrics.peak_deviation)
