@@ -106,3 +106,6 @@ ACTUATOR_AXES = tuple(AXES)[10:]
 ACTUATOR_FIELDS = dict(Im="motor_inertia", Ij="joint_inertia", bm="motor_damping",
                        bj="joint_damping", k="spring_stiffness", beta="current_to_torque")
 """Plant axis -> :class:`~seactl.actuators.SEAParams` field."""
+
+SAMPLINGS = ("grid", "random", "lhs")
+"""How a sweep samples its axes: Cartesian grid, uniform random, Latin hypercube."""

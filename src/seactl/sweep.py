@@ -53,13 +53,12 @@ from typing import Any
 import numpy as np
 
 from .actuators import SEAParams
-from .axes import ACTUATOR_AXES, ACTUATOR_FIELDS, AXES
+from .axes import ACTUATOR_AXES, ACTUATOR_FIELDS, AXES, SAMPLINGS
 from .errors import InputError
 
 FORMAT = "seactl-sweep/1"
 
 
-SAMPLINGS = ("grid", "random", "lhs")
 
 OUTPUTS: dict[str, str] = {
     "point": "point index in the sweep's deterministic order",

@@ -21,7 +21,7 @@ __all__ = ["BENCHMARKS", "BenchResult", "benchmark", "median_time", "registered"
 BENCHMARKS: tuple[Callable, ...] = (
     core.bench_gain_design, core.bench_margins, impedance.bench_impedance,
     simulate.bench_simulate, placement.bench_latency_map, sweep.bench_sweep,
-    mobile_base.bench_circle, mobile_base.bench_tuning,
+    mobile_base.bench_circle, mobile_base.bench_tuning, core.bench_cli_startup,
 )
 
 

@@ -12,9 +12,8 @@ import numpy as np
 from rich.markup import escape
 from rich.table import Table
 
-from ..axes import ACTUATOR_AXES, AXES, DESIGN_AXES
+from ..axes import ACTUATOR_AXES, AXES, DESIGN_AXES, SAMPLINGS
 from ..errors import InputError
-from ..sweep import SAMPLINGS, relative_interval
 from ._common import (
     VARIADIC,
     axis_option,
@@ -50,6 +49,8 @@ def parse_axis(actuator: Any, name: str, tokens: tuple[str, ...], *, sampling: s
                     pct = float(part[:-1])
                 except ValueError:
                     raise InputError(info.option, part, "P% with a number P") from None
+                from ..sweep import relative_interval
+
                 lo, hi = relative_interval(actuator, name, pct)
                 if pct == 0:
                     out.append(lo)
