@@ -41,7 +41,19 @@ def main(argv: Sequence[str] | None = None) -> int:
         return 2
     except click.exceptions.Exit as exc:
         return exc.exit_code
+    except OSError as exc:  # a last net: the commands turn their own into OutputError
+        where = f"cannot write {exc.filename}: " if exc.filename else ""
+        _error(where + (exc.strerror or str(exc)).lower())
+        return 2
+    except MemoryError:
+        _error("out of memory; ask for fewer designs, frequencies or time steps")
+        return 2
     return 0
+
+
+def _error(message: str) -> None:
+    err_console.print(f"[bold red]error:[/bold red] {escape(message)}", highlight=False,
+                      soft_wrap=True)
 
 
 def run() -> None:  # pragma: no cover - console script

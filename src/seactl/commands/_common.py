@@ -7,11 +7,12 @@ Options listed in :data:`VARIADIC` take several values after one flag
 
 from __future__ import annotations
 
+import contextlib
 import functools
 import json
 import math
 import sys
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Iterator, Mapping, Sequence
 from dataclasses import dataclass
 from typing import Any
 
@@ -58,6 +59,19 @@ def parse_values(name: str, tokens: Sequence[str], *, log: bool = False) -> np.n
                 raise InputError(name, part, "a number or a range START:STOP:"
                                  + ("N" if log else "STEP")) from None
     return np.asarray(out, float)
+
+
+@contextlib.contextmanager
+def flag_names(names: Mapping[str, str]) -> Iterator[None]:
+    """Library errors name parameters (``t_end``); inside this block they are re-raised
+    naming the command-line flag instead (``{"t_end": "--t-end"}``)."""
+    try:
+        yield
+    except InputError as exc:
+        head, sep, tail = exc.field.partition(" ")
+        if head not in names:
+            raise
+        raise InputError(names[head] + sep + tail, exc.value, exc.valid) from None
 
 
 def expand_variadic(argv: Sequence[str]) -> list[str]:
@@ -168,7 +182,9 @@ def design_options(func: Callable) -> Callable:
         gs_v = finite_array("--gs", parse_values("--gs", gs), minimum=0.0, strict=True)
         if fn_hz.size == 0:
             raise InputError("--fn", "", "at least one frequency")
-        spec = DesignSpec(load_sea(actuator), fn_hz, gs_v, zeta1, zeta2, ratio,
+        with flag_names({"actuator": "--actuator"}):
+            sea = load_sea(actuator)
+        spec = DesignSpec(sea, fn_hz, gs_v, zeta1, zeta2, ratio,
                           t_tau, t_qs, t_qd, f_qd, f_taud)
         return func(*args, spec=spec, **kwargs)
 

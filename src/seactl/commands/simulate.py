@@ -34,7 +34,7 @@ from rich.markup import escape
 from rich.table import Table
 
 from ..errors import InputError
-from ..report import write_atomic
+from ..outputs import CSV_SUFFIXES, FIGURE_SUFFIXES, OutputSet
 from ._common import DesignSpec, cli, console, design_options, echo_json, finite_or_none
 
 
@@ -67,15 +67,15 @@ def sim_options(func: Callable) -> Callable:
         click.option("--saturation", default=None,
                      help="Motor current limit [A] in sampled mode (default: the actuator's "
                           "max_current; 'none': no limit)."),
-        click.option("--plot", "plot", type=click.Path(dir_okay=False), default=None,
-                     help="Write a PNG of the responses."),
-        click.option("--csv", "csv_path", type=click.Path(dir_okay=False), default=None,
+        click.option("--plot", "plot", default=None, metavar="FILE.png|.svg|.pdf",
+                     help="Write a figure of the responses (format from the suffix)."),
+        click.option("--csv", "csv_path", default=None, metavar="FILE.csv",
                      help="Write the responses as CSV (t_s, one column per design)."),
         click.option("--json", "as_json", is_flag=True, help="Print JSON instead of a table."),
     ]
 
     @functools.wraps(func)
-    def wrapper(*args, mode, rate_hz, no_zero, t_end, saturation, **kwargs):
+    def wrapper(*args, mode, rate_hz, no_zero, t_end, saturation, plot, csv_path, **kwargs):
         if not (math.isfinite(rate_hz) and rate_hz > 0):
             raise InputError("--rate [Hz]", rate_hz, "a finite rate > 0")
         if t_end is not None and not (math.isfinite(t_end) and 0 < t_end <= 60):
@@ -83,8 +83,11 @@ def sim_options(func: Callable) -> Callable:
         sat = _parse_saturation(saturation)
         if sat is not None and mode != "sampled":
             raise InputError("--saturation", saturation, "used with --mode sampled only")
-        return func(*args, mode=mode, rate_hz=rate_hz, zero=not no_zero, t_end=t_end,
-                    saturation=sat, **kwargs)
+        with OutputSet() as outs:
+            plot_p = outs.add("--plot", plot, FIGURE_SUFFIXES)
+            csv_p = outs.add("--csv", csv_path, CSV_SUFFIXES)
+            return func(*args, mode=mode, rate_hz=rate_hz, zero=not no_zero, t_end=t_end,
+                        saturation=sat, outs=outs, plot=plot_p, csv_path=csv_p, **kwargs)
 
     for opt in reversed(opts):
         wrapper = opt(wrapper)
@@ -111,9 +114,9 @@ def _metrics_json(m: Any, i: int) -> dict[str, Any]:
 
 
 def _output(spec: DesignSpec, resp: Any, mode: str, zero: bool, extra: dict[str, Any],
-            plot: str | None, csv_path: str | None, as_json: bool, title: str,
-            ylabel: str) -> None:
-    from ..plots import response_figure, save_figure
+            outs: OutputSet, plot: Path | None, csv_path: Path | None, as_json: bool,
+            title: str, ylabel: str) -> None:
+    from ..plots import response_figure
 
     res, m = resp.result, resp.metrics
     labels = _labels(spec)
@@ -129,12 +132,13 @@ def _output(spec: DesignSpec, resp: Any, mode: str, zero: bool, extra: dict[str,
         w.writerow(["t_s"] + names)
         for k in range(t.size):
             w.writerow([f"{t[k]:.9g}"] + [f"{pos[i, k]:.9g}" for i in range(len(labels))])
-        write_atomic(Path(csv_path), buf.getvalue())
+        outs.write(csv_path, buf.getvalue())
     if plot:
         fig = response_figure(t, pos, names, title=title, ylabel=ylabel,
                               current=cur if mode == "sampled" else None,
                               unstable=[not s for s in stable])
-        save_figure(fig, plot, dpi=110)
+        outs.figure(plot, fig, dpi=110)
+    outs.commit()
     runs = []
     for i, (f, g) in enumerate(labels):
         runs.append({"fn_hz": f, "gs": g, "position": [round(float(x), 9) for x in pos[i]],
@@ -210,8 +214,8 @@ def _extra(res: Any, mode: str, rate_hz: float, saturation: float | None) -> dic
                    "saturation).")
 @sim_options
 def step(spec: DesignSpec, amplitude: float, mode: str, rate_hz: float, zero: bool,
-         t_end: float | None, saturation: float | None, plot: str | None,
-         csv_path: str | None, as_json: bool) -> None:
+         t_end: float | None, saturation: float | None, outs: OutputSet,
+         plot: Path | None, csv_path: Path | None, as_json: bool) -> None:
     """Step response of the joint position to a position reference step.
 
     \b
@@ -230,7 +234,7 @@ def step(spec: DesignSpec, amplitude: float, mode: str, rate_hz: float, zero: bo
     extra = _extra(resp.result, mode, rate_hz, saturation) | {"amplitude_rad": amplitude}
     title = (f"Step response ({mode}{f', {rate_hz:g} Hz' if mode == 'sampled' else ''}, "
              f"{'with' if zero else 'without'} the torque-derivative zero)")
-    _output(spec, resp, mode, zero, extra, plot, csv_path, as_json, title,
+    _output(spec, resp, mode, zero, extra, outs, plot, csv_path, as_json, title,
             "joint position / step size")
 
 
@@ -242,8 +246,8 @@ def step(spec: DesignSpec, amplitude: float, mode: str, rate_hz: float, zero: bo
               help="Recovery band, as a fraction of the peak deviation.")
 @sim_options
 def impulse(spec: DesignSpec, impulse_nms: float, band: float, mode: str, rate_hz: float,
-            zero: bool, t_end: float | None, saturation: float | None, plot: str | None,
-            csv_path: str | None, as_json: bool) -> None:
+            zero: bool, t_end: float | None, saturation: float | None, outs: OutputSet,
+            plot: Path | None, csv_path: Path | None, as_json: bool) -> None:
     """Joint position after an impulse of external torque (q_des = 0), e.g. a ball hitting
     the arm (Fig. ExperimentImpulse). Position in rad; recovery = last exit from the band.
 
@@ -263,5 +267,5 @@ def impulse(spec: DesignSpec, impulse_nms: float, band: float, mode: str, rate_h
     extra = _extra(resp.result, mode, rate_hz, saturation) | {"impulse_nms": impulse_nms}
     title = (f"Impulse response, {impulse_nms:g} N m s ({mode}"
              f"{f', {rate_hz:g} Hz' if mode == 'sampled' else ''})")
-    _output(spec, resp, mode, zero, extra, plot, csv_path, as_json, title,
+    _output(spec, resp, mode, zero, extra, outs, plot, csv_path, as_json, title,
             "joint position [rad]")
