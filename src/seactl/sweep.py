@@ -291,6 +291,18 @@ def _check_axis(name: str, vals: np.ndarray) -> None:
         raise InputError(label, float(vals[low][0]),
                          f"{'>' if info.strict else '>='} {info.minimum:g}"
                          + (" (inf: no filter)" if allow_inf else ""))
+    kind = _RANGE_KIND.get(name)
+    if kind is not None:
+        from .limits import check_range
+
+        for v in (vals.min(), vals.max()):
+            if not (allow_inf and math.isinf(v)):
+                check_range(label, float(v), kind)
+
+
+_RANGE_KIND = {"fn_hz": "fn_hz", "t_tau_ms": "delay_ms", "t_qs_ms": "delay_ms",
+               "t_qd_ms": "delay_ms", "f_qd_hz": "filter_hz", "f_taud_hz": "filter_hz"}
+"""Axes with a documented range in :data:`seactl.limits.RANGES`."""
 
 
 # ------------------------------------------------------------------ evaluation

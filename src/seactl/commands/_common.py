@@ -21,6 +21,7 @@ import numpy as np
 from rich.console import Console
 
 from ..errors import InputError
+from ..limits import BYTES_PER_DESIGN, check_budget, check_count, check_range
 
 VARIADIC: set[str] = {"--fn", "--gs"}
 """Options that accept several space-separated values."""
@@ -34,31 +35,37 @@ err_console = Console(stderr=True)
 def parse_values(name: str, tokens: Sequence[str], *, log: bool = False) -> np.ndarray:
     """Numbers, or ranges ``START:STOP:STEP`` (inclusive; ``log``: ``START:STOP:N``
     log-spaced points), concatenated in the given order."""
-    out: list[float] = []
+    out: list[np.ndarray] = []
+    total = 0
     for tok in tokens:
         for part in str(tok).replace(",", " ").split():
             try:
-                if ":" in part:
-                    a, b, c = (float(x) for x in part.split(":"))
-                    if log:
-                        if a <= 0 or b <= 0 or c < 2 or c != int(c):
-                            raise InputError(name, part, "START:STOP:N with START, STOP > 0 and "
-                                             "an integer N >= 2")
-                        out.extend(np.logspace(math.log10(a), math.log10(b), int(c)))
-                    else:
-                        if c <= 0 or b < a:
-                            raise InputError(name, part, "START:STOP:STEP with STEP > 0 and "
-                                             "STOP >= START")
-                        n = int(math.floor((b - a) / c + 1e-9)) + 1
-                        out.extend(a + c * np.arange(n))
-                else:
-                    out.append(float(part))
+                values = _range(name, part, log) if ":" in part else np.array([float(part)])
             except ValueError as exc:
                 if isinstance(exc, InputError):
                     raise
                 raise InputError(name, part, "a number or a range START:STOP:"
                                  + ("N" if log else "STEP")) from None
-    return np.asarray(out, float)
+            total = check_count(name, part, total + values.size)
+            out.append(values)
+    return np.concatenate(out) if out else np.zeros(0)
+
+
+def _range(name: str, part: str, log: bool) -> np.ndarray:
+    """``START:STOP:STEP`` (or ``START:STOP:N`` log-spaced), its size checked first."""
+    a, b, c = (float(x) for x in part.split(":"))
+    if not all(math.isfinite(x) for x in (a, b, c)):
+        raise InputError(name, part, "a range of finite numbers")
+    if log:
+        if a <= 0 or b <= 0 or c < 2 or c != int(c):
+            raise InputError(name, part, "START:STOP:N with START, STOP > 0 and an integer "
+                             "N >= 2")
+        return np.logspace(math.log10(a), math.log10(b), check_count(name, part, c))
+    if c <= 0 or b < a:
+        raise InputError(name, part, "START:STOP:STEP with STEP > 0 and STOP >= START")
+    steps = (b - a) / c
+    n = check_count(name, part, math.floor(steps + 1e-9) + 1 if math.isfinite(steps) else steps)
+    return a + c * np.arange(n)
 
 
 @contextlib.contextmanager
@@ -172,16 +179,21 @@ def design_options(func: Callable) -> Callable:
         from ..actuators import load_sea
 
         for name, val in (("--t-tau", t_tau), ("--t-qs", t_qs), ("--t-qd", t_qd)):
-            finite_array(f"{name} [ms]", val, minimum=0.0)
+            check_range(f"{name} [ms]", val, "delay_ms")
         for name, val in (("--f-qd", f_qd), ("--f-taud", f_taud)):
             if val is not None:
-                finite_array(f"{name} [Hz]", val, minimum=0.0, strict=True)
+                check_range(f"{name} [Hz]", val, "filter_hz")
         for name, val in (("--zeta1", zeta1), ("--zeta2", zeta2), ("--ratio", ratio)):
             finite_array(name, val, minimum=0.0, strict=True)
         fn_hz = finite_array("--fn [Hz]", parse_values("--fn", fn), minimum=0.0, strict=True)
         gs_v = finite_array("--gs", parse_values("--gs", gs), minimum=0.0, strict=True)
         if fn_hz.size == 0:
             raise InputError("--fn", "", "at least one frequency")
+        for f in (fn_hz.min(), fn_hz.max()):
+            check_range("--fn [Hz]", f, "fn_hz")
+        check_budget(f"{fn_hz.size * gs_v.size:,} designs (--fn x --gs)",
+                     n_bytes=fn_hz.size * gs_v.size * BYTES_PER_DESIGN,
+                     hint="give fewer --fn or --gs values")
         with flag_names({"actuator": "--actuator"}):
             sea = load_sea(actuator)
         spec = DesignSpec(sea, fn_hz, gs_v, zeta1, zeta2, ratio,

@@ -12,6 +12,7 @@ from rich.markup import escape
 from rich.table import Table
 
 from ..errors import InputError
+from ..limits import FREQ_BYTES_PER_POINT, check_budget, check_range
 from ..outputs import CSV_SUFFIXES, FIGURE_SUFFIXES, OutputSet
 from ._common import (
     VARIADIC,
@@ -34,6 +35,16 @@ def _freq(tokens: tuple[str, ...]) -> np.ndarray:
     bad = ~np.isfinite(f) | (f <= 0)
     if bad.any():
         raise InputError("--freq [Hz]", float(f[bad][0]), "finite frequencies > 0")
+    for x in (f.min(), f.max()):
+        check_range("--freq [Hz]", x, "freq_hz")
+    return f
+
+
+def _budget(spec: DesignSpec, f: np.ndarray) -> np.ndarray:
+    n = spec.fn_hz.size * spec.gs.size
+    check_budget(f"{n:,} design(s) at {f.size:,} frequencies",
+                 n_bytes=n * f.size * FREQ_BYTES_PER_POINT,
+                 hint="give fewer --freq points or fewer designs")
     return f
 
 
@@ -93,8 +104,8 @@ def impedance(spec: DesignSpec, freq: tuple[str, ...], model: str, load: bool, u
       seactl impedance --fn 30 --t-tau 1 --t-qs 10 --t-qd 3 --plot z.png
     """
     with OutputSet() as outs:
-        _impedance(spec, _freq(freq), model, load, units, *_outputs(outs, plot, csv), outs,
-                   as_json)
+        f = _budget(spec, _freq(freq))
+        _impedance(spec, f, model, load, units, *_outputs(outs, plot, csv), outs, as_json)
 
 
 def _impedance(spec: DesignSpec, f: np.ndarray, model: str, load: bool, units: str,
@@ -258,8 +269,8 @@ def zregion(spec: DesignSpec, freq: tuple[str, ...], model: str, load: bool, min
     """
     with OutputSet() as outs:
         plot_p, csv_p = _outputs(outs, plot, csv)
-        _zregion(spec, _freq(freq), model, load, min_pm, require_passive, threshold_db,
-                 plot_p, csv_p, outs, as_json)
+        _zregion(spec, _budget(spec, _freq(freq)), model, load, min_pm, require_passive,
+                 threshold_db, plot_p, csv_p, outs, as_json)
 
 
 def _zregion(spec: DesignSpec, f: np.ndarray, model: str, load: bool, min_pm: float,

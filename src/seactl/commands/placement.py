@@ -18,9 +18,9 @@ from ._common import VARIADIC, cli, console, echo_json, finite_or_none, json_opt
 VARIADIC.update({"--fn-rigid", "--fn-sea"})
 
 def _ms(name: str, value: float) -> float:
-    from .._validate import finite_array
+    from ..limits import check_range
 
-    return float(finite_array(f"{name} [ms]", value, minimum=0.0)) * 1e-3
+    return check_range(f"{name} [ms]", value, "delay_ms") * 1e-3
 
 
 def _f_v(value: float | None) -> float | None:
@@ -104,6 +104,10 @@ def rigid(fn, t_s, t_d, f_v, actuator, no_passive_damping, step, as_json) -> Non
     from .._validate import finite_array
 
     finite_array("--fn [Hz]", fn_hz, minimum=0.0, strict=True)
+    from ..limits import check_range
+
+    for f in (fn_hz.min(), fn_hz.max()):
+        check_range("--fn [Hz]", f, "fn_hz")
     ts, td = _ms("--t-s", t_s), _ms("--t-d", t_d)
     model = rigid_model(a, f_v=fv, passive_damping=not no_passive_damping)
     d = model.design(fn_hz, ts, td)

@@ -34,6 +34,7 @@ from rich.markup import escape
 from rich.table import Table
 
 from ..errors import InputError
+from ..limits import MIN_SAMPLES, check_budget, check_range, simulation_estimate
 from ..outputs import CSV_SUFFIXES, FIGURE_SUFFIXES, OutputSet
 from ._common import DesignSpec, cli, console, design_options, echo_json, finite_or_none
 
@@ -76,10 +77,9 @@ def sim_options(func: Callable) -> Callable:
 
     @functools.wraps(func)
     def wrapper(*args, mode, rate_hz, no_zero, t_end, saturation, plot, csv_path, **kwargs):
-        if not (math.isfinite(rate_hz) and rate_hz > 0):
-            raise InputError("--rate [Hz]", rate_hz, "a finite rate > 0")
-        if t_end is not None and not (math.isfinite(t_end) and 0 < t_end <= 60):
-            raise InputError("--t-end [s]", t_end, "> 0 and <= 60")
+        check_range("--rate [Hz]", rate_hz, "rate_hz")
+        if t_end is not None:
+            check_range("--t-end [s]", t_end, "t_end_s")
         sat = _parse_saturation(saturation)
         if sat is not None and mode != "sampled":
             raise InputError("--saturation", saturation, "used with --mode sampled only")
@@ -92,6 +92,32 @@ def sim_options(func: Callable) -> Callable:
     for opt in reversed(opts):
         wrapper = opt(wrapper)
     return wrapper
+
+
+RECORD_DT_S = 5e-4
+"""Recording interval of the continuous mode [s]."""
+
+
+def check_simulation(spec: DesignSpec, mode: str, rate_hz: float, t_end_s: float) -> None:
+    """Enough samples to judge the response, and memory and time within the machine's."""
+    n = spec.fn_hz.size * spec.gs.size
+    if mode == "sampled":
+        steps = recorded = t_end_s * rate_hz
+        need = f"--t-end x --rate >= {MIN_SAMPLES} samples"
+    else:
+        delays = [d * 1e-3 for d in (spec.t_tau_ms, spec.t_qs_ms, spec.t_qd_ms) if d > 0]
+        dt = min([1e-4, *delays])
+        steps = t_end_s / dt
+        recorded = t_end_s / max(dt, RECORD_DT_S)
+        need = f"--t-end >= {MIN_SAMPLES} x {max(dt, RECORD_DT_S) * 1e3:g} ms (recording step)"
+    if recorded < MIN_SAMPLES:
+        raise InputError("--t-end [s]", t_end_s, f"long enough to record {MIN_SAMPLES} samples "
+                         f"({need})")
+    n_bytes, seconds = simulation_estimate(n, int(steps), int(recorded))
+    check_budget(f"simulating {n:,} design(s) over {steps:,.0f} steps", n_bytes=n_bytes,
+                 seconds=seconds, hint="shorten --t-end, lower --rate, or give fewer designs"
+                 + ("" if mode == "sampled" else " (continuous mode steps at min(0.1 ms, the "
+                    "smallest positive delay))"))
 
 
 def _labels(spec: DesignSpec) -> list[tuple[float, float]]:
@@ -227,6 +253,7 @@ def step(spec: DesignSpec, amplitude: float, mode: str, rate_hz: float, zero: bo
 
     if not (math.isfinite(amplitude) and amplitude != 0):
         raise InputError("--amplitude [rad]", amplitude, "a finite non-zero number")
+    check_simulation(spec, mode, rate_hz, t_end or 0.5)
     design = spec.designs()
     resp = sea_step(design, zero=zero, mode=mode, rate_hz=rate_hz, t_end_s=t_end or 0.5,
                     saturation_a=saturation, amplitude=amplitude,
@@ -260,6 +287,9 @@ def impulse(spec: DesignSpec, impulse_nms: float, band: float, mode: str, rate_h
 
     if not (0 < band < 1):
         raise InputError("--band", band, "a fraction in (0, 1)")
+    if not (math.isfinite(impulse_nms) and impulse_nms != 0):
+        raise InputError("--impulse [N m s]", impulse_nms, "a finite non-zero number")
+    check_simulation(spec, mode, rate_hz, t_end or 1.0)
     design = spec.designs()
     resp = sea_impulse(design, impulse_nms=impulse_nms, zero=zero, mode=mode, rate_hz=rate_hz,
                        t_end_s=t_end or 1.0, saturation_a=saturation, band=band,

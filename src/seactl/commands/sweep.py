@@ -173,6 +173,12 @@ def sweep(actuator, sampling, n_samples, seed, chunk_size, unc_points, z_freq, o
                               unc_points=unc_points, z_freq=z_freq)
     plot_xy = _parse_plot_axes(plot_axes, spec) if plot_axes else None
     _check_size(spec, yes)
+    from ..limits import BYTES_PER_DESIGN, check_budget
+
+    check_budget(f"a chunk of {spec.chunk_size:,} points per worker",
+                 n_bytes=spec.chunk_size * BYTES_PER_DESIGN * (os.cpu_count() or 1)
+                 if workers != 0 else spec.chunk_size * BYTES_PER_DESIGN,
+                 hint="lower --chunk-size")
     with OutputSet() as outs:
         fig_file = outs.add("--plot-file", plot_file, FIGURE_SUFFIXES)
         res = _run(spec, out, resume, overwrite, workers, scheduler, quiet)
@@ -327,6 +333,10 @@ def robust(fn, gs, zeta1, zeta2, ratio, t_tau, t_qs, t_qd, f_qd, f_taud, actuato
                          "parameter, e.g. --ij 20%")
     for name, v in given.items():
         opts[name] = (v,)
+    from ..limits import BYTES_PER_DESIGN, check_budget
+
+    check_budget(f"a Monte Carlo of {n_samples:,} samples", n_bytes=n_samples * BYTES_PER_DESIGN,
+                 hint="lower --n")
     spec = _spec_from_options(opts, actuator=actuator, sampling="random", n_samples=n_samples,
                               seed=seed, chunk_size=5_000, unc_points=3, z_freq=())
     for name in given:
