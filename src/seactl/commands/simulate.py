@@ -13,8 +13,12 @@ simulated in one vectorized batch) and::
                                 'none' for no limit)
     --plot FILE, --csv FILE, --json
 
-JSON for one design: ``{"mode", "t_s", "position", "stable", "metrics", ...}``; for several
-designs: ``{"mode", "t_s", "runs": [{"fn_hz", "gs", "position", "stable", "metrics", ...}]}``.
+JSON for one design: ``{"mode", "t_s", "position", "stable", "verdict", "evidence",
+"metrics", "warnings", ...}``; for several designs: ``{"mode", "t_s", "warnings", "runs":
+[{"fn_hz", "gs", "position", "stable", "verdict", "evidence", "warnings", "metrics", ...}]}``.
+``verdict`` is one of settled, not settled, unstable, limit cycle, saturated
+(:mod:`seactl.verdict`); ``stable`` is false for unstable and limit cycle.  The top-level
+``warnings`` are the lines the table prints after ``warning:``.
 Metrics that do not exist (unstable response, never settled) are ``null``.
 """
 
@@ -36,7 +40,13 @@ from rich.table import Table
 from ..errors import InputError
 from ..limits import MIN_SAMPLES, check_budget, check_range, simulation_estimate
 from ..outputs import CSV_SUFFIXES, FIGURE_SUFFIXES, OutputSet
+from ..verdict import judge_response
 from ._common import DesignSpec, cli, console, design_options, echo_json, finite_or_none
+
+STEP_BAND = 0.02
+"""Settling band of a step (2 % of the step), as in the settling-time metric."""
+BAD = ("unstable", "limit cycle")
+"""Verdicts under which a response is not called stable."""
 
 
 def _parse_saturation(value: str | None) -> float | None:
@@ -165,23 +175,30 @@ def _output(spec: DesignSpec, resp: Any, mode: str, zero: bool, extra: dict[str,
                               unstable=[not s for s in stable])
         outs.figure(plot, fig, dpi=110)
     outs.commit()
+    verdict = judge_response(resp, STEP_BAND if resp.kind == "step" else m.band)
     runs = []
     for i, (f, g) in enumerate(labels):
         runs.append({"fn_hz": f, "gs": g, "position": [round(float(x), 9) for x in pos[i]],
-                     "stable": bool(stable[i]), "left_bounds_s": finite_or_none(left[i]),
+                     "stable": bool(stable[i]) and verdict.verdict[i] not in BAD,
+                     "verdict": verdict.verdict[i], "evidence": verdict.evidence(i),
+                     "warnings": verdict.warnings[i],
+                     "left_bounds_s": finite_or_none(left[i]),
                      "peak_current_a": finite_or_none(np.max(np.abs(cur[i]))),
                      "metrics": _metrics_json(m, i)})
-    common = {"mode": mode, "zero": zero, **extra}
+    warnings = [f"f_n={r['fn_hz']:g} Hz, GS={r['gs']:g}: {w}" for r in runs
+                for w in r["warnings"]] + _notes(spec, mode, extra)
+    common = {"mode": mode, "zero": zero, **extra, "warnings": warnings}
     if as_json:
         t_list = [round(float(x), 9) for x in t]
         if len(runs) == 1:
-            echo_json({**common, "t_s": t_list, **runs[0]})
+            one = {k: v for k, v in runs[0].items() if k != "warnings"}
+            echo_json({**common, "t_s": t_list, **one})
         else:
             echo_json({**common, "t_s": t_list, "runs": runs})
         return
     tab = Table(title=escape(title))
     step = resp.kind == "step"
-    cols = ["f_n [Hz]", "GS", "stable"] + (
+    cols = ["f_n [Hz]", "GS", "verdict"] + (
         ["rise [ms]", "overshoot [%]", "settling 2% [ms]", "ss error"] if step else
         ["peak [deg]", "peak at [ms]", f"recovery {m.band:.0%} [ms]"]) + ["peak |i_m| [A]"]
     for c in cols:
@@ -192,9 +209,7 @@ def _output(spec: DesignSpec, resp: Any, mode: str, zero: bool, extra: dict[str,
 
     for r in runs:
         mt = r["metrics"]
-        st = "yes" if r["stable"] else (
-            f"[red]NO[/red] (left bounds at {r['left_bounds_s']:.3f} s)"
-            if r["left_bounds_s"] is not None else "[red]NO[/red] (not decaying)")
+        st = r["verdict"] if r["verdict"] == "settled" else f"[red]{r['verdict']}[/red]"
         vals = ([ms(mt["rise_time_s"]), "none" if mt["overshoot_pct"] is None else
                  f"{mt['overshoot_pct']:.2f}", ms(mt["settling_time_s"]),
                  "none" if mt["steady_state_error"] is None else
@@ -208,18 +223,27 @@ def _output(spec: DesignSpec, resp: Any, mode: str, zero: bool, extra: dict[str,
     if eff:
         console.print(escape("effective delays [ms]: " + ", ".join(
             f"{k} {v:g}" for k, v in eff.items())), highlight=False)
+    for w in warnings:
+        console.print(escape(f"warning: {w}"), highlight=False)
+
+
+def _notes(spec: DesignSpec, mode: str, extra: dict[str, Any]) -> list[str]:
+    """Warnings that apply to the whole command (printed and in JSON alike)."""
+    notes = []
+    eff = extra.get("effective_delays_ms", {})
     if mode == "sampled" and (spec.f_qd_hz is None or spec.f_taud_hz is None):
-        console.print("note: an unfiltered derivative discretized with Tustin rings at the "
-                      "Nyquist frequency (pole at z = -1); give --f-qd and --f-taud for a "
-                      "realistic sampled controller", highlight=False)
+        notes.append("an unfiltered derivative discretized with Tustin rings at the Nyquist "
+                     "frequency (pole at z = -1); give --f-qd and --f-taud for a realistic "
+                     "sampled controller")
     if mode == "sampled" and eff:
         asked = {"Kq_fb": spec.t_qs_ms, "Bq_fb": spec.t_qd_ms, "tau_delay": spec.t_tau_ms}
         off = [f"{k} {asked[k]:g} -> {v:g}" for k, v in eff.items()
                if k in asked and abs(asked[k] - v) > 1e-9]
         if off:
-            console.print(escape("note: at this rate the whole-sample buffers give effective "
-                                 "delays T_s/2 + n T_s that differ from the requested ones: "
-                                 + ", ".join(off) + " ms"), highlight=False)
+            notes.append("at this rate the whole-sample buffers give effective delays "
+                         "T_s/2 + n T_s that differ from the requested ones: "
+                         + ", ".join(off) + " ms")
+    return notes
 
 
 def _extra(res: Any, mode: str, rate_hz: float, saturation: float | None) -> dict[str, Any]:
