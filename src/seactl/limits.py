@@ -84,6 +84,8 @@ def check_budget(what: str, *, n_bytes: float = 0.0, seconds: float = 0.0,
 RANGES: dict[str, tuple[float, float, str]] = {
     "delay_ms": (0.0, 1000.0, "a feedback delay of a servo loop: 0 to 1 s"),
     "fn_hz": (0.0, 1000.0, "a closed-loop natural frequency of a joint: above 0, up to 1 kHz"),
+    "gs": (0.0, 1000.0, "a gain scale: above 0, up to 1000"),
+    "factor": (0.0, 100.0, "a damping ratio or pole ratio: above 0, up to 100"),
     "filter_hz": (0.0, 1e6, "a filter cut-off: above 0, up to 1 MHz"),
     "rate_hz": (10.0, 1e6, "a servo rate: 10 Hz to 1 MHz"),
     "t_end_s": (0.0, 60.0, "a simulated time: above 0, up to 60 s"),

@@ -300,7 +300,8 @@ def _check_axis(name: str, vals: np.ndarray) -> None:
                 check_range(label, float(v), kind)
 
 
-_RANGE_KIND = {"fn_hz": "fn_hz", "t_tau_ms": "delay_ms", "t_qs_ms": "delay_ms",
+_RANGE_KIND = {"fn_hz": "fn_hz", "gs": "gs", "zeta1": "factor", "zeta2": "factor",
+               "ratio": "factor", "t_tau_ms": "delay_ms", "t_qs_ms": "delay_ms",
                "t_qd_ms": "delay_ms", "f_qd_hz": "filter_hz", "f_taud_hz": "filter_hz"}
 """Axes with a documented range in :data:`seactl.limits.RANGES`."""
 
@@ -741,6 +742,12 @@ def run_sweep(spec: SweepSpec, out: Path | str, *, resume: bool = False,
     new_dir = not out.exists() or overwrite or not any(out.iterdir())
     try:
         prepare_output(spec, out, resume=resume, overwrite=overwrite)
+        if console is not None:
+            from rich.markup import escape
+
+            console.print(f"sweep: {spec.n_points:,} points in {spec.n_chunks:,} chunks of "
+                          f"{spec.chunk_size:,} -> {escape(str(out))}"
+                          + (f" on {escape(scheduler)}" if scheduler else ""))
         return _run(spec, out, workers, client, own_client, console, _on_chunk)
     except BaseException as exc:
         if new_dir and not isinstance(exc, KeyboardInterrupt) and out.is_dir() \

@@ -184,13 +184,17 @@ def design_options(func: Callable) -> Callable:
             if val is not None:
                 check_range(f"{name} [Hz]", val, "filter_hz")
         for name, val in (("--zeta1", zeta1), ("--zeta2", zeta2), ("--ratio", ratio)):
-            finite_array(name, val, minimum=0.0, strict=True)
+            check_range(name, val, "factor")
         fn_hz = finite_array("--fn [Hz]", parse_values("--fn", fn), minimum=0.0, strict=True)
         gs_v = finite_array("--gs", parse_values("--gs", gs), minimum=0.0, strict=True)
         if fn_hz.size == 0:
             raise InputError("--fn", "", "at least one frequency")
+        if gs_v.size == 0:
+            raise InputError("--gs", "", "at least one gain scale")
         for f in (fn_hz.min(), fn_hz.max()):
             check_range("--fn [Hz]", f, "fn_hz")
+        for g in (gs_v.min(initial=1.0), gs_v.max(initial=1.0)):
+            check_range("--gs", g, "gs")
         check_budget(f"{fn_hz.size * gs_v.size:,} designs (--fn x --gs)",
                      n_bytes=fn_hz.size * gs_v.size * BYTES_PER_DESIGN,
                      hint="give fewer --fn or --gs values")

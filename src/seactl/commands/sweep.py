@@ -233,10 +233,6 @@ _SWEEP_FLAGS = {"out": "--out", "scheduler": "--scheduler", "workers": "--worker
 def _run(spec, out: str, resume: bool, overwrite: bool, workers, scheduler, quiet: bool):
     from ..sweep import SweepInterrupted, run_sweep
 
-    if not quiet:
-        err_console.print(f"sweep: {spec.n_points:,} points in {spec.n_chunks:,} chunks of "
-                          f"{spec.chunk_size:,} -> {escape(str(out))}"
-                          + (f" on {escape(scheduler)}" if scheduler else ""))
     try:
         with flag_names(_SWEEP_FLAGS):
             return run_sweep(spec, Path(out), resume=resume, overwrite=overwrite,
