@@ -142,3 +142,41 @@ def check_count(name: str, text: str, n: float) -> int:
         size = f"{n:.3g} values, {human_bytes(8 * n)}" if math.isfinite(n) else "unbounded"
         raise InputError(name, text, f"at most {MAX_VALUES:.0e} values (this is {size})")
     return int(n)
+
+
+RECORD_DT_S = 5e-4
+"""Recording interval of the command line's continuous simulations [s]."""
+
+
+def check_simulation(n_designs: int, mode: str, rate_hz: float, t_end_s: float,
+                     delays_s: list[float], *, record_dt_s: float | None = None,
+                     rate_name: str = "rate_hz", t_end_name: str = "t_end_s",
+                     hint: str = "shorten t_end_s, lower rate_hz, or simulate fewer designs"
+                     ) -> None:
+    """Check a simulation before it allocates: the rate and duration in their ranges, at
+    least :data:`MIN_SAMPLES` recorded samples, and memory and time within the machine's.
+
+    The continuous mode steps at ``min(0.1 ms, smallest positive delay)`` and records every
+    ``record_dt_s`` (every step when ``None``); the sampled mode steps at ``1/rate_hz``.
+    """
+    from .errors import InputError
+
+    check_range(t_end_name, t_end_s, "t_end_s")
+    if mode == "sampled":
+        check_range(rate_name, rate_hz, "rate_hz")
+        steps = recorded = t_end_s * rate_hz
+        need = f"{t_end_name} x {rate_name} >= {MIN_SAMPLES}"
+    else:
+        dt = min([1e-4, *(d for d in delays_s if d > 0)])
+        steps = t_end_s / dt
+        rec = max(dt, record_dt_s or dt)
+        recorded = t_end_s / rec
+        need = f"{t_end_name} >= {MIN_SAMPLES} x {rec * 1e3:g} ms (the recording step)"
+    if recorded < MIN_SAMPLES:
+        raise InputError(t_end_name, t_end_s, f"long enough to record {MIN_SAMPLES} samples "
+                         f"({need})")
+    n_bytes, seconds = simulation_estimate(n_designs, int(steps), int(recorded))
+    check_budget(f"simulating {n_designs:,} design(s) over {steps:,.0f} steps",
+                 n_bytes=n_bytes, seconds=seconds,
+                 hint=hint + ("" if mode == "sampled" else " (the continuous mode steps at "
+                              "min(0.1 ms, the smallest positive delay))"))

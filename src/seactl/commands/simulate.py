@@ -37,8 +37,9 @@ import numpy as np
 from rich.markup import escape
 from rich.table import Table
 
+from .. import limits
 from ..errors import InputError
-from ..limits import MIN_SAMPLES, check_budget, check_range, simulation_estimate
+from ..limits import check_range
 from ..outputs import CSV_SUFFIXES, FIGURE_SUFFIXES, OutputSet
 from ..verdict import judge_response
 from ._common import DesignSpec, cli, console, design_options, echo_json, finite_or_none
@@ -104,30 +105,13 @@ def sim_options(func: Callable) -> Callable:
     return wrapper
 
 
-RECORD_DT_S = 5e-4
-"""Recording interval of the continuous mode [s]."""
-
-
 def check_simulation(spec: DesignSpec, mode: str, rate_hz: float, t_end_s: float) -> None:
     """Enough samples to judge the response, and memory and time within the machine's."""
-    n = spec.fn_hz.size * spec.gs.size
-    if mode == "sampled":
-        steps = recorded = t_end_s * rate_hz
-        need = f"--t-end x --rate >= {MIN_SAMPLES} samples"
-    else:
-        delays = [d * 1e-3 for d in (spec.t_tau_ms, spec.t_qs_ms, spec.t_qd_ms) if d > 0]
-        dt = min([1e-4, *delays])
-        steps = t_end_s / dt
-        recorded = t_end_s / max(dt, RECORD_DT_S)
-        need = f"--t-end >= {MIN_SAMPLES} x {max(dt, RECORD_DT_S) * 1e3:g} ms (recording step)"
-    if recorded < MIN_SAMPLES:
-        raise InputError("--t-end [s]", t_end_s, f"long enough to record {MIN_SAMPLES} samples "
-                         f"({need})")
-    n_bytes, seconds = simulation_estimate(n, int(steps), int(recorded))
-    check_budget(f"simulating {n:,} design(s) over {steps:,.0f} steps", n_bytes=n_bytes,
-                 seconds=seconds, hint="shorten --t-end, lower --rate, or give fewer designs"
-                 + ("" if mode == "sampled" else " (continuous mode steps at min(0.1 ms, the "
-                    "smallest positive delay))"))
+    limits.check_simulation(
+        spec.fn_hz.size * spec.gs.size, mode, rate_hz, t_end_s,
+        [d * 1e-3 for d in (spec.t_tau_ms, spec.t_qs_ms, spec.t_qd_ms)],
+        record_dt_s=limits.RECORD_DT_S, rate_name="--rate [Hz]", t_end_name="--t-end [s]",
+        hint="shorten --t-end, lower --rate, or give fewer designs")
 
 
 def _labels(spec: DesignSpec) -> list[tuple[float, float]]:
@@ -281,7 +265,7 @@ def step(spec: DesignSpec, amplitude: float, mode: str, rate_hz: float, zero: bo
     design = spec.designs()
     resp = sea_step(design, zero=zero, mode=mode, rate_hz=rate_hz, t_end_s=t_end or 0.5,
                     saturation_a=saturation, amplitude=amplitude,
-                    record_dt=5e-4 if mode == "continuous" else None)
+                    record_dt=limits.RECORD_DT_S if mode == "continuous" else None)
     extra = _extra(resp.result, mode, rate_hz, saturation) | {"amplitude_rad": amplitude}
     title = (f"Step response ({mode}{f', {rate_hz:g} Hz' if mode == 'sampled' else ''}, "
              f"{'with' if zero else 'without'} the torque-derivative zero)")
@@ -317,7 +301,7 @@ def impulse(spec: DesignSpec, impulse_nms: float, band: float, mode: str, rate_h
     design = spec.designs()
     resp = sea_impulse(design, impulse_nms=impulse_nms, zero=zero, mode=mode, rate_hz=rate_hz,
                        t_end_s=t_end or 1.0, saturation_a=saturation, band=band,
-                       record_dt=5e-4 if mode == "continuous" else None)
+                       record_dt=limits.RECORD_DT_S if mode == "continuous" else None)
     extra = _extra(resp.result, mode, rate_hz, saturation) | {"impulse_nms": impulse_nms}
     title = (f"Impulse response, {impulse_nms:g} N m s ({mode}"
              f"{f', {rate_hz:g} Hz' if mode == 'sampled' else ''})")
