@@ -108,6 +108,12 @@ def rigid(fn, t_s, t_d, f_v, actuator, no_passive_damping, step, as_json) -> Non
 
     for f in (fn_hz.min(), fn_hz.max()):
         check_range("--fn [Hz]", f, "fn_hz")
+    from ..limits import BYTES_PER_DESIGN, check_budget, simulation_estimate
+
+    sim_bytes, sim_s = simulation_estimate(fn_hz.size, 1000, 1000) if step else (0.0, 0.0)
+    check_budget(f"{fn_hz.size:,} rigid design(s)" + (" and their 1 s steps" if step else ""),
+                 n_bytes=fn_hz.size * BYTES_PER_DESIGN + sim_bytes, seconds=sim_s,
+                 hint="give fewer --fn values" + (" or --no-step" if step else ""))
     ts, td = _ms("--t-s", t_s), _ms("--t-d", t_d)
     model = rigid_model(a, f_v=fv, passive_damping=not no_passive_damping)
     d = model.design(fn_hz, ts, td)
@@ -219,15 +225,18 @@ def _latency_map(actuators, fn_rigid, fn_sea, t_max, t_min, n, max_fn, f_v, outs
     fv = _f_v(f_v)
     grid = np.linspace(tmin, tmax, n)
     maps, maxfns, summary, csv_rows = [], [], [], []
+    jobs = []
     for spec in actuators:
         model = load_model(spec, fv)
-        fns = parse_values("--fn-rigid" if model.kind == "rigid" else "--fn-sea",
-                           fn_rigid if model.kind == "rigid" else fn_sea)
+        jobs.append((model, parse_values("--fn-rigid" if model.kind == "rigid" else "--fn-sea",
+                                         fn_rigid if model.kind == "rigid" else fn_sea)))
+    _check_latency_budget(jobs, n, max_fn)
+    for model, fns in jobs:
+        mf = max_stable_fn(model, grid[:, None], grid[None, :]) if max_fn else None
         for f in fns:
             mp = latency_map(model, float(f), grid, grid)
             sens = pm_sensitivity(model, float(f), tmin, tmin)
             dm = model.delay_margins(model.design(float(f), tmin, tmin))
-            mf = max_stable_fn(model, grid[:, None], grid[None, :]) if max_fn else None
             maps.append(mp)
             if mf is not None:
                 maxfns.append((grid, grid, mf))
@@ -295,6 +304,25 @@ def _latency_map(actuators, fn_rigid, fn_sea, t_max, t_min, n, max_fn, f_v, outs
     for what, path in (("plot", plot), ("csv", csv)):
         if path:
             console.print(f"{what}: {escape(str(path))}")
+
+
+MAP_POINT_BYTES, MAP_POINT_S = 8e3, 1e-4
+"""Memory and time per grid point of a phase-margin map (measured: 6 kB, 0.1 ms)."""
+MAXFN_POINT_BYTES, MAXFN_POINT_S = 160e3, 3e-3
+"""... and of the highest-stable-f_n map (measured: 150 kB, 1.5-3.4 ms)."""
+
+
+def _check_latency_budget(jobs, n: int, max_fn: bool) -> None:
+    from ..limits import check_budget
+
+    maps = sum(len(fns) for _, fns in jobs)
+    points = n * n
+    check_budget(f"{maps:,} latency map(s) of {n} x {n} points" + (" with --max-fn" if max_fn
+                                                                     else ""),
+                 n_bytes=points * (MAXFN_POINT_BYTES if max_fn else MAP_POINT_BYTES),
+                 seconds=points * (maps * MAP_POINT_S + (len(jobs) * MAXFN_POINT_S
+                                                         if max_fn else 0.0)),
+                 hint="lower --n or give fewer --fn-rigid / --fn-sea values")
 
 
 # ---------------------------------------------------------------------------- seactl place
