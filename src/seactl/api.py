@@ -300,9 +300,20 @@ class Design:
         """
         from .simulate import sea_step
 
+        self._check_simulation(mode, rate_hz, t_end_s)
         return ResponseResult(sea_step(self.sea, zero=zero, mode=mode, rate_hz=rate_hz,
                                        t_end_s=t_end_s, saturation_a=saturation_a),
                               self.labels())
+
+    def _check_simulation(self, mode: str, rate_hz: float, t_end_s: float) -> None:
+        """Ranges, samples, memory and time of a simulation (errors name the parameters)."""
+        from .limits import check_simulation
+
+        t = self.sea.timing
+        delays = [float(np.min(np.where(np.asarray(d) > 0, d, np.inf)))
+                  for d in (t.T_tau, t.T_qs, t.T_qd)]
+        check_simulation(int(np.prod(self.shape)), mode, rate_hz, t_end_s,
+                         [d for d in delays if np.isfinite(d)])
 
     def impulse(self, *, impulse_nms: float = 0.05, t_end_s: float = 1.0,
                 mode: str = "continuous", rate_hz: float = 1000.0,
@@ -337,6 +348,7 @@ class Design:
         """
         from .simulate import sea_impulse
 
+        self._check_simulation(mode, rate_hz, t_end_s)
         return ResponseResult(sea_impulse(self.sea, impulse_nms=impulse_nms, mode=mode,
                                           rate_hz=rate_hz, t_end_s=t_end_s,
                                           saturation_a=saturation_a), self.labels())

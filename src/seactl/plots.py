@@ -520,27 +520,15 @@ FIGURE_FORMATS = ("png", "svg", "pdf")
 def save_figure(fig, path, dpi: int = 120) -> None:
     """Write ``fig`` to ``path`` atomically (temporary sibling + rename) and close it; the
     format follows the suffix (png, svg or pdf)."""
-    plt = _pyplot()
-    import os
-    import tempfile
     from pathlib import Path
 
     from .errors import InputError
+    from .outputs import save_figure_to, write_atomic_with
 
     path = Path(path)
     fmt = path.suffix[1:].lower()
     if fmt not in FIGURE_FORMATS:
-        plt.close(fig)
+        _pyplot().close(fig)
         raise InputError("--plot", str(path), "a file name ending in ." +
                          ", .".join(FIGURE_FORMATS))
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=path.suffix, dir=path.parent)
-    os.close(fd)
-    try:
-        fig.savefig(tmp, dpi=dpi, bbox_inches="tight", format=fmt)
-        os.replace(tmp, path)
-    except BaseException:
-        Path(tmp).unlink(missing_ok=True)
-        raise
-    finally:
-        plt.close(fig)
+    write_atomic_with(path, lambda tmp: save_figure_to(fig, tmp, fmt, dpi))
