@@ -20,7 +20,7 @@ from typing import Any
 
 import numpy as np
 
-from ._results import ImpedanceResult, MarginsResult, ResponseResult
+from ._results import ImpedanceResult, JitterResult, MarginsResult, ResponseResult
 from ._validate import finite_array
 from .errors import InputError
 from .loops import Gains, SEADesign, Timing
@@ -236,6 +236,34 @@ class Design:
         from .margins import sea_margins
 
         return MarginsResult(sea_margins(self.sea), self._label_columns())
+
+    def jitter_margins(self) -> JitterResult:
+        """Jitter margins of the whole outer loop and of the stiffness, damping and torque
+        loops (Kao-Lincoln small-gain bound with exact delays).
+
+        The jitter margin of a loop is the largest ``J`` such that any *time-varying*
+        extra delay in ``[0, J]`` at that loop's break keeps the closed loop stable:
+        ``J = 1 / max_w (w |T(jw)|)``, ``T = L/(1+L)`` the complementary sensitivity there
+        (:mod:`seactl.jitter`); 0 for an unstable design.
+
+        Returns
+        -------
+        JitterResult
+            Arrays of the batch shape (``overall_s``, ``stiffness_s``, ``damping_s``,
+            ``torque_s``, ``delay_margin_s``, ``stable``), with ``records()``.
+
+        Examples
+        --------
+        >>> import seactl as sc
+        >>> d = sc.design([12, 14], delays_ms=(0.5, 2, 0.5), filters_hz=(50, 100))
+        >>> j = d.jitter_margins()
+        >>> j.ms("overall").round(2), bool(j.ms("damping")[1] > j.ms("overall")[1])
+        (array([11.47,  8.04]), True)
+        """
+        from .jitter import sea_jitter_margins
+
+        return JitterResult(sea_jitter_margins(self.sea),
+                            {"fn_hz": self.fn_hz, "gs": self.gs})
 
     def impedance(self, f_hz: Any, *, model: str = "block-diagram", load: bool = False,
                   units: str = "rotary") -> ImpedanceResult:
