@@ -524,8 +524,11 @@ def simulate(diagram: BlockDiagram, design: Any, inputs: Mapping[str, Any], t_en
     bound : divergence bound on the first recorded output (default 1e3 x the largest input
         scale); the first output is also the one checked for growth at the end.
     derivative_tau_s : roll-off of unfiltered derivatives in continuous mode [s].
-    timing : optional per-message arrival schedule of delayed blocks (sampled mode; see
-        :mod:`seactl.timing`): time-varying latency and message loss.
+    timing : object, optional
+        Time-varying latency and message loss (sampled mode; see :mod:`seactl.timing`):
+        ``timing.blocks`` names the delayed blocks it drives (compiled to always read
+        their buffers) and ``timing.schedules(plan)`` returns, per block, the source tick
+        each tick uses (see :func:`run_sampled`).
 
     Returns
     -------
@@ -544,8 +547,9 @@ def simulate(diagram: BlockDiagram, design: Any, inputs: Mapping[str, Any], t_en
     else:
         plan = compile_sampled(diagram, design, inputs, t_end_s, outputs, rates_hz=rates_hz,
                                saturation=saturation, quantization=quantization,
-                               friction=friction, friction_substeps=friction_substeps)
-        res = run_sampled(plan, bound, timing)
+                               friction=friction, friction_substeps=friction_substeps,
+                               buffered=timing.blocks if timing is not None else ())
+        res = run_sampled(plan, bound, timing.schedules(plan) if timing is not None else None)
     scale = max(bound / 1e3, 1e-300)
     grow = _growing(res.outputs[outputs[0]], scale)
     stable = np.isinf(res.left_bounds_s) & ~grow
