@@ -65,7 +65,7 @@ def _parse_saturation(value: str | None) -> float | None:
 def _timing_options(mode: str, latency: tuple[str, ...], loss: tuple[str, ...],
                     runs: int | None, seed: int) -> dict[str, Any] | None:
     """Monte Carlo options, or None when none is given."""
-    from ..timing import parse_latency, parse_link_specs, parse_loss
+    from ..timing_models import parse_latency, parse_link_specs, parse_loss
 
     if not latency and not loss and runs is None:
         return None
