@@ -280,11 +280,12 @@ def sea_jitter_margins(design: Any, omega: np.ndarray | None = None) -> JitterMa
     return loop_jitter_margins(loops, design, omega, m.stable, m.delay_margin_s)
 
 
-def model_jitter_margins(model: LoopModel, design: Any) -> JitterMargins:
+def model_jitter_margins(model: LoopModel, design: Any, margins: Any = None) -> JitterMargins:
     """Jitter margins of a :class:`~seactl.latency.LoopModel`'s loops (rigid or SEA):
     the whole loop at its sensor, the stiffness and damping taps, and its inner loops
-    (the SEA torque loop)."""
-    m = model.margins(design)
+    (the SEA torque loop).  ``margins``: the design's whole-loop margins if already known
+    (stability and delay margin are taken from them)."""
+    m = model.margins(design) if margins is None else margins
     loops = {"overall": model.diagram.loop(model.sensor),
              "stiffness": model.diagram.loop(model.stiffness_tap),
              "damping": model.diagram.loop(model.damping_tap)}

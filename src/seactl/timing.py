@@ -364,3 +364,56 @@ def sea_monte_carlo(design: Any, kind: str = "step", *, latency: Mapping[str, An
     peak = np.max(np.abs(res.outputs["i_m"]), axis=-1)
     return MonteCarloSummary(kind, int(runs), res.stable, np.where(res.stable, rms, np.nan),
                              np.where(res.stable, peak, np.nan), res)
+
+
+# ----------------------------------------------------------------------------- placement
+MODEL_LINKS: dict[str, dict[str, str]] = {
+    "sea": SEA_LINKS, "rigid": {"stiffness": "K_fb", "damping": "B_fb"}}
+"""Loop names -> delayed blocks, per :class:`~seactl.latency.LoopModel` kind."""
+
+
+def verify_placement(model: Any, option: Any, timing: Mapping[str, Any], *, runs: int = 200,
+                     seed: int = 0, t_end_s: float = 1.0) -> MonteCarloSummary | None:
+    """Monte Carlo check of a placement at its recommended ``f_n``: every loop's link gets
+    the latency distribution and loss of the process that runs it (a unit reference step,
+    linear, no saturation).
+
+    Parameters
+    ----------
+    model : seactl.latency.LoopModel
+        The actuator model the advice was computed for.
+    option : seactl.placement.PlacementOption
+        One placement of the advice (``None`` is returned if it has no ``f_n``).
+    timing : mapping
+        ``"high-level"`` / ``"embedded"`` -> :class:`~seactl.placement.ProcessTiming`.
+    runs, seed : int
+        Realizations and seed.
+    t_end_s : float
+        Simulated time [s].
+
+    Returns
+    -------
+    MonteCarloSummary or None
+    """
+    from .placement import _process_of
+
+    if option.fn_hz is None:
+        return None
+    extra = {"T_tau": option.T_inner} if model.kind == "sea" else {}
+    design = model.design(option.fn_hz, option.T_s, option.T_d, **extra)
+    proc = _process_of(model, option.placement)
+    latency = {k: timing[p].latency for k, p in proc.items() if p in timing}
+    loss = {k: timing[p].loss for k, p in proc.items()
+            if p in timing and timing[p].loss is not None}
+    rates = {p: float(timing[p].rate_hz) if p in timing else 1000.0
+             for p in ("high-level", "embedded")}
+    ref = next(s for s in model.diagram.inputs if s != model.compliance[1])
+    out = model.compliance[0]
+    res = timed_simulation(model.diagram, design, {ref: Step(1.0)}, t_end_s, latency=latency,
+                           loss=loss, runs=runs, seed=seed, links=MODEL_LINKS[model.kind],
+                           rates_hz=rates, outputs=(out,))
+    err = res.outputs[out] - 1.0
+    rms = np.sqrt(np.mean(err ** 2, axis=-1))
+    nan = np.full(res.stable.shape, np.nan)
+    return MonteCarloSummary("step", int(runs), res.stable, np.where(res.stable, rms, np.nan),
+                             nan, res)
