@@ -371,6 +371,55 @@ class Design:
                                           rate_hz=rate_hz, t_end_s=t_end_s,
                                           saturation_a=saturation_a), self.labels())
 
+    def monte_carlo(self, kind: str = "step", *, latency: Any = None, loss: Any = None,
+                    runs: int = 100, seed: int = 0, rate_hz: float = 1000.0,
+                    t_end_s: float | None = None) -> Any:
+        """Sampled step or impulse responses under random latency and message loss.
+
+        Parameters
+        ----------
+        kind : {"step", "impulse"}
+            Step of 0.01 rad on ``q_des``, or 0.05 N m s impulse of external torque.
+        latency : dict, optional
+            Link (``"stiffness"``, ``"damping"``, ``"torque"``) -> latency model of
+            :mod:`seactl.timing_models` (seconds), or its text form in ms
+            (``"uniform:0.5:3"``).
+        loss : dict, optional
+            Link -> loss probability, loss model, or text (``"ge:0.01:0.3"``).
+        runs : int
+            Timing realizations per design.
+        seed : int
+            Seed (each run has its own stream: reproducible).
+        rate_hz : float
+            Servo rate of both processes [Hz].
+        t_end_s : float, optional
+            Window [s] (default 0.5 for steps, 1 for impulses).
+
+        Returns
+        -------
+        seactl.timing.MonteCarloSummary
+            ``fraction_stable``, ``rms_error_mean``, ``rms_error_worst``,
+            ``peak_current_worst_a``, ``worst_run`` (batch shape), per-run arrays and the
+            batched simulation.
+
+        Examples
+        --------
+        >>> import seactl as sc
+        >>> d = sc.design(14, delays_ms=(0.5, 2, 0.5), filters_hz=(50, 100))
+        >>> mc = d.monte_carlo(latency={"damping": "uniform:0.5:3"}, runs=10, t_end_s=0.3)
+        >>> float(mc.fraction_stable)
+        1.0
+        """
+        from .timing import sea_monte_carlo
+        from .timing_models import parse_latency, parse_loss
+
+        lat = {k: parse_latency(v, f"latency {k}") if isinstance(v, str) else v
+               for k, v in (latency or {}).items()}
+        los = {k: parse_loss(v, f"loss {k}") if isinstance(v, str) else v
+               for k, v in (loss or {}).items()}
+        return sea_monte_carlo(self.sea, kind, latency=lat, loss=los, runs=runs, seed=seed,
+                               rate_hz=rate_hz, t_end_s=t_end_s)
+
     def to_control(self, kind: str = "frd", *, transfer: str = "loop", f_hz: Any = None,
                    order: int = 3) -> Any:
         """Export to python-control: exact-delay frequency response or a Padé model.
