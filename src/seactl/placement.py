@@ -292,16 +292,7 @@ def advise(model: LoopModel, high_latency_s: float, low_latency_s: float, *,
     ``f_n`` (ties within :data:`TIE_RTOL` favour more work on the high-level
     process); ``None`` when no allowed placement admits any ``f_n``.
     """
-    timing = {k: v for k, v in (timing or {}).items() if v is not None} or None
-    for key in timing or {}:
-        if key not in ("high-level", "embedded"):
-            from .errors import InputError
-
-            raise InputError("timing", key, "'high-level' or 'embedded'")
-    if timing and "high-level" in timing:
-        high_latency_s = timing["high-level"].nominal_s
-    if timing and "embedded" in timing:
-        low_latency_s = timing["embedded"].nominal_s
+    timing, high_latency_s, low_latency_s = _nominal(timing, high_latency_s, low_latency_s)
     high = float(finite_array("high latency [s]", high_latency_s, minimum=0.0))
     low = float(finite_array("low latency [s]", low_latency_s, minimum=0.0))
     pm = float(finite_array("min phase margin [deg]", min_pm_deg, minimum=0.0))
@@ -335,6 +326,22 @@ def _jitter_text(o: PlacementOption) -> str:
     parts = [f"{k} {o.jitter_margin_s[k] * 1e3:.3g} ms for {v * 1e3:.3g} ms of jitter"
              for k, v in (o.jitter_s or {}).items()]
     return (" (jitter margins: " + "; ".join(parts) + ")") if parts else ""
+
+
+def _nominal(timing: dict[str, ProcessTiming] | None, high_s: float, low_s: float
+             ) -> tuple[dict[str, ProcessTiming] | None, float, float]:
+    """Drop empty entries; the processes' nominal latencies replace the constant ones."""
+    timing = {k: v for k, v in (timing or {}).items() if v is not None} or None
+    for key in timing or {}:
+        if key not in ("high-level", "embedded"):
+            from .errors import InputError
+
+            raise InputError("timing", key, "'high-level' or 'embedded'")
+    if timing and "high-level" in timing:
+        high_s = timing["high-level"].nominal_s
+    if timing and "embedded" in timing:
+        low_s = timing["embedded"].nominal_s
+    return timing, high_s, low_s
 
 
 def _reason(model, options, best, gain, frac, high, low, pm, embeddable) -> str:

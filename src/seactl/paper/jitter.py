@@ -69,10 +69,7 @@ def _loss_cost():
 
 @section(73, "jitter")
 def jitter_section(ctx: Context) -> Section:
-    from ..jitter import model_jitter_margins
-    from ..latency import rigid_model
     from ..plots import jitter_figure
-    from ..rigid import UT_LINEAR, RigidDesign
 
     sec = Section(
         "jitter", "Jitter: time-varying latency and message loss",
@@ -87,6 +84,35 @@ def jitter_section(ctx: Context) -> Section:
               f"sampled at 1 kHz ({MC_RUNS} runs per point, impulse of 0.05 N m s, "
               f"{MC_T_END_S:g} s), each link's latency uniform in [nominal, nominal + k J]; "
               "the receiver uses the newest message that has arrived and holds it.")
+    _table_claims(sec)
+    _rigid_claim(sec)
+    _loss_claims(sec)
+    curve = _table_i(CURVE_FN).jitter_margins()
+    mc = _monte_carlo(_table_i(MC_FN), _table_i(MC_FN).jitter_margins())
+    inside = all(fr[0] == 1.0 and fr[1] == 1.0 for fr in mc.values())
+    sec.claims.append(Claim(
+        "jitter.mc.inside_margin_stable", "Jitter (issue 14)",
+        f"Monte Carlo at f_n = {MC_FN:g} Hz: every run stays stable with the latency varying "
+        "within the jitter margin of its link (k = 0.5 and 1)", "100 %",
+        {k: [round(100 * x, 1) for x in v] for k, v in mc.items()}, "100 % at k <= 1",
+        "pass" if inside else "fail",
+        "stable runs [%] at k = " + ", ".join(f"{k:g}" for k in MC_FACTORS)
+        + ": the bound is conservative (the newest-message rule keeps the average age low), "
+          "the torque link is the first to lose runs."))
+    fig = jitter_figure(CURVE_FN, {k: curve.ms(k) for k in ("overall", "stiffness", "damping",
+                                                            "torque")},
+                        np.asarray(curve.delay_margin_s) * 1e3, MC_FACTORS, mc,
+                        title="UT-SEA, Table I timing")
+    sec.figures.append(Figure(ctx.savefig(fig, "jitter_margins.png"),
+                              "Left: jitter margins of each loop and the outer loop's "
+                              "constant-delay margin against f_n. Right: stable Monte Carlo "
+                              f"runs at f_n = {MC_FN:g} Hz against the latency range of one "
+                              "link, in multiples of its jitter margin (dotted: the bound)."))
+    return sec
+
+
+def _table_claims(sec: Section) -> None:
+    """Table I jitter margins, with the claims read from them."""
     d = _table_i(TABLE_I_FN)
     j = d.jitter_margins()
     rows = []
@@ -122,6 +148,13 @@ def jitter_section(ctx: Context) -> Section:
         + f". Every loop's margin is above the torque loop's ({1e3 * float(j.torque_s[0]):.2f}"
           f"..{1e3 * float(j.torque_s[-1]):.2f} ms): jitter on the 0.5 ms torque path is the "
           "first to break the SEA."))
+
+
+def _rigid_claim(sec: Section) -> None:
+    from ..jitter import model_jitter_margins
+    from ..latency import rigid_model
+    from ..rigid import UT_LINEAR, RigidDesign
+
     rm = rigid_model()
     rd = RigidDesign.from_fn(UT_LINEAR, np.array(RIGID_FN), T_s=1.5e-3, T_d=1.5e-3, f_v=50.0)
     rj = model_jitter_margins(rm, rd)
@@ -135,29 +168,6 @@ def jitter_section(ctx: Context) -> Section:
         "stiffness / damping jitter margin > 1 for every f_n", "pass" if ok else "fail",
         ", ".join(f"{f:g} Hz: {1e3 * a:.1f} / {1e3 * b:.2f} ms"
                   for f, a, b in zip(RIGID_FN, rj.stiffness_s, rj.damping_s))))
-    _loss_claims(sec)
-    curve = _table_i(CURVE_FN).jitter_margins()
-    mc = _monte_carlo(_table_i(MC_FN), _table_i(MC_FN).jitter_margins())
-    inside = all(fr[0] == 1.0 and fr[1] == 1.0 for fr in mc.values())
-    sec.claims.append(Claim(
-        "jitter.mc.inside_margin_stable", "Jitter (issue 14)",
-        f"Monte Carlo at f_n = {MC_FN:g} Hz: every run stays stable with the latency varying "
-        "within the jitter margin of its link (k = 0.5 and 1)", "100 %",
-        {k: [round(100 * x, 1) for x in v] for k, v in mc.items()}, "100 % at k <= 1",
-        "pass" if inside else "fail",
-        "stable runs [%] at k = " + ", ".join(f"{k:g}" for k in MC_FACTORS)
-        + ": the bound is conservative (the newest-message rule keeps the average age low), "
-          "the torque link is the first to lose runs."))
-    fig = jitter_figure(CURVE_FN, {k: curve.ms(k) for k in ("overall", "stiffness", "damping",
-                                                            "torque")},
-                        np.asarray(curve.delay_margin_s) * 1e3, MC_FACTORS, mc,
-                        title="UT-SEA, Table I timing")
-    sec.figures.append(Figure(ctx.savefig(fig, "jitter_margins.png"),
-                              "Left: jitter margins of each loop and the outer loop's "
-                              "constant-delay margin against f_n. Right: stable Monte Carlo "
-                              f"runs at f_n = {MC_FN:g} Hz against the latency range of one "
-                              "link, in multiples of its jitter margin (dotted: the bound)."))
-    return sec
 
 
 def _loss_claims(sec: Section) -> None:
