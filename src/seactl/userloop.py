@@ -12,6 +12,7 @@ from a transfer with the port's motion imposed, and :func:`seactl.simulate.simul
 
 from __future__ import annotations
 
+import itertools
 import tomllib
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
@@ -92,6 +93,49 @@ class LoopAnalysis:
         return {"loop": self.loop, "stable": _jsonable(self.stable),
                 "values": {k: _jsonable(v) for k, v in self.values.items()},
                 "breaks": [b.to_dict() for b in self.breaks]}
+
+
+def procs_items(loop: UserLoop) -> list[tuple[str, Any]]:
+    return list(loop.processes.items())
+
+
+@dataclass(frozen=True)
+class Placements:
+    """Placements of the movable blocks on the processes, ranked (best first).
+
+    Attributes
+    ----------
+    blocks : list of str
+        The movable blocks (``delay_ms = "process"``).
+    latency_ms : dict
+        Process -> latency [ms] used.
+    options : list of dict
+        Block -> process, ranked.
+    analysis : LoopAnalysis
+        Margins of every option (batch axis in the original, unranked order).
+    order : ndarray
+        Ranked option -> index into ``analysis``.
+    """
+
+    blocks: list[str]
+    latency_ms: dict[str, float]
+    options: list[dict[str, str]]
+    analysis: LoopAnalysis
+    order: np.ndarray
+
+    def records(self) -> list[dict[str, Any]]:
+        """One JSON-ready row per option, best first."""
+        rows = []
+        for rank, (opt, i) in enumerate(zip(self.options, self.order)):
+            row: dict[str, Any] = {"rank": rank + 1, "placement": opt,
+                                   "stable": bool(self.analysis.stable[i])}
+            for b in self.analysis.breaks:
+                m = b.margins
+                row[b.name] = {"phase_margin_deg": _jsonable(m.phase_margin_deg[i]),
+                               "crossover_hz": _jsonable(m.crossover_hz[i]),
+                               "delay_margin_ms": _jsonable(m.delay_margin_ms[i])}
+            rows.append(row)
+        return rows
 
 
 class LoopBuilder:
@@ -620,6 +664,9 @@ class UserLoop:
             Per break: phase, gain, delay and jitter margins; overall stability.
         """
 
+        return self._analyze(self.design, jitter)
+
+    def _analyze(self, design: Any, jitter: bool) -> LoopAnalysis:
         if not self.breaks:
             raise LoopFileError(self.file, "[[breaks]]", None, "at least one named break")
         omega = self.grid()
@@ -627,11 +674,54 @@ class UserLoop:
         items = list(self.breaks.items())
         for name, sig in items:
             others = [s for n, s in items if n != name]
-            m = path_margins(self.diagram, self.design, omega, sig, others)
-            jit = jitter_margin(self.diagram.loop(sig), self.design, omega) if jitter \
+            m = path_margins(self.diagram, design, omega, sig, others)
+            jit = jitter_margin(self.diagram.loop(sig), design, omega) if jitter \
                 else np.full(m.stable.shape, np.nan)
             out.append(BreakMargins(name, sig, m, np.where(m.stable, jit, 0.0)))
-        return LoopAnalysis(self.name, out, out[-1].margins.stable, self.environment())
+        env = {k[5:]: np.broadcast_to(v, design.shape) for k, v in design._arrays.items()
+               if k.startswith("var__")}
+        return LoopAnalysis(self.name, out, out[-1].margins.stable, env)
+
+    def placements(self, max_options: int = 4096) -> Placements:
+        """Every assignment of the blocks whose delay is their process's latency
+        (``delay_ms = "process"``) to the declared processes, analysed as one batch.
+
+        Parameters
+        ----------
+        max_options : int
+            Refuse more assignments than this.
+
+        Returns
+        -------
+        Placements
+            The options ranked: stable first, then by the smallest phase margin over the
+            breaks (largest first).
+        """
+        if self.shape != ():
+            raise LoopFileError(self.file, "--set", None, "single values for place (no "
+                                "ranges)")
+        movable = [b.name for b in self.compiled.blocks if b.delay_ms == "process"]
+        if not movable:
+            raise LoopFileError(self.file, "blocks", None, "at least one block with "
+                                "delay_ms = 'process' (a loop that can move between processes)")
+        procs = list(self.processes)
+        if len(procs) ** len(movable) > max_options:
+            raise LoopFileError(self.file, "blocks", None, f"at most {max_options} placements "
+                                f"({len(procs)} processes ^ {len(movable)} movable blocks)")
+        combos = list(itertools.product(procs, repeat=len(movable)))
+        lat = {p: float(self.latency_ms.get(p, m.latency_ms)) for p, m in procs_items(self)}
+        arrays = dict(self.design._arrays)
+        for j, blk in enumerate(movable):
+            for e in self.compiled.edges:
+                if e.block == blk and e.delay_ms == "process":
+                    arrays[f"{e.name}__T"] = np.array([lat[c[j]] for c in combos]) / 1e3
+        from .loopfile import LoopDesign
+
+        a = self._analyze(LoopDesign(arrays), jitter=False)
+        pm_min = np.min([b.margins.phase_margin_deg for b in a.breaks], axis=0)
+        order = np.lexsort((-pm_min, ~a.stable))
+        options = [dict(zip(movable, combos[i])) for i in order]
+        return Placements(movable, lat, options, a, order)
 
     # ------------------------------------------------------------ time domain
     def _rates(self, rates_hz: Mapping[str, float] | None) -> dict[str, float]:

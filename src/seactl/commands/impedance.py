@@ -24,6 +24,7 @@ from ._common import (
     json_option,
     parse_values,
 )
+from .loops import loop_impedance, loop_options
 
 VARIADIC.add("--freq")
 
@@ -86,8 +87,12 @@ def _timing_text(spec: DesignSpec) -> str:
 @_PLOT
 @_CSV
 @json_option
+@click.option("--port", default=None, help="Impedance port of the --loop file (default: its "
+              "first).")
+@loop_options
 def impedance(spec: DesignSpec, freq: tuple[str, ...], model: str, load: bool, units: str,
-              plot: str | None, csv: str | None, as_json: bool) -> None:
+              plot: str | None, csv: str | None, as_json: bool, port: str | None,
+              loop: Any) -> None:
     """SEA impedance Z(jw) = tau_j / (-jw q_j) with exact delays and filters.
 
     Reports the low-frequency virtual stiffness, the high-frequency asymptote, stability
@@ -111,6 +116,10 @@ def impedance(spec: DesignSpec, freq: tuple[str, ...], model: str, load: bool, u
     from ..margins import sea_margins
 
     f = _freq(freq)
+    if loop is not None:
+        return loop_impedance(loop, f, port, as_json)
+    if port is not None:
+        raise InputError("--port", port, "used with --loop FILE")
     _check_plot_path(plot)
     designs = spec.designs()
     resp = compute(designs, f, model=model, load=load, units=units)

@@ -14,6 +14,7 @@ from rich.table import Table
 from ..errors import InputError
 from ..plots import save_figure
 from ._common import VARIADIC, cli, console, echo_json, finite_or_none, json_option, parse_values
+from .loops import loop_options, loop_place
 
 VARIADIC.update({"--fn-rigid", "--fn-sea"})
 
@@ -342,8 +343,9 @@ def advice_json(a) -> dict[str, Any]:
               help="Allow the stiffness loop on the embedded process (default: it needs the "
                    "high-level process; 'embedded' is then only the upper bound).")
 @json_option
+@loop_options
 def place(high_latency, low_latency, actuator, min_pm, f_v, stiffness_embeddable,
-          as_json) -> None:
+          as_json, loop) -> None:
     """Which process should run the stiffness and damping loops?
 
     \b
@@ -356,6 +358,9 @@ def place(high_latency, low_latency, actuator, min_pm, f_v, stiffness_embeddable
     lower f_n too), and recommends the best allowed placement.
     """
     from ..placement import advise
+
+    if loop is not None:
+        return loop_place(loop, as_json)
 
     hi, lo = _ms("--high-latency", high_latency), _ms("--low-latency", low_latency)
     if not 0 <= min_pm < 180:

@@ -36,6 +36,7 @@ from rich.table import Table
 from ..errors import InputError
 from ..report import write_atomic
 from ._common import DesignSpec, cli, console, design_options, echo_json, finite_or_none
+from .loops import loop_options, loop_response
 
 
 def _parse_saturation(value: str | None) -> float | None:
@@ -209,9 +210,10 @@ def _extra(res: Any, mode: str, rate_hz: float, saturation: float | None) -> dic
               help="Step size [rad] (responses are normalized by it; it matters only with "
                    "saturation).")
 @sim_options
+@loop_options
 def step(spec: DesignSpec, amplitude: float, mode: str, rate_hz: float, zero: bool,
          t_end: float | None, saturation: float | None, plot: str | None,
-         csv_path: str | None, as_json: bool) -> None:
+         csv_path: str | None, as_json: bool, loop: Any) -> None:
     """Step response of the joint position to a position reference step.
 
     \b
@@ -223,6 +225,8 @@ def step(spec: DesignSpec, amplitude: float, mode: str, rate_hz: float, zero: bo
 
     if not (math.isfinite(amplitude) and amplitude != 0):
         raise InputError("--amplitude [rad]", amplitude, "a finite non-zero number")
+    if loop is not None:
+        return loop_response(loop, "step", mode, t_end or 0.5, amplitude, as_json)
     design = spec.designs()
     resp = sea_step(design, zero=zero, mode=mode, rate_hz=rate_hz, t_end_s=t_end or 0.5,
                     saturation_a=saturation, amplitude=amplitude,
@@ -241,9 +245,10 @@ def step(spec: DesignSpec, amplitude: float, mode: str, rate_hz: float, zero: bo
 @click.option("--band", type=float, default=0.05, show_default=True,
               help="Recovery band, as a fraction of the peak deviation.")
 @sim_options
+@loop_options
 def impulse(spec: DesignSpec, impulse_nms: float, band: float, mode: str, rate_hz: float,
             zero: bool, t_end: float | None, saturation: float | None, plot: str | None,
-            csv_path: str | None, as_json: bool) -> None:
+            csv_path: str | None, as_json: bool, loop: Any) -> None:
     """Joint position after an impulse of external torque (q_des = 0), e.g. a ball hitting
     the arm (Fig. ExperimentImpulse). Position in rad; recovery = last exit from the band.
 
@@ -256,6 +261,8 @@ def impulse(spec: DesignSpec, impulse_nms: float, band: float, mode: str, rate_h
 
     if not (0 < band < 1):
         raise InputError("--band", band, "a fraction in (0, 1)")
+    if loop is not None:
+        return loop_response(loop, "impulse", mode, t_end or 1.0, impulse_nms, as_json)
     design = spec.designs()
     resp = sea_impulse(design, impulse_nms=impulse_nms, zero=zero, mode=mode, rate_hz=rate_hz,
                        t_end_s=t_end or 1.0, saturation_a=saturation, band=band,
