@@ -24,7 +24,7 @@ from . import sweep as _sweep_module  # noqa: F401
 from ._results import ImpedanceResult, MarginsResult, ResponseResult
 from .actuators import UT_SEA, SEAParams, load_sea
 from .api import Design, UnitWarning, design
-from .errors import InfeasibleDesignError, InputError, SeactlError
+from .errors import InfeasibleDesignError, InputError, LoopFileError, SeactlError
 from .systems import (
     LatencyMapResult,
     PlacementResult,
@@ -38,6 +38,7 @@ from .systems import (
     rigid,
     sweep,
 )
+from .userloop import LoopBuilder, UserLoop, load_loop
 
 feasible_fn_range = _gain_design.feasible_fn_range
 
@@ -53,6 +54,8 @@ __all__ = [
     # other systems
     "rigid", "RigidBatch", "loop_model", "latency_map", "place", "sweep", "read_sweep",
     "compare_mobile_base", "mobile_base_params", "LatencyMapResult", "PlacementResult",
+    # your own loop (loop files, docs/loops.md)
+    "load_loop", "LoopBuilder", "UserLoop",
     # errors and warnings
-    "SeactlError", "InputError", "InfeasibleDesignError", "UnitWarning",
+    "SeactlError", "InputError", "InfeasibleDesignError", "LoopFileError", "UnitWarning",
 ]

@@ -73,13 +73,13 @@ def parse_expr(value: Any, file: str, where: str, known: Sequence[str] | None = 
     --------
     >>> e = parse_expr("m * (2*pi*fn)^2", "f.toml", "parameter 'Kq'", ["m", "fn"])
     >>> round(float(e({"m": 0.014, "fn": 14.0, **CONSTANTS})), 4)
-    108.3241
+    108.3288
     """
     if isinstance(value, bool) or not isinstance(value, (int, float, str)):
         raise LoopFileError(file, where, value, "a number or an expression string")
     if not isinstance(value, str):
-        if not math.isfinite(value):
-            raise LoopFileError(file, where, value, "a finite number")
+        if math.isnan(value):  # inf passes: "no filter" for filter_hz, refused elsewhere
+            raise LoopFileError(file, where, value, "a number")
         return Expr(repr(float(value)), ast.Constant(float(value)), frozenset())
     try:
         tree = ast.parse(value.replace("^", "**").strip(), mode="eval").body
@@ -732,6 +732,12 @@ def _path(edges: Sequence[Edge], start: str, goal: str) -> list[Edge] | None:
     return None
 
 
+def has_loop(edges: Sequence[Edge], signal: str, cut: Sequence[str] = ()) -> bool:
+    """Whether anything ``signal`` feeds comes back to it with the ``cut`` signals held."""
+    kept = [e for e in edges if e.dst not in cut]
+    return any(_path(kept, signal, e.src) is not None for e in kept if e.dst == signal)
+
+
 def _cycle(edges: Sequence[Edge]) -> list[Edge] | None:
     for e in edges:
         p = _path(edges, e.dst, e.src)
@@ -809,8 +815,7 @@ def check_structure(loop: CompiledLoop, nominal: Mapping[str, Any]) -> None:
         if b.signal not in fed:
             raise LoopFileError(file, f"break {b.name!r}, field 'signal'", b.signal,
                                 "a signal fed by a block")
-        if not any(_path(loop.edges, b.signal, e.src) is not None
-                   for e in loop.edges if e.dst == b.signal):
+        if not has_loop(loop.edges, b.signal):
             raise LoopFileError(file, f"break {b.name!r}, field 'signal'", b.signal,
                                 "a signal on a feedback loop (nothing it feeds comes back)")
     _check_named(m.ports, "port", file)
