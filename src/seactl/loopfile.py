@@ -331,6 +331,7 @@ class Edge:
     const: float | None = None
     delay_ms: Expr | str | None = None
     derivative: bool = False
+    internal: bool = False  # a DOB's own loop (1/(1-Q): stable, one pole at the origin)
 
 
 @dataclass(frozen=True, eq=False)
@@ -548,7 +549,8 @@ def block_edges(b: BlockSpec) -> list[Edge]:
         edges += [Edge(f"{b.name}__cmd", b.name, src, b.output, role, proc, None, 1.0),
                   Edge(f"{b.name}__inv", b.name, b.measurement, dhat, role, proc, _dob_inverse,
                        delay_ms=b.delay_ms),
-                  Edge(f"{b.name}__q", b.name, b.output, dhat, role, proc, _dob_q),
+                  Edge(f"{b.name}__q", b.name, b.output, dhat, role, proc, _dob_q,
+                       internal=True),
                   Edge(f"{b.name}__fb", b.name, dhat, b.output, role, proc, None, -1.0)]
         return edges
     edges.append(Edge(b.name, b.name, src, b.output, role, proc, kind.tf, delay_ms=b.delay_ms,
@@ -802,7 +804,7 @@ def check_structure(loop: CompiledLoop, nominal: Mapping[str, Any]) -> None:
         raise LoopFileError(file, _blocks_text(cyc), None, "an algebraic loop: every block "
                             "on it passes its input through instantly (no dynamics, no delay)")
     breaks = {b.signal for b in m.breaks}
-    cut = [e for e in loop.edges if e.dst not in breaks]
+    cut = [e for e in loop.edges if e.dst not in breaks and not e.internal]
     for e in cut:
         p = _path(cut, e.dst, e.src) if e.role != "plant" else None
         if p is not None:

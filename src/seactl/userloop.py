@@ -15,7 +15,7 @@ from __future__ import annotations
 import itertools
 import tomllib
 from collections.abc import Mapping, Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from functools import cached_property
 from pathlib import Path
 from typing import Any
@@ -835,12 +835,39 @@ def break_margins(compiled: CompiledLoop, design: Any, omega: np.ndarray, signal
     :func:`seactl.latency.unstable_poles`, which assumes every listed break does)."""
     P: np.ndarray | int = 0
     diagram = compiled.diagram
+    shape = tuple(design.shape)
     for i, sig in enumerate(others):
         cut = tuple(sorted(set(others[i + 1:]) | {signal}))
         if has_loop(compiled.edges, sig, cut):
-            P = loop_margins(diagram.loop(sig, cut=cut), design, omega, open_loop_rhp_poles=P,
-                             stability_only=True).unstable_poles
-    return loop_margins(diagram.loop(signal), design, omega, open_loop_rhp_poles=P)
+            loop = diagram.loop(sig, cut=cut)
+            zero = _vanishes(loop, design, omega)
+            with np.errstate(all="ignore"):
+                Pn = loop_margins(loop, design, omega, open_loop_rhp_poles=P,
+                                  stability_only=True).unstable_poles
+            P = np.where(zero, np.broadcast_to(P, shape), Pn)
+    loop = diagram.loop(signal)
+    zero = _vanishes(loop, design, omega)
+    with np.errstate(all="ignore"):
+        m = loop_margins(loop, design, omega, open_loop_rhp_poles=P)
+    if not zero.any():
+        return m
+    # A loop whose gain is zero for some designs (a gain set to 0): no crossing, and the
+    # closed loop is the open one.
+    P = np.broadcast_to(np.asarray(P), shape)
+    pick = lambda a, v: np.where(zero, v, a)  # noqa: E731
+    return replace(m, phase_margin_deg=pick(m.phase_margin_deg, np.inf),
+                   crossover_hz=pick(m.crossover_hz, np.nan),
+                   gain_margin=pick(m.gain_margin, np.inf),
+                   phase_crossover_hz=pick(m.phase_crossover_hz, np.nan),
+                   delay_margin_s=pick(m.delay_margin_s, np.where(P == 0, np.inf, 0.0)),
+                   stable=pick(m.stable, P == 0), unstable_poles=pick(m.unstable_poles, P))
+
+
+def _vanishes(loop: Any, design: Any, omega: np.ndarray) -> np.ndarray:
+    """Per design: the loop transfer is exactly zero on the whole grid."""
+    with np.errstate(all="ignore"):
+        L = loop(design, 1j * omega)
+    return np.broadcast_to(np.all(L == 0, axis=-1), tuple(design.shape))
 
 
 def _roots_magnitudes(coeffs: Sequence[Any], shape: tuple[int, ...]) -> np.ndarray:
