@@ -808,7 +808,7 @@ def check_structure(loop: CompiledLoop, nominal: Mapping[str, Any]) -> None:
     for e in cut:
         p = _path(cut, e.dst, e.src) if e.role != "plant" else None
         if p is not None:
-            sigs = list(dict.fromkeys([e.dst] + [x.dst for x in p]))
+            sigs = [x for x in dict.fromkeys([e.dst] + [x.dst for x in p]) if "__" not in x]
             raise LoopFileError(file, _blocks_text([e, *p]), None, "a feedback loop without a "
                                 "break point: add a [[breaks]] entry on one of its signals ("
                                 + ", ".join(sigs) + ")")
