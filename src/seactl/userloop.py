@@ -560,22 +560,28 @@ class UserLoop:
 
     # ------------------------------------------------------------ frequency domain
     def grid(self) -> np.ndarray:
-        """The bracketing frequency grid [rad/s] of the margin scan: two decades beyond
-        the slowest and fastest block poles and zeros (or ``[analysis]``'s range).
+        """The bracketing frequency grid [rad/s] of the margin scan: a decade beyond the
+        slowest and fastest block pole, zero and spring resonance (or ``[analysis]``'s
+        range), 12 points per decade; the scan refines it where the loop moves fast, extends
+        it upwards while ``|L| > 0.5`` at its top and :meth:`analyze` extends it downwards
+        while a loop still grows there below ``|L| = 2``.
 
         Returns
         -------
         ndarray
-            Log-spaced angular frequencies, 16 per decade.
+            Log-spaced angular frequencies.
         """
+        return self._grid(self.design)
+
+    def _grid(self, design: Any) -> np.ndarray:
         a = self.compiled.model.analysis
-        lo, hi = characteristic_range(self.compiled, self.design)
-        w_lo = 2 * np.pi * a.f_min_hz if a.f_min_hz else lo / 100
-        w_hi = 2 * np.pi * a.f_max_hz if a.f_max_hz else hi * 100
+        lo, hi = characteristic_range(self.compiled, design)
+        w_lo = 2 * np.pi * a.f_min_hz if a.f_min_hz else lo / 10
+        w_hi = 2 * np.pi * a.f_max_hz if a.f_max_hz else hi * 10
         if not w_hi > w_lo:
             raise LoopFileError(self.file, "[analysis] f_max_hz", a.f_max_hz,
                                 f"> f_min_hz ({w_lo / (2 * np.pi):g} Hz)")
-        n = int(np.ceil(16 * np.log10(w_hi / w_lo))) + 1
+        n = int(np.ceil(12 * np.log10(w_hi / w_lo))) + 1
         return np.logspace(np.log10(w_lo), np.log10(w_hi), n)
 
     def _signal(self, name: str, what: str) -> str:
@@ -675,9 +681,12 @@ class UserLoop:
     def _analyze(self, design: Any, jitter: bool) -> LoopAnalysis:
         if not self.breaks:
             raise LoopFileError(self.file, "[[breaks]]", None, "at least one named break")
-        omega = self.grid()
-        out = []
+        omega = self._grid(design)
         items = list(self.breaks.items())
+        if not self.compiled.model.analysis.f_min_hz:
+            for _, sig in items:
+                omega = _extend_down(self.diagram.loop(sig), design, omega)
+        out = []
         for name, sig in items:
             others = [s for n, s in items if n != name]
             m = break_margins(self.compiled, design, omega, sig, others)
@@ -836,6 +845,7 @@ def break_margins(compiled: CompiledLoop, design: Any, omega: np.ndarray, signal
     P: np.ndarray | int = 0
     diagram = compiled.diagram
     shape = tuple(design.shape)
+    cache: dict[str, np.ndarray] = {}  # block responses on the grid, shared by the loops
     for i, sig in enumerate(others):
         cut = tuple(sorted(set(others[i + 1:]) | {signal}))
         if has_loop(compiled.edges, sig, cut):
@@ -843,12 +853,12 @@ def break_margins(compiled: CompiledLoop, design: Any, omega: np.ndarray, signal
             zero = _vanishes(loop, design, omega)
             with np.errstate(all="ignore"):
                 Pn = loop_margins(loop, design, omega, open_loop_rhp_poles=P,
-                                  stability_only=True).unstable_poles
+                                  stability_only=True, block_cache=cache).unstable_poles
             P = np.where(zero, np.broadcast_to(P, shape), Pn)
     loop = diagram.loop(signal)
     zero = _vanishes(loop, design, omega)
     with np.errstate(all="ignore"):
-        m = loop_margins(loop, design, omega, open_loop_rhp_poles=P)
+        m = loop_margins(loop, design, omega, open_loop_rhp_poles=P, block_cache=cache)
     if not zero.any():
         return m
     # A loop whose gain is zero for some designs (a gain set to 0): no crossing, and the
@@ -891,22 +901,47 @@ def _roots_magnitudes(coeffs: Sequence[Any], shape: tuple[int, ...]) -> np.ndarr
 
 
 def characteristic_range(compiled: CompiledLoop, design: Any) -> tuple[float, float]:
-    """Slowest and fastest block pole or zero [rad/s] over the batch (1 and 1000 rad/s
-    included, so a loop of pure gains and integrators still gets a range)."""
+    """Slowest and fastest block pole or zero, and spring resonance estimates
+    ``sqrt(k / J_max)``, ``sqrt(2 k / J_min)`` [rad/s] over the batch (1 to 1000 rad/s when
+    there are none: a loop of gains and integrators)."""
     shape = tuple(design.shape)
-    mags = [np.array([1.0, 1e3])]
+    arr = design._arrays
+    mags = []
     for e in compiled.edges:
         if e.coeffs is None:
             continue
         for x in "nd":
             k = 0
             coeffs = []
-            while f"{e.name}__{x}{k}" in design._arrays:
-                coeffs.append(design._arrays[f"{e.name}__{x}{k}"])
+            while f"{e.name}__{x}{k}" in arr:
+                coeffs.append(arr[f"{e.name}__{x}{k}"])
                 k += 1
             mags.append(_roots_magnitudes(coeffs, shape))
-    allm = np.concatenate(mags)
+    springs = [arr[f"{b.name}__n0"] for b in compiled.blocks if b.kind == "spring"]
+    masses = [arr[f"{b.name}__d0"] for b in compiled.blocks if b.kind in ("inertia", "load")]
+    if springs and masses:
+        k_all = np.concatenate([np.ravel(np.abs(k)) for k in springs])
+        j_all = np.concatenate([np.ravel(np.abs(j)) for j in masses])
+        mags.append(np.sqrt([k_all.min() / j_all.max(), 2 * k_all.max() / j_all.min()]))
+    allm = np.concatenate(mags) if mags else np.empty(0)
+    allm = allm[np.isfinite(allm) & (allm > 0)]
+    if allm.size == 0:
+        return 1.0, 1e3
     return float(allm.min()), float(allm.max())
+
+
+def _extend_down(loop: Any, design: Any, omega: np.ndarray, max_decades: int = 6
+                 ) -> np.ndarray:
+    """Prepend decades while some design's loop is below 2 at the grid's bottom and still
+    growing towards lower frequencies (an integrating loop may cross 1 further down)."""
+    for _ in range(max_decades):
+        w0 = omega[0]
+        with np.errstate(all="ignore"):
+            m = np.abs(loop(design, 1j * np.array([w0 / 10, w0])))
+        if not np.any((m[..., 1] < 2) & (m[..., 0] > 1.5 * m[..., 1])):
+            break
+        omega = np.concatenate([np.logspace(np.log10(w0 / 10), np.log10(w0), 13)[:-1], omega])
+    return omega
 
 
 def jitter_margin(loop: Any, design: Any, omega: np.ndarray) -> np.ndarray:
