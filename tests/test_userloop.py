@@ -386,3 +386,25 @@ def test_cli_views_on_a_loop_file(capsys):
     assert main(["place", "--loop", path, "--json"]) == 0
     best = json.loads(capsys.readouterr().out)["options"][0]
     assert best["stable"]
+
+
+def test_sweep_over_a_loop_file_variable(tmp_path, capsys):
+    """seactl sweep --loop: every point equals the same loop analysed at that value."""
+    out = tmp_path / "sw"
+    path = str(EXAMPLES / "rigid.toml")
+    assert main(["sweep", "--loop", path, "--set", "fn=4:12:4", "--set", "f_v=30,60",
+                 "--out", str(out), "--chunk-size", "4", "--json"]) == 0
+    summary = json.loads(capsys.readouterr().out)
+    assert summary["n_points"] == 6 and summary["n_chunks"] == 2
+    t = sc.read_sweep(out).to_pydict()
+    ref = sc.load_loop(path, fn=np.array(t["fn"]), f_v=np.array(t["f_v"])).analyze(
+        jitter=False)["position"].margins
+    np.testing.assert_allclose(t["position_phase_margin_deg"], ref.phase_margin_deg, atol=1e-9)
+    assert main(["sweep", "--loop", path, "--set", "fn=4", "--out", str(out)]) == 2  # exists
+    assert "--overwrite" in capsys.readouterr().err
+    foreign = tmp_path / "foreign"
+    foreign.mkdir()
+    (foreign / "keep.txt").write_text("not seactl's")
+    assert main(["sweep", "--loop", path, "--set", "fn=4", "--out", str(foreign),
+                 "--overwrite"]) == 2
+    assert (foreign / "keep.txt").is_file()
