@@ -141,10 +141,47 @@ def analyze(loop_file: str, sets: tuple[str, ...], no_jitter: bool, as_json: boo
                   highlight=False)
 
 
-def loop_impedance(loop: Any, f: np.ndarray, port: str | None, as_json: bool) -> None:
+def _write_outputs(plot: str | None, csv_path: str | None, fig_fn: Callable[[], Any],
+                   header: list[str], rows: list[list[Any]]) -> None:
+    """Plot and CSV files of a loop view (written atomically)."""
+    if csv_path:
+        import io
+        from pathlib import Path
+
+        from ..report import write_atomic
+
+        buf = io.StringIO()
+        buf.write(",".join(header) + "\n")
+        for r in rows:
+            buf.write(",".join(f"{x:.10g}" if isinstance(x, float) else str(x) for x in r)
+                      + "\n")
+        write_atomic(Path(csv_path), buf.getvalue())
+    if plot:
+        from ..plots import save_figure
+
+        save_figure(fig_fn(), plot)
+
+
+def loop_impedance(loop: Any, f: np.ndarray, port: str | None, as_json: bool,
+                   plot: str | None = None, csv_path: str | None = None) -> None:
     """``seactl impedance --loop``: Z at a port over ``f``."""
     z = loop.impedance(f, port)
     name = port or next(iter(loop.ports))
+    labels = _labels(loop)
+    zf = z.reshape(len(labels), f.size)
+    names = [" ".join(f"{k}={v:g}" for k, v in lab.items()) or loop.name for lab in labels]
+
+    def fig():
+        from ..plots import impedance_bode_figure
+
+        curves = [{"f": f, "z": zf[i], "label": names[i]} for i in range(len(labels))]
+        return impedance_bode_figure([(f"{loop.name}: port {name}", curves)], unit="SI")
+
+    _write_outputs(plot, csv_path, fig, ["design", "f_hz", "re", "im", "magnitude",
+                                         "phase_deg"],
+                   [[names[i], float(fk), float(zf[i, k].real), float(zf[i, k].imag),
+                     float(abs(zf[i, k])), float(np.degrees(np.angle(zf[i, k])))]
+                    for i in range(len(labels)) for k, fk in enumerate(f)])
     stable = loop.analyze(jitter=False).stable if loop.breaks else None
     labels = _labels(loop)
     zf = z.reshape(len(labels), f.size)
@@ -174,7 +211,8 @@ def loop_impedance(loop: Any, f: np.ndarray, port: str | None, as_json: bool) ->
 
 
 def loop_response(loop: Any, kind: str, mode: str, t_end: float, size: float,
-                  as_json: bool) -> None:
+                  as_json: bool, plot: str | None = None, csv_path: str | None = None
+                  ) -> None:
     """``seactl step|impulse --loop``: responses of the file's signals, each process at
     its rate in sampled mode."""
     from ..simulate import impulse_metrics, step_metrics
@@ -194,6 +232,17 @@ def loop_response(loop: Any, kind: str, mode: str, t_end: float, size: float,
         keys = ("peak_deviation", "peak_time_s", "recovery_time_s")
     labels = _labels(loop)
     yf = y.reshape(len(labels), -1)
+    names = [" ".join(f"{k}={v:g}" for k, v in lab.items()) or loop.name for lab in labels]
+
+    def fig():
+        from ..plots import response_figure
+
+        return response_figure(res.t_s, yf, names, title=f"{loop.name}: {kind} ({mode})",
+                               ylabel=out_name,
+                               unstable=[not s for s in res.stable.reshape(-1)])
+
+    _write_outputs(plot, csv_path, fig, ["t_s", *names],
+                   [[float(t), *map(float, yf[:, k])] for k, t in enumerate(res.t_s)])
     eff = {k: np.asarray(v).reshape(-1).tolist() for k, v in
            res.info.get("effective_delays_s", {}).items()}
     runs = [{**lab, "stable": bool(res.stable.reshape(-1)[i]),
