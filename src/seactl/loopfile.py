@@ -224,8 +224,8 @@ class _Model(BaseModel):
 
 class ProcessModel(_Model):
     rate_hz: float = Field(1000.0, gt=0, allow_inf_nan=False, description="rate [Hz]")
-    latency_ms: float = Field(0.0, ge=0, le=1000, allow_inf_nan=False,
-                              description="latency of a block with delay_ms = 'process' [ms]")
+    latency_ms: float | str = Field(0.0, description="latency of a block with delay_ms = "
+                                    "'process' [ms]: number or expression")
 
 
 class BreakModel(_Model):
@@ -622,8 +622,7 @@ class CompiledLoop:
         """Every block coefficient and delay for the designs ``values`` describe;
         ``latency_ms`` overrides the processes' latencies (placements)."""
         env = self.environment(values)
-        lat = {p: m.latency_ms for p, m in self.model.processes.items()}
-        lat.update(latency_ms or {})
+        lat = self.latencies(env, latency_ms)
         out: dict[str, Any] = {f"var__{n}": v for n, v in env.items()}
         for b in self.blocks:
             vals = self.block_values(b, env)
@@ -640,6 +639,16 @@ class CompiledLoop:
                                             float(np.min(ms)) if np.any(ms < 0) else
                                             float(np.max(ms)), ">= 0 and <= 1000 ms")
                     out[f"{e.name}__T"] = ms / 1e3
+        return out
+
+    def latencies(self, env: Mapping[str, Any], latency_ms: Mapping[str, Any] | None = None
+                  ) -> dict[str, np.ndarray]:
+        """Each process's latency [ms] (its expression evaluated, or the override)."""
+        out = {}
+        for p, m in self.model.processes.items():
+            expr = parse_expr(m.latency_ms, self.file, f"process {p!r}, field 'latency_ms'",
+                              self.names)
+            out[p] = np.asarray((latency_ms or {}).get(p, expr(env)), float)
         return out
 
     def design(self, values: Mapping[str, Any] = {},

@@ -101,10 +101,6 @@ class LoopAnalysis:
                 "breaks": [b.to_dict() for b in self.breaks]}
 
 
-def procs_items(loop: UserLoop) -> list[tuple[str, Any]]:
-    return list(loop.processes.items())
-
-
 @dataclass(frozen=True)
 class Placements:
     """Placements of the movable blocks on the processes, ranked (best first).
@@ -231,7 +227,7 @@ class LoopBuilder:
             self._data["parameters"][k] = v
         return self
 
-    def process(self, name: str, rate_hz: float = 1000.0, latency_ms: float = 0.0
+    def process(self, name: str, rate_hz: float = 1000.0, latency_ms: float | str = 0.0
                 ) -> LoopBuilder:
         """Declare a process (a processor the controller blocks run on).
 
@@ -241,8 +237,9 @@ class LoopBuilder:
             Process name.
         rate_hz : float
             Its rate [Hz] (sampled simulations).
-        latency_ms : float
-            The delay of its blocks that say ``delay_ms="process"`` [ms].
+        latency_ms : float or str
+            The delay of its blocks that say ``delay_ms="process"`` [ms] (number or
+            expression).
 
         Returns
         -------
@@ -724,7 +721,8 @@ class UserLoop:
             raise LoopFileError(self.file, "blocks", None, f"at most {max_options} placements "
                                 f"({len(procs)} processes ^ {len(movable)} movable blocks)")
         combos = list(itertools.product(procs, repeat=len(movable)))
-        lat = {p: float(self.latency_ms.get(p, m.latency_ms)) for p, m in procs_items(self)}
+        env = {k: np.asarray(v) for k, v in self.environment().items()}
+        lat = {p: float(v) for p, v in self.compiled.latencies(env, self.latency_ms).items()}
         arrays = dict(self.design._arrays)
         for j, blk in enumerate(movable):
             for e in self.compiled.edges:

@@ -118,9 +118,6 @@ def impedance(spec: DesignSpec, freq: tuple[str, ...], model: str, load: bool, u
     f = _freq(freq)
     if loop is not None:
         _check_plot_path(plot)
-        if model != "block-diagram" or load or units != "rotary":
-            raise InputError("--model/--load/--units", "given", "absent with --loop (the "
-                             "file's port defines the impedance)")
         return loop_impedance(loop, f, port, as_json, plot, csv)
     if port is not None:
         raise InputError("--port", port, "used with --loop FILE")

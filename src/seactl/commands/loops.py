@@ -54,6 +54,8 @@ def loop_options(func: Callable) -> Callable:
     def wrapper(*args, loop_file, sets, **kwargs):
         if sets and not loop_file:
             raise InputError("--set", sets[0], "used with --loop FILE")
+        if loop_file:
+            _refuse_sea_options()
         return func(*args, loop=load(loop_file, sets) if loop_file else None, **kwargs)
 
     wrapper = click.option("--set", "sets", multiple=True, metavar="NAME=VALUE",
@@ -63,6 +65,24 @@ def loop_options(func: Callable) -> Callable:
                         type=click.Path(dir_okay=False),
                         help="A loop file (docs/loops.md) instead of the built-in SEA "
                              "design options.")(wrapper)
+
+
+SEA_ONLY = ("fn", "gs", "zeta1", "zeta2", "ratio", "t_tau", "t_qs", "t_qd", "f_qd", "f_taud",
+            "actuator", "model", "load", "units", "rate_hz", "saturation", "no_zero",
+            "high_latency", "low_latency", "min_pm", "f_v", "stiffness_embeddable")
+"""Options of the built-in loops that a loop file defines itself."""
+
+
+def _refuse_sea_options() -> None:
+    from click.core import ParameterSource
+
+    ctx = click.get_current_context()
+    for p in ctx.command.params:
+        if p.name in SEA_ONLY and ctx.get_parameter_source(p.name) == \
+                ParameterSource.COMMANDLINE:
+            raise InputError(p.opts[0], "given", "absent with --loop (the loop file defines "
+                             "the structure, its values and each process's rate; override "
+                             "them with --set)")
 
 
 def _varied(loop: Any) -> dict[str, np.ndarray]:

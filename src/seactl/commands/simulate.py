@@ -92,13 +92,6 @@ def sim_options(func: Callable) -> Callable:
     return wrapper
 
 
-def _loop_sim_checks(saturation: float | None, zero: bool, rate_hz: float) -> None:
-    """Options of the built-in SEA that a loop file defines itself."""
-    if saturation is not None or not zero or rate_hz != 1000.0:
-        raise InputError("--saturation/--no-zero/--rate", "given", "absent with --loop (the "
-                         "file sets its structure and each process's rate_hz)")
-
-
 def _labels(spec: DesignSpec) -> list[tuple[float, float]]:
     return [(float(f), float(g)) for f in spec.fn_hz for g in spec.gs]
 
@@ -233,7 +226,6 @@ def step(spec: DesignSpec, amplitude: float, mode: str, rate_hz: float, zero: bo
     if not (math.isfinite(amplitude) and amplitude != 0):
         raise InputError("--amplitude [rad]", amplitude, "a finite non-zero number")
     if loop is not None:
-        _loop_sim_checks(saturation, zero, rate_hz)
         return loop_response(loop, "step", mode, t_end or 0.5, amplitude, as_json, plot,
                              csv_path)
     design = spec.designs()
@@ -271,7 +263,6 @@ def impulse(spec: DesignSpec, impulse_nms: float, band: float, mode: str, rate_h
     if not (0 < band < 1):
         raise InputError("--band", band, "a fraction in (0, 1)")
     if loop is not None:
-        _loop_sim_checks(saturation, zero, rate_hz)
         return loop_response(loop, "impulse", mode, t_end or 1.0, impulse_nms, as_json, plot,
                              csv_path)
     design = spec.designs()
