@@ -454,3 +454,26 @@ def test_jitter_margin_against_a_dense_grid():
     w = np.logspace(-2, 5, 400_000)
     L = 20 * np.exp(-5e-3j * w) / (1j * w * (0.02j * w + 1))
     assert jm == pytest.approx(1 / np.max(w * np.abs(L / (1 + L))), rel=1e-6)
+
+
+def test_open_loop_unstable_plant_against_python_control():
+    """An inverted-pendulum plant 1/(s^2 - 4) under delayed filtered PD control: the
+    verdicts and closed-loop RHP root counts match the closed-loop poles of a Pade(8)
+    model built in python-control; phase margins match ct.margin."""
+    kp = np.array([2.0, 10.0, 20.0, 50.0])
+    loop = (sc.LoopBuilder("pendulum").variables(kp=10.0, kd=2.0).process("cpu")
+            .block("c", "pd", input=["r", "-y_m"], output="u", kp="kp", kd="kd",
+                   filter_hz=100, delay_ms=5)
+            .block("p", "plant_tf", input="u", output="y", num=[1], den=[1, 0, -4])
+            .block("s", "sensor", input="y", output="y_m")
+            .signals(inputs=["r"]).break_at("main", "y_m").build())
+    m = loop.with_values(kp=kp).analyze(jitter=False)["main"].margins
+    tf = 1 / (2 * np.pi * 100)
+    num, den = ct.pade(5e-3, 8)
+    for i, k in enumerate(kp):
+        L = ct.series(ct.tf([k * tf + 2.0, k], [tf, 1]), ct.tf([1], [1, 0, -4]),
+                      ct.tf(num, den))
+        rhp = int(np.sum(ct.feedback(L, 1).poles().real > 0))
+        assert int(m.unstable_poles[i]) == rhp and bool(m.stable[i]) == (rhp == 0)
+        if rhp == 0:
+            assert float(m.phase_margin_deg[i]) == pytest.approx(ct.margin(L)[1], abs=1e-3)

@@ -578,6 +578,10 @@ class CompiledLoop:
     def names(self) -> list[str]:
         return [*self.variables, *self.parameters]
 
+    @property
+    def breaks_signals(self) -> list[str]:
+        return [b.signal for b in self.model.breaks]
+
     def environment(self, values: Mapping[str, Any]) -> dict[str, np.ndarray]:
         """Variables (overridden by ``values``) and parameters, evaluated in order; an
         override of a parameter replaces its expression."""

@@ -836,13 +836,13 @@ def break_margins(compiled: CompiledLoop, design: Any, omega: np.ndarray, signal
                   others: Sequence[str]) -> Margins:
     """Margins of the loop broken at ``signal`` with the ``others`` closed.
 
-    Its right-half-plane poles are those of the system with ``signal`` cut, counted by
-    Nyquist closing the ``others`` one at a time (inner first), each with the later ones
-    cut; a break that closes no loop under the current cuts is skipped (as in
-    :func:`seactl.latency.unstable_poles`, which assumes every listed break does)."""
-    P: np.ndarray | int = 0
+    Its right-half-plane poles are those of the system with ``signal`` cut: the poles of
+    the system with every break cut (:func:`open_loop_rhp_poles`), then Nyquist closing
+    the ``others`` one at a time (inner first), each with the later ones cut; a break that
+    closes no loop under the current cuts is skipped."""
     diagram = compiled.diagram
     shape = tuple(design.shape)
+    P: np.ndarray | int = open_loop_rhp_poles(compiled, design)
     cache: dict[str, np.ndarray] = {}  # block responses on the grid, shared by the loops
     for i, sig in enumerate(others):
         cut = tuple(sorted(set(others[i + 1:]) | {signal}))
@@ -869,6 +869,37 @@ def break_margins(compiled: CompiledLoop, design: Any, omega: np.ndarray, signal
                    phase_crossover_hz=pick(m.phase_crossover_hz, np.nan),
                    delay_margin_s=pick(m.delay_margin_s, np.where(P == 0, np.inf, 0.0)),
                    stable=pick(m.stable, P == 0), unstable_poles=pick(m.unstable_poles, P))
+
+
+def open_loop_rhp_poles(compiled: CompiledLoop, design: Any) -> np.ndarray:
+    """Right-half-plane poles of the loop with every break cut, per design.
+
+    With every break cut no loop through a controller remains (checked when the loop is
+    compiled), so what is left (the physics, a DOB's own loop) has no delay in a loop: its
+    poles are the eigenvalues of its state-space realization (the simulator's, with delays
+    on loop-free paths dropped since they move no pole).  Poles at the origin (free
+    inertias, integrators; within ``max(1e-4, 1e-6 |largest|)`` rad/s of it) are not
+    counted; the margin scan counts them."""
+    from .simulate import _assemble, realize_continuous
+
+    breaks = set(compiled.breaks_signals)
+    blocks = [b for b in compiled.diagram.blocks if b.dst not in breaks]
+    shape = tuple(design.shape)
+    n = int(np.prod(shape, dtype=int))
+    if not blocks:
+        return np.zeros(shape, int)
+    signals = sorted({b.src for b in blocks} | {b.dst for b in blocks})
+    reals = [realize_continuous(b, design, shape, n) for b in blocks]
+    if sum(r[0].shape[1] for r in reals) == 0:
+        return np.zeros(shape, int)
+    net = _assemble(n, signals, blocks, reals, [], {b.name: np.ones(n) for b in blocks}, {})
+    ev = np.linalg.eigvals(net.A)
+    mag = np.abs(ev)
+    # A multiple pole at the origin splits numerically (+-1e-7 for a double one): poles
+    # within max(1e-4, 1e-6 |largest pole|) rad/s of the origin are taken to be on it.
+    origin = mag < np.maximum(1e-4, 1e-6 * mag.max(axis=-1, keepdims=True))
+    rhp = (ev.real > 1e-9 * np.maximum(1.0, mag)) & ~origin
+    return rhp.sum(axis=-1).reshape(shape)
 
 
 def _vanishes(loop: Any, design: Any, omega: np.ndarray) -> np.ndarray:
