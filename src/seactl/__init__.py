@@ -28,7 +28,8 @@ _PUBLIC = {
     ".systems": ("rigid", "RigidBatch", "loop_model", "latency_map", "place", "sweep",
                  "read_sweep", "compare_mobile_base", "mobile_base_params",
                  "LatencyMapResult", "PlacementResult"),
-    ".errors": ("SeactlError", "InputError", "InfeasibleDesignError"),
+    ".userloop": ("load_loop", "LoopBuilder", "UserLoop"),
+    ".errors": ("SeactlError", "InputError", "InfeasibleDesignError", "LoopFileError"),
 }
 _HOME = {name: module for module, names in _PUBLIC.items() for name in names}
 
@@ -39,8 +40,10 @@ __all__ = [
     # other systems
     "rigid", "RigidBatch", "loop_model", "latency_map", "place", "sweep", "read_sweep",
     "compare_mobile_base", "mobile_base_params", "LatencyMapResult", "PlacementResult",
+    # your own loop (loop files, docs/loops.md)
+    "load_loop", "LoopBuilder", "UserLoop",
     # errors and warnings
-    "SeactlError", "InputError", "InfeasibleDesignError", "UnitWarning",
+    "SeactlError", "InputError", "InfeasibleDesignError", "LoopFileError", "UnitWarning",
 ]
 
 

@@ -25,6 +25,7 @@ from ._common import (
     json_option,
     parse_values,
 )
+from .loops import loop_impedance, loop_options
 
 VARIADIC.add("--freq")
 
@@ -91,8 +92,12 @@ def _timing_text(spec: DesignSpec) -> str:
 @_PLOT
 @_CSV
 @json_option
+@click.option("--port", default=None, help="Impedance port of the --loop file (default: its "
+              "first).")
+@loop_options
 def impedance(spec: DesignSpec, freq: tuple[str, ...], model: str, load: bool, units: str,
-              plot: str | None, csv: str | None, as_json: bool) -> None:
+              plot: str | None, csv: str | None, as_json: bool, port: str | None,
+              loop: Any) -> None:
     """SEA impedance Z(jw) = tau_j / (-jw q_j) with exact delays and filters.
 
     Reports the low-frequency virtual stiffness, the high-frequency asymptote, stability
@@ -105,7 +110,12 @@ def impedance(spec: DesignSpec, freq: tuple[str, ...], model: str, load: bool, u
     """
     with OutputSet() as outs:
         f = _budget(spec, _freq(freq))
-        _impedance(spec, f, model, load, units, *_outputs(outs, plot, csv), outs, as_json)
+        plot_p, csv_p = _outputs(outs, plot, csv)
+        if loop is not None:
+            return loop_impedance(loop, f, port, as_json, outs, plot_p, csv_p)
+        if port is not None:
+            raise InputError("--port", port, "used with --loop FILE")
+        _impedance(spec, f, model, load, units, plot_p, csv_p, outs, as_json)
 
 
 def _impedance(spec: DesignSpec, f: np.ndarray, model: str, load: bool, units: str,

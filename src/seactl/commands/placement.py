@@ -14,6 +14,7 @@ from rich.table import Table
 from ..errors import InputError
 from ..outputs import CSV_SUFFIXES, FIGURE_SUFFIXES, OutputSet
 from ._common import VARIADIC, cli, console, echo_json, finite_or_none, json_option, parse_values
+from .loops import loop_options, loop_place
 
 VARIADIC.update({"--fn-rigid", "--fn-sea"})
 
@@ -391,9 +392,10 @@ def advice_json(a, checks: dict[str, Any] | None = None) -> dict[str, Any]:
               help="Monte Carlo check of each placement with timing (0: none).")
 @click.option("--seed", type=int, default=0, show_default=True, help="Monte Carlo seed.")
 @json_option
+@loop_options
 def place(high_latency, low_latency, actuator, min_pm, f_v, stiffness_embeddable,
           high_timing, low_timing, high_loss, low_loss, rate_hz, runs, seed,
-          as_json) -> None:
+          as_json, loop) -> None:
     """Which process should run the stiffness and damping loops?
 
     \b
@@ -412,6 +414,8 @@ def place(high_latency, low_latency, actuator, min_pm, f_v, stiffness_embeddable
     """
     from ..placement import advise
 
+    if loop is not None:
+        return loop_place(loop, as_json)
     timing = _process_timing(high_timing, low_timing, high_loss, low_loss, rate_hz)
     hi = _ms("--high-latency", 22.0 if high_latency is None else high_latency)
     lo = _ms("--low-latency", 0.5 if low_latency is None else low_latency)

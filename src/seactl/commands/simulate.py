@@ -53,6 +53,7 @@ from ..limits import check_range
 from ..outputs import CSV_SUFFIXES, FIGURE_SUFFIXES, OutputSet
 from ..verdict import judge_response
 from ._common import DesignSpec, cli, console, design_options, echo_json, finite_or_none
+from .loops import loop_options, loop_response
 
 STEP_BAND = 0.02
 """Settling band of a step (2 % of the step), as in the settling-time metric."""
@@ -341,10 +342,11 @@ def _extra(res: Any, mode: str, rate_hz: float, saturation: float | None) -> dic
               help="Step size [rad] (responses are normalized by it; it matters only with "
                    "saturation).")
 @sim_options
+@loop_options
 def step(spec: DesignSpec, amplitude: float, mode: str, rate_hz: float, zero: bool,
          t_end: float | None, saturation: float | None, outs: OutputSet,
          plot: Path | None, csv_path: Path | None, as_json: bool,
-         timing: dict[str, Any] | None) -> None:
+         timing: dict[str, Any] | None, loop: Any) -> None:
     """Step response of the joint position to a position reference step.
 
     \b
@@ -357,6 +359,9 @@ def step(spec: DesignSpec, amplitude: float, mode: str, rate_hz: float, zero: bo
     if not (math.isfinite(amplitude) and amplitude != 0):
         raise InputError("--amplitude [rad]", amplitude, "a finite non-zero number")
     check_simulation(spec, mode, rate_hz, t_end or 0.5)
+    if loop is not None:
+        return loop_response(loop, "step", mode, t_end or 0.5, amplitude, as_json, outs, plot,
+                             csv_path)
     if timing is not None:
         return _monte_carlo(spec, "step", timing, outs, plot, csv_path, as_json,
                             f"Step response (sampled, {rate_hz:g} Hz)", rate_hz=rate_hz,
@@ -380,10 +385,11 @@ def step(spec: DesignSpec, amplitude: float, mode: str, rate_hz: float, zero: bo
 @click.option("--band", type=float, default=0.05, show_default=True,
               help="Recovery band, as a fraction of the peak deviation.")
 @sim_options
+@loop_options
 def impulse(spec: DesignSpec, impulse_nms: float, band: float, mode: str, rate_hz: float,
             zero: bool, t_end: float | None, saturation: float | None, outs: OutputSet,
             plot: Path | None, csv_path: Path | None, as_json: bool,
-            timing: dict[str, Any] | None) -> None:
+            timing: dict[str, Any] | None, loop: Any) -> None:
     """Joint position after an impulse of external torque (q_des = 0), e.g. a ball hitting
     the arm (Fig. ExperimentImpulse). Position in rad; recovery = last exit from the band.
 
@@ -399,6 +405,9 @@ def impulse(spec: DesignSpec, impulse_nms: float, band: float, mode: str, rate_h
     if not (math.isfinite(impulse_nms) and impulse_nms != 0):
         raise InputError("--impulse [N m s]", impulse_nms, "a finite non-zero number")
     check_simulation(spec, mode, rate_hz, t_end or 1.0)
+    if loop is not None:
+        return loop_response(loop, "impulse", mode, t_end or 1.0, impulse_nms, as_json, outs,
+                             plot, csv_path)
     if timing is not None:
         return _monte_carlo(spec, "impulse", timing, outs, plot, csv_path, as_json,
                             f"Impulse response, {impulse_nms:g} N m s (sampled, {rate_hz:g} Hz)",

@@ -144,9 +144,15 @@ def _spec_from_options(opts: dict[str, Any], *, actuator: str, sampling: str, n_
               help=f"Run a sweep of more than {LARGE_SWEEP_POINTS:.0e} points.")
 @click.option("--quiet", is_flag=True, help="No progress bar.")
 @click.option("--json", "as_json", is_flag=True, help="Print the summary as JSON.")
+@click.option("--loop", "loop_file", default=None, metavar="FILE.toml",
+              type=click.Path(dir_okay=False),
+              help="Sweep a loop file (docs/loops.md) over its variables given with --set.")
+@click.option("--set", "sets", multiple=True, metavar="NAME=VALUES",
+              help="With --loop: a variable and its values (number, a,b,c or "
+                   "START:STOP:STEP); every combination is a point.")
 def sweep(actuator, sampling, n_samples, seed, chunk_size, unc_points, z_freq, out, resume,
           overwrite, workers, scheduler, plot_axes, plot_z, plot_reduce, plot_file, yes, quiet,
-          as_json, **axes) -> None:
+          as_json, loop_file, sets, **axes) -> None:
     """Sweep the design space: gains, margins (and |Z|) for every point, as Parquet.
 
     \b
@@ -166,6 +172,10 @@ def sweep(actuator, sampling, n_samples, seed, chunk_size, unc_points, z_freq, o
     Runs on local worker processes (all cores) unless --workers or --scheduler
     say otherwise; Dask schedules the chunks and retries failed ones.
     """
+    if loop_file or sets:
+        return _loop_sweep(loop_file, sets, out, chunk_size, overwrite, as_json,
+                           given=[k for k, v in axes.items() if v] + (["--resume"] if resume
+                                                                       else []))
     if sampling != "grid" and n_samples is None:
         raise InputError("--n", None, f"given with --sample {sampling} (number of points)")
     if resume and overwrite:
@@ -245,6 +255,31 @@ def _run(spec, out: str, resume: bool, overwrite: bool, workers, scheduler, quie
         err_console.print(f"[yellow]{escape(str(exc))}[/yellow]", highlight=False,
                           soft_wrap=True)
         raise click.exceptions.Exit(130) from None
+
+
+def _loop_sweep(loop_file, sets, out, chunk_size, overwrite, as_json, given) -> None:
+    """``seactl sweep --loop FILE --set ...``: in-process, one vectorized batch per chunk."""
+    from ..loopsweep import sweep_loop
+    from ..userloop import load_loop
+    from .loops import parse_sets
+
+    if not loop_file:
+        raise InputError("--set", sets[0], "used with --loop FILE")
+    if given:
+        raise InputError(given[0] if given[0].startswith("--") else AXES[given[0]].option,
+                         "given", "absent with --loop (sweep the file's variables with --set)")
+    values = parse_sets(sets)
+    loop = load_loop(loop_file)
+    res = sweep_loop(loop, values, out, chunk_size=chunk_size, overwrite=overwrite)
+    if as_json:
+        echo_json({**res, "out": str(out)})
+        return
+    console.print(escape(f"loop sweep of '{res['loop']}': {res['n_points']:,} points, "
+                         f"{res['stable']:,} stable, {res['points_per_s'] or 0:,.0f} points/s "
+                         f"-> {out}"), highlight=False)
+    if res["best_phase_margin"]:
+        console.print(escape("largest outer phase margin among stable points: " + ", ".join(
+            f"{k}={v:.6g}" for k, v in res["best_phase_margin"].items())), highlight=False)
 
 
 def _parse_plot_axes(text: str, spec) -> tuple[str, str]:
