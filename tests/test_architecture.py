@@ -87,8 +87,8 @@ def test_no_import_circles():
 
 
 def test_command_line_and_import_do_not_load_matplotlib():
-    code = ("import sys, seactl, seactl.cli; "
-            "print(sorted(m for m in ('matplotlib', 'dask', 'distributed') if m in sys.modules))")
+    code = ("import sys, seactl, seactl.cli; print(sorted(m for m in ('matplotlib', 'dask', "
+            "'distributed', 'bokeh', 'selenium') if m in sys.modules))")
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
                          check=True).stdout.strip()
     assert out == "[]"

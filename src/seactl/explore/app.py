@@ -9,6 +9,7 @@ dragged slider sends many values; only the latest is computed).
 from __future__ import annotations
 
 import base64
+import functools
 import html
 import time
 from typing import Any
@@ -42,8 +43,10 @@ from .model import (
     Controls,
     actuator_from_upload,
     controls_from_table,
+    fast_views,
     fn_range_hz,
-    safe_views,
+    safe,
+    slow_views,
 )
 
 SLIDERS = {  # control -> label
@@ -91,6 +94,8 @@ def results_html(r: dict[str, Any], unit: str) -> str:
     """The results panel; each value in an element with an id (the browser test reads
     ``pm-value``)."""
     rows = [
+        ("f_n [Hz]", "fn-value", _fmt(r["fn_hz"], ".10g")),
+        ("GS", "gs-value", _fmt(r["gs"], ".10g")),
         ("K_q [N m/rad]", "kq", _fmt(r["Kq"])), ("B_q [N m s/rad]", "bq", _fmt(r["Bq"])),
         ("K_tau [A/(N m)]", "ktau", _fmt(r["Ktau"])),
         ("B_tau [A s/(N m)]", "btau", _fmt(r["Btau"])),
@@ -98,8 +103,10 @@ def results_html(r: dict[str, Any], unit: str) -> str:
         ("crossover [Hz]", "fc-value", _fmt(r["crossover_hz"])),
         ("gain margin [dB]", "gm-value", _fmt(r["gain_margin_db"], ".2f")),
         ("delay margin, whole loop [ms]", "dm-value", _fmt(r["delay_margin_ms"])),
-        ("delay margin, stiffness loop [ms]", "dms-value", _fmt(r["stiffness_delay_margin_ms"])),
-        ("delay margin, damping loop [ms]", "dmd-value", _fmt(r["damping_delay_margin_ms"])),
+        ("delay margin, stiffness loop [ms]", "dms-value",
+         _fmt(r["stiffness_delay_margin_ms"]) if "stiffness_delay_margin_ms" in r else "..."),
+        ("delay margin, damping loop [ms]", "dmd-value",
+         _fmt(r["damping_delay_margin_ms"]) if "damping_delay_margin_ms" in r else "..."),
         ("closed loop", "stable-value", "stable" if r["stable"] else "UNSTABLE"),
         (f"Z(jw) [{unit}]", "passive-value", "passive" if r["passive"] else "not passive"),
     ]
@@ -117,7 +124,8 @@ class Explorer:
         self.doc = doc
         self.actuators = dict(SEA_PRESETS)
         self.pending = False
-        self.last_ms: list[float] = []
+        self.generation = 0
+        self.last_ms: list[tuple[float, float]] = []
         c = controls or Controls()
         self.sources = {k: ColumnDataSource() for k in (
             "bode", "nyquist", "impedance", "bands", "step", "impulse", "pm_map",
@@ -140,7 +148,7 @@ class Explorer:
             value = getattr(c, key)
             self.sliders[key] = Slider(title=label, start=lo, end=hi, step=step,
                                        value=lo if value is None else value, width=320,
-                                       name=key)
+                                       name=key, css_classes=[f"seactl-{key}"])
         self.filters = CheckboxGroup(labels=["velocity filter f_qd", "torque-derivative "
                                              "filter f_taud"], inline=True,
                                      active=[i for i, f in enumerate((c.f_qd_hz, c.f_taud_hz))
@@ -195,10 +203,44 @@ class Explorer:
             self.doc.add_next_tick_callback(self.update)
 
     def update(self) -> None:
-        """Recompute every view from the current controls and push it to the page."""
+        """Recompute the views from the current controls: the margins, Bode, Nyquist and
+        impedance at once, the rest (responses, maps) in a second step on the next tick
+        unless a newer change is already waiting."""
         self.pending = False
+        self.generation += 1
         t0 = time.perf_counter()
         c = self.controls()
+        self._ranges(c)
+        fast, error = safe(fast_views, c)
+        if error is not None:
+            self.status.text = (f"<span id='status-value' style='color:#b00020'>error: "
+                                f"{html.escape(error)}</span>")
+            return
+        self.apply(fast, c)
+        fast_ms = (time.perf_counter() - t0) * 1e3
+        step = functools.partial(self.finish, self.generation, c, fast, t0, fast_ms)
+        if self.doc is None:
+            step()
+        else:
+            self.doc.add_next_tick_callback(step)
+
+    def finish(self, generation: int, c: Controls, fast: dict[str, Any], t0: float,
+               fast_ms: float) -> None:
+        """Second step of :meth:`update` (skipped when a newer update superseded it)."""
+        if generation != self.generation or self.pending:
+            return
+        slow, error = safe(slow_views, c, fast)
+        if error is not None:
+            self.status.text = f"<span id='status-value'>{html.escape(error)}</span>"
+            return
+        self.apply(slow, c)
+        ms = (time.perf_counter() - t0) * 1e3
+        self.last_ms.append((fast_ms, ms))
+        self.status.text = (f"<span id='status-value'>margins and loop views in {fast_ms:.0f}"
+                            f" ms, all views in {ms:.0f} ms (computation "
+                            f"{slow['compute_ms']:.0f} ms)</span>")
+
+    def _ranges(self, c: Controls) -> None:
         lo, hi = fn_range_hz(c)
         fn = self.sliders["fn_hz"]
         if (fn.start, fn.end) != (lo, hi):
@@ -206,21 +248,16 @@ class Explorer:
         self.sliders["rate_hz"].disabled = c.mode != "sampled"
         for i, key in enumerate(("f_qd_hz", "f_taud_hz")):
             self.sliders[key].disabled = i not in self.filters.active
-        v, error = safe_views(c)
-        if error is not None:
-            self.status.text = (f"<span style='color:#b00020'>error: {html.escape(error)}"
-                                "</span>")
-            return
-        self.apply(v, c)
-        ms = (time.perf_counter() - t0) * 1e3
-        self.last_ms.append(ms)
-        self.status.text = (f"updated in {ms:.0f} ms (computation {v['compute_ms']:.0f} ms)")
 
     def on_upload(self, attr: str, old: Any, new: Any) -> None:
+        """Bokeh's callback of the file input."""
+        self.load_upload(self.upload.filename, new)
+
+    def load_upload(self, filename: str, value_b64: str) -> None:
         """A TOML file was chosen: validate it; a bad file only shows a message."""
         try:
-            content = base64.b64decode(new or "", validate=True)
-            act, table = actuator_from_upload(self.upload.filename, content)
+            content = base64.b64decode(value_b64 or "", validate=True)
+            act, table = actuator_from_upload(filename, content)
             c = controls_from_table(self.controls(), act, table)
         except Exception as exc:  # noqa: BLE001 - any bad upload is a message, never a trace
             self.upload_msg.text = f"error: {html.escape(str(exc) or type(exc).__name__)}"
@@ -247,12 +284,14 @@ class Explorer:
         self.request()
 
     def apply(self, v: dict[str, Any], c: Controls) -> None:
-        """Copy the views into the data sources and annotations."""
+        """Copy what ``v`` holds (either phase) into the data sources and annotations."""
         for key in ("bode", "nyquist", "impedance", "bands", "step", "impulse", "pm_map",
                     "latency_map"):
-            self.sources[key].data = dict(v[key])
-        self.sources["pm_marker"].data = {"x": [c.fn_hz], "y": [c.gs]}
-        self.sources["latency_marker"].data = {"x": [c.t_qd_ms], "y": [c.t_qs_ms]}
+            if key in v:
+                self.sources[key].data = dict(v[key])
+        if "pm_map" in v:
+            self.sources["pm_marker"].data = {"x": [c.fn_hz], "y": [c.gs]}
+            self.sources["latency_marker"].data = {"x": [c.t_qd_ms], "y": [c.t_qs_ms]}
         self.sources["exports"].data = {k: [v["exports"][k]] for k in ("toml", "json",
                                                                        "command")}
         r = v["results"]
@@ -264,7 +303,7 @@ class Explorer:
         self.titles["bode"].text = (f"outer loop L(jw): PM {_fmt(r['phase_margin_deg'], '.1f')}"
                                     f" deg at {_fmt(r['crossover_hz'], '.3g')} Hz, GM "
                                     f"{_fmt(r['gain_margin_db'], '.1f')} dB")
-        self.results.text = results_html(r, v["unit"])
+        self.results.text = results_html(r, "N m s/rad")
         self.command.text = v["exports"]["command"]
 
     # ------------------------------------------------------------ figures

@@ -308,8 +308,8 @@ def impedance_views(d: sc.Design) -> dict[str, Any]:
 
 
 def t_end_s(fn_hz: float) -> float:
-    """Simulated time: about 2.5 periods of f_n, within [0.15, 0.5] s."""
-    return float(np.clip(2.5 / fn_hz, 0.15, 0.5))
+    """Simulated time: two periods of f_n, within [0.1, 0.5] s."""
+    return float(np.clip(2.0 / fn_hz, 0.1, 0.5))
 
 
 def response_views(d: sc.Design, c: Controls) -> dict[str, Any]:
@@ -326,31 +326,36 @@ def _ms(x: Any) -> float | None:
     return x * 1e3 if math.isfinite(x) else None
 
 
-def results(d: sc.Design, loop: Any, resp: dict[str, Any], bands: np.ndarray
-            ) -> dict[str, Any]:
-    """The results panel: gains, margins, per-loop delay margins, responses, verdict."""
+def margin_results(d: sc.Design, loop: Any, bands: np.ndarray) -> dict[str, Any]:
+    """The first half of the results panel: gains and margins of the outer loop."""
     from .._results import json_value
 
-    rec = d.margins().records()[0]
-    dm = sc.loop_model("sea", d.actuator).delay_margins(d.sea)
-    sm, im = resp["step_metrics"], resp["impulse_metrics"]
+    rec = loop.records()[0]
     out = {k: rec[k] for k in ("fn_hz", "gs", "Kq", "Bq", "Ktau", "Btau",
                                "phase_margin_deg", "crossover_hz", "gain_margin_db",
                                "delay_margin_ms", "stable")}
-    out.update({
-        "phase_crossover_hz": json_value(loop.phase_crossover_hz),
-        "unstable_poles": int(loop.unstable_poles),
+    out.update(phase_crossover_hz=json_value(loop.phase_crossover_hz),
+               unstable_poles=int(loop.unstable_poles), passive=bool(bands.shape[0] == 0))
+    out["verdict"] = verdict(out, bands)
+    return out
+
+
+def response_results(d: sc.Design, resp: dict[str, Any]) -> dict[str, Any]:
+    """The second half: per-loop delay margins (:func:`seactl.loop_model`) and the
+    responses' metrics."""
+    from .._results import json_value
+
+    dm = sc.loop_model("sea", d.actuator).delay_margins(d.sea)
+    sm, im = resp["step_metrics"], resp["impulse_metrics"]
+    return {
         "stiffness_delay_margin_ms": json_value(dm.stiffness_s * 1e3),
         "damping_delay_margin_ms": json_value(dm.damping_s * 1e3),
-        "passive": bool(bands.shape[0] == 0),
         "step_rise_ms": json_value(_ms(sm.rise_time_s) or math.nan),
         "step_overshoot_pct": json_value(sm.overshoot_pct),
         "step_settling_ms": json_value(_ms(sm.settling_time_s) or math.nan),
         "impulse_peak_deg": json_value(np.degrees(im.peak_deviation)),
         "impulse_recovery_ms": json_value(_ms(im.recovery_time_s) or math.nan),
-    })
-    out["verdict"] = verdict(out, bands)
-    return out
+    }
 
 
 def _f(x: Any, fmt: str = ".3g", unit: str = "") -> str:
@@ -358,7 +363,7 @@ def _f(x: Any, fmt: str = ".3g", unit: str = "") -> str:
 
 
 def verdict(r: dict[str, Any], bands: np.ndarray) -> str:
-    """The results in words."""
+    """The results in words (sentences for the keys ``r`` has so far)."""
     if not r["stable"]:
         return (f"Unstable: the closed loop has {r['unstable_poles']} right-half-plane "
                 "pole(s). Lower f_n or GS, or shorten the delays (see the latency map).")
@@ -366,28 +371,29 @@ def verdict(r: dict[str, Any], bands: np.ndarray) -> str:
     grade = ("no gain crossover" if pm is None else "thin" if pm < PM_THIN_DEG
              else "adequate" if pm < PM_COMFORTABLE_DEG else "comfortable")
     words = [f"Stable, {grade} phase margin ({_f(pm, '.1f', ' deg')} at "
-             f"{_f(r['crossover_hz'], '.3g', ' Hz')})."]
-    ds, dd = r["stiffness_delay_margin_ms"], r["damping_delay_margin_ms"]
-    words.append(f"It tolerates {_f(r['delay_margin_ms'], '.3g', ' ms')} more latency on "
-                 f"the whole outer loop, {_f(ds, '.3g', ' ms')} on the stiffness loop alone "
-                 f"and {_f(dd, '.3g', ' ms')} on the damping loop alone.")
-    if ds is not None and dd is not None and dd < ds:
-        words.append("The damping loop is the latency-critical one: run it on the "
-                     "low-latency processor.")
+             f"{_f(r['crossover_hz'], '.3g', ' Hz')}); it tolerates "
+             f"{_f(r['delay_margin_ms'], '.3g', ' ms')} more latency on the whole loop."]
+    if "damping_delay_margin_ms" in r:
+        ds, dd = r["stiffness_delay_margin_ms"], r["damping_delay_margin_ms"]
+        words.append(f"The stiffness loop alone tolerates {_f(ds, '.3g', ' ms')}, the damping "
+                     f"loop alone {_f(dd, '.3g', ' ms')}.")
+        if ds is not None and dd is not None and dd < ds:
+            words.append("The damping loop is the latency-critical one: run it on the "
+                         "low-latency processor.")
     if bands.shape[0] == 0:
         words.append("Z(jw) is passive from 0.01 Hz to 10 kHz.")
     else:
         b = ", ".join(f"{lo:.3g}-{hi:.3g} Hz" for lo, hi in bands[:3])
         words.append(f"Z(jw) is not passive in {b}{' ...' if bands.shape[0] > 3 else ''} "
                      "(the actuator can inject energy there).")
-    if r["step_overshoot_pct"] is not None:
+    if r.get("step_overshoot_pct") is not None:
         words.append(f"Step: {r['step_overshoot_pct']:.1f} % overshoot, settles (2 %) in "
                      f"{_f(r['step_settling_ms'], '.0f', ' ms')}.")
     return " ".join(words)
 
 
-def views(c: Controls) -> dict[str, Any]:
-    """Everything the page shows for the controls ``c`` (the callbacks' pure core).
+def fast_views(c: Controls) -> dict[str, Any]:
+    """First phase (a few ms): margins, Bode, Nyquist, impedance, first results.
 
     Raises
     ------
@@ -397,21 +403,43 @@ def views(c: Controls) -> dict[str, Any]:
     t0 = time.perf_counter()
     d = c.design()
     loop = d.margins()
-    out: dict[str, Any] = {**loop_views(d), **impedance_views(d)}
-    resp = response_views(d, c)
-    out.update(step=resp["step"], impulse=resp["impulse"])
-    out["results"] = results(d, loop, resp, np.column_stack([out["bands"]["left"],
-                                                             out["bands"]["right"]]))
-    out["pm_map"] = pm_map(c.loop_key())
-    out["latency_map"] = latency_map(_latency_key(c))
+    out: dict[str, Any] = {"design": d, **loop_views(d), **impedance_views(d)}
+    out["bands_array"] = np.column_stack([out["bands"]["left"], out["bands"]["right"]])
+    out["results"] = margin_results(d, loop, out["bands_array"])
     out["exports"] = exports(c, out["results"])
     out["compute_ms"] = (time.perf_counter() - t0) * 1e3
     return out
 
 
-def safe_views(c: Controls) -> tuple[dict[str, Any] | None, str | None]:
-    """:func:`views`, or ``(None, message)`` for input the library refuses."""
+def slow_views(c: Controls, fast: dict[str, Any]) -> dict[str, Any]:
+    """Second phase: responses, per-loop delay margins, the maps (cached), full results."""
+    t0 = time.perf_counter()
+    d = fast["design"]
+    resp = response_views(d, c)
+    r = {**fast["results"], **response_results(d, resp)}
+    r["verdict"] = verdict(r, fast["bands_array"])
+    out = {"step": resp["step"], "impulse": resp["impulse"], "results": r,
+           "pm_map": pm_map(c.loop_key()), "latency_map": latency_map(_latency_key(c)),
+           "exports": exports(c, r)}
+    out["compute_ms"] = fast["compute_ms"] + (time.perf_counter() - t0) * 1e3
+    return out
+
+
+def views(c: Controls) -> dict[str, Any]:
+    """Everything the page shows for the controls ``c`` (the callbacks' pure core):
+    :func:`fast_views` then :func:`slow_views`."""
+    fast = fast_views(c)
+    return {**fast, **slow_views(c, fast)}
+
+
+def safe(func: Any, *args: Any) -> tuple[dict[str, Any] | None, str | None]:
+    """``func(*args)``, or ``(None, message)`` for input the library refuses."""
     try:
-        return views(c), None
+        return func(*args), None
     except SeactlError as exc:
         return None, str(exc)
+
+
+def safe_views(c: Controls) -> tuple[dict[str, Any] | None, str | None]:
+    """:func:`views`, or ``(None, message)`` for input the library refuses."""
+    return safe(views, c)
