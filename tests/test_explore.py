@@ -19,7 +19,6 @@ import subprocess
 import sys
 import time
 from dataclasses import replace
-from pathlib import Path
 
 import numpy as np
 import pytest
@@ -212,7 +211,7 @@ def server():
 
 
 @pytest.fixture
-def browser():
+def browser(tmp_path):
     if CHROMIUM is None or CHROMEDRIVER is None:
         pytest.skip("no Chromium/chromedriver on this machine (.ci/run installs Debian's "
                     "chromium and chromium-driver with apt-get)")
@@ -224,6 +223,7 @@ def browser():
     for arg in ("--headless=new", "--no-sandbox", "--disable-dev-shm-usage",
                 "--window-size=1400,1100"):
         opts.add_argument(arg)
+    opts.add_experimental_option("prefs", {"download.default_directory": str(tmp_path)})
     service = Service(CHROMEDRIVER)
     driver = webdriver.Chrome(service=service, options=opts)
     try:
@@ -280,5 +280,28 @@ def test_browser_slider_moves_the_displayed_phase_margin(server, browser):
     latency = browser.execute_script("return window.__pmChanged - window.__t0;")
     status = _text(browser, "status-value")
     print(f"\nbrowser: first PM change {latency:.0f} ms after the key press; {status}")
-    Path(os.environ.get("SEACTL_EXPLORE_LATENCY", os.devnull)).write_text(
-        json.dumps({"first_change_ms": latency, "status": status}))
+
+
+
+def _click(driver, label: str) -> None:
+    driver.execute_script(FIND_JS + "deep(document, 'button', []).find("
+                          "b => b.textContent.trim() === arguments[0]).click();", label)
+
+
+def test_browser_export_and_copy_buttons(server, browser, tmp_path):
+    """The JSON export downloads the displayed design; the copy button hands the
+    ``seactl gains`` line to the clipboard (stubbed: headless Chromium has none)."""
+    browser.get(server[0])
+    shown = _wait(lambda: _text(browser, "pm-value"))
+    _wait(lambda: "all views" in (_text(browser, "status-value") or ""))
+    _click(browser, "export JSON")
+    path = tmp_path / "seactl-design.json"
+    _wait(lambda: path.is_file() and path.stat().st_size > 0)
+    doc = json.loads(path.read_text())
+    assert f"{doc['results']['phase_margin_deg']:.2f}" == shown
+    assert doc["design"]["fn_hz"] == 14.0 and doc["actuator"]["name"] == "ut-sea"
+    browser.execute_script("window.__copied = null; navigator.clipboard.writeText = "
+                           "t => { window.__copied = t; return Promise.resolve(); };")
+    _click(browser, "copy command line")
+    copied = _wait(lambda: browser.execute_script("return window.__copied;"))
+    assert copied.splitlines()[0] == model.command_line(TABLE_I).splitlines()[0]

@@ -25,6 +25,7 @@ from bokeh.models import (
     DataRange1d,
     Div,
     FileInput,
+    FixedTicker,
     HoverTool,
     LinearColorMapper,
     PreText,
@@ -139,8 +140,8 @@ class Explorer:
     # ------------------------------------------------------------ widgets
     def _widgets(self, c: Controls) -> None:
         self.actuator = Select(title="actuator", value=c.actuator.name,
-                               options=list(self.actuators), width=150)
-        self.upload = FileInput(accept=".toml", title="or upload a TOML file", width=160)
+                               options=list(self.actuators), width=120)
+        self.upload = FileInput(accept=".toml", title="or upload a TOML file", width=200)
         self.upload_msg = Div(text="", width=320, styles={"color": "#b00020"})
         self.sliders = {}
         for key, label in SLIDERS.items():
@@ -284,7 +285,21 @@ class Explorer:
         self.request()
 
     def apply(self, v: dict[str, Any], c: Controls) -> None:
-        """Copy what ``v`` holds (either phase) into the data sources and annotations."""
+        """Copy what ``v`` holds (either phase) into the page: the numbers first (they
+        are small messages), then the figures' data."""
+        r = v["results"]
+        self.results.text = results_html(r, "N m s/rad")
+        self.command.text = v["exports"]["command"]
+        self.sources["exports"].data = {k: [v["exports"][k]] for k in ("toml", "json",
+                                                                       "command")}
+        nan = float("nan")
+        for key, value in (("fc", r["crossover_hz"]), ("fc_phase", r["crossover_hz"]),
+                           ("f180", r["phase_crossover_hz"]),
+                           ("f180_mag", r["phase_crossover_hz"])):
+            self.spans[key].location = nan if value is None else value
+        self.titles["bode"].text = (f"outer loop L(jw): PM {_fmt(r['phase_margin_deg'], '.1f')}"
+                                    f" deg at {_fmt(r['crossover_hz'], '.3g')} Hz, GM "
+                                    f"{_fmt(r['gain_margin_db'], '.1f')} dB")
         for key in ("bode", "nyquist", "impedance", "bands", "step", "impulse", "pm_map",
                     "latency_map"):
             if key in v:
@@ -292,19 +307,6 @@ class Explorer:
         if "pm_map" in v:
             self.sources["pm_marker"].data = {"x": [c.fn_hz], "y": [c.gs]}
             self.sources["latency_marker"].data = {"x": [c.t_qd_ms], "y": [c.t_qs_ms]}
-        self.sources["exports"].data = {k: [v["exports"][k]] for k in ("toml", "json",
-                                                                       "command")}
-        r = v["results"]
-        nan = float("nan")
-        self.spans["fc"].location = r["crossover_hz"] or nan
-        self.spans["fc_phase"].location = r["crossover_hz"] or nan
-        self.spans["f180"].location = r["phase_crossover_hz"] or nan
-        self.spans["f180_mag"].location = r["phase_crossover_hz"] or nan
-        self.titles["bode"].text = (f"outer loop L(jw): PM {_fmt(r['phase_margin_deg'], '.1f')}"
-                                    f" deg at {_fmt(r['crossover_hz'], '.3g')} Hz, GM "
-                                    f"{_fmt(r['gain_margin_db'], '.1f')} dB")
-        self.results.text = results_html(r, "N m s/rad")
-        self.command.text = v["exports"]["command"]
 
     # ------------------------------------------------------------ figures
     def _figures(self) -> None:
@@ -378,9 +380,11 @@ class Explorer:
         return f
 
     def _pm_map(self) -> Any:
-        return self._map("PM over (f_n, GS); grey: unstable", "pm_map", "pm_marker",
+        f = self._map("PM over (f_n, GS); grey: unstable", "pm_map", "pm_marker",
                          y_axis_type="log", x_axis_label="f_n [Hz]", y_axis_label="GS",
                          y_range=(float(PM_MAP_GS[0]) * 0.88, float(PM_MAP_GS[-1]) * 1.13))
+        f.yaxis.ticker = FixedTicker(ticks=[0.2, 0.5, 1, 2, 5])
+        return f
 
     def _latency_map(self) -> Any:
         return self._map("latency map: PM over delays; grey: unstable", "latency_map",
