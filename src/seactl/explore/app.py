@@ -41,13 +41,12 @@ from .model import (
     BOUNDS,
     MODES,
     PM_MAP_GS,
+    STAGES,
     Controls,
     actuator_from_upload,
     controls_from_table,
-    fast_views,
     fn_range_hz,
     safe,
-    slow_views,
 )
 
 SLIDERS = {  # control -> label
@@ -126,7 +125,7 @@ class Explorer:
         self.actuators = dict(SEA_PRESETS)
         self.pending = False
         self.generation = 0
-        self.last_ms: list[tuple[float, float]] = []
+        self.last_ms: list[tuple[float, ...]] = []
         c = controls or Controls()
         self.sources = {k: ColumnDataSource() for k in (
             "bode", "nyquist", "impedance", "bands", "step", "impulse", "pm_map",
@@ -204,42 +203,41 @@ class Explorer:
             self.doc.add_next_tick_callback(self.update)
 
     def update(self) -> None:
-        """Recompute the views from the current controls: the margins, Bode, Nyquist and
-        impedance at once, the rest (responses, maps) in a second step on the next tick
-        unless a newer change is already waiting."""
+        """Recompute the views from the current controls, stage by stage
+        (:data:`~seactl.explore.model.STAGES`): the margins, Bode, Nyquist and impedance
+        at once, the responses and the maps on the next ticks unless a newer change is
+        already waiting (a dragged slider computes only its latest value in full)."""
         self.pending = False
         self.generation += 1
-        t0 = time.perf_counter()
         c = self.controls()
         self._ranges(c)
-        fast, error = safe(fast_views, c)
+        self.run_stage(self.generation, c, 0, {}, time.perf_counter(), [])
+
+    def run_stage(self, generation: int, c: Controls, index: int, acc: dict[str, Any],
+                  t0: float, marks_ms: list[float]) -> None:
+        """Compute and show stage ``index``, then schedule the next one."""
+        if generation != self.generation or (index and self.pending):
+            return  # superseded by a newer change
+        out, error = safe(STAGES[index], c, acc)
         if error is not None:
             self.status.text = (f"<span id='status-value' style='color:#b00020'>error: "
                                 f"{html.escape(error)}</span>")
             return
-        self.apply(fast, c)
-        fast_ms = (time.perf_counter() - t0) * 1e3
-        step = functools.partial(self.finish, self.generation, c, fast, t0, fast_ms)
-        if self.doc is None:
-            step()
-        else:
-            self.doc.add_next_tick_callback(step)
-
-    def finish(self, generation: int, c: Controls, fast: dict[str, Any], t0: float,
-               fast_ms: float) -> None:
-        """Second step of :meth:`update` (skipped when a newer update superseded it)."""
-        if generation != self.generation or self.pending:
+        acc.update(out)
+        self.apply(out, c)
+        marks_ms.append((time.perf_counter() - t0) * 1e3)
+        if index + 1 < len(STAGES):
+            step = functools.partial(self.run_stage, generation, c, index + 1, acc, t0,
+                                     marks_ms)
+            if self.doc is None:
+                step()
+            else:
+                self.doc.add_next_tick_callback(step)
             return
-        slow, error = safe(slow_views, c, fast)
-        if error is not None:
-            self.status.text = f"<span id='status-value'>{html.escape(error)}</span>"
-            return
-        self.apply(slow, c)
-        ms = (time.perf_counter() - t0) * 1e3
-        self.last_ms.append((fast_ms, ms))
-        self.status.text = (f"<span id='status-value'>margins and loop views in {fast_ms:.0f}"
-                            f" ms, all views in {ms:.0f} ms (computation "
-                            f"{slow['compute_ms']:.0f} ms)</span>")
+        self.last_ms.append(tuple(marks_ms))
+        self.status.text = (f"<span id='status-value'>margins and loop views in "
+                            f"{marks_ms[0]:.0f} ms, responses in {marks_ms[1]:.0f} ms, "
+                            f"maps in {marks_ms[2]:.0f} ms</span>")
 
     def _ranges(self, c: Controls) -> None:
         lo, hi = fn_range_hz(c)

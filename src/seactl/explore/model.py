@@ -308,8 +308,9 @@ def impedance_views(d: sc.Design) -> dict[str, Any]:
 
 
 def t_end_s(fn_hz: float) -> float:
-    """Simulated time: two periods of f_n, within [0.1, 0.5] s."""
-    return float(np.clip(2.0 / fn_hz, 0.1, 0.5))
+    """Simulated time: 1.5 periods of f_n, within [0.08, 0.5] s (a critically-damped
+    design settles within about one period)."""
+    return float(np.clip(1.5 / fn_hz, 0.08, 0.5))
 
 
 def response_views(d: sc.Design, c: Controls) -> dict[str, Any]:
@@ -340,22 +341,28 @@ def margin_results(d: sc.Design, loop: Any, bands: np.ndarray) -> dict[str, Any]
     return out
 
 
-def response_results(d: sc.Design, resp: dict[str, Any]) -> dict[str, Any]:
-    """The second half: per-loop delay margins (:func:`seactl.loop_model`) and the
-    responses' metrics."""
+def response_results(resp: dict[str, Any]) -> dict[str, Any]:
+    """The step's and impulse's metrics for the results panel."""
     from .._results import json_value
 
-    dm = sc.loop_model("sea", d.actuator).delay_margins(d.sea)
     sm, im = resp["step_metrics"], resp["impulse_metrics"]
     return {
-        "stiffness_delay_margin_ms": json_value(dm.stiffness_s * 1e3),
-        "damping_delay_margin_ms": json_value(dm.damping_s * 1e3),
         "step_rise_ms": json_value(_ms(sm.rise_time_s) or math.nan),
         "step_overshoot_pct": json_value(sm.overshoot_pct),
         "step_settling_ms": json_value(_ms(sm.settling_time_s) or math.nan),
         "impulse_peak_deg": json_value(np.degrees(im.peak_deviation)),
         "impulse_recovery_ms": json_value(_ms(im.recovery_time_s) or math.nan),
     }
+
+
+def loop_delay_results(d: sc.Design) -> dict[str, Any]:
+    """Delay margins of the stiffness and damping loops alone (:func:`seactl.loop_model`,
+    the diagram with one tap per loop)."""
+    from .._results import json_value
+
+    dm = sc.loop_model("sea", d.actuator).delay_margins(d.sea)
+    return {"stiffness_delay_margin_ms": json_value(dm.stiffness_s * 1e3),
+            "damping_delay_margin_ms": json_value(dm.damping_s * 1e3)}
 
 
 def _f(x: Any, fmt: str = ".3g", unit: str = "") -> str:
@@ -392,44 +399,55 @@ def verdict(r: dict[str, Any], bands: np.ndarray) -> str:
     return " ".join(words)
 
 
-def fast_views(c: Controls) -> dict[str, Any]:
-    """First phase (a few ms): margins, Bode, Nyquist, impedance, first results.
+def fast_views(c: Controls, acc: dict[str, Any] | None = None) -> dict[str, Any]:
+    """Stage 1 (a few ms): margins, Bode, Nyquist, impedance, first results.
 
     Raises
     ------
     SeactlError
         A value outside its range, or no feasible gain set (the message says which).
     """
-    t0 = time.perf_counter()
     d = c.design()
     loop = d.margins()
     out: dict[str, Any] = {"design": d, **loop_views(d), **impedance_views(d)}
     out["bands_array"] = np.column_stack([out["bands"]["left"], out["bands"]["right"]])
     out["results"] = margin_results(d, loop, out["bands_array"])
     out["exports"] = exports(c, out["results"])
-    out["compute_ms"] = (time.perf_counter() - t0) * 1e3
     return out
 
 
-def slow_views(c: Controls, fast: dict[str, Any]) -> dict[str, Any]:
-    """Second phase: responses, per-loop delay margins, the maps (cached), full results."""
-    t0 = time.perf_counter()
-    d = fast["design"]
-    resp = response_views(d, c)
-    r = {**fast["results"], **response_results(d, resp)}
-    r["verdict"] = verdict(r, fast["bands_array"])
-    out = {"step": resp["step"], "impulse": resp["impulse"], "results": r,
-           "pm_map": pm_map(c.loop_key()), "latency_map": latency_map(_latency_key(c)),
-           "exports": exports(c, r)}
-    out["compute_ms"] = fast["compute_ms"] + (time.perf_counter() - t0) * 1e3
-    return out
+def _with_results(c: Controls, acc: dict[str, Any], extra: dict[str, Any]) -> dict[str, Any]:
+    r = {**acc["results"], **extra}
+    r["verdict"] = verdict(r, acc["bands_array"])
+    return {"results": r, "exports": exports(c, r)}
+
+
+def response_stage(c: Controls, acc: dict[str, Any]) -> dict[str, Any]:
+    """Stage 2: step and impulse responses and their metrics."""
+    resp = response_views(acc["design"], c)
+    return {"step": resp["step"], "impulse": resp["impulse"],
+            **_with_results(c, acc, response_results(resp))}
+
+
+def map_stage(c: Controls, acc: dict[str, Any]) -> dict[str, Any]:
+    """Stage 3: per-loop delay margins and the two maps (cached)."""
+    return {"pm_map": pm_map(c.loop_key()), "latency_map": latency_map(_latency_key(c)),
+            **_with_results(c, acc, loop_delay_results(acc["design"]))}
+
+
+STAGES = (fast_views, response_stage, map_stage)
+"""The page updates in these steps, each pushed as soon as it is computed."""
 
 
 def views(c: Controls) -> dict[str, Any]:
-    """Everything the page shows for the controls ``c`` (the callbacks' pure core):
-    :func:`fast_views` then :func:`slow_views`."""
-    fast = fast_views(c)
-    return {**fast, **slow_views(c, fast)}
+    """Everything the page shows for the controls ``c`` (the callbacks' pure core): the
+    :data:`STAGES` in order, merged."""
+    t0 = time.perf_counter()
+    acc: dict[str, Any] = {}
+    for stage in STAGES:
+        acc.update(stage(c, acc))
+    acc["compute_ms"] = (time.perf_counter() - t0) * 1e3
+    return acc
 
 
 def safe(func: Any, *args: Any) -> tuple[dict[str, Any] | None, str | None]:
