@@ -164,6 +164,17 @@ def test_explore_refuses_bad_addresses(args, needle, capsys):
     assert needle in err and len(err.splitlines()) == 1 and err.startswith("error:")
 
 
+def test_loopback_addresses_and_allow_remote():
+    """Oracle: the loopback range 127.0.0.0/8 and ::1 (RFC 1122, RFC 4291)."""
+    from seactl.commands.explore import check_address
+    from seactl.explore.server import is_loopback, url
+
+    assert all(map(is_loopback, ("127.0.0.1", "127.3.2.1", "::1", "[::1]", "LOCALHOST")))
+    assert not any(map(is_loopback, ("0.0.0.0", "::", "10.0.0.1", "example.org", "")))
+    check_address("0.0.0.0", 8000, allow_remote=True)  # allowed, only with the flag
+    assert url("::1", 5006) == "http://[::1]:5006/"
+
+
 # ------------------------------------------------------------------ real browser
 CHROMIUM = next((p for p in ("/usr/bin/chromium", "/usr/bin/chromium-browser")
                  if os.access(p, os.X_OK)), None)
