@@ -42,15 +42,15 @@ from __future__ import annotations
 
 import math
 import tomllib
-from dataclasses import asdict, dataclass, field, fields, replace
+from dataclasses import dataclass, field, fields, replace
 from importlib.resources import files
 from pathlib import Path
-from typing import Any
+from typing import Annotated, Any
 
 import numpy as np
-from pydantic import BaseModel, ConfigDict, Field
+from pydantic import Field
 
-from ._params import read_toml, validate
+from ._params import check, nonnegative, positive, read_toml, schema_of, validate
 from .errors import InputError
 
 ARCHS = ("cosc", "dosc")
@@ -58,61 +58,6 @@ ARCHS = ("cosc", "dosc")
 # TOML table -> prefix of the flat field names.
 _TABLES = {"body": "", "drivetrain": "", "sensing": "", "timing": "",
            "criterion": "criterion_", "tuning": "", "circle": "circle_"}
-
-_POS = dict(gt=0, allow_inf_nan=False)
-_NONNEG = dict(ge=0, allow_inf_nan=False)
-
-
-class _MobileBaseSchema(BaseModel):
-    """Validation schema of :class:`MobileBaseParams` (flat; the TOML groups it in tables)."""
-
-    model_config = ConfigDict(extra="forbid", frozen=True)
-
-    name: str = "custom"
-    base_mass: float = Field(description="chassis mass [kg]", **_POS)
-    base_yaw_inertia: float = Field(description="chassis yaw inertia [kg m^2]", **_POS)
-    wheel_mass: float = Field(description="mass of one wheel [kg]", **_NONNEG)
-    wheel_radius: float = Field(description="wheel radius [m]", **_POS)
-    wheel_distance: float = Field(description="wheel centre to base centre [m]", **_POS)
-    wheel_angles_deg: tuple[float, float, float] = Field(description="wheel positions [deg]")
-    wheel_spin_inertia: float = Field(description="wheel inertia about its axle [kg m^2]",
-                                      **_NONNEG)
-    wheel_yaw_inertia: float = Field(description="wheel inertia about the vertical [kg m^2]",
-                                     **_NONNEG)
-    gear_ratio: float = Field(description="motor-to-wheel reduction [-]", **_POS)
-    rotor_inertia: float = Field(description="rotor inertia, motor side [kg m^2]", **_POS)
-    viscous_friction: float = Field(description="wheel side [N m s/rad]", **_NONNEG)
-    coulomb_friction: float = Field(description="wheel side [N m]", **_NONNEG)
-    friction_velocity: float = Field(description="tanh smoothing [rad/s]", **_POS)
-    stiffness: float = Field(description="drivetrain stiffness, wheel side [N m/rad]", **_POS)
-    compliance_damping: float = Field(description="[N m s/rad]", **_NONNEG)
-    torque_limit: float = Field(description="wheel torque limit [N m]", **_POS)
-    encoder_counts: int = Field(description="motor encoder counts/rev (0 = ideal)", ge=0)
-    velocity_filter_hz: float = Field(description="velocity filter cut-off [Hz], 0 = none",
-                                      **_NONNEG)
-    embedded_period: float = Field(description="embedded servo period [s]", **_POS)
-    central_period: float = Field(description="central servo period [s]", **_POS)
-    round_trip: float = Field(description="central round-trip latency [s]", **_NONNEG)
-    extra_delay: float = Field(description="extra buffered central delay [s]", **_NONNEG)
-    downlink_fraction: float = Field(description="share of the round trip on the command "
-                                     "path [-]", ge=0, le=1)
-    substeps: int = Field(description="physics steps per embedded period", ge=1, le=50)
-    criterion_duration: float = Field(description="criterion test run [s]", **_POS)
-    criterion_window: float = Field(description="final window measured [s]", **_POS)
-    criterion_speed: float = Field(description="reference speed in x and y [m/s]", **_POS)
-    criterion_oscillation_threshold: float = Field(description="[m/s]", **_POS)
-    criterion_vibration_threshold: float = Field(description="[N m]", **_POS)
-    damping_min: float = Field(description="[N s/(m kg)]", **_POS)
-    damping_max: float = Field(description="[N s/(m kg)]", **_POS)
-    kx_min: float = Field(description="[N/(m kg)]", **_POS)
-    kx_max: float = Field(description="[N/(m kg)]", **_POS)
-    grid_points: int = Field(description="coarse search candidates", ge=3, le=400)
-    refine_points: int = Field(description="refining search candidates", ge=0, le=400)
-    safety_factor: float = Field(description="fraction of each limit used [-]", gt=0, le=1)
-    circle_radius: float = Field(description="[m]", **_POS)
-    circle_period: float = Field(description="[s]", **_POS)
-    circle_duration: float = Field(description="[s]", **_POS)
-    circle_ramp: float = Field(description="[s]", **_NONNEG)
 
 
 @dataclass(frozen=True)
@@ -124,50 +69,54 @@ class MobileBaseParams:
     task inertia, delays in samples) are properties.
     """
 
-    base_mass: float
-    base_yaw_inertia: float
-    wheel_mass: float
-    wheel_radius: float
-    wheel_distance: float
-    wheel_angles_deg: tuple[float, float, float]
-    wheel_spin_inertia: float
-    wheel_yaw_inertia: float
-    gear_ratio: float
-    rotor_inertia: float
-    viscous_friction: float
-    coulomb_friction: float
-    friction_velocity: float
-    stiffness: float
-    compliance_damping: float
-    torque_limit: float
-    encoder_counts: int
-    velocity_filter_hz: float
-    embedded_period: float
-    central_period: float
-    round_trip: float
-    extra_delay: float
-    downlink_fraction: float
-    substeps: int
-    criterion_duration: float
-    criterion_window: float
-    criterion_speed: float
-    criterion_oscillation_threshold: float
-    criterion_vibration_threshold: float
-    damping_min: float
-    damping_max: float
-    kx_min: float
-    kx_max: float
-    grid_points: int
-    refine_points: int
-    safety_factor: float
-    circle_radius: float
-    circle_period: float
-    circle_duration: float
-    circle_ramp: float
+    base_mass: Annotated[float, positive("chassis mass [kg]")]
+    base_yaw_inertia: Annotated[float, positive("chassis yaw inertia [kg m^2]")]
+    wheel_mass: Annotated[float, nonnegative("mass of one wheel [kg]")]
+    wheel_radius: Annotated[float, positive("wheel radius [m]")]
+    wheel_distance: Annotated[float, positive("wheel centre to base centre [m]")]
+    wheel_angles_deg: Annotated[
+        tuple[float, float, float], Field(description="wheel positions [deg]")]
+    wheel_spin_inertia: Annotated[float, nonnegative("wheel inertia about its axle [kg m^2]")]
+    wheel_yaw_inertia: Annotated[
+        float, nonnegative("wheel inertia about the vertical [kg m^2]")]
+    gear_ratio: Annotated[float, positive("motor-to-wheel reduction [-]")]
+    rotor_inertia: Annotated[float, positive("rotor inertia, motor side [kg m^2]")]
+    viscous_friction: Annotated[float, nonnegative("wheel side [N m s/rad]")]
+    coulomb_friction: Annotated[float, nonnegative("wheel side [N m]")]
+    friction_velocity: Annotated[float, positive("tanh smoothing [rad/s]")]
+    stiffness: Annotated[float, positive("drivetrain stiffness, wheel side [N m/rad]")]
+    compliance_damping: Annotated[float, nonnegative("[N m s/rad]")]
+    torque_limit: Annotated[float, positive("wheel torque limit [N m]")]
+    encoder_counts: Annotated[
+        int, Field(description="motor encoder counts/rev (0 = ideal)", ge=0)]
+    velocity_filter_hz: Annotated[float, nonnegative("velocity filter cut-off [Hz], 0 = none")]
+    embedded_period: Annotated[float, positive("embedded servo period [s]")]
+    central_period: Annotated[float, positive("central servo period [s]")]
+    round_trip: Annotated[float, nonnegative("central round-trip latency [s]")]
+    extra_delay: Annotated[float, nonnegative("extra buffered central delay [s]")]
+    downlink_fraction: Annotated[
+        float, nonnegative("share of the round trip on the command path [-]", le=1)]
+    substeps: Annotated[int, Field(description="physics steps per embedded period", ge=1, le=50)]
+    criterion_duration: Annotated[float, positive("criterion test run [s]")]
+    criterion_window: Annotated[float, positive("final window measured [s]")]
+    criterion_speed: Annotated[float, positive("reference speed in x and y [m/s]")]
+    criterion_oscillation_threshold: Annotated[float, positive("[m/s]")]
+    criterion_vibration_threshold: Annotated[float, positive("[N m]")]
+    damping_min: Annotated[float, positive("[N s/(m kg)]")]
+    damping_max: Annotated[float, positive("[N s/(m kg)]")]
+    kx_min: Annotated[float, positive("[N/(m kg)]")]
+    kx_max: Annotated[float, positive("[N/(m kg)]")]
+    grid_points: Annotated[int, Field(description="coarse search candidates", ge=3, le=400)]
+    refine_points: Annotated[int, Field(description="refining search candidates", ge=0, le=400)]
+    safety_factor: Annotated[float, positive("fraction of each limit used [-]", le=1)]
+    circle_radius: Annotated[float, positive("[m]")]
+    circle_period: Annotated[float, positive("[s]")]
+    circle_duration: Annotated[float, positive("[s]")]
+    circle_ramp: Annotated[float, nonnegative("[s]")]
     name: str = "custom"
 
     def __post_init__(self) -> None:
-        validate(_MobileBaseSchema, asdict(self))
+        check(self)
         object.__setattr__(self, "wheel_angles_deg", tuple(float(a) for a in
                                                            self.wheel_angles_deg))
         a = np.sort(np.mod(self.wheel_angles_deg, 360.0))
@@ -277,7 +226,7 @@ def load_base(spec: str | Path = "trikey") -> MobileBaseParams:
                                       .read_text()))
         data["name"] = path.stem
         data.update(user)
-    model = validate(_MobileBaseSchema, data)
+    model = validate(schema_of(MobileBaseParams), data)
     return MobileBaseParams(**{f.name: getattr(model, f.name) for f in fields(MobileBaseParams)})
 
 
@@ -475,99 +424,133 @@ def simulate(p: MobileBaseParams, kx, dx, bq, *, reference=None, duration: float
     B = kx.size
     Te = p.embedded_period
     n = int(round(duration / Te))
-    dt = Te / p.substeps
     ref = reference or _hold
     t = np.arange(n) * Te
     x_d, v_d, _ = (np.asarray(r, float) for r in ref(t))
-
-    Jb = body_jacobian(p)
-    Jb_inv = np.linalg.inv(Jb)
-    Lam = task_inertia(p)                       # constant for the kiwi layout
-    M = p.body_mass_matrix + p.wheel_spin_inertia * (Jb.T @ Jb)
-    M_inv_diag = 1.0 / np.diag(M)               # M is diagonal for the 120-degree layout
-    alpha = p.alpha
-    r, L = p.wheel_radius, p.wheel_distance
-    kd, cd = p.stiffness, p.compliance_damping
-    Ir = p.reflected_rotor_inertia
-    I_sp = p.wheel_spin_inertia
-    bv, tc, vf = p.viscous_friction, p.coulomb_friction, p.friction_velocity
-    tau_max = p.torque_limit
+    central = _CentralProcess(p, kx, dx, ref, n)
+    body = _Body.at_rest(p, B, push)
     res = p.encoder_resolution
-    m_c = p.central_every
-    Tc = m_c * Te
-    d_cmd, d_meas = p.command_delay_samples, p.measurement_delay_samples
-    # The reference is a known trajectory: the central process compares the odometry with
-    # the reference at the (time-stamped) measurement time and previews the feedforward
-    # (acceleration, wheel speeds) for the time the command reaches the wheels.  Row j of
-    # the extended reference is time (j - d_meas) Te, clamped at 0.
-    t_ext = np.maximum(np.arange(-d_meas, n + d_cmd) * Te, 0.0)
-    xr, vr, ar = (np.asarray(r, float) for r in ref(t_ext))
+    m_c, d_cmd, d_meas = p.central_every, p.command_delay_samples, p.measurement_delay_samples
     fv = p.velocity_filter_hz
     a_e = 1.0 if fv == 0 else 1.0 - math.exp(-2 * math.pi * fv * Te)
-    a_c = 1.0 if fv == 0 else 1.0 - math.exp(-2 * math.pi * fv * Tc)
-    kvec = kx[:, None] * np.array([1.0, 1.0, 1.0])
-    dvec = dx[:, None] * np.array([1.0, 1.0, 1.0])
     bqc = bq[:, None]
-
-    # State: pose X, world velocity V, wheel angles PHI, wheel-side motor angles QM, rates WM.
-    X = np.zeros((B, 3))
-    V = np.zeros((B, 3))
-    V[:, :2] = push
-    V[:, 2] = 3.0 * push
-    PHI = np.zeros((B, 3))
-    QM = np.zeros((B, 3))
-    WM = (V @ Jb.T).copy()                     # drivetrain moving with the wheels
-    # Processors.
     meas = np.zeros((d_meas + 1, B, 3))        # ring of encoder readings (wheel side)
     cmd = np.zeros((d_cmd + 1, B, 6))          # ring of central outputs (tau, qdot_d)
     held = np.zeros((B, 6))
-    pose_hat = np.zeros((B, 3))
-    prev_c = np.zeros((B, 3))
-    vel_c = np.zeros((B, 3))
     prev_e = np.zeros((B, 3))
     vel_e = np.zeros((B, 3))
-    # Records.
-    xs = np.empty((n, B, 3))
-    vs = np.empty((n, B, 3))
-    taus = np.empty((n, B, 3))
+    xs, vs, taus = np.empty((n, B, 3)), np.empty((n, B, 3)), np.empty((n, B, 3))
     es = np.empty((n, B)) if record_energy else None
     sat = np.zeros(B)
-
     for k in range(n):
-        xs[k] = X
-        vs[k] = V
-        q = QM if res == 0 else np.floor(QM / res + 0.5) * res
+        xs[k], vs[k] = body.X, body.V
+        q = body.QM if res == 0 else np.floor(body.QM / res + 0.5) * res
         if record_energy:
-            es[k] = kinetic_energy(p, V, _wheel_rates(V, X, alpha, r, L), WM) \
-                + 0.5 * kd * np.sum((QM - PHI) ** 2, axis=-1)
+            es[k] = body.energy(p)
         meas[k % (d_meas + 1)] = q
         if k % m_c == 0:
             # copy: the ring slot is overwritten later
             qc = meas[(k - d_meas) % (d_meas + 1)].copy() if k >= d_meas else np.zeros((B, 3))
-            dq = qc - prev_c
-            prev_c = qc
-            body = dq @ Jb_inv.T                # body-frame displacement since last sample
-            pose_hat = pose_hat + _rot(body, pose_hat[:, 2] + 0.5 * body[:, 2])
-            vel_c += a_c * (dq / Tc - vel_c)
-            v_hat = _rot(vel_c @ Jb_inv.T, pose_hat[:, 2])
-            ka = k + d_meas + d_cmd                 # row of the arrival time
-            err = xr[k] - pose_hat
-            err[:, 2] = np.angle(np.exp(1j * err[:, 2]))
-            acc = ar[ka] + kvec * err + dvec * (vr[k] - v_hat)
-            F = acc @ Lam.T
-            th = pose_hat[:, 2]
-            held = np.concatenate([_rot(F, -th) @ Jb_inv,                 # J^-T F
-                                   _rot(np.broadcast_to(vr[ka], (B, 3)), -th) @ Jb.T],
-                                  axis=1)
+            held = central.command(k, qc)
         cmd[k % (d_cmd + 1)] = held
         c = cmd[(k - d_cmd) % (d_cmd + 1)] if k >= d_cmd else np.zeros((B, 6))
+        # embedded process: differenced, filtered velocity; joint damping; saturation
         vel_e += a_e * ((q - prev_e) / Te - vel_e) if k > 0 else 0.0
         prev_e = q
         tau = c[:, :3] + bqc * (c[:, 3:] - vel_e)
-        over = np.abs(tau) > tau_max
-        sat += over.sum(axis=1)
-        tau = np.clip(tau, -tau_max, tau_max)
+        sat += (np.abs(tau) > p.torque_limit).sum(axis=1)
+        tau = np.clip(tau, -p.torque_limit, p.torque_limit)
         taus[k] = tau
+        body.integrate(p, tau)
+    if not np.all(np.isfinite(xs)):
+        raise FloatingPointError("base simulation diverged to non-finite values")
+    return SimResult(t, xs, vs, x_d, v_d, taus, sat / (3 * n), es)
+
+
+class _CentralProcess:
+    """Odometry and the operational space law on the central process.
+
+    The reference is a known trajectory: the central process compares the odometry with
+    the reference at the (time-stamped) measurement time and previews the feedforward
+    (acceleration, wheel speeds) for the time the command reaches the wheels.  Row j of
+    the extended reference is time (j - d_meas) Te, clamped at 0.
+    """
+
+    def __init__(self, p: MobileBaseParams, kx: np.ndarray, dx: np.ndarray, ref, n: int):
+        B = kx.size
+        self.Jb = body_jacobian(p)
+        self.Jb_inv = np.linalg.inv(self.Jb)
+        self.Lam = task_inertia(p)                  # constant for the kiwi layout
+        self.d_meas, self.d_cmd = p.measurement_delay_samples, p.command_delay_samples
+        self.Tc = p.central_every * p.embedded_period
+        t_ext = np.maximum(np.arange(-self.d_meas, n + self.d_cmd) * p.embedded_period, 0.0)
+        self.xr, self.vr, self.ar = (np.asarray(r, float) for r in ref(t_ext))
+        fv = p.velocity_filter_hz
+        self.a_c = 1.0 if fv == 0 else 1.0 - math.exp(-2 * math.pi * fv * self.Tc)
+        self.kvec = kx[:, None] * np.array([1.0, 1.0, 1.0])
+        self.dvec = dx[:, None] * np.array([1.0, 1.0, 1.0])
+        self.pose_hat = np.zeros((B, 3))
+        self.prev_c = np.zeros((B, 3))
+        self.vel_c = np.zeros((B, 3))
+
+    def command(self, k: int, qc: np.ndarray) -> np.ndarray:
+        """Wheel torques ``J^-T F`` and desired wheel speeds (B, 6) from the (delayed)
+        encoder reading ``qc`` of sample ``k``."""
+        B = qc.shape[0]
+        dq = qc - self.prev_c
+        self.prev_c = qc
+        body = dq @ self.Jb_inv.T                   # body-frame displacement since last sample
+        self.pose_hat = self.pose_hat + _rot(body, self.pose_hat[:, 2] + 0.5 * body[:, 2])
+        self.vel_c += self.a_c * (dq / self.Tc - self.vel_c)
+        v_hat = _rot(self.vel_c @ self.Jb_inv.T, self.pose_hat[:, 2])
+        ka = k + self.d_meas + self.d_cmd           # row of the arrival time
+        err = self.xr[k] - self.pose_hat
+        err[:, 2] = np.angle(np.exp(1j * err[:, 2]))
+        acc = self.ar[ka] + self.kvec * err + self.dvec * (self.vr[k] - v_hat)
+        F = acc @ self.Lam.T
+        th = self.pose_hat[:, 2]
+        return np.concatenate([_rot(F, -th) @ self.Jb_inv,                 # J^-T F
+                               _rot(np.broadcast_to(self.vr[ka], (B, 3)), -th) @ self.Jb.T],
+                              axis=1)
+
+
+@dataclass
+class _Body:
+    """Pose X, world velocity V, wheel angles PHI, wheel-side motor angles QM, rates WM."""
+
+    X: np.ndarray
+    V: np.ndarray
+    PHI: np.ndarray
+    QM: np.ndarray
+    WM: np.ndarray
+    M_inv_diag: np.ndarray                      # M is diagonal for the 120-degree layout
+
+    @classmethod
+    def at_rest(cls, p: MobileBaseParams, B: int, push: float) -> _Body:
+        V = np.zeros((B, 3))
+        V[:, :2] = push
+        V[:, 2] = 3.0 * push
+        Jb = body_jacobian(p)
+        WM = (V @ Jb.T).copy()                     # drivetrain moving with the wheels
+        M_inv_diag = 1.0 / np.diag(p.body_mass_matrix + p.wheel_spin_inertia * (Jb.T @ Jb))
+        return cls(np.zeros((B, 3)), V, np.zeros((B, 3)), np.zeros((B, 3)), WM, M_inv_diag)
+
+    def energy(self, p: MobileBaseParams) -> np.ndarray:
+        """Kinetic plus compliance energy [J], (B,)."""
+        return kinetic_energy(p, self.V, _wheel_rates(self.V, self.X, p.alpha, p.wheel_radius,
+                                                      p.wheel_distance), self.WM) \
+            + 0.5 * p.stiffness * np.sum((self.QM - self.PHI) ** 2, axis=-1)
+
+    def integrate(self, p: MobileBaseParams, tau: np.ndarray) -> None:
+        """One embedded period under wheel torques ``tau``: ``substeps`` semi-implicit
+        Euler steps of the chassis, the wheels and the compliant drivetrains."""
+        M_inv_diag = self.M_inv_diag
+        alpha, r, L = p.alpha, p.wheel_radius, p.wheel_distance
+        kd, cd, Ir, I_sp = (p.stiffness, p.compliance_damping, p.reflected_rotor_inertia,
+                            p.wheel_spin_inertia)
+        bv, tc, vf = p.viscous_friction, p.coulomb_friction, p.friction_velocity
+        dt = p.embedded_period / p.substeps
+        X, V, PHI, QM, WM = self.X, self.V, self.PHI, self.QM, self.WM
         for _ in range(p.substeps):
             th = X[:, 2:3] + alpha
             s, co = np.sin(th), np.cos(th)
@@ -583,9 +566,7 @@ def simulate(p: MobileBaseParams, kx, dx, bq, *, reference=None, duration: float
             X = X + dt * V
             PHI = PHI + dt * (-s * V[:, 0:1] + co * V[:, 1:2] + L * V[:, 2:3]) / r
             QM = QM + dt * WM
-    if not np.all(np.isfinite(xs)):
-        raise FloatingPointError("base simulation diverged to non-finite values")
-    return SimResult(t, xs, vs, x_d, v_d, taus, sat / (3 * n), es)
+        self.X, self.V, self.PHI, self.QM, self.WM = X, V, PHI, QM, WM
 
 
 def _wheel_rates(V, X, alpha, r, L):
