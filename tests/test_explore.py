@@ -12,6 +12,7 @@ from __future__ import annotations
 import base64
 import json
 import os
+import select
 import shlex
 import signal
 import socket
@@ -164,6 +165,18 @@ def test_explore_refuses_bad_addresses(args, needle, capsys):
     assert needle in err and len(err.splitlines()) == 1 and err.startswith("error:")
 
 
+def test_explore_refuses_a_port_in_use():
+    with socket.socket() as busy:
+        busy.bind(("127.0.0.1", 0))
+        busy.listen()
+        port = busy.getsockname()[1]
+        r = subprocess.run([sys.executable, "-c", "from seactl.cli import run; run()",
+                            "explore", "--port", str(port), "--no-browser"],
+                           capture_output=True, text=True, timeout=300)
+    assert r.returncode == 2 and r.stdout == ""
+    assert r.stderr.startswith(f"error: invalid --port = {port}: must be a free port")
+
+
 def test_loopback_addresses_and_allow_remote():
     """Oracle: the loopback range 127.0.0.0/8 and ::1 (RFC 1122, RFC 4291)."""
     from seactl.commands.explore import check_address
@@ -205,8 +218,9 @@ def server():
          str(port), "--no-browser"], stdout=subprocess.PIPE, stderr=subprocess.STDOUT,
         text=True, start_new_session=True)
     try:
-        line = proc.stdout.readline()  # printed once the server listens
-        assert "serving on" in line, line + proc.stdout.read()
+        ready, _, _ = select.select([proc.stdout], [], [], 180)  # warm-up, then it listens
+        line = proc.stdout.readline() if ready else ""
+        assert "serving on" in line, f"server did not start: {line!r}"
         yield f"http://127.0.0.1:{port}/", proc
     finally:
         for sig in (signal.SIGTERM, signal.SIGKILL):

@@ -29,7 +29,7 @@ def url(host: str, port: int) -> str:
 
 def serve(host: str, port: int, *, open_browser: bool = True,
           announce: Callable[[str], None] = print) -> None:
-    """Warm the caches, then serve until interrupted (Ctrl+C or SIGTERM).
+    """Bind, warm the caches, then serve until interrupted (Ctrl+C or SIGTERM).
 
     Websocket connections are accepted only from pages served under ``host:port``
     (and ``localhost:port`` on a loopback address), Bokeh's cross-origin check.
@@ -41,7 +41,6 @@ def serve(host: str, port: int, *, open_browser: bool = True,
     from .app import make_document
     from .model import Controls, views
 
-    views(Controls())  # first evaluation derives and compiles the loop (about 1 s)
     origins = [f"{host}:{port}"] + ([f"localhost:{port}", f"127.0.0.1:{port}"]
                                     if is_loopback(host) else [])
     try:
@@ -49,6 +48,7 @@ def serve(host: str, port: int, *, open_browser: bool = True,
                         port=port, allow_websocket_origin=origins, num_procs=1)
     except OSError as exc:
         raise InputError("--port", port, f"a free port on {host} ({exc.strerror})") from None
+    views(Controls())  # the first evaluation loads the derived loop (about 1 s), not a user
     server.start()
     announce(f"seactl explore: serving on {url(host, port)} (Ctrl+C stops)")
     if open_browser:
