@@ -144,13 +144,48 @@ def test_callbacks_update_the_page_and_survive_a_bad_upload():
     assert f">{float(expect.phase_margin_deg):.2f}<" in ex.results.text
     ex.filters.active = [1]  # no velocity filter
     assert ex.sliders["f_qd_hz"].disabled and "--f-qd" not in ex.command.text
-    ex.load_upload("broken.toml", base64.b64encode(b"joint_inertia = -1").decode())
-    assert ex.upload_msg.text.startswith("error:") and "Traceback" not in ex.upload_msg.text
+    bad = README_TOML.replace(b"0.014", b"-1")
+    ex.load_upload("broken.toml", base64.b64encode(bad).decode())
+    assert ">error: invalid joint_inertia = -1" in ex.upload_msg.text
+    assert "Traceback" not in ex.upload_msg.text
     ex.load_upload("broken.toml", "not base64!")
-    assert ex.upload_msg.text.startswith("error:")
+    assert ">error: " in ex.upload_msg.text
     ex.load_upload("my-sea.toml", base64.b64encode(README_TOML).decode())
     assert ex.actuator.value == "my-sea" and "my-sea.toml" in ex.command.text
     assert len(ex.last_ms) >= 4 and max(m[-1] for m in ex.last_ms) < 5000  # see README
+
+
+class _QueueDoc:
+    """A document stand-in whose next-tick callbacks run only when the test says so."""
+
+    def __init__(self):
+        self.queue = []
+
+    def add_next_tick_callback(self, callback):
+        self.queue.append(callback)
+
+    def run(self):
+        while self.queue:
+            self.queue.pop(0)()
+
+
+def test_a_dragged_slider_is_computed_once_for_its_latest_value():
+    """Changes arriving before the update runs are merged; stale stages are dropped."""
+    from seactl.explore.app import Explorer
+
+    doc = _QueueDoc()
+    ex = Explorer(doc)
+    doc.run()
+    ex.last_ms.clear()
+    for fn in (15.0, 15.5, 16.0, 16.5):
+        ex.sliders["fn_hz"].value = fn
+    assert len(doc.queue) == 1  # one update scheduled for four changes
+    doc.queue.pop(0)()  # stage 1 for f_n = 16.5; stages 2 and 3 are now queued
+    ex.sliders["fn_hz"].value = 17.0  # a newer change supersedes them
+    doc.run()
+    assert len(ex.last_ms) == 1 and ">17<" in ex.results.text
+    expect = sc.design(17.0, delays_ms=(0.5, 2, 0.5), filters_hz=(50, 100)).margins()
+    assert f">{float(expect.phase_margin_deg):.2f}<" in ex.results.text
 
 
 # ------------------------------------------------------------------ the command
@@ -313,20 +348,35 @@ def _click(driver, label: str) -> None:
                           "b => b.textContent.trim() === arguments[0]).click();", label)
 
 
-def test_browser_export_and_copy_buttons(server, browser, tmp_path):
-    """The JSON export downloads the displayed design; the copy button hands the
-    ``seactl gains`` line to the clipboard (stubbed: headless Chromium has none)."""
+def test_browser_upload_export_and_copy(server, browser, tmp_path):
+    """A bad upload shows the library's message; a good one changes the design to the
+    one :func:`seactl.design` computes for that file (oracle); the JSON export downloads
+    what is shown; the copy button hands the command lines to the clipboard (stubbed:
+    headless Chromium has none)."""
     browser.get(server[0])
-    shown = _wait(lambda: _text(browser, "pm-value"))
+    _wait(lambda: "maps in" in (_text(browser, "status-value") or ""))
+    file_input = browser.execute_script(FIND_JS + "return deep(document, "
+                                        "'input[type=file]', [])[0];")
+    (tmp_path / "bad.toml").write_bytes(README_TOML.replace(b"0.014", b"-0.014"))
+    file_input.send_keys(str(tmp_path / "bad.toml"))
+    msg = _wait(lambda: _text(browser, "upload-msg"))
+    assert msg.startswith("error: invalid joint_inertia = -0.014: must be > 0")
+    (tmp_path / "my-sea.toml").write_bytes(README_TOML.replace(b"218.75", b"400.0"))
+    file_input.send_keys(str(tmp_path / "my-sea.toml"))  # a stiffer spring than the UT-SEA
+    _wait(lambda: _text(browser, "upload-msg") == "loaded 'my-sea'")
+    expect = sc.design(14, actuator=tmp_path / "my-sea.toml", delays_ms=(0.5, 2, 0.5),
+                       filters_hz=(50, 100)).margins()
+    shown = _wait(lambda: (t := _text(browser, "pm-value")) != "43.26" and t)
+    assert shown == f"{float(expect.phase_margin_deg):.2f}"
     _wait(lambda: "maps in" in (_text(browser, "status-value") or ""))
     _click(browser, "export JSON")
     path = tmp_path / "seactl-design.json"
     _wait(lambda: path.is_file() and path.stat().st_size > 0)
     doc = json.loads(path.read_text())
     assert f"{doc['results']['phase_margin_deg']:.2f}" == shown
-    assert doc["design"]["fn_hz"] == 14.0 and doc["actuator"]["name"] == "ut-sea"
+    assert doc["design"]["fn_hz"] == 14.0 and doc["actuator"]["name"] == "my-sea"
     browser.execute_script("window.__copied = null; navigator.clipboard.writeText = "
                            "t => { window.__copied = t; return Promise.resolve(); };")
     _click(browser, "copy command line")
     copied = _wait(lambda: browser.execute_script("return window.__copied;"))
-    assert copied.splitlines()[0] == model.command_line(TABLE_I).splitlines()[0]
+    assert copied.splitlines()[0].startswith("seactl gains --actuator my-sea.toml --fn 14 ")

@@ -15,6 +15,7 @@ import time
 from typing import Any
 
 import numpy as np
+from bokeh.core.property.descriptors import UnsetValueError
 from bokeh.layouts import column, gridplot, row
 from bokeh.models import (
     Button,
@@ -134,7 +135,7 @@ class Explorer:
                                                     "command": [""]})
         self._widgets(c)
         self._figures()
-        self.update()
+        self.update(sync=True)  # the first page has every view (no empty data sources)
 
     # ------------------------------------------------------------ widgets
     def _widgets(self, c: Controls) -> None:
@@ -202,7 +203,7 @@ class Explorer:
             self.pending = True
             self.doc.add_next_tick_callback(self.update)
 
-    def update(self) -> None:
+    def update(self, sync: bool = False) -> None:
         """Recompute the views from the current controls, stage by stage
         (:data:`~seactl.explore.model.STAGES`): the margins, Bode, Nyquist and impedance
         at once, the responses and the maps on the next ticks unless a newer change is
@@ -211,10 +212,10 @@ class Explorer:
         self.generation += 1
         c = self.controls()
         self._ranges(c)
-        self.run_stage(self.generation, c, 0, {}, time.perf_counter(), [])
+        self.run_stage(self.generation, c, 0, {}, time.perf_counter(), [], sync)
 
     def run_stage(self, generation: int, c: Controls, index: int, acc: dict[str, Any],
-                  t0: float, marks_ms: list[float]) -> None:
+                  t0: float, marks_ms: list[float], sync: bool = False) -> None:
         """Compute and show stage ``index``, then schedule the next one."""
         if generation != self.generation or (index and self.pending):
             return  # superseded by a newer change
@@ -228,8 +229,8 @@ class Explorer:
         marks_ms.append((time.perf_counter() - t0) * 1e3)
         if index + 1 < len(STAGES):
             step = functools.partial(self.run_stage, generation, c, index + 1, acc, t0,
-                                     marks_ms)
-            if self.doc is None:
+                                     marks_ms, sync)
+            if sync or self.doc is None:
                 step()
             else:
                 self.doc.add_next_tick_callback(step)
@@ -249,8 +250,23 @@ class Explorer:
             self.sliders[key].disabled = i not in self.filters.active
 
     def on_upload(self, attr: str, old: Any, new: Any) -> None:
-        """Bokeh's callback of the file input."""
-        self.load_upload(self.upload.filename, new)
+        """Bokeh's callback of the file input: the browser sends ``value`` and
+        ``filename`` in one message but they are applied one by one, so the file is read
+        on the next tick, when both are set."""
+        if self.doc is None:
+            self.read_upload()
+        else:
+            self.doc.add_next_tick_callback(self.read_upload)
+
+    def read_upload(self) -> None:
+        """Load what the file input holds."""
+        def prop(name: str) -> str:
+            try:
+                return str(getattr(self.upload, name) or "")
+            except UnsetValueError:
+                return ""
+
+        self.load_upload(prop("filename") or "uploaded.toml", prop("value"))
 
     def load_upload(self, filename: str, value_b64: str) -> None:
         """A TOML file was chosen: validate it; a bad file only shows a message."""
@@ -259,12 +275,14 @@ class Explorer:
             act, table = actuator_from_upload(filename, content)
             c = controls_from_table(self.controls(), act, table)
         except Exception as exc:  # noqa: BLE001 - any bad upload is a message, never a trace
-            self.upload_msg.text = f"error: {html.escape(str(exc) or type(exc).__name__)}"
+            message = html.escape(str(exc) or type(exc).__name__)
+            self.upload_msg.text = f"<span id='upload-msg'>error: {message}</span>"
             return
         name = act.name if act.name not in SEA_PRESETS else f"{act.name} (uploaded)"
         self.actuators[name] = act
-        self.upload_msg.text = f"loaded '{html.escape(name)}'" + (
-            " and its design" if table else "")
+        self.upload_msg.text = (f"<span id='upload-msg' style='color:black'>loaded "
+                                f"'{html.escape(name)}'"
+                                f"{' and its design' if table else ''}</span>")
         self.set_controls(c, name)
 
     def set_controls(self, c: Controls, actuator_name: str) -> None:
