@@ -128,7 +128,8 @@ FREQ_BYTES_PER_POINT = 640.0
 """Memory per design and frequency of an impedance evaluation (complex temporaries)."""
 
 
-def simulation_estimate(n_designs: int, steps: int, recorded: int) -> tuple[float, float]:
+def simulation_estimate(n_designs: float, steps: float, recorded: float
+                        ) -> tuple[float, float]:
     """(bytes, seconds) of a time-domain simulation of ``n_designs`` over ``steps``."""
     seconds = steps * (SIM_SECONDS_PER_STEP + SIM_SECONDS_PER_DESIGN_STEP * n_designs)
     return n_designs * recorded * SIM_BYTES_PER_SAMPLE, seconds
@@ -175,8 +176,8 @@ def check_simulation(n_designs: int, mode: str, rate_hz: float, t_end_s: float,
     if recorded < MIN_SAMPLES:
         raise InputError(t_end_name, t_end_s, f"long enough to record {MIN_SAMPLES} samples "
                          f"({need})")
-    n_bytes, seconds = simulation_estimate(n_designs, int(steps), int(recorded))
-    check_budget(f"simulating {n_designs:,} design(s) over {steps:,.0f} steps",
+    n_bytes, seconds = simulation_estimate(n_designs, steps, recorded)
+    check_budget(f"simulating {n_designs:,} design(s) over {steps:,.4g} steps",
                  n_bytes=n_bytes, seconds=seconds,
                  hint=hint + ("" if mode == "sampled" else " (the continuous mode steps at "
                               "min(0.1 ms, the smallest positive delay))"))
