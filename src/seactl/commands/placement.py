@@ -27,13 +27,13 @@ def _f_v(value: float | None) -> float | None:
     """``--f-v``: cut-off [Hz] > 0; ``inf`` or ``none`` means no filter."""
     if value is None or str(value).lower() in ("none", "inf"):
         return None
-    from .._validate import finite_array
+    from ..limits import check_range
 
     try:
         v = float(value)
     except ValueError:
         raise InputError("--f-v [Hz]", value, "a cut-off > 0 [Hz] or 'none'") from None
-    return float(finite_array("--f-v [Hz]", v, minimum=0.0, strict=True))
+    return check_range("--f-v [Hz]", v, "filter_hz")
 
 
 def load_model(spec: str, f_v: float | None = 50.0):
