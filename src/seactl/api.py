@@ -22,11 +22,9 @@ import numpy as np
 
 from ._results import ImpedanceResult, MarginsResult, ResponseResult
 from ._validate import finite_array
+from .axes import MAX_DELAY_MS
 from .errors import InputError
 from .loops import Gains, SEADesign, Timing
-
-MAX_DELAY_MS = 1000.0
-"""Largest delay :func:`design` accepts [ms]; larger values are almost surely a unit slip."""
 
 SUSPICIOUS_DELAY_MS = 1e-3
 """Non-zero delays below this [ms] (1 us) trigger a :class:`UnitWarning`."""

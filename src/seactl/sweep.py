@@ -54,51 +54,12 @@ from typing import Any
 import numpy as np
 
 from .actuators import SEAParams
+from .axes import ACTUATOR_AXES, ACTUATOR_FIELDS, AXES, SAMPLINGS
 from .errors import InputError, OutputError
 
 FORMAT = "seactl-sweep/1"
 
 
-@dataclass(frozen=True)
-class AxisInfo:
-    """A sweepable quantity: column name, CLI option, unit, default (``None``: from the
-    actuator) and the smallest valid value (exclusive when ``strict``)."""
-
-    name: str
-    option: str
-    unit: str
-    default: float | None
-    minimum: float = 0.0
-    strict: bool = True
-    description: str = ""
-
-
-AXES: dict[str, AxisInfo] = {a.name: a for a in (
-    AxisInfo("fn_hz", "--fn", "Hz", 14.0, description="natural frequency f_n"),
-    AxisInfo("gs", "--gs", "", 1.0, description="gain scale GS"),
-    AxisInfo("zeta1", "--zeta1", "", 1.0, description="damping ratio of pole pair 1"),
-    AxisInfo("zeta2", "--zeta2", "", 1.0, description="damping ratio of pole pair 2"),
-    AxisInfo("ratio", "--ratio", "", 1.0, description="w2 / w1"),
-    AxisInfo("t_tau_ms", "--t-tau", "ms", 0.0, strict=False, description="torque delay"),
-    AxisInfo("t_qs_ms", "--t-qs", "ms", 0.0, strict=False, description="stiffness delay"),
-    AxisInfo("t_qd_ms", "--t-qd", "ms", 0.0, strict=False, description="damping delay"),
-    AxisInfo("f_qd_hz", "--f-qd", "Hz", math.inf,
-             description="velocity filter cut-off (inf: no filter)"),
-    AxisInfo("f_taud_hz", "--f-taud", "Hz", math.inf,
-             description="torque-derivative filter cut-off (inf: no filter)"),
-    AxisInfo("Im", "--im", "kg m^2", None, description="motor inertia (plant)"),
-    AxisInfo("Ij", "--ij", "kg m^2", None, description="joint inertia (plant)"),
-    AxisInfo("bm", "--bm", "N m s/rad", None, strict=False,
-             description="motor damping (plant)"),
-    AxisInfo("bj", "--bj", "N m s/rad", None, strict=False,
-             description="joint damping (plant)"),
-    AxisInfo("k", "--k", "N m/rad", None, description="spring stiffness (plant)"),
-    AxisInfo("beta", "--beta", "N m/A", None, description="current to torque (plant)"),
-)}
-ACTUATOR_AXES = ("Im", "Ij", "bm", "bj", "k", "beta")
-_ACTUATOR_FIELDS = dict(Im="motor_inertia", Ij="joint_inertia", bm="motor_damping",
-                        bj="joint_damping", k="spring_stiffness", beta="current_to_torque")
-SAMPLINGS = ("grid", "random", "lhs")
 
 OUTPUTS: dict[str, str] = {
     "point": "point index in the sweep's deterministic order",
@@ -201,7 +162,7 @@ class SweepSpec:
             elif info.default is not None:
                 out[name] = info.default
             else:
-                out[name] = float(getattr(self.actuator, _ACTUATOR_FIELDS[name]))
+                out[name] = float(getattr(self.actuator, ACTUATOR_FIELDS[name]))
         return out
 
     @property
@@ -278,53 +239,10 @@ def _json_float(x: float) -> float | str:
 
 
 def _check_axis(name: str, vals: np.ndarray) -> None:
-    info = AXES[name]
-    label = f"{info.option}" + (f" [{info.unit}]" if info.unit else "")
-    if np.isnan(vals).any():
-        raise InputError(label, float("nan"), "a number")
-    allow_inf = name in ("f_qd_hz", "f_taud_hz")
-    bad_inf = np.isinf(vals) & ~(allow_inf & (vals > 0))
-    if bad_inf.any():
-        raise InputError(label, float(vals[bad_inf][0]), "finite")
-    low = vals <= info.minimum if info.strict else vals < info.minimum
-    if low.any():
-        raise InputError(label, float(vals[low][0]),
-                         f"{'>' if info.strict else '>='} {info.minimum:g}"
-                         + (" (inf: no filter)" if allow_inf else ""))
-    kind = _RANGE_KIND.get(name)
-    if kind is not None:
-        from .limits import check_range
-
-        for v in (vals.min(), vals.max()):
-            if not (allow_inf and math.isinf(v)):
-                check_range(label, float(v), kind)
-
-
-_RANGE_KIND = {"fn_hz": "fn_hz", "gs": "gs", "zeta1": "factor", "zeta2": "factor",
-               "ratio": "factor", "t_tau_ms": "delay_ms", "t_qs_ms": "delay_ms",
-               "t_qd_ms": "delay_ms", "f_qd_hz": "filter_hz", "f_taud_hz": "filter_hz"}
-"""Axes with a documented range in :data:`seactl.limits.RANGES`."""
+    AXES[name].check(vals, AXES[name].label)
 
 
 # ------------------------------------------------------------------ evaluation
-@dataclass(frozen=True)
-class ActuatorBatch:
-    """Actuator parameters as arrays (a batch of perturbed plants), rotary SI.
-
-    Duck-types the attributes of :class:`~seactl.actuators.SEAParams` that the
-    block diagram and the gain design read."""
-
-    Im: np.ndarray
-    Ij: np.ndarray
-    bm: np.ndarray
-    bj: np.ndarray
-    k: np.ndarray
-    beta: np.ndarray
-    motor_torque_constant: float = 0.0276
-    pulley_radius: float = 0.025
-    name: str = "batch"
-
-
 def impedance_magnitude(design: Any, f_hz: np.ndarray) -> np.ndarray:
     """``|Z(j 2 pi f)|`` [N m s/rad] of the SEA, ``Z = tau_k / (-s q_j)`` with the joint
     motion imposed (``q_des = 0``), from :data:`~seactl.loops.SEA_DIAGRAM`.
@@ -342,13 +260,8 @@ def impedance_magnitude(design: Any, f_hz: np.ndarray) -> np.ndarray:
     >>> bool(abs(z * 2 * np.pi * f / d.gains.Kq - 1) < 1e-6)
     True
     """
-    try:  # the impedance module, where present, is the project's one entry point
-        from .impedance import impedance
-    except ImportError:  # pragma: no cover - same transfer, straight from the diagram
-        from .loops import SEA_DIAGRAM
+    from .impedance import impedance
 
-        s = 2j * np.pi * np.asarray(f_hz, float)
-        return np.abs(-SEA_DIAGRAM.transfer("tau_k", "q_j", cut=("q_j",))(design, s) / s)
     return impedance(design, f_hz).magnitude
 
 
@@ -380,9 +293,7 @@ def evaluate_points(spec: SweepSpec, values: dict[str, np.ndarray], n: int
                                 col("f_qd_hz")[ok], col("f_taud_hz")[ok])
         plant: Any = a
         if any(name in dict(spec.axes) for name in ACTUATOR_AXES):
-            plant = ActuatorBatch(*(col(name)[ok] for name in ACTUATOR_AXES),
-                                  motor_torque_constant=a.motor_torque_constant,
-                                  pulley_radius=a.pulley_radius, name=a.name)
+            plant = a.batch(**{ACTUATOR_FIELDS[n]: col(n)[ok] for n in ACTUATOR_AXES})
         design = SEADesign(plant, gains, timing)
         m = sea_margins(design)
         res = {"Kq": gains.Kq, "Bq": gains.Bq, "Ktau": gains.Ktau, "Btau": gains.Btau,
@@ -933,7 +844,7 @@ def relative_interval(actuator: SEAParams, name: str, percent: float) -> tuple[f
     if not (0 <= percent < 100):
         raise InputError(AXES[name].option, f"{percent:g}%", "a relative uncertainty in "
                          "[0%, 100%)")
-    nom = float(getattr(actuator, _ACTUATOR_FIELDS[name]))
+    nom = float(getattr(actuator, ACTUATOR_FIELDS[name]))
     return nom * (1 - percent / 100), nom * (1 + percent / 100)
 
 
@@ -969,7 +880,7 @@ def monte_carlo(spec: SweepSpec) -> RobustResult:
 
 
 __all__ = [
-    "AXES", "ActuatorBatch", "RobustResult", "SweepInterrupted", "SweepResult", "SweepSpec",
+    "AXES", "RobustResult", "SweepInterrupted", "SweepResult", "SweepSpec",
     "evaluate_chunk", "evaluate_points", "impedance_magnitude", "missing_chunks",
     "monte_carlo", "read_sweep", "relative_interval", "run_sweep", "summarize",
 ]

@@ -20,8 +20,9 @@ import click
 import numpy as np
 from rich.console import Console
 
+from ..axes import AXES, DESIGN_AXES
 from ..errors import InputError
-from ..limits import BYTES_PER_DESIGN, check_budget, check_count, check_range
+from ..limits import BYTES_PER_DESIGN, check_budget, check_count
 
 VARIADIC: set[str] = {"--fn", "--gs"}
 """Options that accept several space-separated values."""
@@ -145,68 +146,61 @@ class DesignSpec:
         return [self.designs(i) for i in range(max(n, 1))]
 
 
+def axis_option(name: str, *, multiple: bool = False, help_extra: str = "") -> Callable:
+    """The click option of design axis ``name`` (:data:`seactl.axes.AXES`), passed to the
+    command under the axis name (``t_qs_ms``); ``multiple`` takes values and ranges."""
+    info = AXES[name]
+    unit = f" [{info.unit}]" if info.unit else ""
+    what = info.description[:1].upper() + info.description[1:] + unit
+    if multiple:
+        return click.option(info.option, name, multiple=True, default=(f"{info.default:g}",),
+                            show_default=True, help=f"{what}: values, or START:STOP:STEP."
+                            + help_extra)
+    if info.allow_inf:
+        return click.option(info.option, name, type=float, default=None,
+                            help=f"{what} (default: no filter).{help_extra}")
+    return click.option(info.option, name, type=float, default=info.default,
+                        show_default=True, help=f"{what}.{help_extra}")
+
+
+MULTI_AXES = ("fn_hz", "gs")
+"""Design axes that take several values at once (a batch of designs)."""
+
+
 def design_options(func: Callable) -> Callable:
-    """Add the shared design options; the command receives ``spec: DesignSpec``."""
-    opts = [
-        click.option("--fn", "fn", multiple=True, default=("14",), show_default=True,
-                     help="Natural frequency f_n [Hz]: values, or START:STOP:STEP."),
-        click.option("--gs", "gs", multiple=True, default=("1",), show_default=True,
-                     help="Gain scale GS (torque gains x GS, impedance gains / GS)."),
-        click.option("--zeta1", type=float, default=1.0, show_default=True,
-                     help="Damping ratio of the first pole pair."),
-        click.option("--zeta2", type=float, default=1.0, show_default=True,
-                     help="Damping ratio of the second pole pair."),
-        click.option("--ratio", type=float, default=1.0, show_default=True,
-                     help="w2 / w1 of the two pole pairs."),
-        click.option("--t-tau", type=float, default=0.0, show_default=True,
-                     help="Torque-feedback delay T_tau [ms]."),
-        click.option("--t-qs", type=float, default=0.0, show_default=True,
-                     help="Stiffness-feedback delay T_qs [ms]."),
-        click.option("--t-qd", type=float, default=0.0, show_default=True,
-                     help="Damping-feedback delay T_qd [ms]."),
-        click.option("--f-qd", type=float, default=None,
-                     help="Velocity filter cut-off f_qd [Hz] (default: no filter)."),
-        click.option("--f-taud", type=float, default=None,
-                     help="Torque-derivative filter cut-off f_taud [Hz] (default: no filter)."),
-        click.option("--actuator", default="ut-sea", show_default=True,
-                     help="Preset name or TOML file of the SEA."),
-    ]
+    """Add the shared design options (one per axis of :data:`seactl.axes.DESIGN_AXES`, plus
+    ``--actuator``); the command receives ``spec: DesignSpec``."""
 
     @functools.wraps(func)
-    def wrapper(*args, fn, gs, zeta1, zeta2, ratio, t_tau, t_qs, t_qd, f_qd, f_taud,
-                actuator, **kwargs):
-        from .._validate import finite_array
+    def wrapper(*args, actuator, **kwargs):
         from ..actuators import load_sea
 
-        for name, val in (("--t-tau", t_tau), ("--t-qs", t_qs), ("--t-qd", t_qd)):
-            check_range(f"{name} [ms]", val, "delay_ms")
-        for name, val in (("--f-qd", f_qd), ("--f-taud", f_taud)):
-            if val is not None:
-                check_range(f"{name} [Hz]", val, "filter_hz")
-        for name, val in (("--zeta1", zeta1), ("--zeta2", zeta2), ("--ratio", ratio)):
-            check_range(name, val, "factor")
-        fn_hz = finite_array("--fn [Hz]", parse_values("--fn", fn), minimum=0.0, strict=True)
-        gs_v = finite_array("--gs", parse_values("--gs", gs), minimum=0.0, strict=True)
-        if fn_hz.size == 0:
-            raise InputError("--fn", "", "at least one frequency")
-        if gs_v.size == 0:
-            raise InputError("--gs", "", "at least one gain scale")
-        for f in (fn_hz.min(), fn_hz.max()):
-            check_range("--fn [Hz]", f, "fn_hz")
-        for g in (gs_v.min(initial=1.0), gs_v.max(initial=1.0)):
-            check_range("--gs", g, "gs")
-        check_budget(f"{fn_hz.size * gs_v.size:,} designs (--fn x --gs)",
-                     n_bytes=fn_hz.size * gs_v.size * BYTES_PER_DESIGN,
+        values = {}
+        for name in DESIGN_AXES:
+            raw = kwargs.pop(name)
+            info = AXES[name]
+            if name in MULTI_AXES:
+                raw = parse_values(info.option, raw)
+                if raw.size == 0:
+                    raise InputError(info.option, "", "at least one value")
+            values[name] = raw if raw is None else info.check(raw, info.label)
+        n = values["fn_hz"].size * values["gs"].size
+        check_budget(f"{n:,} designs (--fn x --gs)", n_bytes=n * BYTES_PER_DESIGN,
                      hint="give fewer --fn or --gs values")
         with flag_names({"actuator": "--actuator"}):
             sea = load_sea(actuator)
-        spec = DesignSpec(sea, fn_hz, gs_v, zeta1, zeta2, ratio,
-                          t_tau, t_qs, t_qd, f_qd, f_taud)
+        spec = DesignSpec(sea, **{n: _scalar(v) for n, v in values.items()})
         return func(*args, spec=spec, **kwargs)
 
-    for opt in reversed(opts):
-        wrapper = opt(wrapper)
+    wrapper = click.option("--actuator", default="ut-sea", show_default=True,
+                           help="Preset name or TOML file of the SEA.")(wrapper)
+    for name in reversed(DESIGN_AXES):
+        wrapper = axis_option(name, multiple=name in MULTI_AXES)(wrapper)
     return wrapper
+
+
+def _scalar(v: Any) -> Any:
+    return v if v is None or np.ndim(v) else float(v)
 
 
 def json_option(func: Callable) -> Callable:
@@ -225,7 +219,37 @@ def echo_json(obj: Any) -> None:
 
 
 # ------------------------------------------------------------------ commands
-@click.group(context_settings={"help_option_names": ["-h", "--help"]})
+class _Command(click.Command):
+    """A command whose library errors are re-worded for the command line: an
+    :class:`InputError` naming a parameter (``t_qs_ms``, ``out``) names the flag the user
+    typed instead (``--t-qs [ms]``, ``--out``)."""
+
+    def invoke(self, ctx: click.Context) -> Any:
+        try:
+            return super().invoke(ctx)
+        except InputError as exc:
+            flag = flag_for(ctx.command, exc.field)
+            if flag is not None:
+                exc.field = flag
+                exc.args = (f"invalid {flag} = {exc.value!r}: must be {exc.valid}",)
+            raise
+
+
+def flag_for(command: click.Command, field: str) -> str | None:
+    """The flag (with the axis unit, if any) of ``command`` whose parameter is ``field``."""
+    name = str(field).split(" [")[0]
+    for param in command.params:
+        if isinstance(param, click.Option) and param.name == name:
+            unit = AXES[name].unit if name in AXES else ""
+            return max(param.opts, key=len) + (f" [{unit}]" if unit else "")
+    return None
+
+
+class _Group(click.Group):
+    command_class = _Command
+
+
+@click.group(context_settings={"help_option_names": ["-h", "--help"]}, cls=_Group)
 @click.version_option(package_name="seactl")
 def cli() -> None:
     """seactl: distributed impedance control of series elastic actuators."""

@@ -13,11 +13,12 @@ import numpy as np
 from rich.markup import escape
 from rich.table import Table
 
+from ..axes import ACTUATOR_AXES, AXES, DESIGN_AXES, SAMPLINGS
 from ..errors import InputError, ResourceError
 from ..outputs import FIGURE_SUFFIXES, OutputSet
-from ..sweep import ACTUATOR_AXES, AXES, SAMPLINGS, relative_interval
 from ._common import (
     VARIADIC,
+    axis_option,
     cli,
     console,
     echo_json,
@@ -58,6 +59,8 @@ def parse_axis(actuator: Any, name: str, tokens: tuple[str, ...], *, sampling: s
                     pct = float(part[:-1])
                 except ValueError:
                     raise InputError(info.option, part, "P% with a number P") from None
+                from ..sweep import relative_interval
+
                 lo, hi = relative_interval(actuator, name, pct)
                 if pct == 0:
                     out.append(lo)
@@ -273,34 +276,30 @@ def _plot(out: Path, xy: tuple[str, str], z: str, reduce: str, outs: OutputSet,
 
 
 # ------------------------------------------------------------------ robust
+def _robust_options(func):
+    """One design (single values of the design axes), the nominal actuator and the
+    uncertain plant parameters, all from :data:`seactl.axes.AXES`."""
+    for name in reversed(ACTUATOR_AXES):
+        info = AXES[name]
+        func = click.option(info.option, name, default=None,
+                            help=f"Uncertainty of the {info.description}: P% or LO,HI "
+                                 f"[{info.unit}].")(func)
+    func = click.option("--actuator", default="ut-sea", show_default=True,
+                        help="Nominal SEA (preset or TOML).")(func)
+    for name in reversed(DESIGN_AXES):
+        func = axis_option(name)(func)
+    return func
+
+
 @cli.command()
-@click.option("--fn", type=float, default=14.0, show_default=True,
-              help="Natural frequency f_n [Hz] of the design.")
-@click.option("--gs", type=float, default=1.0, show_default=True, help="Gain scale GS.")
-@click.option("--zeta1", type=float, default=1.0, show_default=True)
-@click.option("--zeta2", type=float, default=1.0, show_default=True)
-@click.option("--ratio", type=float, default=1.0, show_default=True)
-@click.option("--t-tau", type=float, default=0.0, show_default=True, help="T_tau [ms].")
-@click.option("--t-qs", type=float, default=0.0, show_default=True, help="T_qs [ms].")
-@click.option("--t-qd", type=float, default=0.0, show_default=True, help="T_qd [ms].")
-@click.option("--f-qd", type=float, default=None, help="f_qd [Hz] (default: no filter).")
-@click.option("--f-taud", type=float, default=None, help="f_taud [Hz] (default: no filter).")
-@click.option("--actuator", default="ut-sea", show_default=True,
-              help="Nominal SEA (preset or TOML).")
-@click.option("--im", "Im", default=None, help="Uncertainty of I_m: P% or LO,HI [kg m^2].")
-@click.option("--ij", "Ij", default=None, help="Uncertainty of I_j: P% or LO,HI [kg m^2].")
-@click.option("--bm", "bm", default=None, help="Uncertainty of b_m: P% or LO,HI [N m s/rad].")
-@click.option("--bj", "bj", default=None, help="Uncertainty of b_j: P% or LO,HI [N m s/rad].")
-@click.option("--k", "k", default=None, help="Uncertainty of k: P% or LO,HI [N m/rad].")
-@click.option("--beta", "beta", default=None, help="Uncertainty of beta: P% or LO,HI [N m/A].")
+@_robust_options
 @click.option("--n", "n_samples", type=click.IntRange(10, 10_000_000), default=2000,
               show_default=True, help="Monte Carlo samples.")
 @click.option("--seed", type=click.IntRange(min=0), default=0, show_default=True)
 @click.option("--plot", "plot_file", default=None, metavar="FILE.png|.svg|.pdf",
               help="Write the phase-margin histogram (format from the suffix).")
 @click.option("--json", "as_json", is_flag=True, help="Print machine-readable JSON.")
-def robust(fn, gs, zeta1, zeta2, ratio, t_tau, t_qs, t_qd, f_qd, f_taud, actuator, n_samples,
-           seed, plot_file, as_json, **unc) -> None:
+def robust(actuator, n_samples, seed, plot_file, as_json, **axes) -> None:
     """Monte Carlo of one design over actuator parameter uncertainty.
 
     \b
@@ -318,12 +317,9 @@ def robust(fn, gs, zeta1, zeta2, ratio, t_tau, t_qs, t_qd, f_qd, f_taud, actuato
     """
     from ..sweep import monte_carlo
 
-    opts = {"fn_hz": (str(fn),), "gs": (str(gs),), "zeta1": (str(zeta1),),
-            "zeta2": (str(zeta2),), "ratio": (str(ratio),), "t_tau_ms": (str(t_tau),),
-            "t_qs_ms": (str(t_qs),), "t_qd_ms": (str(t_qd),),
-            "f_qd_hz": (str(f_qd if f_qd is not None else "none"),),
-            "f_taud_hz": (str(f_taud if f_taud is not None else "none"),)}
-    given = {k: v for k, v in unc.items() if v is not None}
+    fn, gs = axes["fn_hz"], axes["gs"]
+    opts = {n: ("none" if axes[n] is None else str(axes[n]),) for n in DESIGN_AXES}
+    given = {n: axes[n] for n in ACTUATOR_AXES if axes[n] is not None}
     if not given:
         raise InputError("--ij/--bm/--k/...", None, "at least one uncertain actuator "
                          "parameter, e.g. --ij 20%")
