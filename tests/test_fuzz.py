@@ -32,7 +32,7 @@ from hypothesis import strategies as st
 from seactl import UnitWarning
 from seactl.cli import main
 
-CI_EXAMPLES = 150
+CI_EXAMPLES = 200
 FULL_EXAMPLES = 10_000
 TIME_BOUND_S = 60.0
 """No vector may take longer (SEACTL_MAX_SECONDS is lowered to 10 s meanwhile)."""
