@@ -5,7 +5,8 @@ command estimates the memory and time of what it is asked before allocating, and
 :func:`check_budget` refuses with the estimate when the memory exceeds what this machine
 has available, or the time exceeds :func:`time_budget_s`.
 
-This module sits at the bottom of the layering (it imports only :mod:`seactl.errors`).
+This module sits at the bottom of the layering (it imports :mod:`seactl.errors` and
+:mod:`seactl.axes`).
 """
 
 from __future__ import annotations
@@ -13,6 +14,7 @@ from __future__ import annotations
 import math
 import os
 
+from .axes import AXES
 from .errors import ResourceError
 
 
@@ -81,20 +83,26 @@ def check_budget(what: str, *, n_bytes: float = 0.0, seconds: float = 0.0,
 
 
 # ------------------------------------------------------------------ physical ranges
+def _axis_range(name: str, what: str) -> tuple[float, float, str]:
+    info = AXES[name]
+    return info.minimum, info.maximum, what
+
+
 RANGES: dict[str, tuple[float, float, str]] = {
-    "delay_ms": (0.0, 1000.0, "a feedback delay of a servo loop: 0 to 1 s"),
-    "fn_hz": (0.0, 1000.0, "a closed-loop natural frequency of a joint: above 0, up to 1 kHz"),
-    "gs": (0.0, 1000.0, "a gain scale: above 0, up to 1000"),
-    "factor": (0.0, 100.0, "a damping ratio or pole ratio: above 0, up to 100"),
-    "filter_hz": (1e-3, 1e6, "a filter cut-off: above 1 mHz, up to 1 MHz"),
+    "delay_ms": _axis_range("t_qs_ms", "a feedback delay of a servo loop: 0 to 1 s"),
+    "fn_hz": _axis_range("fn_hz", "a closed-loop natural frequency of a joint: above 0, up "
+                         "to 1 kHz"),
+    "filter_hz": _axis_range("f_qd_hz", "a filter cut-off: above 1 mHz, up to 1 MHz"),
     "amplitude_rad": (0.0, 100.0, "a step size: its magnitude above 0, up to 100 rad"),
     "impulse_nms": (0.0, 1e3, "an angular impulse: its magnitude above 0, up to 1000 N m s"),
     "rate_hz": (10.0, 1e6, "a servo rate: 10 Hz to 1 MHz"),
     "t_end_s": (0.0, 60.0, "a simulated time: above 0, up to 60 s"),
     "freq_hz": (0.0, 1e7, "an analysis frequency: above 0, up to 10 MHz"),
 }
-"""Documented input ranges: (low, high, what) with ``low`` exclusive for frequencies and
-times and inclusive for delays."""
+"""Documented input ranges of the quantities that are not design axes, and of the delays,
+natural frequencies and filters of the rigid-actuator and placement commands (taken from
+:data:`seactl.axes.AXES`, where the design axes keep theirs): (low, high, what) with ``low``
+exclusive for frequencies and times and inclusive for delays."""
 
 MIN_SAMPLES = 20
 """A simulation records at least this many samples (``t_end`` x rate)."""

@@ -11,6 +11,7 @@ import numpy as np
 from rich.markup import escape
 from rich.table import Table
 
+from ..axes import AXES
 from ..errors import InputError
 from ..outputs import CSV_SUFFIXES, FIGURE_SUFFIXES, OutputSet
 from ._common import VARIADIC, cli, console, echo_json, finite_or_none, json_option, parse_values
@@ -228,8 +229,11 @@ def _latency_map(actuators, fn_rigid, fn_sea, t_max, t_min, n, max_fn, f_v, outs
     jobs = []
     for spec in actuators:
         model = load_model(spec, fv)
-        jobs.append((model, parse_values("--fn-rigid" if model.kind == "rigid" else "--fn-sea",
-                                         fn_rigid if model.kind == "rigid" else fn_sea)))
+        flag = "--fn-rigid" if model.kind == "rigid" else "--fn-sea"
+        fns = parse_values(flag, fn_rigid if model.kind == "rigid" else fn_sea)
+        if fns.size == 0:
+            raise InputError(flag, "", "at least one frequency")
+        jobs.append((model, AXES["fn_hz"].check(fns, f"{flag} [Hz]")))
     _check_latency_budget(jobs, n, max_fn)
     for model, fns in jobs:
         mf = max_stable_fn(model, grid[:, None], grid[None, :]) if max_fn else None
