@@ -120,7 +120,7 @@ def check_range(name: str, value: float, kind: str) -> float:
     inclusive = kind in ("delay_ms", "rate_hz")
     ok = (lo <= v <= hi) if inclusive else (lo < v <= hi)
     if math.isnan(v) or not ok:
-        raise InputError(name, value, f"{'>=' if inclusive else '>'} {lo:g} and <= {hi:g} "
+        raise InputError(name, v, f"{'>=' if inclusive else '>'} {lo:g} and <= {hi:g} "
                          f"({what})")
     return v
 
