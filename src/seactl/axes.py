@@ -70,6 +70,11 @@ MAX_DELAY_MS = 1000.0
 
 _DELAY = dict(strict=False, maximum=MAX_DELAY_MS)
 _FILTER = dict(allow_inf=True, minimum=1e-3, maximum=1e6)
+_FN = dict(minimum=1e-3, strict=False, maximum=1000.0)
+_GS = dict(minimum=1e-3, strict=False, maximum=1000.0)
+_FACTOR = dict(minimum=1e-2, strict=False, maximum=100.0)
+"""Ranges of f_n [Hz], GS and the damping/pole ratios: values outside overflow the gains
+(1e-308 divides to inf) and describe no physical joint controller."""
 """Filter cut-offs: above 1 mHz (lower ones overflow the filter's state), up to 1 MHz."""
 
 
@@ -78,13 +83,12 @@ def _axis(name, option, unit, default, description, **kw) -> AxisInfo:
 
 
 AXES: dict[str, AxisInfo] = {a.name: a for a in (
-    _axis("fn_hz", "--fn", "Hz", 14.0, "natural frequency f_n", maximum=1000.0),
+    _axis("fn_hz", "--fn", "Hz", 14.0, "natural frequency f_n", **_FN),
     _axis("gs", "--gs", "", 1.0, "gain scale GS (torque gains x GS, impedance gains / GS)",
-          maximum=1000.0),
-    _axis("zeta1", "--zeta1", "", 1.0, "damping ratio of the first pole pair", maximum=100.0),
-    _axis("zeta2", "--zeta2", "", 1.0, "damping ratio of the second pole pair",
-          maximum=100.0),
-    _axis("ratio", "--ratio", "", 1.0, "ratio w2 / w1 of the two pole pairs", maximum=100.0),
+          **_GS),
+    _axis("zeta1", "--zeta1", "", 1.0, "damping ratio of the first pole pair", **_FACTOR),
+    _axis("zeta2", "--zeta2", "", 1.0, "damping ratio of the second pole pair", **_FACTOR),
+    _axis("ratio", "--ratio", "", 1.0, "ratio w2 / w1 of the two pole pairs", **_FACTOR),
     _axis("t_tau_ms", "--t-tau", "ms", 0.0, "torque-feedback delay T_tau", **_DELAY),
     _axis("t_qs_ms", "--t-qs", "ms", 0.0, "stiffness-feedback delay T_qs", **_DELAY),
     _axis("t_qd_ms", "--t-qd", "ms", 0.0, "damping-feedback delay T_qd", **_DELAY),

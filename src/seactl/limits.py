@@ -90,8 +90,8 @@ def _axis_range(name: str, what: str) -> tuple[float, float, str]:
 
 RANGES: dict[str, tuple[float, float, str]] = {
     "delay_ms": _axis_range("t_qs_ms", "a feedback delay of a servo loop: 0 to 1 s"),
-    "fn_hz": _axis_range("fn_hz", "a closed-loop natural frequency of a joint: above 0, up "
-                         "to 1 kHz"),
+    "fn_hz": _axis_range("fn_hz", "a closed-loop natural frequency of a joint: 1 mHz to "
+                         "1 kHz"),
     "filter_hz": _axis_range("f_qd_hz", "a filter cut-off: above 1 mHz, up to 1 MHz"),
     "amplitude_rad": (0.0, 100.0, "a step size: its magnitude above 0, up to 100 rad"),
     "impulse_nms": (0.0, 1e3, "an angular impulse: its magnitude above 0, up to 1000 N m s"),
@@ -117,7 +117,7 @@ def check_range(name: str, value: float, kind: str) -> float:
 
     lo, hi, what = RANGES[kind]
     v = float(value)
-    inclusive = kind in ("delay_ms", "rate_hz")
+    inclusive = kind in ("delay_ms", "rate_hz", "fn_hz")
     ok = (lo <= v <= hi) if inclusive else (lo < v <= hi)
     if math.isnan(v) or not ok:
         raise InputError(name, v, f"{'>=' if inclusive else '>'} {lo:g} and <= {hi:g} "
