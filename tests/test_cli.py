@@ -87,3 +87,16 @@ def test_value_parsing():
         parse_values("--freq", ["0:100:3"], log=True)
     assert expand_variadic(["gains", "--fn", "1", "2", "--gs", "3", "--json"]) == [
         "gains", "--fn", "1", "--fn", "2", "--gs", "3", "--json"]
+
+
+def test_library_errors_name_parameters_and_cli_names_flags(tmp_path, capsys):
+    """The library names its parameter; the command line re-words it as the typed flag."""
+    from seactl.errors import InputError
+    from seactl.paper import reproduce
+
+    with pytest.raises(InputError) as info:
+        reproduce(tmp_path / "r", only=["nope"])
+    assert info.value.field == "only"
+    assert main(["reproduce", "--only", "nope", "--out", str(tmp_path / "r")]) == 2
+    assert capsys.readouterr().err.startswith("error: invalid --only = 'nope'")
+    assert not (tmp_path / "r").exists()

@@ -22,11 +22,9 @@ import numpy as np
 
 from ._results import ImpedanceResult, MarginsResult, ResponseResult
 from ._validate import finite_array
+from .axes import MAX_DELAY_MS
 from .errors import InputError
 from .loops import Gains, SEADesign, Timing
-
-MAX_DELAY_MS = 1000.0
-"""Largest delay :func:`design` accepts [ms]; larger values are almost surely a unit slip."""
 
 SUSPICIOUS_DELAY_MS = 1e-3
 """Non-zero delays below this [ms] (1 us) trigger a :class:`UnitWarning`."""
@@ -302,9 +300,20 @@ class Design:
         """
         from .simulate import sea_step
 
+        self._check_simulation(mode, rate_hz, t_end_s)
         return ResponseResult(sea_step(self.sea, zero=zero, mode=mode, rate_hz=rate_hz,
                                        t_end_s=t_end_s, saturation_a=saturation_a),
                               self.labels())
+
+    def _check_simulation(self, mode: str, rate_hz: float, t_end_s: float) -> None:
+        """Ranges, samples, memory and time of a simulation (errors name the parameters)."""
+        from .limits import check_simulation
+
+        t = self.sea.timing
+        delays = [float(np.min(np.where(np.asarray(d) > 0, d, np.inf)))
+                  for d in (t.T_tau, t.T_qs, t.T_qd)]
+        check_simulation(int(np.prod(self.shape)), mode, rate_hz, t_end_s,
+                         [d for d in delays if np.isfinite(d)])
 
     def impulse(self, *, impulse_nms: float = 0.05, t_end_s: float = 1.0,
                 mode: str = "continuous", rate_hz: float = 1000.0,
@@ -339,6 +348,7 @@ class Design:
         """
         from .simulate import sea_impulse
 
+        self._check_simulation(mode, rate_hz, t_end_s)
         return ResponseResult(sea_impulse(self.sea, impulse_nms=impulse_nms, mode=mode,
                                           rate_hz=rate_hz, t_end_s=t_end_s,
                                           saturation_a=saturation_a), self.labels())

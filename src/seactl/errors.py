@@ -137,3 +137,19 @@ class OutputError(SeactlError, OSError):
         self.path = str(path)
         self.reason = reason
         SeactlError.__init__(self, f"cannot write {path}: {reason}")
+
+
+class ResourceError(SeactlError, ValueError):
+    """The work asked for needs more memory or time than the machine can give.
+
+    Parameters
+    ----------
+    message : str
+        The estimate, the limit, and how to ask for less.
+
+    Examples
+    --------
+    >>> from seactl.errors import ResourceError
+    >>> print(ResourceError("a 1e12-point grid needs about 14.6 TiB of memory"))
+    a 1e12-point grid needs about 14.6 TiB of memory
+    """

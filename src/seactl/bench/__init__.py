@@ -22,7 +22,7 @@ BENCHMARKS: tuple[Callable, ...] = (
     core.bench_gain_design, core.bench_margins, loopfile.bench_loop_file,
     impedance.bench_impedance,
     simulate.bench_simulate, placement.bench_latency_map, sweep.bench_sweep,
-    mobile_base.bench_circle, mobile_base.bench_tuning,
+    mobile_base.bench_circle, mobile_base.bench_tuning, core.bench_cli_startup,
 )
 
 
@@ -40,7 +40,7 @@ def run_benchmarks(only: Iterable[str] | None = None, repeat: int = 5,
     if only:
         unknown = set(only) - set(names)
         if unknown:
-            raise InputError("--only", ", ".join(sorted(unknown)), "one of " + ", ".join(names))
+            raise InputError("only", ", ".join(sorted(unknown)), "one of " + ", ".join(names))
         names = [n for n in names if n in set(only)]
     out: list[dict[str, Any]] = []
     for name in names:

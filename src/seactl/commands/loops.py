@@ -161,29 +161,21 @@ def analyze(loop_file: str, sets: tuple[str, ...], no_jitter: bool, as_json: boo
                   highlight=False)
 
 
-def _write_outputs(plot: str | None, csv_path: str | None, fig_fn: Callable[[], Any],
+def _write_outputs(outs: Any, plot: Any, csv_path: Any, fig_fn: Callable[[], Any],
                    header: list[str], rows: list[list[Any]]) -> None:
-    """Plot and CSV files of a loop view (written atomically)."""
+    """Plot and CSV files of a loop view, through the command's output set."""
     if csv_path:
-        import io
-        from pathlib import Path
-
-        from ..report import write_atomic
-
-        buf = io.StringIO()
-        buf.write(",".join(header) + "\n")
-        for r in rows:
-            buf.write(",".join(f"{x:.10g}" if isinstance(x, float) else str(x) for x in r)
-                      + "\n")
-        write_atomic(Path(csv_path), buf.getvalue())
+        lines = [",".join(header)]
+        lines += [",".join(f"{x:.10g}" if isinstance(x, float) else str(x) for x in r)
+                  for r in rows]
+        outs.write(csv_path, "\n".join(lines) + "\n")
     if plot:
-        from ..plots import save_figure
+        outs.figure(plot, fig_fn())
+    outs.commit()
 
-        save_figure(fig_fn(), plot)
 
-
-def loop_impedance(loop: Any, f: np.ndarray, port: str | None, as_json: bool,
-                   plot: str | None = None, csv_path: str | None = None) -> None:
+def loop_impedance(loop: Any, f: np.ndarray, port: str | None, as_json: bool, outs: Any,
+                   plot: Any = None, csv_path: Any = None) -> None:
     """``seactl impedance --loop``: Z at a port over ``f``."""
     z = loop.impedance(f, port)
     name = port or next(iter(loop.ports))
@@ -197,7 +189,7 @@ def loop_impedance(loop: Any, f: np.ndarray, port: str | None, as_json: bool,
         curves = [{"f": f, "z": zf[i], "label": names[i]} for i in range(len(labels))]
         return impedance_bode_figure([(f"{loop.name}: port {name}", curves)], unit="SI")
 
-    _write_outputs(plot, csv_path, fig, ["design", "f_hz", "re", "im", "magnitude",
+    _write_outputs(outs, plot, csv_path, fig, ["design", "f_hz", "re", "im", "magnitude",
                                          "phase_deg"],
                    [[names[i], float(fk), float(zf[i, k].real), float(zf[i, k].imag),
                      float(abs(zf[i, k])), float(np.degrees(np.angle(zf[i, k])))]
@@ -231,8 +223,7 @@ def loop_impedance(loop: Any, f: np.ndarray, port: str | None, as_json: bool,
 
 
 def loop_response(loop: Any, kind: str, mode: str, t_end: float, size: float,
-                  as_json: bool, plot: str | None = None, csv_path: str | None = None
-                  ) -> None:
+                  as_json: bool, outs: Any, plot: Any = None, csv_path: Any = None) -> None:
     """``seactl step|impulse --loop``: responses of the file's signals, each process at
     its rate in sampled mode."""
     from ..simulate import impulse_metrics, step_metrics
@@ -261,7 +252,7 @@ def loop_response(loop: Any, kind: str, mode: str, t_end: float, size: float,
                                ylabel=out_name,
                                unstable=[not s for s in res.stable.reshape(-1)])
 
-    _write_outputs(plot, csv_path, fig, ["t_s", *names],
+    _write_outputs(outs, plot, csv_path, fig, ["t_s", *names],
                    [[float(t), *map(float, yf[:, k])] for k, t in enumerate(res.t_s)])
     eff = {k: np.asarray(v).reshape(-1).tolist() for k, v in
            res.info.get("effective_delays_s", {}).items()}

@@ -12,19 +12,16 @@ from rich.markup import escape
 from rich.table import Table
 
 from ..errors import InputError
-from ..plots import save_figure
+from ..outputs import CSV_SUFFIXES, FIGURE_SUFFIXES, OutputSet
 from ._common import VARIADIC, cli, console, echo_json, finite_or_none, json_option, parse_values
 from .loops import loop_options, loop_place
 
 VARIADIC.update({"--fn-rigid", "--fn-sea"})
 
-_FIG_SUFFIXES = (".png", ".svg", ".pdf")
-
-
 def _ms(name: str, value: float) -> float:
-    from .._validate import finite_array
+    from ..limits import check_range
 
-    return float(finite_array(f"{name} [ms]", value, minimum=0.0)) * 1e-3
+    return check_range(f"{name} [ms]", value, "delay_ms") * 1e-3
 
 
 def _f_v(value: float | None) -> float | None:
@@ -43,8 +40,7 @@ def _f_v(value: float | None) -> float | None:
 def load_model(spec: str, f_v: float | None = 50.0):
     """A :class:`~seactl.latency.LoopModel` from a preset (``ut-linear``, ``ut-sea``) or a
     TOML file (a rigid actuator has a ``mass`` key, an SEA a ``motor_inertia`` key)."""
-    import tomllib
-
+    from .._params import read_toml
     from ..actuators import SEA_PRESETS, load_sea
     from ..latency import rigid_model, sea_model
     from ..rigid import RIGID_PRESETS, load_rigid
@@ -56,21 +52,13 @@ def load_model(spec: str, f_v: float | None = 50.0):
         return sea_model(load_sea(key), f_qd=f_v)
     path = Path(spec)
     if path.suffix == ".toml" and path.is_file():
-        try:
-            data = tomllib.loads(path.read_text())
-        except tomllib.TOMLDecodeError as exc:
-            raise InputError("--actuator", spec, f"valid TOML ({exc})") from None
+        data = read_toml("--actuator", spec, "a preset")
         table = data.get("actuator", data) if isinstance(data.get("actuator"), dict) else data
         if "mass" in table:
             return rigid_model(load_rigid(path), f_v=f_v)
         return sea_model(load_sea(path), f_qd=f_v)
     raise InputError("--actuator", spec, "a preset (" + ", ".join([*RIGID_PRESETS, *SEA_PRESETS])
                      + ") or an existing .toml file")
-
-
-def _check_plot(path: str | None) -> None:
-    if path is not None and Path(path).suffix.lower() not in _FIG_SUFFIXES:
-        raise InputError("--plot", path, "a file name ending in " + ", ".join(_FIG_SUFFIXES))
 
 
 def _fmt(x: float | None, spec: str) -> str:
@@ -117,6 +105,16 @@ def rigid(fn, t_s, t_d, f_v, actuator, no_passive_damping, step, as_json) -> Non
     from .._validate import finite_array
 
     finite_array("--fn [Hz]", fn_hz, minimum=0.0, strict=True)
+    from ..limits import check_range
+
+    for f in (fn_hz.min(), fn_hz.max()):
+        check_range("--fn [Hz]", f, "fn_hz")
+    from ..limits import BYTES_PER_DESIGN, check_budget, simulation_estimate
+
+    sim_bytes, sim_s = simulation_estimate(fn_hz.size, 1000, 1000) if step else (0.0, 0.0)
+    check_budget(f"{fn_hz.size:,} rigid design(s)" + (" and their 1 s steps" if step else ""),
+                 n_bytes=fn_hz.size * BYTES_PER_DESIGN + sim_bytes, seconds=sim_s,
+                 hint="give fewer --fn values" + (" or --no-step" if step else ""))
     ts, td = _ms("--t-s", t_s), _ms("--t-d", t_d)
     model = rigid_model(a, f_v=fv, passive_damping=not no_passive_damping)
     d = model.design(fn_hz, ts, td)
@@ -211,24 +209,35 @@ def latency_map_cmd(actuators, fn_rigid, fn_sea, t_max, t_min, n, max_fn, f_v, p
     The SEA torque loop keeps T_tau = 0.5 ms and f_taud = 100 Hz. The sensitivity
     ratio is (dPM/dT_d)/(dPM/dT_s) at the smallest delays (T_s = T_d = --t-min).
     """
+    with OutputSet() as outs:
+        plot_p = outs.add("--plot", plot, FIGURE_SUFFIXES)
+        csv_p = outs.add("--csv", csv, CSV_SUFFIXES)
+        _latency_map(actuators, fn_rigid, fn_sea, t_max, t_min, n, max_fn, f_v, outs, plot_p,
+                     csv_p, as_json)
+
+
+def _latency_map(actuators, fn_rigid, fn_sea, t_max, t_min, n, max_fn, f_v, outs, plot, csv,
+                 as_json) -> None:
     from ..latency import latency_map, max_stable_fn, pm_sensitivity
 
-    _check_plot(plot)
     tmin, tmax = _ms("--t-min", t_min), _ms("--t-max", t_max)
     if tmax <= tmin:
         raise InputError("--t-max [ms]", t_max, f"> --t-min ({t_min:g} ms)")
     fv = _f_v(f_v)
     grid = np.linspace(tmin, tmax, n)
     maps, maxfns, summary, csv_rows = [], [], [], []
+    jobs = []
     for spec in actuators:
         model = load_model(spec, fv)
-        fns = parse_values("--fn-rigid" if model.kind == "rigid" else "--fn-sea",
-                           fn_rigid if model.kind == "rigid" else fn_sea)
+        jobs.append((model, parse_values("--fn-rigid" if model.kind == "rigid" else "--fn-sea",
+                                         fn_rigid if model.kind == "rigid" else fn_sea)))
+    _check_latency_budget(jobs, n, max_fn)
+    for model, fns in jobs:
+        mf = max_stable_fn(model, grid[:, None], grid[None, :]) if max_fn else None
         for f in fns:
             mp = latency_map(model, float(f), grid, grid)
             sens = pm_sensitivity(model, float(f), tmin, tmin)
             dm = model.delay_margins(model.design(float(f), tmin, tmin))
-            mf = max_stable_fn(model, grid[:, None], grid[None, :]) if max_fn else None
             maps.append(mp)
             if mf is not None:
                 maxfns.append((grid, grid, mf))
@@ -256,8 +265,6 @@ def latency_map_cmd(actuators, fn_rigid, fn_sea, t_max, t_min, n, max_fn, f_v, p
                         row.append(str(mf.status[i, j]))
                     csv_rows.append(row)
     if csv:
-        from ..report import write_atomic
-
         head = ["actuator", "fn_hz", "T_s_ms", "T_d_ms", "phase_margin_deg", "stable"]
         if max_fn:
             head += ["max_stable_fn_hz", "max_fn_status"]
@@ -267,13 +274,14 @@ def latency_map_cmd(actuators, fn_rigid, fn_sea, t_max, t_min, n, max_fn, f_v, p
             buf.write(",".join("none" if x is None else
                                (f"{x:.10g}" if isinstance(x, float) else str(x)) for x in r)
                       + "\n")
-        write_atomic(Path(csv), buf.getvalue())
+        outs.write(csv, buf.getvalue())
     if plot:
         from ..plots import latency_map_figure
 
-        save_figure(latency_map_figure(maps, maxfns or None), plot)
+        outs.figure(plot, latency_map_figure(maps, maxfns or None))
+    outs.commit()
     if as_json:
-        echo_json({"maps": summary, "csv": csv, "plot": plot})
+        echo_json({"maps": summary, "csv": csv and str(csv), "plot": plot and str(plot)})
         return
     t = Table(title=f"Latency maps: {n} x {n} grid, delays {t_min:g}..{t_max:g} ms on each loop")
     for c in ("actuator", "f_n [Hz]", "stable [%]", "PM min delays", "PM max T_s",
@@ -296,7 +304,26 @@ def latency_map_cmd(actuators, fn_rigid, fn_sea, t_max, t_min, n, max_fn, f_v, p
                   "DM: extra latency each loop alone tolerates at the smallest delays.")
     for what, path in (("plot", plot), ("csv", csv)):
         if path:
-            console.print(f"{what}: {escape(path)}")
+            console.print(f"{what}: {escape(str(path))}")
+
+
+MAP_POINT_BYTES, MAP_POINT_S = 8e3, 1e-4
+"""Memory and time per grid point of a phase-margin map (measured: 6 kB, 0.1 ms)."""
+MAXFN_POINT_BYTES, MAXFN_POINT_S = 160e3, 3e-3
+"""... and of the highest-stable-f_n map (measured: 150 kB, 1.5-3.4 ms)."""
+
+
+def _check_latency_budget(jobs, n: int, max_fn: bool) -> None:
+    from ..limits import check_budget
+
+    maps = sum(len(fns) for _, fns in jobs)
+    points = n * n
+    check_budget(f"{maps:,} latency map(s) of {n} x {n} points" + (" with --max-fn" if max_fn
+                                                                     else ""),
+                 n_bytes=points * (MAXFN_POINT_BYTES if max_fn else MAP_POINT_BYTES),
+                 seconds=points * (maps * MAP_POINT_S + (len(jobs) * MAXFN_POINT_S
+                                                         if max_fn else 0.0)),
+                 hint="lower --n or give fewer --fn-rigid / --fn-sea values")
 
 
 # ---------------------------------------------------------------------------- seactl place

@@ -13,8 +13,12 @@ simulated in one vectorized batch) and::
                                 'none' for no limit)
     --plot FILE, --csv FILE, --json
 
-JSON for one design: ``{"mode", "t_s", "position", "stable", "metrics", ...}``; for several
-designs: ``{"mode", "t_s", "runs": [{"fn_hz", "gs", "position", "stable", "metrics", ...}]}``.
+JSON for one design: ``{"mode", "t_s", "position", "stable", "verdict", "evidence",
+"metrics", "warnings", ...}``; for several designs: ``{"mode", "t_s", "warnings", "runs":
+[{"fn_hz", "gs", "position", "stable", "verdict", "evidence", "warnings", "metrics", ...}]}``.
+``verdict`` is one of settled, not settled, unstable, limit cycle, saturated
+(:mod:`seactl.verdict`); ``stable`` is false for unstable and limit cycle.  The top-level
+``warnings`` are the lines the table prints after ``warning:``.
 Metrics that do not exist (unstable response, never settled) are ``null``.
 """
 
@@ -33,10 +37,18 @@ import numpy as np
 from rich.markup import escape
 from rich.table import Table
 
+from .. import limits
 from ..errors import InputError
-from ..report import write_atomic
+from ..limits import check_range
+from ..outputs import CSV_SUFFIXES, FIGURE_SUFFIXES, OutputSet
+from ..verdict import judge_response
 from ._common import DesignSpec, cli, console, design_options, echo_json, finite_or_none
 from .loops import loop_options, loop_response
+
+STEP_BAND = 0.02
+"""Settling band of a step (2 % of the step), as in the settling-time metric."""
+BAD = ("unstable", "limit cycle")
+"""Verdicts under which a response is not called stable."""
 
 
 def _parse_saturation(value: str | None) -> float | None:
@@ -68,28 +80,39 @@ def sim_options(func: Callable) -> Callable:
         click.option("--saturation", default=None,
                      help="Motor current limit [A] in sampled mode (default: the actuator's "
                           "max_current; 'none': no limit)."),
-        click.option("--plot", "plot", type=click.Path(dir_okay=False), default=None,
-                     help="Write a PNG of the responses."),
-        click.option("--csv", "csv_path", type=click.Path(dir_okay=False), default=None,
+        click.option("--plot", "plot", default=None, metavar="FILE.png|.svg|.pdf",
+                     help="Write a figure of the responses (format from the suffix)."),
+        click.option("--csv", "csv_path", default=None, metavar="FILE.csv",
                      help="Write the responses as CSV (t_s, one column per design)."),
         click.option("--json", "as_json", is_flag=True, help="Print JSON instead of a table."),
     ]
 
     @functools.wraps(func)
-    def wrapper(*args, mode, rate_hz, no_zero, t_end, saturation, **kwargs):
-        if not (math.isfinite(rate_hz) and rate_hz > 0):
-            raise InputError("--rate [Hz]", rate_hz, "a finite rate > 0")
-        if t_end is not None and not (math.isfinite(t_end) and 0 < t_end <= 60):
-            raise InputError("--t-end [s]", t_end, "> 0 and <= 60")
+    def wrapper(*args, mode, rate_hz, no_zero, t_end, saturation, plot, csv_path, **kwargs):
+        check_range("--rate [Hz]", rate_hz, "rate_hz")
+        if t_end is not None:
+            check_range("--t-end [s]", t_end, "t_end_s")
         sat = _parse_saturation(saturation)
         if sat is not None and mode != "sampled":
             raise InputError("--saturation", saturation, "used with --mode sampled only")
-        return func(*args, mode=mode, rate_hz=rate_hz, zero=not no_zero, t_end=t_end,
-                    saturation=sat, **kwargs)
+        with OutputSet() as outs:
+            plot_p = outs.add("--plot", plot, FIGURE_SUFFIXES)
+            csv_p = outs.add("--csv", csv_path, CSV_SUFFIXES)
+            return func(*args, mode=mode, rate_hz=rate_hz, zero=not no_zero, t_end=t_end,
+                        saturation=sat, outs=outs, plot=plot_p, csv_path=csv_p, **kwargs)
 
     for opt in reversed(opts):
         wrapper = opt(wrapper)
     return wrapper
+
+
+def check_simulation(spec: DesignSpec, mode: str, rate_hz: float, t_end_s: float) -> None:
+    """Enough samples to judge the response, and memory and time within the machine's."""
+    limits.check_simulation(
+        spec.fn_hz.size * spec.gs.size, mode, rate_hz, t_end_s,
+        [d * 1e-3 for d in (spec.t_tau_ms, spec.t_qs_ms, spec.t_qd_ms)],
+        record_dt_s=limits.RECORD_DT_S, rate_name="--rate [Hz]", t_end_name="--t-end [s]",
+        hint="shorten --t-end, lower --rate, or give fewer designs")
 
 
 def _labels(spec: DesignSpec) -> list[tuple[float, float]]:
@@ -112,9 +135,9 @@ def _metrics_json(m: Any, i: int) -> dict[str, Any]:
 
 
 def _output(spec: DesignSpec, resp: Any, mode: str, zero: bool, extra: dict[str, Any],
-            plot: str | None, csv_path: str | None, as_json: bool, title: str,
-            ylabel: str) -> None:
-    from ..plots import response_figure, save_figure
+            outs: OutputSet, plot: Path | None, csv_path: Path | None, as_json: bool,
+            title: str, ylabel: str) -> None:
+    from ..plots import response_figure
 
     res, m = resp.result, resp.metrics
     labels = _labels(spec)
@@ -130,29 +153,37 @@ def _output(spec: DesignSpec, resp: Any, mode: str, zero: bool, extra: dict[str,
         w.writerow(["t_s"] + names)
         for k in range(t.size):
             w.writerow([f"{t[k]:.9g}"] + [f"{pos[i, k]:.9g}" for i in range(len(labels))])
-        write_atomic(Path(csv_path), buf.getvalue())
+        outs.write(csv_path, buf.getvalue())
     if plot:
         fig = response_figure(t, pos, names, title=title, ylabel=ylabel,
                               current=cur if mode == "sampled" else None,
                               unstable=[not s for s in stable])
-        save_figure(fig, plot, dpi=110)
+        outs.figure(plot, fig, dpi=110)
+    outs.commit()
+    verdict = judge_response(resp, STEP_BAND if resp.kind == "step" else m.band)
     runs = []
     for i, (f, g) in enumerate(labels):
         runs.append({"fn_hz": f, "gs": g, "position": [round(float(x), 9) for x in pos[i]],
-                     "stable": bool(stable[i]), "left_bounds_s": finite_or_none(left[i]),
+                     "stable": bool(stable[i]) and verdict.verdict[i] not in BAD,
+                     "verdict": verdict.verdict[i], "evidence": verdict.evidence(i),
+                     "warnings": verdict.warnings[i],
+                     "left_bounds_s": finite_or_none(left[i]),
                      "peak_current_a": finite_or_none(np.max(np.abs(cur[i]))),
                      "metrics": _metrics_json(m, i)})
-    common = {"mode": mode, "zero": zero, **extra}
+    warnings = [f"f_n={r['fn_hz']:g} Hz, GS={r['gs']:g}: {w}" for r in runs
+                for w in r["warnings"]] + _notes(spec, mode, extra)
+    common = {"mode": mode, "zero": zero, **extra, "warnings": warnings}
     if as_json:
         t_list = [round(float(x), 9) for x in t]
         if len(runs) == 1:
-            echo_json({**common, "t_s": t_list, **runs[0]})
+            one = {k: v for k, v in runs[0].items() if k != "warnings"}
+            echo_json({**common, "t_s": t_list, **one})
         else:
             echo_json({**common, "t_s": t_list, "runs": runs})
         return
     tab = Table(title=escape(title))
     step = resp.kind == "step"
-    cols = ["f_n [Hz]", "GS", "stable"] + (
+    cols = ["f_n [Hz]", "GS", "verdict"] + (
         ["rise [ms]", "overshoot [%]", "settling 2% [ms]", "ss error"] if step else
         ["peak [deg]", "peak at [ms]", f"recovery {m.band:.0%} [ms]"]) + ["peak |i_m| [A]"]
     for c in cols:
@@ -163,9 +194,7 @@ def _output(spec: DesignSpec, resp: Any, mode: str, zero: bool, extra: dict[str,
 
     for r in runs:
         mt = r["metrics"]
-        st = "yes" if r["stable"] else (
-            f"[red]NO[/red] (left bounds at {r['left_bounds_s']:.3f} s)"
-            if r["left_bounds_s"] is not None else "[red]NO[/red] (not decaying)")
+        st = r["verdict"] if r["verdict"] == "settled" else f"[red]{r['verdict']}[/red]"
         vals = ([ms(mt["rise_time_s"]), "none" if mt["overshoot_pct"] is None else
                  f"{mt['overshoot_pct']:.2f}", ms(mt["settling_time_s"]),
                  "none" if mt["steady_state_error"] is None else
@@ -179,18 +208,27 @@ def _output(spec: DesignSpec, resp: Any, mode: str, zero: bool, extra: dict[str,
     if eff:
         console.print(escape("effective delays [ms]: " + ", ".join(
             f"{k} {v:g}" for k, v in eff.items())), highlight=False)
+    for w in warnings:
+        console.print(escape(f"warning: {w}"), highlight=False)
+
+
+def _notes(spec: DesignSpec, mode: str, extra: dict[str, Any]) -> list[str]:
+    """Warnings that apply to the whole command (printed and in JSON alike)."""
+    notes = []
+    eff = extra.get("effective_delays_ms", {})
     if mode == "sampled" and (spec.f_qd_hz is None or spec.f_taud_hz is None):
-        console.print("note: an unfiltered derivative discretized with Tustin rings at the "
-                      "Nyquist frequency (pole at z = -1); give --f-qd and --f-taud for a "
-                      "realistic sampled controller", highlight=False)
+        notes.append("an unfiltered derivative discretized with Tustin rings at the Nyquist "
+                     "frequency (pole at z = -1); give --f-qd and --f-taud for a realistic "
+                     "sampled controller")
     if mode == "sampled" and eff:
         asked = {"Kq_fb": spec.t_qs_ms, "Bq_fb": spec.t_qd_ms, "tau_delay": spec.t_tau_ms}
         off = [f"{k} {asked[k]:g} -> {v:g}" for k, v in eff.items()
                if k in asked and abs(asked[k] - v) > 1e-9]
         if off:
-            console.print(escape("note: at this rate the whole-sample buffers give effective "
-                                 "delays T_s/2 + n T_s that differ from the requested ones: "
-                                 + ", ".join(off) + " ms"), highlight=False)
+            notes.append("at this rate the whole-sample buffers give effective delays "
+                         "T_s/2 + n T_s that differ from the requested ones: "
+                         + ", ".join(off) + " ms")
+    return notes
 
 
 def _extra(res: Any, mode: str, rate_hz: float, saturation: float | None) -> dict[str, Any]:
@@ -212,8 +250,8 @@ def _extra(res: Any, mode: str, rate_hz: float, saturation: float | None) -> dic
 @sim_options
 @loop_options
 def step(spec: DesignSpec, amplitude: float, mode: str, rate_hz: float, zero: bool,
-         t_end: float | None, saturation: float | None, plot: str | None,
-         csv_path: str | None, as_json: bool, loop: Any) -> None:
+         t_end: float | None, saturation: float | None, outs: OutputSet,
+         plot: Path | None, csv_path: Path | None, as_json: bool, loop: Any) -> None:
     """Step response of the joint position to a position reference step.
 
     \b
@@ -226,16 +264,17 @@ def step(spec: DesignSpec, amplitude: float, mode: str, rate_hz: float, zero: bo
     if not (math.isfinite(amplitude) and amplitude != 0):
         raise InputError("--amplitude [rad]", amplitude, "a finite non-zero number")
     if loop is not None:
-        return loop_response(loop, "step", mode, t_end or 0.5, amplitude, as_json, plot,
+        return loop_response(loop, "step", mode, t_end or 0.5, amplitude, as_json, outs, plot,
                              csv_path)
+    check_simulation(spec, mode, rate_hz, t_end or 0.5)
     design = spec.designs()
     resp = sea_step(design, zero=zero, mode=mode, rate_hz=rate_hz, t_end_s=t_end or 0.5,
                     saturation_a=saturation, amplitude=amplitude,
-                    record_dt=5e-4 if mode == "continuous" else None)
+                    record_dt=limits.RECORD_DT_S if mode == "continuous" else None)
     extra = _extra(resp.result, mode, rate_hz, saturation) | {"amplitude_rad": amplitude}
     title = (f"Step response ({mode}{f', {rate_hz:g} Hz' if mode == 'sampled' else ''}, "
              f"{'with' if zero else 'without'} the torque-derivative zero)")
-    _output(spec, resp, mode, zero, extra, plot, csv_path, as_json, title,
+    _output(spec, resp, mode, zero, extra, outs, plot, csv_path, as_json, title,
             "joint position / step size")
 
 
@@ -248,8 +287,8 @@ def step(spec: DesignSpec, amplitude: float, mode: str, rate_hz: float, zero: bo
 @sim_options
 @loop_options
 def impulse(spec: DesignSpec, impulse_nms: float, band: float, mode: str, rate_hz: float,
-            zero: bool, t_end: float | None, saturation: float | None, plot: str | None,
-            csv_path: str | None, as_json: bool, loop: Any) -> None:
+            zero: bool, t_end: float | None, saturation: float | None, outs: OutputSet,
+            plot: Path | None, csv_path: Path | None, as_json: bool, loop: Any) -> None:
     """Joint position after an impulse of external torque (q_des = 0), e.g. a ball hitting
     the arm (Fig. ExperimentImpulse). Position in rad; recovery = last exit from the band.
 
@@ -262,15 +301,18 @@ def impulse(spec: DesignSpec, impulse_nms: float, band: float, mode: str, rate_h
 
     if not (0 < band < 1):
         raise InputError("--band", band, "a fraction in (0, 1)")
+    if not (math.isfinite(impulse_nms) and impulse_nms != 0):
+        raise InputError("--impulse [N m s]", impulse_nms, "a finite non-zero number")
     if loop is not None:
-        return loop_response(loop, "impulse", mode, t_end or 1.0, impulse_nms, as_json, plot,
-                             csv_path)
+        return loop_response(loop, "impulse", mode, t_end or 1.0, impulse_nms, as_json, outs,
+                             plot, csv_path)
+    check_simulation(spec, mode, rate_hz, t_end or 1.0)
     design = spec.designs()
     resp = sea_impulse(design, impulse_nms=impulse_nms, zero=zero, mode=mode, rate_hz=rate_hz,
                        t_end_s=t_end or 1.0, saturation_a=saturation, band=band,
-                       record_dt=5e-4 if mode == "continuous" else None)
+                       record_dt=limits.RECORD_DT_S if mode == "continuous" else None)
     extra = _extra(resp.result, mode, rate_hz, saturation) | {"impulse_nms": impulse_nms}
     title = (f"Impulse response, {impulse_nms:g} N m s ({mode}"
              f"{f', {rate_hz:g} Hz' if mode == 'sampled' else ''})")
-    _output(spec, resp, mode, zero, extra, plot, csv_path, as_json, title,
+    _output(spec, resp, mode, zero, extra, outs, plot, csv_path, as_json, title,
             "joint position [rad]")

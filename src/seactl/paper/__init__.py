@@ -50,7 +50,7 @@ def reproduce(out: Path, only: Iterable[str] | None = None, console: Any = None
         wanted = set(only)
         unknown = wanted - set(section_ids())
         if unknown:
-            raise InputError("--only", ", ".join(sorted(unknown)),
+            raise InputError("only", ", ".join(sorted(unknown)),
                              "one of " + ", ".join(section_ids()))
         sections = [f for f in sections if f.section_id in wanted]
     return build(Path(out), sections, console=console)
