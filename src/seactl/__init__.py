@@ -24,7 +24,7 @@ _PUBLIC = {
     ".api": ("design", "Design", "UnitWarning"),
     ".actuators": ("SEAParams", "UT_SEA", "load_sea"),
     ".design": ("feasible_fn_range",),
-    "._results": ("MarginsResult", "ImpedanceResult", "ResponseResult"),
+    "._results": ("MarginsResult", "ImpedanceResult", "ResponseResult", "JitterResult"),
     ".systems": ("rigid", "RigidBatch", "loop_model", "latency_map", "place", "sweep",
                  "read_sweep", "compare_mobile_base", "mobile_base_params",
                  "LatencyMapResult", "PlacementResult"),
@@ -36,7 +36,7 @@ _HOME = {name: module for module, names in _PUBLIC.items() for name in names}
 __all__ = [
     # SEA designs
     "design", "Design", "SEAParams", "UT_SEA", "load_sea", "feasible_fn_range",
-    "MarginsResult", "ImpedanceResult", "ResponseResult",
+    "MarginsResult", "ImpedanceResult", "ResponseResult", "JitterResult",
     # other systems
     "rigid", "RigidBatch", "loop_model", "latency_map", "place", "sweep", "read_sweep",
     "compare_mobile_base", "mobile_base_params", "LatencyMapResult", "PlacementResult",

@@ -327,7 +327,7 @@ def _check_latency_budget(jobs, n: int, max_fn: bool) -> None:
 
 
 # ---------------------------------------------------------------------------- seactl place
-def advice_json(a) -> dict[str, Any]:
+def advice_json(a, checks: dict[str, Any] | None = None) -> dict[str, Any]:
     def opt(o):
         return {"placement": o.placement, "stiffness_delay_ms": o.T_s * 1e3,
                 "damping_delay_ms": o.T_d * 1e3,
@@ -342,7 +342,13 @@ def advice_json(a) -> dict[str, Any]:
                 "stiffness_delay_margin_ms": None if o.stiffness_dm_s is None
                 else finite_or_none(o.stiffness_dm_s * 1e3),
                 "damping_delay_margin_ms": None if o.damping_dm_s is None
-                else finite_or_none(o.damping_dm_s * 1e3)}
+                else finite_or_none(o.damping_dm_s * 1e3),
+                **({} if o.jitter_s is None else {
+                    "jitter_ms": {k: v * 1e3 for k, v in o.jitter_s.items()},
+                    "jitter_margin_ms": None if o.jitter_margin_s is None else
+                    {k: finite_or_none(v * 1e3) for k, v in o.jitter_margin_s.items()},
+                    "bottleneck": o.bottleneck,
+                    "monte_carlo": (checks or {}).get(o.placement)})}
 
     return {"actuator": a.actuator, "kind": a.kind, "high_latency_ms": a.high_latency_s * 1e3,
             "low_latency_ms": a.low_latency_s * 1e3, "min_pm_deg": a.min_pm_deg,
@@ -356,10 +362,12 @@ def advice_json(a) -> dict[str, Any]:
 
 
 @cli.command()
-@click.option("--high-latency", type=float, default=22.0, show_default=True,
-              help="Feedback latency of the high-level (centralized) process [ms].")
-@click.option("--low-latency", type=float, default=0.5, show_default=True,
-              help="Feedback latency of the embedded process [ms].")
+@click.option("--high-latency", type=float, default=None,
+              help="Feedback latency of the high-level (centralized) process [ms] "
+                   "(default 22, or the minimum of --high-timing).")
+@click.option("--low-latency", type=float, default=None,
+              help="Feedback latency of the embedded process [ms] (default 0.5, or the "
+                   "minimum of --low-timing).")
 @click.option("--actuator", default="ut-linear", show_default=True,
               help="Preset (ut-linear, ut-sea) or TOML file.")
 @click.option("--min-pm", type=float, default=45.0, show_default=True,
@@ -369,40 +377,109 @@ def advice_json(a) -> dict[str, Any]:
 @click.option("--stiffness-embeddable", is_flag=True,
               help="Allow the stiffness loop on the embedded process (default: it needs the "
                    "high-level process; 'embedded' is then only the upper bound).")
+@click.option("--high-timing", default=None, metavar="MODEL",
+              help="Latency distribution of the high-level process [ms]: uniform:LOW:HIGH, "
+                   "exp:SHIFT:MEAN, hist:TRACE.csv, or a constant.")
+@click.option("--low-timing", default=None, metavar="MODEL",
+              help="Latency distribution of the embedded process [ms] (as --high-timing).")
+@click.option("--high-loss", default=None, metavar="P",
+              help="Message loss of the high-level process: P or ge:P_GB:P_BG[:BAD[:GOOD]].")
+@click.option("--low-loss", default=None, metavar="P",
+              help="Message loss of the embedded process (as --high-loss).")
+@click.option("--rate", "rate_hz", type=float, default=1000.0, show_default=True,
+              help="Servo rate of both processes [Hz] (loss bursts age the held value).")
+@click.option("--runs", type=click.IntRange(0, 100_000), default=200, show_default=True,
+              help="Monte Carlo check of each placement with timing (0: none).")
+@click.option("--seed", type=int, default=0, show_default=True, help="Monte Carlo seed.")
 @json_option
 @loop_options
 def place(high_latency, low_latency, actuator, min_pm, f_v, stiffness_embeddable,
+          high_timing, low_timing, high_loss, low_loss, rate_hz, runs, seed,
           as_json, loop) -> None:
     """Which process should run the stiffness and damping loops?
 
     \b
     Example (the mobile base: 7 ms + 15 ms centralized, 0.5 ms embedded):
       seactl place --high-latency 22 --low-latency 0.5
+    With jitter and loss (a measured trace for the high-level process):
+      seactl place --high-timing hist:trace.csv --low-timing uniform:0.5:1 --low-loss 0.01
 
     For each placement (centralized: all loops high-level; distributed: stiffness
     high-level, damping embedded; embedded: all embedded) it finds the highest
     critically-damped f_n whose loop is stable with PM >= --min-pm (and every
-    lower f_n too), and recommends the best allowed placement.
+    lower f_n too), and recommends the best allowed placement.  With a timing
+    spec, every loop's jitter margin must also cover its process's jitter; the
+    tightest constraint is the bottleneck, and a Monte Carlo simulation checks
+    each placement with the full latency distributions and losses.
     """
     from ..placement import advise
 
     if loop is not None:
         return loop_place(loop, as_json)
 
-    hi, lo = _ms("--high-latency", high_latency), _ms("--low-latency", low_latency)
+    timing = _process_timing(high_timing, low_timing, high_loss, low_loss, rate_hz)
+    hi = _ms("--high-latency", 22.0 if high_latency is None else high_latency)
+    lo = _ms("--low-latency", 0.5 if low_latency is None else low_latency)
     if not 0 <= min_pm < 180:
         raise InputError("--min-pm [deg]", min_pm, ">= 0 and < 180")
     model = load_model(actuator, _f_v(f_v))
-    a = advise(model, hi, lo, min_pm_deg=min_pm, stiffness_embeddable=stiffness_embeddable)
+    a = advise(model, hi, lo, min_pm_deg=min_pm, stiffness_embeddable=stiffness_embeddable,
+               timing=timing)
+    checks = _monte_carlo_checks(model, a, timing, runs, seed)
     if as_json:
-        echo_json(advice_json(a))
+        echo_json(advice_json(a, checks))
         return
-    t = Table(title=f"Loop placement for '{escape(a.actuator)}': high-level "
-              f"{high_latency:g} ms, embedded {low_latency:g} ms, PM >= {min_pm:g} deg")
+    _print_advice(a, checks)
+
+
+def _process_timing(high_timing, low_timing, high_loss, low_loss, rate_hz):
+    """``{"high-level": ProcessTiming, "embedded": ...}`` from the options, or None."""
+    from ..placement import ProcessTiming
+    from ..timing_models import parse_latency, parse_loss
+
+    if not (rate_hz > 0 and np.isfinite(rate_hz)):
+        raise InputError("--rate [Hz]", rate_hz, "a finite rate > 0")
+    out = {}
+    for proc, lat, loss, opt in (("high-level", high_timing, high_loss, "--high"),
+                                 ("embedded", low_timing, low_loss, "--low")):
+        if lat is None and loss is None:
+            continue
+        model = parse_latency(lat, f"{opt}-timing") if lat is not None else None
+        if model is None:
+            raise InputError(f"{opt}-timing", None, f"a latency model with {opt}-loss")
+        out[proc] = ProcessTiming(model, parse_loss(loss, f"{opt}-loss")
+                                  if loss is not None else None, rate_hz)
+    return out or None
+
+
+def _monte_carlo_checks(model, advice, timing, runs, seed) -> dict[str, Any]:
+    if not timing or runs == 0:
+        return {}
+    from ..timing import verify_placement
+
+    out = {}
+    for o in advice.options:
+        mc = verify_placement(model, o, timing, runs=runs, seed=seed)
+        if mc is not None:
+            out[o.placement] = {"runs": runs, "seed": seed,
+                                "fraction_stable": float(mc.fraction_stable),
+                                "rms_error_mean": finite_or_none(mc.rms_error_mean),
+                                "rms_error_worst": finite_or_none(mc.rms_error_worst)}
+    return out
+
+
+def _print_advice(a, checks: dict[str, Any]) -> None:
+    t = Table(title=escape(f"Loop placement for '{a.actuator}': high-level "
+                           f"{a.high_latency_s * 1e3:g} ms, embedded {a.low_latency_s * 1e3:g} "
+                           f"ms, PM >= {a.min_pm_deg:g} deg"
+                           + (" (+ jitter)" if a.timing else "")))
     gnames = list(next((o.gains for o in a.options if o.gains), {}))
-    for c in ["placement", "T_s [ms]", "T_d [ms]"] + (["T_tau [ms]"] if a.kind == "sea" else []) \
-            + ["max f_n [Hz]"] + gnames + [f"stiffness [{a.stiffness_unit}]", "PM [deg]",
-                                            "DM stiff. [ms]", "DM damp. [ms]"]:
+    cols = ["placement", "T_s [ms]", "T_d [ms]"] + (["T_tau [ms]"] if a.kind == "sea" else []) \
+        + ["max f_n [Hz]"] + gnames + [f"stiffness [{a.stiffness_unit}]", "PM [deg]",
+                                        "DM stiff. [ms]", "DM damp. [ms]"]
+    if a.timing:
+        cols += ["bottleneck", "MC stable"]
+    for c in cols:
         t.add_column(escape(c), justify="right" if c != "placement" else "left")
     for o in a.options:
         mark = " *" if o.placement == a.recommended else ""
@@ -415,6 +492,10 @@ def place(high_latency, low_latency, actuator, min_pm, f_v, stiffness_embeddable
         cells += [_fmt(o.static_stiffness, ".4g"), _fmt(o.phase_margin_deg, ".1f"),
                   _fmt(None if o.stiffness_dm_s is None else o.stiffness_dm_s * 1e3, ".2f"),
                   _fmt(None if o.damping_dm_s is None else o.damping_dm_s * 1e3, ".2f")]
+        if a.timing:
+            mc = checks.get(o.placement)
+            cells += [o.bottleneck or "-",
+                      "-" if mc is None else f"{100 * mc['fraction_stable']:.1f}%"]
         t.add_row(*cells)
     console.print(t)
     console.print(escape(a.reason))

@@ -12,6 +12,16 @@ simulated in one vectorized batch) and::
     --saturation A              motor current limit (sampled mode; default: the actuator's,
                                 'none' for no limit)
     --plot FILE, --csv FILE, --json
+    --latency LINK=MODEL        random latency of a link (stiffness, damping, torque) in ms:
+                                2, uniform:LOW:HIGH, exp:SHIFT:MEAN, hist:FILE.csv
+    --loss LINK=P               message loss: a probability, or ge:P_GB:P_BG[:BAD[:GOOD]]
+    --runs N, --seed S          Monte Carlo over N timing realizations (sampled mode)
+
+With --latency, --loss or --runs the command runs a Monte Carlo (seactl.timing) and prints
+per design the fraction of stable runs, the RMS tracking error (mean and worst of the
+stable runs), the largest current and the worst run; JSON ``{"mode", "runs", "seed",
+"latency", "loss", "designs": [{"fn_hz", "gs", "fraction_stable", "rms_error_mean",
+"rms_error_worst", "peak_current_worst_a", "worst_run"}]}``.
 
 JSON for one design: ``{"mode", "t_s", "position", "stable", "verdict", "evidence",
 "metrics", "warnings", ...}``; for several designs: ``{"mode", "t_s", "warnings", "runs":
@@ -65,6 +75,76 @@ def _parse_saturation(value: str | None) -> float | None:
     return sat
 
 
+def _timing_options(mode: str, latency: tuple[str, ...], loss: tuple[str, ...],
+                    runs: int | None, seed: int) -> dict[str, Any] | None:
+    """Monte Carlo options, or None when none is given."""
+    from ..timing_models import parse_latency, parse_link_specs, parse_loss
+
+    if not latency and not loss and runs is None:
+        return None
+    if mode != "sampled":
+        raise InputError("--mode", mode, "'sampled' with --latency, --loss or --runs")
+    if runs is not None and not 1 <= runs <= 100_000:
+        raise InputError("--runs", runs, "an integer in [1, 100000]")
+    return {"latency": parse_link_specs(latency, parse_latency, "--latency"),
+            "loss": parse_link_specs(loss, parse_loss, "--loss"),
+            "runs": 100 if runs is None else runs, "seed": seed,
+            "text": {"latency": dict(x.split("=", 1) for x in latency),
+                     "loss": dict(x.split("=", 1) for x in loss)}}
+
+
+def _monte_carlo(spec: DesignSpec, kind: str, timing: dict[str, Any], outs: OutputSet,
+                 plot: Path | None, csv_path: Path | None, as_json: bool, title: str,
+                 **kwargs: Any) -> None:
+    """Run and print a Monte Carlo over timing realizations (``seactl.timing``)."""
+    from ..errors import InputError as _IE
+    from ..timing import sea_monte_carlo
+
+    if csv_path:
+        raise _IE("--csv", csv_path, "not used with --latency/--loss/--runs (use --json)")
+    try:
+        mc = sea_monte_carlo(spec.designs(), kind, latency=timing["latency"],
+                             loss=timing["loss"], runs=timing["runs"], seed=timing["seed"],
+                             **kwargs)
+    except _IE as exc:
+        if exc.field == "link":
+            raise _IE("--latency/--loss link", exc.value, exc.valid) from None
+        raise
+    rows = [{"fn_hz": f, "gs": g, **r} for (f, g), r in zip(_labels(spec), mc.records())]
+    if plot:
+        from ..plots import response_figure
+
+        pos = mc.result.outputs["q_j"].reshape(mc.runs, len(rows), -1)[:50, 0]
+        norm = kwargs.get("amplitude", 1.0) if kind == "step" else 1.0
+        fig = response_figure(mc.result.t_s, pos / norm, [f"run {i}" for i in range(len(pos))],
+                              title=title, ylabel="joint position" + (" / step" if kind ==
+                                                                      "step" else " [rad]"),
+                              unstable=[not s for s in mc.stable.reshape(mc.runs, -1)[:50, 0]])
+        outs.figure(plot, fig, dpi=110)
+    outs.commit()
+    if as_json:
+        echo_json({"mode": "sampled", "kind": kind, "runs": mc.runs, "seed": timing["seed"],
+                   **timing["text"], "designs": rows})
+        return
+    tab = Table(title=escape(f"{title}: {mc.runs} timing realizations, seed {timing['seed']}"))
+    for c in ("f_n [Hz]", "GS", "stable runs", "RMS error mean", "RMS error worst",
+              "peak |i_m| [A]", "worst run"):
+        tab.add_column(escape(c), justify="right")
+    for r in rows:
+        def fmt(x, spec=".3g"):
+            return "none" if x is None else format(x, spec)
+        tab.add_row(f"{r['fn_hz']:g}", f"{r['gs']:g}", f"{100 * r['fraction_stable']:.1f}%",
+                    fmt(r["rms_error_mean"]), fmt(r["rms_error_worst"]),
+                    fmt(r["peak_current_worst_a"], ".2f"), str(r["worst_run"]))
+    console.print(tab)
+    console.print(escape("RMS error: " + ("q_j/step - 1" if kind == "step" else "q_j [rad]")
+                         + " over the window, stable runs only; links: " + ", ".join(
+                             f"{k} latency {v} ms" for k, v in timing["text"]["latency"].items())
+                         + (" " if timing["text"]["loss"] else "") + ", ".join(
+                             f"{k} loss {v}" for k, v in timing["text"]["loss"].items())),
+                  highlight=False)
+
+
 def sim_options(func: Callable) -> Callable:
     """Options shared by ``step`` and ``impulse``."""
     opts = [
@@ -85,21 +165,35 @@ def sim_options(func: Callable) -> Callable:
         click.option("--csv", "csv_path", default=None, metavar="FILE.csv",
                      help="Write the responses as CSV (t_s, one column per design)."),
         click.option("--json", "as_json", is_flag=True, help="Print JSON instead of a table."),
+        click.option("--latency", "latency", multiple=True, metavar="LINK=MODEL",
+                     help="Random latency [ms] of a link (stiffness, damping, torque): 2, "
+                          "uniform:LOW:HIGH, exp:SHIFT:MEAN or hist:FILE.csv (sampled mode)."),
+        click.option("--loss", "loss", multiple=True, metavar="LINK=P",
+                     help="Message loss of a link: a probability or ge:P_GB:P_BG[:BAD[:GOOD]] "
+                          "(Gilbert-Elliott); the receiver holds the last value."),
+        click.option("--runs", type=int, default=None,
+                     help="Monte Carlo realizations per design (default 100 with --latency "
+                          "or --loss)."),
+        click.option("--seed", type=int, default=0, show_default=True,
+                     help="Seed of the Monte Carlo."),
     ]
 
     @functools.wraps(func)
-    def wrapper(*args, mode, rate_hz, no_zero, t_end, saturation, plot, csv_path, **kwargs):
+    def wrapper(*args, mode, rate_hz, no_zero, t_end, saturation, plot, csv_path, latency,
+                loss, runs, seed, **kwargs):
         check_range("--rate [Hz]", rate_hz, "rate_hz")
         if t_end is not None:
             check_range("--t-end [s]", t_end, "t_end_s")
         sat = _parse_saturation(saturation)
         if sat is not None and mode != "sampled":
             raise InputError("--saturation", saturation, "used with --mode sampled only")
+        timing = _timing_options(mode, latency, loss, runs, seed)
         with OutputSet() as outs:
             plot_p = outs.add("--plot", plot, FIGURE_SUFFIXES)
             csv_p = outs.add("--csv", csv_path, CSV_SUFFIXES)
             return func(*args, mode=mode, rate_hz=rate_hz, zero=not no_zero, t_end=t_end,
-                        saturation=sat, outs=outs, plot=plot_p, csv_path=csv_p, **kwargs)
+                        saturation=sat, outs=outs, plot=plot_p, csv_path=csv_p,
+                        timing=timing, **kwargs)
 
     for opt in reversed(opts):
         wrapper = opt(wrapper)
@@ -251,7 +345,8 @@ def _extra(res: Any, mode: str, rate_hz: float, saturation: float | None) -> dic
 @loop_options
 def step(spec: DesignSpec, amplitude: float, mode: str, rate_hz: float, zero: bool,
          t_end: float | None, saturation: float | None, outs: OutputSet,
-         plot: Path | None, csv_path: Path | None, as_json: bool, loop: Any) -> None:
+         plot: Path | None, csv_path: Path | None, as_json: bool,
+         timing: dict[str, Any] | None, loop: Any) -> None:
     """Step response of the joint position to a position reference step.
 
     \b
@@ -267,6 +362,11 @@ def step(spec: DesignSpec, amplitude: float, mode: str, rate_hz: float, zero: bo
         return loop_response(loop, "step", mode, t_end or 0.5, amplitude, as_json, outs, plot,
                              csv_path)
     check_simulation(spec, mode, rate_hz, t_end or 0.5)
+    if timing is not None:
+        return _monte_carlo(spec, "step", timing, outs, plot, csv_path, as_json,
+                            f"Step response (sampled, {rate_hz:g} Hz)", rate_hz=rate_hz,
+                            t_end_s=t_end or 0.5, zero=zero, saturation_a=saturation,
+                            amplitude=amplitude)
     design = spec.designs()
     resp = sea_step(design, zero=zero, mode=mode, rate_hz=rate_hz, t_end_s=t_end or 0.5,
                     saturation_a=saturation, amplitude=amplitude,
@@ -288,7 +388,8 @@ def step(spec: DesignSpec, amplitude: float, mode: str, rate_hz: float, zero: bo
 @loop_options
 def impulse(spec: DesignSpec, impulse_nms: float, band: float, mode: str, rate_hz: float,
             zero: bool, t_end: float | None, saturation: float | None, outs: OutputSet,
-            plot: Path | None, csv_path: Path | None, as_json: bool, loop: Any) -> None:
+            plot: Path | None, csv_path: Path | None, as_json: bool,
+            timing: dict[str, Any] | None, loop: Any) -> None:
     """Joint position after an impulse of external torque (q_des = 0), e.g. a ball hitting
     the arm (Fig. ExperimentImpulse). Position in rad; recovery = last exit from the band.
 
@@ -307,6 +408,11 @@ def impulse(spec: DesignSpec, impulse_nms: float, band: float, mode: str, rate_h
         return loop_response(loop, "impulse", mode, t_end or 1.0, impulse_nms, as_json, outs,
                              plot, csv_path)
     check_simulation(spec, mode, rate_hz, t_end or 1.0)
+    if timing is not None:
+        return _monte_carlo(spec, "impulse", timing, outs, plot, csv_path, as_json,
+                            f"Impulse response, {impulse_nms:g} N m s (sampled, {rate_hz:g} Hz)",
+                            rate_hz=rate_hz, t_end_s=t_end or 1.0, zero=zero,
+                            saturation_a=saturation, impulse_nms=impulse_nms)
     design = spec.designs()
     resp = sea_impulse(design, impulse_nms=impulse_nms, zero=zero, mode=mode, rate_hz=rate_hz,
                        t_end_s=t_end or 1.0, saturation_a=saturation, band=band,
