@@ -108,7 +108,12 @@ def impedance(spec: DesignSpec, freq: tuple[str, ...], model: str, load: bool, u
     Example:
       seactl impedance --fn 30 --t-tau 1 --t-qs 10 --t-qd 3 --plot z.png
     """
+    if loop is None and port is not None:
+        raise InputError("--port", port, "used with --loop FILE")
     with OutputSet() as outs:
+        if loop is not None:
+            return loop_impedance(loop, _freq(freq), port, as_json, outs,
+                                  *_outputs(outs, plot, csv))
         f = _budget(spec, _freq(freq))
         plot_p, csv_p = _outputs(outs, plot, csv)
         if loop is not None:
