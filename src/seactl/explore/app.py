@@ -187,8 +187,9 @@ class Explorer:
         for i, key in enumerate(("f_qd_hz", "f_taud_hz")):
             if i not in self.filters.active:
                 v[key] = None
-        return Controls(actuator=self.actuators[self.actuator.value],
-                        mode=MODES[self.mode.active], **v)
+        actuator = self.actuators.get(self.actuator.value, next(iter(SEA_PRESETS.values())))
+        mode = MODES[self.mode.active] if self.mode.active in (0, 1) else MODES[0]
+        return Controls(actuator=actuator, mode=mode, **v)
 
     # ------------------------------------------------------------ callbacks
     def on_change(self, attr: str, old: Any, new: Any) -> None:
