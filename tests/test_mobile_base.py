@@ -141,8 +141,9 @@ def test_tuning_ranks_dosc_above_cosc_and_cli_json(capsys):
     comp = mb.tune(small)
     c, d = comp.results["cosc"], comp.results["dosc"]
     assert d.max_damping > c.max_damping > 0
+    # Oracle: the paper's ranking (DOSC tolerates more damping and stiffness than COSC);
+    # the ratio's value is pinned by claim base.kx_ratio in tests/data/claims_snapshot.json
     assert d.max_kx > c.max_kx > 0
-    assert comp.kx_ratio == pytest.approx(d.max_kx / c.max_kx)
     assert d.rms_position_m < c.rms_position_m
     from seactl.commands.mobile_base import comparison_json
 
