@@ -20,11 +20,27 @@ def run(args, capsys):
     return code, out, err
 
 
+# The paper's Table I: f_n -> K_q, B_q, K_tau, B_tau, PM, and half a unit of each printed digit
+PRINTED = {12: (65, 0.46, 1.18, 0.057, 45.1), 14: (83, 0.76, 1.80, 0.067, 43.2),
+           16: (103, 1.02, 2.56, 0.077, 40.0), 18: (124, 1.26, 3.45, 0.087, 36.5),
+           20: (148, 1.49, 4.48, 0.097, 33.2)}
+HALF_DIGIT = (0.5, 0.005, 0.005, 0.0005, 0.1)   # PM: the paper truncates (43.26 -> 43.2)
+
+
 def test_gains_prints_table_i(capsys):
+    """Oracle: the paper's Table I, read back from the printed table's cells."""
     code, out, _ = run("gains " + TABLE_I, capsys)
     assert code == 0
-    for text in ("65.17", "0.458", "1.180", "45.13", "83.17", "43.26", "33.19"):
-        assert text in out
+    header = next(line for line in out.splitlines() if "Kq" in line and "PM" in line)
+    names = [c.split("[")[0].strip() for c in header.strip().strip("┃").split("┃")]
+    rows = [dict(zip(names, (c.strip() for c in line.strip().strip("│").split("│"))))
+            for line in out.splitlines() if line.startswith("│")]
+    assert [float(r["f_n"]) for r in rows] == sorted(PRINTED)
+    for r in rows:
+        shown = [r[k] for k in ("Kq", "Bq", "Ktau", "Btau", "PM")]
+        for text, paper, half in zip(shown, PRINTED[int(float(r["f_n"]))], HALF_DIGIT):
+            display = 0.5 * 10.0 ** -len(text.partition(".")[2])   # rounding of the cell
+            assert float(text) == pytest.approx(paper, abs=half + display + 1e-9), (r, text)
 
 
 def test_gains_json_has_exactly_the_keys(capsys):
