@@ -33,6 +33,8 @@ def test_ut_sea_matches_table_ii_rotary_and_linear():
     ("motor_damping", -0.1), ("joint_damping", float("nan")),
 ])
 def test_invalid_fields_name_field_value_and_range(field, value):
+    # Oracle: the documented error contract (InputError naming the field, the value and the
+    # valid range).
     with pytest.raises(InputError) as exc:
         SEAParams(**{**VALID, field: value})
     msg = str(exc.value)
@@ -41,6 +43,8 @@ def test_invalid_fields_name_field_value_and_range(field, value):
 
 
 def test_toml_roundtrip_and_errors(tmp_path):
+    # Oracle: the values written into the TOML files; the error contract names the offending
+    # key, value or file.
     good = tmp_path / "mine.toml"
     good.write_text("\n".join(f"{k} = {v}" for k, v in VALID.items()))
     a = load_sea(good)
