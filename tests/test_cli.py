@@ -44,6 +44,7 @@ def test_gains_prints_table_i(capsys):
 
 
 def test_gains_json_has_exactly_the_keys(capsys):
+    # Oracle: the documented JSON keys and the paper's Table I phase margins.
     code, out, _ = run("gains --json " + TABLE_I, capsys)
     assert code == 0
     rows = json.loads(out)
@@ -55,6 +56,7 @@ def test_gains_json_has_exactly_the_keys(capsys):
 
 
 def test_ranges_and_gs_grid(capsys):
+    # Oracle: the START:STOP:STEP grid expanded by hand, (10, 15, 20) x (0.5, 2).
     code, out, _ = run("gains --json --fn 10:20:5 --gs 0.5 2", capsys)
     rows = json.loads(out)
     assert code == 0 and len(rows) == 6
@@ -75,6 +77,8 @@ def test_ranges_and_gs_grid(capsys):
     ("gains --zeta1 -1", "--zeta1 = -1.0"),
 ])
 def test_bad_input_exits_2_with_a_clear_message(args, needle, capsys):
+    # Oracle: the CLI error contract (exit 2, one message naming the flag, value and valid
+    # range, no traceback).
     code, out, err = run(args, capsys)
     assert code == 2
     assert needle in err.replace("\n", " ")
@@ -82,6 +86,7 @@ def test_bad_input_exits_2_with_a_clear_message(args, needle, capsys):
 
 
 def test_bad_toml_actuator(tmp_path, capsys):
+    # Oracle: the CLI error contract, naming the bad field of the file.
     f = tmp_path / "a.toml"
     f.write_text("motor_inertia = 0.2\njoint_inertia = 0.01\nmotor_damping = 1\n"
                  "joint_damping = 0.1\nspring_stiffness = 0\ncurrent_to_torque = 5\n")
@@ -90,6 +95,7 @@ def test_bad_toml_actuator(tmp_path, capsys):
 
 
 def test_console_script_exit_code_and_no_traceback():
+    # Oracle: the exit status and stderr of a real subprocess.
     res = subprocess.run([sys.executable, "-c", "from seactl.cli import run; run()",
                           "gains", "--fn", "8"], capture_output=True, text=True)
     assert res.returncode == 2
@@ -97,6 +103,7 @@ def test_console_script_exit_code_and_no_traceback():
 
 
 def test_value_parsing():
+    # Oracle: the ranges expanded by hand.
     assert list(parse_values("--fn", ["10:12:1", "15"])) == [10, 11, 12, 15]
     assert parse_values("--freq", ["1:100:3"], log=True) == pytest.approx([1, 10, 100])
     with pytest.raises(InputError):
