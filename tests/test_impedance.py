@@ -79,6 +79,8 @@ def solve_physics(d, f_hz, load=False, Ij=None, bj=None):
 
 @pytest.mark.parametrize("timing", TIMINGS)
 def test_block_diagram_matches_physical_equations(timing):
+    # Oracle: solve_physics, the loop's linear equations solved numerically per frequency
+    # (and the compliance route for the load).
     d = design(23.0, timing)
     z = impedance(d, F)
     assert z.model == "block-diagram"
@@ -97,6 +99,8 @@ def test_load_is_z_plus_inertia_and_damping():
 
 
 def test_static_stiffness_and_bare_spring():
+    # Oracle: analytic limits: s Z -> K_q; without control the spring in series with the
+    # free motor; the bare spring k/s with the motor locked.
     d = design(30.0, TIMINGS[3])
     assert impedance(d, [1e-5]).stiffness[0].real == pytest.approx(float(d.Kq), rel=1e-6)
     zero = SEADesign(A, Gains(0.0, 0.0, 0.0, 0.0), TIMINGS[1])
@@ -111,6 +115,7 @@ def test_static_stiffness_and_bare_spring():
 
 
 def test_batch_shapes_and_chunking(monkeypatch):
+    # Oracle: each design evaluated alone, unchunked.
     import seactl.impedance as imp
 
     g = critically_damped_gains(A, np.array([12.0, 20.0, 30.0])[:, None],
@@ -152,6 +157,8 @@ def printed(d, s, kt):
 
 @pytest.mark.parametrize("timing", TIMINGS)
 def test_paper_model(timing):
+    # Oracle: printed(), a second transcription of four printed coefficients, and the block
+    # diagram when k_tau = beta (docs/theory/ktau-beta.md).
     d = design(30.0, timing)
     s = 2j * np.pi * F
     N, D = paper_coefficients(d, s)
@@ -208,6 +215,8 @@ def test_asymptotes_at_extreme_frequencies(model, timing):
 
 
 def test_load_asymptotes_and_spike():
+    # Oracle: the loaded impedance itself at 1e-5 and 1e6 Hz (the asymptotes must be its
+    # limits).
     d = design(20.0, Timing.from_ms(1.0, 10.0, 1.0, 50.0, 100.0))
     a = asymptotes(d, [1e-5, 1e6], load_inertia=[0.014, 0.2], load_damping=0.1)
     z = impedance(d, [1e-5, 1e6], load_inertia=[0.014, 0.2], load_damping=0.1)
@@ -234,6 +243,7 @@ def test_high_frequency_asymptote_case_mix():
 
 # ----------------------------------------------------------------------------- passivity
 def test_passivity_bands_on_a_built_non_passive_case():
+    # Oracle: a brute-force dense scan of Re Z, and Re Z = 0 at each band edge.
     # Stiffness delay only: Z = K/s e^{-sT} + ... and Re(K e^{-jwT}/(jw)) = -K sin(wT)/w < 0
     # for 0 < wT < pi: with a large T the band starts at the scan start and ends near
     # f = 1/(2T) where the delay term's real part changes sign (other terms shift it a bit).
@@ -258,6 +268,8 @@ def test_passivity_bands_on_a_built_non_passive_case():
 
 
 def test_passive_ideal_and_load_damping_helps():
+    # Oracle: Re Z_l = Re Z + b_j: load damping above the worst negative Re Z of a dense
+    # scan restores passivity.
     assert bool(passivity(design(30.0), (0.1, 1000.0)).passive)
     d = design(20.0, Timing(T_qs=0.02))  # K_q T_qs = 3 Nms/rad > B_q: negative damping
     assert not bool(passivity(d, (0.1, 100.0)).passive)
@@ -267,6 +279,7 @@ def test_passive_ideal_and_load_damping_helps():
 
 
 def test_bad_input():
+    # Oracle: the error contract (InputError naming the parameter).
     d = design(20.0)
     with pytest.raises(InputError, match="model"):
         impedance(d, F, model="matlab")
@@ -322,6 +335,8 @@ def test_zregion_width_and_depth():
 
 # ----------------------------------------------------------------------------- CLI
 def test_cli_impedance_json_and_files(tmp_path, capsys):
+    # Oracle: the library's impedance() and passivity() for the same design; PNG magic
+    # bytes; CSV row count.
     png, csv = tmp_path / "z.png", tmp_path / "z.csv"
     rc = main(["impedance", "--fn", "30", "--t-tau", "1", "--t-qs", "10", "--t-qd", "3",
                "--freq", "1", "10", "100", "--json", "--plot", str(png), "--csv", str(csv)])
@@ -344,6 +359,7 @@ def test_cli_impedance_json_and_files(tmp_path, capsys):
 
 
 def test_cli_impedance_paper_model_and_errors(capsys):
+    # Oracle: docs/theory/ktau-beta.md (72.9 N m/rad) and the CLI error contract.
     assert main(["impedance", "--fn", "30", "--freq", "0.001", "--model", "paper",
                  "--json"]) == 0
     out = json.loads(capsys.readouterr().out)
@@ -356,6 +372,8 @@ def test_cli_impedance_paper_model_and_errors(capsys):
 
 
 def test_cli_zregion(tmp_path, capsys):
+    # Oracle: the grid sizes given on the command line (2 x 2 designs, 41 frequencies) and
+    # the CLI error contract.
     rc = main(["zregion", "--fn", "12", "16", "--gs", "0.8", "1", "--t-tau", "0.5",
                "--t-qs", "2", "--t-qd", "0.5", "--f-qd", "50", "--f-taud", "100",
                "--freq", "0.1:1000:41", "--json", "--plot", str(tmp_path / "zr.svg")])
