@@ -49,6 +49,8 @@ def test_preset_and_force_limit():
 
 
 def test_load_rigid_toml_and_errors(tmp_path):
+    # Oracle: the values written into the file (force limit 30 A x 50 N/A by hand) and the
+    # error contract.
     p = tmp_path / "arm.toml"
     p.write_text("mass = 10.0\ndamping = 2.0\ncurrent_to_force = 50.0\n")
     a = load_rigid(p)
@@ -97,6 +99,8 @@ def test_gains_rule_and_infeasible():
 
 # ---------------------------------------------------------------------------- the diagram
 def test_diagram_loop_and_closed_loop_match_model_equations():
+    # Oracle: hand_loop and the closed-loop and per-loop transfers typed from the model
+    # equations.
     fn = np.array([4.0, 8.0, 12.0])[:, None]
     d = RigidDesign.from_fn(UT_LINEAR, fn, T_s=np.array([1.5e-3, 15.5e-3]), T_d=4e-3, f_v=50.0)
     s = 1j * np.logspace(-1, 3, 50)
@@ -123,6 +127,7 @@ def _pc_margins(L, w):
 
 @pytest.mark.filterwarnings("ignore")
 def test_rigid_margins_match_python_control_frd():
+    # Oracle: control.stability_margins on FRDs of loops typed by hand.
     fn = np.array([4.0, 8.0, 12.0])
     d = RigidDesign.from_fn(UT_LINEAR, fn, T_s=15.5e-3, T_d=1.5e-3, f_v=50.0)
     m = rigid_margins(d)
@@ -145,6 +150,7 @@ def test_rigid_margins_match_python_control_frd():
 
 
 def test_pure_delay_identity_pm_is_90_minus_wc_T():
+    # Oracle: K e^{-sT}/s by hand: w_c = K, PM = 90 - K T deg, DM = pi/(2K) - T.
     d = BlockDiagram("int", [
         Block("ref", "r", "u"), Block("sens", "y", "y_s", role="sensor"),
         Block("fb", "y_s", "u", num=lambda p: (-p.K,), delay="T"),
@@ -170,6 +176,7 @@ def two_path_diagram():
 
 
 def test_per_loop_delay_margins_analytic():
+    # Oracle: the per-path loops solved by hand (below).
     # path 1 broken, path 2 closed without delay: L1 = K1 e^{-s T1} / (s + K2);
     # |L1| = 1 at w = sqrt(K1^2 - K2^2); extra delay that reaches -1:
     # (pi - atan(w/K2)) / w - T1.
@@ -192,6 +199,8 @@ def test_per_loop_delay_margins_analytic():
 
 @pytest.mark.parametrize("kind", ["rigid", "sea"])
 def test_delay_margin_is_the_boundary(kind):
+    # Oracle: the definition: L = -1 at the crossover with exactly that extra delay; 0.98 x
+    # stable, 1.02 x unstable.
     if kind == "rigid":
         model = rigid_model()
         d = model.design(np.array([4.0, 8.0, 12.0]), 1.5e-3, 1.5e-3)
@@ -225,6 +234,7 @@ def test_delay_margin_is_the_boundary(kind):
 
 
 def test_equal_delay_sensitivity_identity_and_ratio():
+    # Oracle: delaying both paths equally delays the whole loop, so dPM/dT = -w_c exactly.
     model = rigid_model()
     fn = np.array([4.0, 8.0, 12.0])
     s = pm_sensitivity(model, fn, 2e-3, 2e-3)
@@ -236,6 +246,7 @@ def test_equal_delay_sensitivity_identity_and_ratio():
 
 
 def test_latency_map_matches_pointwise_and_max_fn_boundary():
+    # Oracle: rigid_margins at each point; the margins at and 0.1 % above each maximum f_n.
     from seactl.latency import latency_map
 
     model = rigid_model()
@@ -273,6 +284,8 @@ def brute_force(model, high, low, min_pm, grid):
 
 @pytest.mark.parametrize("high,low,min_pm", [(22e-3, 0.5e-3, 45.0), (5e-3, 1e-3, 30.0)])
 def test_advisor_matches_brute_force(high, low, min_pm):
+    # Oracle: brute_force (a dense f_n grid per placement); static stiffness K = m w_n^2 for
+    # the gain over centralized.
     model = rigid_model()
     grid = np.arange(0.4, 40.0, 0.02)
     bf = brute_force(model, high, low, min_pm, grid)
@@ -290,6 +303,7 @@ def test_advisor_matches_brute_force(high, low, min_pm):
 
 
 def test_advisor_sea_reports_none_when_nothing_qualifies():
+    # Oracle: brute_force on a geometric f_n grid.
     model = sea_model()
     a = advise(model, 22e-3, 0.5e-3)
     lo = model.fn_limits[0]
@@ -304,6 +318,7 @@ def test_advisor_sea_reports_none_when_nothing_qualifies():
 
 
 def test_advisor_rejects_bad_input():
+    # Oracle: the error contract (InputError).
     with pytest.raises(InputError):
         advise(rigid_model(), -1.0, 0.5e-3)
     with pytest.raises(InputError):
@@ -318,6 +333,8 @@ def run(args, capsys):
 
 
 def test_cli_place_json(capsys):
+    # Oracle: the paper's recommendation for 22 ms / 0.5 ms (distributed) and the delays
+    # given on the command line.
     code, out, _ = run("place --high-latency 22 --low-latency 0.5 --json", capsys)
     assert code == 0
     a = json.loads(out)
@@ -330,6 +347,7 @@ def test_cli_place_json(capsys):
 
 
 def test_cli_place_table_and_bad_input(capsys):
+    # Oracle: the same recommendation in the table; the CLI error contract.
     code, out, _ = run("place", capsys)
     assert code == 0 and "Recommended: distributed" in out
     code, _, err = run("place --high-latency -3", capsys)
@@ -354,6 +372,8 @@ def test_cli_rigid_json(capsys):
 
 
 def test_cli_latency_map_csv_and_plot(capsys, tmp_path):
+    # Oracle: the grid size given (--n 4: 16 rows) and the paper's damping/stiffness latency
+    # asymmetry (ratio > 5).
     csv, png = tmp_path / "m.csv", tmp_path / "m.png"
     code, out, _ = run(f"latency-map --actuator ut-linear --n 4 --csv {csv} --plot {png} --json",
                        capsys)
