@@ -44,6 +44,7 @@ def test_table_i_and_gain_scale_sections(tmp_path, capsys):
 
 
 def test_claims_json_is_byte_identical(tmp_path, capsys):
+    # Oracle: a second run's bytes.
     a, b = tmp_path / "a", tmp_path / "b"
     for d in (a, b):
         assert main(["reproduce", "--out", str(d), "--only", "table-i"]) == 0
@@ -51,6 +52,7 @@ def test_claims_json_is_byte_identical(tmp_path, capsys):
 
 
 def test_interrupted_run_leaves_previous_report_intact(tmp_path, monkeypatch, capsys):
+    # Oracle: the previous report's bytes and the directory listing.
     out = tmp_path / "rep"
     assert main(["reproduce", "--out", str(out), "--only", "table-i"]) == 0
     before = (out / "claims.json").read_bytes()
@@ -67,6 +69,7 @@ def test_interrupted_run_leaves_previous_report_intact(tmp_path, monkeypatch, ca
 
 
 def test_unknown_section_is_an_input_error(tmp_path, capsys):
+    # Oracle: the CLI error contract (exit 2).
     assert main(["reproduce", "--out", str(tmp_path / "x"), "--only", "nope"]) == 2
 
 
@@ -79,6 +82,7 @@ def test_unknown_section_is_an_input_error(tmp_path, capsys):
     (float("nan"), 1.0, "", "nan"),
 ])
 def test_claim_values_are_formatted_for_people(value, tol, unit, text):
+    # Oracle: the strings typed by hand in the table above.
     assert report.format_value(value, tol, unit) == text
 
 
