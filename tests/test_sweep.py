@@ -56,6 +56,8 @@ def reference(tmp_path_factory):
 
 
 def test_sweep_equals_points_one_by_one(reference):
+    # Oracle: every point rebuilt and evaluated alone (gain design, sea_margins,
+    # hand_impedance) and the paper's 45.1 deg at the Table I point.
     out, res, table = reference
     assert res.n_points == 24 and res.chunks_computed == 5 and table.num_rows == 24
     rows = table.to_pylist()
@@ -102,6 +104,7 @@ def test_sweep_equals_points_one_by_one(reference):
 
 
 def test_resume_after_interruption_gives_the_same_dataset(reference, tmp_path):
+    # Oracle: the uninterrupted reference run, byte for byte.
     ref_out, _, ref_table = reference
     out = tmp_path / "sweep"
 
@@ -129,6 +132,7 @@ def test_resume_after_interruption_gives_the_same_dataset(reference, tmp_path):
 
 
 def test_changed_spec_is_refused(reference, tmp_path):
+    # Oracle: the error contract (InputError, exit 2) and the axis values written.
     ref_out, _, _ = reference
     out = tmp_path / "sweep"
     run_sweep(SweepSpec(UT_SEA, (("fn_hz", (12.0, 14.0)),), chunk_size=5), out, workers=0)
@@ -151,6 +155,8 @@ def test_changed_spec_is_refused(reference, tmp_path):
 
 
 def test_samples_are_deterministic_and_stratified():
+    # Oracle: the Latin-hypercube property (one point per stratum) and a second call with
+    # the same seed.
     lhs = SweepSpec(UT_SEA, (("fn_hz", (10.0, 30.0)), ("t_qs_ms", (0.0, 20.0)),
                              ("k", (0.9 * UT_SEA.k, 1.1 * UT_SEA.k))),
                     sampling="lhs", n_samples=250, chunk_size=100, seed=3)
@@ -189,6 +195,8 @@ def test_sweep_map_reduces_over_the_other_axes(reference):
 
 
 def test_cli_sweep_plot_and_bad_input(tmp_path, capsys):
+    # Oracle: the 3 x 3 grid typed (9 points, all above the 9.456 Hz bound), PNG magic
+    # bytes, the CLI error contract.
     out = tmp_path / "cli"
     fig = tmp_path / "map.png"
     code = main(["sweep", "--fn", "12:16:2", "--t-qs", "0,5,10", "--t-qd", "0.5",
@@ -238,6 +246,7 @@ def test_monte_carlo_matches_samples_evaluated_one_by_one():
 
 
 def test_wilson_interval():
+    # Oracle: the Wilson interval's closed form at p = 0.
     # p = 0 of n: the upper end is z^2 / (n + z^2)
     r = RobustResult(40.0, np.full(100, 40.0), np.ones(100, bool), {})
     z2 = 1.959963984540054 ** 2
@@ -245,6 +254,7 @@ def test_wilson_interval():
 
 
 def test_cli_robust(tmp_path, capsys):
+    # Oracle: the intervals from the percentages typed (+-20 %).
     fig = tmp_path / "hist.png"
     code = main(["robust", "--fn", "14", "--t-qs", "2", "--t-qd", "0.5", "--ij", "20%",
                  "--k", "20%", "--n", "200", "--plot", str(fig), "--json"])
@@ -268,6 +278,7 @@ def cluster():
 
 
 def test_local_cluster_gives_the_same_result(reference, cluster, tmp_path, capsys):
+    # Oracle: the in-process reference run's table.
     from distributed import Client
 
     _, _, ref_table = reference
