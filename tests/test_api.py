@@ -58,6 +58,7 @@ def test_broadcasting_grid_and_indexing(table1):
 
 
 def test_actuator_from_toml_and_object(tmp_path):
+    # Oracle: the same actuator given as an SEAParams object.
     fields = dict(motor_inertia=0.225, joint_inertia=0.014, motor_damping=1.375,
                   joint_damping=0.1, spring_stiffness=218.75, current_to_torque=5.2025)
     path = tmp_path / "mine.toml"
@@ -69,6 +70,8 @@ def test_actuator_from_toml_and_object(tmp_path):
 
 
 def test_units_are_checked_with_the_unit_in_the_message():
+    # Oracle: the unit contract of the README (delays_ms refuses > 1000 ms and warns below 1
+    # us; Timing takes seconds).
     with pytest.raises(sc.InputError, match=r"T_qs \[ms\] = 2000.0.*milliseconds"):
         sc.design(14, delays_ms=(0.5, 2000, 0.5))
     with pytest.raises(sc.InputError, match="delays_ms"):
@@ -88,6 +91,7 @@ def test_units_are_checked_with_the_unit_in_the_message():
 
 
 def test_infeasible_design_names_the_bound():
+    # Oracle: the feasibility bound of docs/theory/gain-design.md (9.456 Hz).
     with pytest.raises(sc.InfeasibleDesignError, match=r"f_n >= 9.456 Hz"):
         sc.design(8)
 
@@ -123,6 +127,8 @@ def test_pade_export_margins_dc_gain_and_stiffness(table1):
 
 
 def test_results_to_dict_is_json_and_plot_draws(table1):
+    # Oracle: Table I (45.13 deg), P_CL(0) = 1 for the step, json.dumps and matplotlib's
+    # axes.
     import matplotlib
 
     matplotlib.use("Agg")
@@ -159,6 +165,7 @@ def test_rigid_latency_asymmetry_and_placement():
 
 
 def test_import_is_light():
+    # Oracle: sys.modules of a fresh interpreter.
     # `import seactl` must not pull in matplotlib (plots import it lazily) nor dask.
     code = "import sys, seactl; print('matplotlib' in sys.modules, 'dask' in sys.modules)"
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
