@@ -48,6 +48,7 @@ from pathlib import Path
 from typing import Annotated, Any
 
 import numpy as np
+from numba import njit
 from pydantic import Field
 
 from ._params import check, nonnegative, positive, read_toml, schema_of, validate
@@ -421,157 +422,185 @@ def simulate(p: MobileBaseParams, kx, dx, bq, *, reference=None, duration: float
                              ">= 0 and finite")
     if not (duration > 0 and math.isfinite(duration)):
         raise InputError("duration", duration, "> 0 [s]")
-    B = kx.size
     Te = p.embedded_period
     n = int(round(duration / Te))
     ref = reference or _hold
     t = np.arange(n) * Te
     x_d, v_d, _ = (np.asarray(r, float) for r in ref(t))
-    central = _CentralProcess(p, kx, dx, ref, n)
-    body = _Body.at_rest(p, B, push)
-    res = p.encoder_resolution
-    m_c, d_cmd, d_meas = p.central_every, p.command_delay_samples, p.measurement_delay_samples
-    fv = p.velocity_filter_hz
-    a_e = 1.0 if fv == 0 else 1.0 - math.exp(-2 * math.pi * fv * Te)
-    bqc = bq[:, None]
-    meas = np.zeros((d_meas + 1, B, 3))        # ring of encoder readings (wheel side)
-    cmd = np.zeros((d_cmd + 1, B, 6))          # ring of central outputs (tau, qdot_d)
-    held = np.zeros((B, 6))
-    prev_e = np.zeros((B, 3))
-    vel_e = np.zeros((B, 3))
-    xs, vs, taus = np.empty((n, B, 3)), np.empty((n, B, 3)), np.empty((n, B, 3))
-    es = np.empty((n, B)) if record_energy else None
+    # The reference is a known trajectory: the central process compares the odometry with
+    # the reference at the (time-stamped) measurement time and previews the feedforward
+    # (acceleration, wheel speeds) for the time the command reaches the wheels.  Row j of
+    # the extended reference is time (j - d_meas) Te, clamped at 0.
+    d_meas, d_cmd = p.measurement_delay_samples, p.command_delay_samples
+    t_ext = np.maximum(np.arange(-d_meas, n + d_cmd) * Te, 0.0)
+    ref_ext = np.stack([np.broadcast_to(np.asarray(r, float), (t_ext.size, 3))
+                        for r in ref(t_ext)])
+    B = kx.size
+    V0 = np.zeros((B, 3))
+    V0[:, :2] = push
+    V0[:, 2] = 3.0 * push
+    out = np.empty((7 if record_energy else 3, n, B, 3))   # x, v, tau (, PHI, QM, WM, -)
     sat = np.zeros(B)
-    for k in range(n):
-        xs[k], vs[k] = body.X, body.V
-        q = body.QM if res == 0 else np.floor(body.QM / res + 0.5) * res
-        if record_energy:
-            es[k] = body.energy(p)
-        meas[k % (d_meas + 1)] = q
-        if k % m_c == 0:
-            # copy: the ring slot is overwritten later
-            qc = meas[(k - d_meas) % (d_meas + 1)].copy() if k >= d_meas else np.zeros((B, 3))
-            held = central.command(k, qc)
-        cmd[k % (d_cmd + 1)] = held
-        c = cmd[(k - d_cmd) % (d_cmd + 1)] if k >= d_cmd else np.zeros((B, 6))
-        # embedded process: differenced, filtered velocity; joint damping; saturation
-        vel_e += a_e * ((q - prev_e) / Te - vel_e) if k > 0 else 0.0
-        prev_e = q
-        tau = c[:, :3] + bqc * (c[:, 3:] - vel_e)
-        sat += (np.abs(tau) > p.torque_limit).sum(axis=1)
-        tau = np.clip(tau, -p.torque_limit, p.torque_limit)
-        taus[k] = tau
-        body.integrate(p, tau)
-    if not np.all(np.isfinite(xs)):
+    _simulate_batch(_constants(p), _matrices(p), np.stack([kx, dx, bq]), ref_ext, V0, out,
+                    sat)
+    if not np.all(np.isfinite(out[0])):
         raise FloatingPointError("base simulation diverged to non-finite values")
-    return SimResult(t, xs, vs, x_d, v_d, taus, sat / (3 * n), es)
+    es = None
+    if record_energy:
+        X, V, PHI, QM, WM = out[0], out[1], out[3], out[4], out[5]
+        es = kinetic_energy(p, V, _wheel_rates(V, X, p.alpha, p.wheel_radius,
+                                               p.wheel_distance), WM) \
+            + 0.5 * p.stiffness * np.sum((QM - PHI) ** 2, axis=-1)
+    return SimResult(t, out[0], out[1], x_d, v_d, out[2], sat / (3 * n), es)
 
 
-class _CentralProcess:
-    """Odometry and the operational space law on the central process.
+def _constants(p: MobileBaseParams) -> np.ndarray:
+    """The scalars the kernel reads, in the order :func:`_simulate_batch` unpacks them."""
+    Te, fv = p.embedded_period, p.velocity_filter_hz
+    Tc = p.central_every * Te
+    a_e = 1.0 if fv == 0 else 1.0 - math.exp(-2 * math.pi * fv * Te)
+    a_c = 1.0 if fv == 0 else 1.0 - math.exp(-2 * math.pi * fv * Tc)
+    return np.array([p.substeps, p.central_every, p.measurement_delay_samples,
+                     p.command_delay_samples, Te, Tc, a_e, a_c, p.encoder_resolution,
+                     p.wheel_radius, p.wheel_distance, p.stiffness, p.compliance_damping,
+                     p.reflected_rotor_inertia, p.wheel_spin_inertia, p.viscous_friction,
+                     p.coulomb_friction, p.friction_velocity, p.torque_limit], float)
 
-    The reference is a known trajectory: the central process compares the odometry with
-    the reference at the (time-stamped) measurement time and previews the feedforward
-    (acceleration, wheel speeds) for the time the command reaches the wheels.  Row j of
-    the extended reference is time (j - d_meas) Te, clamped at 0.
+
+def _matrices(p: MobileBaseParams) -> np.ndarray:
+    """``J_b``, ``J_b^-1``, ``Lambda`` and rows (diag M^-1, alpha), shape (4, 3, 3)."""
+    Jb = body_jacobian(p)
+    M = p.body_mass_matrix + p.wheel_spin_inertia * (Jb.T @ Jb)
+    rows = np.stack([1.0 / np.diag(M), p.alpha, np.zeros(3)])   # M diagonal (kiwi layout)
+    return np.stack([Jb, np.linalg.inv(Jb), task_inertia(p), rows])
+
+
+# The per-sample loop is compiled (numba, cached on disk): thousands of samples of a few
+# scalar operations each, where numpy's per-call overhead dominated (issue: reproduce time).
+@njit(cache=True)
+def _simulate_batch(c, mats, gains, ref, V0, out, sat):  # pragma: no cover - compiled
+    """The multi-rate base, one batch element at a time.
+
+    ``c``: :func:`_constants`; ``mats``: :func:`_matrices`; ``gains``: rows kx, dx, bq;
+    ``ref``: x, v, a of the extended reference; ``out``: x, v, tau (and PHI, QM, WM when
+    it has 7 rows) per sample, written in place; ``sat``: saturated wheel-samples.
     """
+    substeps, m_c, d_meas, d_cmd = int(c[0]), int(c[1]), int(c[2]), int(c[3])
+    Te, Tc, a_e, a_c, res, r, L = c[4], c[5], c[6], c[7], c[8], c[9], c[10]
+    kd, cd, Ir, I_sp, bv, tc, vf, tau_max = c[11], c[12], c[13], c[14], c[15], c[16], \
+        c[17], c[18]
+    dt = Te / substeps
+    n = out.shape[1]
+    for b in range(out.shape[2]):
+        X, V, PHI, QM = np.zeros(3), V0[b].copy(), np.zeros(3), np.zeros(3)
+        WM = _mv(mats[0], V0[b])                   # drivetrain moving with the wheels
+        meas = np.zeros((d_meas + 1, 3))           # ring of encoder readings (wheel side)
+        cmd = np.zeros((d_cmd + 1, 6))             # ring of central outputs (tau, qdot_d)
+        held, central = np.zeros(6), np.zeros((3, 3))   # pose_hat, prev_c, vel_c
+        prev_e, vel_e, q = np.zeros(3), np.zeros(3), np.zeros(3)
+        for k in range(n):
+            out[0, k, b] = X
+            out[1, k, b] = V
+            if out.shape[0] == 7:
+                out[3, k, b] = PHI
+                out[4, k, b] = QM
+                out[5, k, b] = WM
+            for i in range(3):
+                q[i] = QM[i] if res == 0 else np.floor(QM[i] / res + 0.5) * res
+            meas[k % (d_meas + 1)] = q
+            if k % m_c == 0:
+                qc = meas[(k - d_meas) % (d_meas + 1)].copy() if k >= d_meas else np.zeros(3)
+                held = _central_command(k, qc, central, mats, gains[0, b], gains[1, b], ref,
+                                        d_meas + d_cmd, Tc, a_c)
+            cmd[k % (d_cmd + 1)] = held
+            cm = cmd[(k - d_cmd) % (d_cmd + 1)] if k >= d_cmd else np.zeros(6)
+            for i in range(3):   # embedded process: differenced, filtered velocity; damping
+                if k > 0:
+                    vel_e[i] += a_e * ((q[i] - prev_e[i]) / Te - vel_e[i])
+                prev_e[i] = q[i]
+                tau = cm[i] + gains[2, b] * (cm[3 + i] - vel_e[i])
+                if abs(tau) > tau_max:
+                    sat[b] += 1
+                out[2, k, b, i] = min(max(tau, -tau_max), tau_max)
+            _integrate(X, V, PHI, QM, WM, out[2, k, b], mats[3], substeps, dt, r, L, kd, cd,
+                       Ir, I_sp, bv, tc, vf)
 
-    def __init__(self, p: MobileBaseParams, kx: np.ndarray, dx: np.ndarray, ref, n: int):
-        B = kx.size
-        self.Jb = body_jacobian(p)
-        self.Jb_inv = np.linalg.inv(self.Jb)
-        self.Lam = task_inertia(p)                  # constant for the kiwi layout
-        self.d_meas, self.d_cmd = p.measurement_delay_samples, p.command_delay_samples
-        self.Tc = p.central_every * p.embedded_period
-        t_ext = np.maximum(np.arange(-self.d_meas, n + self.d_cmd) * p.embedded_period, 0.0)
-        self.xr, self.vr, self.ar = (np.asarray(r, float) for r in ref(t_ext))
-        fv = p.velocity_filter_hz
-        self.a_c = 1.0 if fv == 0 else 1.0 - math.exp(-2 * math.pi * fv * self.Tc)
-        self.kvec = kx[:, None] * np.array([1.0, 1.0, 1.0])
-        self.dvec = dx[:, None] * np.array([1.0, 1.0, 1.0])
-        self.pose_hat = np.zeros((B, 3))
-        self.prev_c = np.zeros((B, 3))
-        self.vel_c = np.zeros((B, 3))
 
-    def command(self, k: int, qc: np.ndarray) -> np.ndarray:
-        """Wheel torques ``J^-T F`` and desired wheel speeds (B, 6) from the (delayed)
-        encoder reading ``qc`` of sample ``k``."""
-        B = qc.shape[0]
-        dq = qc - self.prev_c
-        self.prev_c = qc
-        body = dq @ self.Jb_inv.T                   # body-frame displacement since last sample
-        self.pose_hat = self.pose_hat + _rot(body, self.pose_hat[:, 2] + 0.5 * body[:, 2])
-        self.vel_c += self.a_c * (dq / self.Tc - self.vel_c)
-        v_hat = _rot(self.vel_c @ self.Jb_inv.T, self.pose_hat[:, 2])
-        ka = k + self.d_meas + self.d_cmd           # row of the arrival time
-        err = self.xr[k] - self.pose_hat
-        err[:, 2] = np.angle(np.exp(1j * err[:, 2]))
-        acc = self.ar[ka] + self.kvec * err + self.dvec * (self.vr[k] - v_hat)
-        F = acc @ self.Lam.T
-        th = self.pose_hat[:, 2]
-        return np.concatenate([_rot(F, -th) @ self.Jb_inv,                 # J^-T F
-                               _rot(np.broadcast_to(self.vr[ka], (B, 3)), -th) @ self.Jb.T],
-                              axis=1)
+@njit(cache=True)
+def _rot3(v, th):  # pragma: no cover - compiled
+    c, s = np.cos(th), np.sin(th)
+    return np.array([c * v[0] - s * v[1], s * v[0] + c * v[1], v[2]])
 
 
-@dataclass
-class _Body:
-    """Pose X, world velocity V, wheel angles PHI, wheel-side motor angles QM, rates WM."""
+@njit(cache=True)
+def _mv(M, v):  # pragma: no cover - compiled
+    """``M @ v`` for 3x3 ``M`` (no BLAS call for three terms)."""
+    return np.array([M[i, 0] * v[0] + M[i, 1] * v[1] + M[i, 2] * v[2] for i in range(3)])
 
-    X: np.ndarray
-    V: np.ndarray
-    PHI: np.ndarray
-    QM: np.ndarray
-    WM: np.ndarray
-    M_inv_diag: np.ndarray                      # M is diagonal for the 120-degree layout
 
-    @classmethod
-    def at_rest(cls, p: MobileBaseParams, B: int, push: float) -> _Body:
-        V = np.zeros((B, 3))
-        V[:, :2] = push
-        V[:, 2] = 3.0 * push
-        Jb = body_jacobian(p)
-        WM = (V @ Jb.T).copy()                     # drivetrain moving with the wheels
-        M_inv_diag = 1.0 / np.diag(p.body_mass_matrix + p.wheel_spin_inertia * (Jb.T @ Jb))
-        return cls(np.zeros((B, 3)), V, np.zeros((B, 3)), np.zeros((B, 3)), WM, M_inv_diag)
+@njit(cache=True)
+def _mtv(M, v):  # pragma: no cover - compiled
+    """``M.T @ v`` for 3x3 ``M``."""
+    return np.array([M[0, i] * v[0] + M[1, i] * v[1] + M[2, i] * v[2] for i in range(3)])
 
-    def energy(self, p: MobileBaseParams) -> np.ndarray:
-        """Kinetic plus compliance energy [J], (B,)."""
-        return kinetic_energy(p, self.V, _wheel_rates(self.V, self.X, p.alpha, p.wheel_radius,
-                                                      p.wheel_distance), self.WM) \
-            + 0.5 * p.stiffness * np.sum((self.QM - self.PHI) ** 2, axis=-1)
 
-    def integrate(self, p: MobileBaseParams, tau: np.ndarray) -> None:
-        """One embedded period under wheel torques ``tau``: ``substeps`` semi-implicit
-        Euler steps of the chassis, the wheels and the compliant drivetrains."""
-        M_inv_diag = self.M_inv_diag
-        alpha, r, L = p.alpha, p.wheel_radius, p.wheel_distance
-        kd, cd, Ir, I_sp = (p.stiffness, p.compliance_damping, p.reflected_rotor_inertia,
-                            p.wheel_spin_inertia)
-        bv, tc, vf = p.viscous_friction, p.coulomb_friction, p.friction_velocity
-        dt = p.embedded_period / p.substeps
-        X, V, PHI, QM, WM = self.X, self.V, self.PHI, self.QM, self.WM
-        for _ in range(p.substeps):
-            th = X[:, 2:3] + alpha
-            s, co = np.sin(th), np.cos(th)
-            phid = (-s * V[:, 0:1] + co * V[:, 1:2] + L * V[:, 2:3]) / r
-            tk = kd * (QM - PHI) + cd * (WM - phid)
-            WM = WM + dt / Ir * (tau - tk - bv * WM - tc * np.tanh(WM / vf))
-            # Wheel spin inertia rides on the non-holonomic constraint phidot = J(theta) xdot:
-            # the gyroscopic term -I_spin J^T Jdot xdot (Lagrange-d'Alembert) couples x and y
-            # while the base turns.  (The rotors get theirs through the compliance.)
-            tq = tk - I_sp * V[:, 2:3] * (-co * V[:, 0:1] - s * V[:, 1:2]) / r
-            F = np.stack([-(s * tq).sum(1), (co * tq).sum(1), L * tq.sum(1)], axis=1) / r
-            V = V + dt * F * M_inv_diag
-            X = X + dt * V
-            PHI = PHI + dt * (-s * V[:, 0:1] + co * V[:, 1:2] + L * V[:, 2:3]) / r
-            QM = QM + dt * WM
-        self.X, self.V, self.PHI, self.QM, self.WM = X, V, PHI, QM, WM
+@njit(cache=True)
+def _central_command(k, qc, state, mats, kx, dx, ref, ahead, Tc, a_c):  # pragma: no cover
+    """Odometry and the operational space law of the central process: wheel torques
+    ``J^-T F`` and desired wheel speeds (6,) from the (delayed) encoder reading ``qc``."""
+    Jb, Jb_inv, Lam = mats[0], mats[1], mats[2]
+    pose_hat, prev_c, vel_c = state[0], state[1], state[2]
+    dq = qc - prev_c
+    prev_c[:] = qc
+    body = _mv(Jb_inv, dq)                        # body-frame displacement since last sample
+    pose_hat += _rot3(body, pose_hat[2] + 0.5 * body[2])
+    vel_c += a_c * (dq / Tc - vel_c)
+    v_hat = _rot3(_mv(Jb_inv, vel_c), pose_hat[2])
+    ka = k + ahead                                # row of the arrival time
+    err = ref[0, k] - pose_hat
+    err[2] = np.arctan2(np.sin(err[2]), np.cos(err[2]))
+    acc = ref[2, ka] + kx * err + dx * (ref[1, k] - v_hat)
+    F = _mv(Lam, acc)
+    th = pose_hat[2]
+    held = np.empty(6)
+    held[:3] = _mtv(Jb_inv, _rot3(F, -th))
+    held[3:] = _mv(Jb, _rot3(ref[1, ka], -th))
+    return held
+
+
+@njit(cache=True)
+def _integrate(X, V, PHI, QM, WM, tau, rows, substeps, dt, r, L, kd, cd, Ir, I_sp, bv, tc,
+               vf):  # pragma: no cover - compiled
+    """One embedded period under wheel torques ``tau``, in place: ``substeps``
+    semi-implicit Euler steps of the chassis, the wheels and the compliant drivetrains."""
+    M_inv, alpha = rows[0], rows[1]
+    s, co, tq = np.empty(3), np.empty(3), np.empty(3)
+    for _ in range(substeps):
+        for i in range(3):
+            s[i], co[i] = np.sin(X[2] + alpha[i]), np.cos(X[2] + alpha[i])
+            phid = (-s[i] * V[0] + co[i] * V[1] + L * V[2]) / r
+            tk = kd * (QM[i] - PHI[i]) + cd * (WM[i] - phid)
+            WM[i] = WM[i] + dt / Ir * (tau[i] - tk - bv * WM[i] - tc * np.tanh(WM[i] / vf))
+            # Wheel spin inertia rides on the non-holonomic constraint phidot = J(theta)
+            # xdot: the gyroscopic term -I_spin J^T Jdot xdot (Lagrange-d'Alembert) couples
+            # x and y while the base turns.  (The rotors get theirs through the compliance.)
+            tq[i] = tk - I_sp * V[2] * (-co[i] * V[0] - s[i] * V[1]) / r
+        F0 = -(s[0] * tq[0] + s[1] * tq[1] + s[2] * tq[2]) / r
+        F1 = (co[0] * tq[0] + co[1] * tq[1] + co[2] * tq[2]) / r
+        F2 = L * (tq[0] + tq[1] + tq[2]) / r
+        V[0] += dt * F0 * M_inv[0]
+        V[1] += dt * F1 * M_inv[1]
+        V[2] += dt * F2 * M_inv[2]
+        for j in range(3):
+            X[j] += dt * V[j]
+        for i in range(3):
+            PHI[i] += dt * (-s[i] * V[0] + co[i] * V[1] + L * V[2]) / r
+            QM[i] += dt * WM[i]
 
 
 def _wheel_rates(V, X, alpha, r, L):
-    th = X[:, 2:3] + alpha
-    return (-np.sin(th) * V[:, 0:1] + np.cos(th) * V[:, 1:2] + L * V[:, 2:3]) / r
+    th = X[..., 2:3] + alpha
+    return (-np.sin(th) * V[..., 0:1] + np.cos(th) * V[..., 1:2] + L * V[..., 2:3]) / r
 
 
 # -------------------------------------------------------------------- criterion
