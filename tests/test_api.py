@@ -228,3 +228,18 @@ def test_rigid_to_control_frd_and_pade_agree_with_margins():
     w = 2 * np.pi * f
     np.testing.assert_allclose(pade(1j * w), exact.frdata[0, 0], rtol=1e-3)
     assert len(sc.rigid([8.0, 12.0]).to_control("frd")) == 2
+
+
+def test_delays_and_filters_of_different_shapes_broadcast_to_a_grid():
+    """Oracle: every element of the grid equals the design built with scalar values."""
+    t_qs = np.array([1.0, 2.0])[:, None]
+    t_qd = np.array([0.5, 1.0, 2.0])
+    f_qd = np.array([50.0, 80.0])[:, None]
+    grid = sc.design(14, delays_ms=(0.5, t_qs, t_qd), filters_hz=(f_qd, 100)).margins()
+    assert grid.phase_margin_deg.shape == (2, 3)
+    for i in range(2):
+        for j in range(3):
+            one = sc.design(14, delays_ms=(0.5, t_qs[i, 0], t_qd[j]),
+                            filters_hz=(f_qd[i, 0], 100)).margins()
+            assert float(grid.phase_margin_deg[i, j]) == pytest.approx(
+                float(one.phase_margin_deg), rel=1e-9)
