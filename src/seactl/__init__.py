@@ -24,23 +24,26 @@ _PUBLIC = {
     ".api": ("design", "Design", "UnitWarning"),
     ".actuators": ("SEAParams", "UT_SEA", "load_sea"),
     ".design": ("feasible_fn_range",),
-    "._results": ("MarginsResult", "ImpedanceResult", "ResponseResult"),
+    "._results": ("MarginsResult", "ImpedanceResult", "ResponseResult", "JitterResult"),
     ".systems": ("rigid", "RigidBatch", "loop_model", "latency_map", "place", "sweep",
                  "read_sweep", "compare_mobile_base", "mobile_base_params",
                  "LatencyMapResult", "PlacementResult"),
-    ".errors": ("SeactlError", "InputError", "InfeasibleDesignError"),
+    ".userloop": ("load_loop", "LoopBuilder", "UserLoop"),
+    ".errors": ("SeactlError", "InputError", "InfeasibleDesignError", "LoopFileError"),
 }
 _HOME = {name: module for module, names in _PUBLIC.items() for name in names}
 
 __all__ = [
     # SEA designs
     "design", "Design", "SEAParams", "UT_SEA", "load_sea", "feasible_fn_range",
-    "MarginsResult", "ImpedanceResult", "ResponseResult",
+    "MarginsResult", "ImpedanceResult", "ResponseResult", "JitterResult",
     # other systems
     "rigid", "RigidBatch", "loop_model", "latency_map", "place", "sweep", "read_sweep",
     "compare_mobile_base", "mobile_base_params", "LatencyMapResult", "PlacementResult",
+    # your own loop (loop files, docs/loops.md)
+    "load_loop", "LoopBuilder", "UserLoop",
     # errors and warnings
-    "SeactlError", "InputError", "InfeasibleDesignError", "UnitWarning",
+    "SeactlError", "InputError", "InfeasibleDesignError", "LoopFileError", "UnitWarning",
 ]
 
 

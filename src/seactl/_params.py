@@ -92,9 +92,13 @@ def read_toml(field: str, spec: str, what: str) -> dict[str, Any]:
     if path.suffix != ".toml" or not path.is_file():
         raise InputError(field, spec, f"{what} or an existing .toml file")
     try:
-        return tomllib.loads(path.read_text())
+        return tomllib.loads(path.read_text(encoding="utf-8"))
     except tomllib.TOMLDecodeError as exc:
         raise InputError(field, spec, f"valid TOML ({exc})") from None
+    except UnicodeDecodeError:
+        raise InputError(field, spec, "a UTF-8 text file (TOML); this file is binary") from None
+    except OSError as exc:
+        raise InputError(field, spec, f"a readable file ({exc.strerror or exc})") from None
 
 
 def load_params(spec: str | Path, presets: Mapping[str, Any], cls: Callable[..., Any],

@@ -520,27 +520,46 @@ FIGURE_FORMATS = ("png", "svg", "pdf")
 def save_figure(fig, path, dpi: int = 120) -> None:
     """Write ``fig`` to ``path`` atomically (temporary sibling + rename) and close it; the
     format follows the suffix (png, svg or pdf)."""
-    plt = _pyplot()
-    import os
-    import tempfile
     from pathlib import Path
 
     from .errors import InputError
+    from .outputs import save_figure_to, write_atomic_with
 
     path = Path(path)
     fmt = path.suffix[1:].lower()
     if fmt not in FIGURE_FORMATS:
-        plt.close(fig)
+        _pyplot().close(fig)
         raise InputError("--plot", str(path), "a file name ending in ." +
                          ", .".join(FIGURE_FORMATS))
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=path.suffix, dir=path.parent)
-    os.close(fd)
-    try:
-        fig.savefig(tmp, dpi=dpi, bbox_inches="tight", format=fmt)
-        os.replace(tmp, path)
-    except BaseException:
-        Path(tmp).unlink(missing_ok=True)
-        raise
-    finally:
-        plt.close(fig)
+    write_atomic_with(path, lambda tmp: save_figure_to(fig, tmp, fmt, dpi))
+
+
+def jitter_figure(fn_hz, margins_ms: dict, delay_margin_ms, factors, fractions: dict,
+                  title: str = ""):
+    """Left: jitter margins [ms] of each loop and the whole-loop delay margin against f_n.
+    Right: fraction of Monte Carlo runs that stay stable against the jitter range, in
+    multiples of each link's jitter margin (the bound guarantees 100 % up to 1)."""
+    plt = _pyplot()
+    fig, (a, b) = plt.subplots(1, 2, figsize=(11.0, 4.0), layout="constrained")
+    colors = dict(zip(["overall", "stiffness", "damping", "torque"],
+                      ["tab:blue", "tab:orange", "tab:green", "tab:red"]))
+    for name, v in margins_ms.items():
+        a.plot(fn_hz, v, "o-", ms=3, color=colors.get(name), label=f"{name} loop")
+    a.plot(fn_hz, delay_margin_ms, "k--", label="delay margin (constant), outer loop")
+    a.set_yscale("log")
+    a.set_xlabel("f_n [Hz]")
+    a.set_ylabel("margin [ms]")
+    a.grid(True, which="both", alpha=0.3)
+    a.legend(fontsize=8)
+    for name, fr in fractions.items():
+        b.plot(factors, 100 * np.asarray(fr), "o-", color=colors.get(name),
+               label=f"{name} link")
+    b.axvline(1.0, color="k", lw=0.8, ls=":")
+    b.set_xlabel("latency range above nominal / jitter margin")
+    b.set_ylabel("stable runs [%]")
+    b.set_ylim(-5, 105)
+    b.grid(True, alpha=0.3)
+    b.legend(fontsize=8)
+    if title:
+        fig.suptitle(title)
+    return fig

@@ -25,6 +25,7 @@ from typing import Any
 import numpy as np
 
 from .errors import OutputError
+from .outputs import write_atomic  # noqa: F401  (re-exported; it lives in seactl.outputs)
 
 STATUSES = ("pass", "fail", "info")
 
@@ -245,20 +246,6 @@ def _swap_into_place(tmp: Path, out: Path) -> None:
     os.replace(tmp, out)
     if old is not None:
         shutil.rmtree(old, ignore_errors=True)
-
-
-def write_atomic(path: Path, data: str | bytes) -> None:
-    """Write a file through a temporary sibling and a rename."""
-    path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", dir=path.parent)
-    try:
-        with os.fdopen(fd, "wb") as fh:
-            fh.write(data.encode() if isinstance(data, str) else data)
-        os.replace(tmp, path)
-    except BaseException:
-        Path(tmp).unlink(missing_ok=True)
-        raise
 
 
 def _render(sections: list[Section], claims: list[dict[str, Any]]) -> str:

@@ -494,7 +494,7 @@ class PlacementResult:
 
 def place(high_latency_ms: float, low_latency_ms: float, *, kind: str = "rigid",
           actuator: Any = None, min_pm_deg: float = 45.0,
-          stiffness_embeddable: bool = False) -> PlacementResult:
+          stiffness_embeddable: bool = False, timing: Any = None) -> PlacementResult:
     """Recommend where the stiffness and damping loops should run.
 
     Parameters
@@ -509,6 +509,10 @@ def place(high_latency_ms: float, low_latency_ms: float, *, kind: str = "rigid",
         Required whole-loop phase margin [deg].
     stiffness_embeddable : bool
         Whether the stiffness loop may run on the embedded process too.
+    timing : dict, optional
+        ``"high-level"`` / ``"embedded"`` -> :class:`seactl.placement.ProcessTiming`
+        (latency distribution and loss): the nominal latency replaces the constant one and
+        every loop's jitter margin must cover its process's jitter.
 
     Returns
     -------
@@ -527,7 +531,7 @@ def place(high_latency_ms: float, low_latency_ms: float, *, kind: str = "rigid",
     from .placement import advise
 
     return PlacementResult(advise(model, float(high), float(low), min_pm_deg=min_pm_deg,
-                                  stiffness_embeddable=stiffness_embeddable))
+                                  stiffness_embeddable=stiffness_embeddable, timing=timing))
 
 
 # ------------------------------------------------------------------ sweeps

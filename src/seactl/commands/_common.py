@@ -7,11 +7,12 @@ Options listed in :data:`VARIADIC` take several values after one flag
 
 from __future__ import annotations
 
+import contextlib
 import functools
 import json
 import math
 import sys
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Iterator, Mapping, Sequence
 from dataclasses import dataclass
 from typing import Any
 
@@ -21,6 +22,7 @@ from rich.console import Console
 
 from ..axes import AXES, DESIGN_AXES
 from ..errors import InputError
+from ..limits import BYTES_PER_DESIGN, check_budget, check_count
 
 VARIADIC: set[str] = {"--fn", "--gs"}
 """Options that accept several space-separated values."""
@@ -34,31 +36,50 @@ err_console = Console(stderr=True)
 def parse_values(name: str, tokens: Sequence[str], *, log: bool = False) -> np.ndarray:
     """Numbers, or ranges ``START:STOP:STEP`` (inclusive; ``log``: ``START:STOP:N``
     log-spaced points), concatenated in the given order."""
-    out: list[float] = []
+    out: list[np.ndarray] = []
+    total = 0
     for tok in tokens:
         for part in str(tok).replace(",", " ").split():
             try:
-                if ":" in part:
-                    a, b, c = (float(x) for x in part.split(":"))
-                    if log:
-                        if a <= 0 or b <= 0 or c < 2 or c != int(c):
-                            raise InputError(name, part, "START:STOP:N with START, STOP > 0 and "
-                                             "an integer N >= 2")
-                        out.extend(np.logspace(math.log10(a), math.log10(b), int(c)))
-                    else:
-                        if c <= 0 or b < a:
-                            raise InputError(name, part, "START:STOP:STEP with STEP > 0 and "
-                                             "STOP >= START")
-                        n = int(math.floor((b - a) / c + 1e-9)) + 1
-                        out.extend(a + c * np.arange(n))
-                else:
-                    out.append(float(part))
+                values = _range(name, part, log) if ":" in part else np.array([float(part)])
             except ValueError as exc:
                 if isinstance(exc, InputError):
                     raise
                 raise InputError(name, part, "a number or a range START:STOP:"
                                  + ("N" if log else "STEP")) from None
-    return np.asarray(out, float)
+            total = check_count(name, part, total + values.size)
+            out.append(values)
+    return np.concatenate(out) if out else np.zeros(0)
+
+
+def _range(name: str, part: str, log: bool) -> np.ndarray:
+    """``START:STOP:STEP`` (or ``START:STOP:N`` log-spaced), its size checked first."""
+    a, b, c = (float(x) for x in part.split(":"))
+    if not all(math.isfinite(x) for x in (a, b, c)):
+        raise InputError(name, part, "a range of finite numbers")
+    if log:
+        if a <= 0 or b <= 0 or c < 2 or c != int(c):
+            raise InputError(name, part, "START:STOP:N with START, STOP > 0 and an integer "
+                             "N >= 2")
+        return np.logspace(math.log10(a), math.log10(b), check_count(name, part, c))
+    if c <= 0 or b < a:
+        raise InputError(name, part, "START:STOP:STEP with STEP > 0 and STOP >= START")
+    steps = (b - a) / c
+    n = check_count(name, part, math.floor(steps + 1e-9) + 1 if math.isfinite(steps) else steps)
+    return a + c * np.arange(n)
+
+
+@contextlib.contextmanager
+def flag_names(names: Mapping[str, str]) -> Iterator[None]:
+    """Library errors name parameters (``t_end``); inside this block they are re-raised
+    naming the command-line flag instead (``{"t_end": "--t-end"}``)."""
+    try:
+        yield
+    except InputError as exc:
+        head, sep, tail = exc.field.partition(" ")
+        if head not in names:
+            raise
+        raise InputError(names[head] + sep + tail, exc.value, exc.valid) from None
 
 
 def expand_variadic(argv: Sequence[str]) -> list[str]:
@@ -163,6 +184,9 @@ def design_options(func: Callable) -> Callable:
                 if raw.size == 0:
                     raise InputError(info.option, "", "at least one value")
             values[name] = raw if raw is None else info.check(raw, info.label)
+        n = values["fn_hz"].size * values["gs"].size
+        check_budget(f"{n:,} designs (--fn x --gs)", n_bytes=n * BYTES_PER_DESIGN,
+                     hint="give fewer --fn or --gs values")
         spec = DesignSpec(load_sea(actuator), **{n: _scalar(v) for n, v in values.items()})
         return func(*args, spec=spec, **kwargs)
 
