@@ -172,7 +172,7 @@ def test_paper_model(timing):
     # s Z -> N0/D1 (s -> 0) and, with filters, s Z -> N4/D5 (s -> infinity)
     ends = 2j * np.pi * np.array([1e-6, 1e7])
     sz = ends * impedance(d, [1e-6, 1e7], model="paper").z
-    lo, hi = printed(d, 0.0, A.motor_torque_constant), printed(d, ends[1], 0.0)
+    lo, hi = (printed(d, s_end, A.motor_torque_constant) for s_end in (0.0, ends[1]))
     assert sz[0] == pytest.approx(complex(lo["N0"] / lo["D1"]), rel=1e-6)
     if timing.f_qd is not None:
         assert sz[1] == pytest.approx(hi["N4"] / hi["D5"], rel=1e-6)
@@ -200,6 +200,8 @@ def test_paper_low_frequency_stiffness_value():
 @pytest.mark.parametrize("model", ["block-diagram", "paper"])
 @pytest.mark.parametrize("timing", TIMINGS)
 def test_asymptotes_at_extreme_frequencies(model, timing):
+    # Oracle: the impedance itself at 1e-5 and 1e6 Hz (the asymptotes are its limits), the
+    # bare spring k/s with filters, and the physical equations at 1 MHz (below).
     d = design(25.0, timing)
     a = asymptotes(d, [1e-5, 1e6], model=model)
     z = impedance(d, [1e-5, 1e6], model=model).z
