@@ -109,7 +109,7 @@ COMMANDS: dict[str, tuple[list[str], dict[str, list]]] = {
                "--workers": ["-1", "x"], **LOOP_OPTS}),
     "reproduce": (["--only", "feasibility"], {"--out": DIRS, "--only": ["nosuch", ""]}),
     "bench": (["--only", "nosuch"], {"--repeat": ["0", "1", "51", "x"], "--json": FLAG}),
-    "analyze": ([], {**LOOP_OPTS, "--no-jitter": FLAG, "--json": FLAG}),
+    "analyze": ([], {**LOOP_OPTS, "--no-jitter": FLAG, "--json": FLAG, "--plot": PLOT}),
     "base": ([], {"--arch": ["dosc", "cosc", "both", "x"], "--extra-delay": NUM,
                   "--circle-radius": NUM, "--circle-period": NUM, "--plot": PLOT + ["p.gif"],
                   "--json": FLAG}),
