@@ -88,8 +88,9 @@ def test_no_import_circles():
 
 def test_command_line_and_import_do_not_load_matplotlib():
     # The command line starts fast (seactl bench cli-startup): heavy libraries load only
-    # inside the commands that use them.
-    heavy = ("matplotlib", "dask", "distributed", "scipy", "pydantic", "sympy", "control")
+    # inside the commands that use them (bokeh: seactl explore, the app extra).
+    heavy = ("matplotlib", "dask", "distributed", "scipy", "pydantic", "sympy", "control",
+             "bokeh", "selenium")
     code = ("import sys, seactl, seactl.cli; "
             f"print(sorted(m for m in {heavy!r} if m in sys.modules))")
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,

@@ -196,3 +196,20 @@ def test_cli_monte_carlo(capsys, tmp_path):
     assert main(["step", "--mode", "sampled", "--latency", "elbow=1"]) == 2
     assert main(["step", "--mode", "sampled", "--loss", "damping=2"]) == 2
     assert "error:" in capsys.readouterr().err
+
+
+def test_multirate_schedule_in_slow_process_ticks():
+    # High-level process at 500 Hz, embedded at 2 kHz: a stiffness latency in [2.2, 3.8] ms
+    # always waits one 2 ms period (effective 3 ms), the fixed-delay run with T_qs = 3 ms.
+    from seactl.loops import sea_diagram
+    from seactl.timing import timed_simulation
+
+    rates = {"embedded": 2000.0, "high-level": 500.0}
+    d = sc.design([14, 16], delays_ms=(0.5, 3.0, 0.5), filters_hz=(50, 100))
+    kw = dict(rates_hz=rates, outputs=("q_j",), saturation={"i_m": 30.0})
+    ref = simulate(sea_diagram(), d.sea, {"q_des": Step(0.01)}, 0.3, mode="sampled", **kw)
+    res = timed_simulation(sea_diagram(), d.sea, {"q_des": Step(0.01)}, 0.3,
+                           latency={"stiffness": Uniform(2.2e-3, 3.8e-3)}, runs=2,
+                           links={"stiffness": "Kq_fb"}, **kw)
+    assert np.array_equal(res.outputs["q_j"], np.broadcast_to(ref.outputs["q_j"],
+                                                              res.outputs["q_j"].shape))

@@ -28,8 +28,8 @@ _PUBLIC = {
     ".systems": ("rigid", "RigidBatch", "loop_model", "latency_map", "place", "sweep",
                  "read_sweep", "compare_mobile_base", "mobile_base_params",
                  "LatencyMapResult", "PlacementResult"),
-    ".errors": ("SeactlError", "InputError", "InfeasibleDesignError", "LoopFileError"),
     ".userloop": ("load_loop", "LoopBuilder", "UserLoop"),
+    ".errors": ("SeactlError", "InputError", "InfeasibleDesignError", "LoopFileError"),
 }
 _HOME = {name: module for module, names in _PUBLIC.items() for name in names}
 

@@ -115,7 +115,12 @@ def impedance(spec: DesignSpec, freq: tuple[str, ...], model: str, load: bool, u
             return loop_impedance(loop, _freq(freq), port, as_json, outs,
                                   *_outputs(outs, plot, csv))
         f = _budget(spec, _freq(freq))
-        _impedance(spec, f, model, load, units, *_outputs(outs, plot, csv), outs, as_json)
+        plot_p, csv_p = _outputs(outs, plot, csv)
+        if loop is not None:
+            return loop_impedance(loop, f, port, as_json, outs, plot_p, csv_p)
+        if port is not None:
+            raise InputError("--port", port, "used with --loop FILE")
+        _impedance(spec, f, model, load, units, plot_p, csv_p, outs, as_json)
 
 
 def _impedance(spec: DesignSpec, f: np.ndarray, model: str, load: bool, units: str,

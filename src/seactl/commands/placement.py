@@ -416,7 +416,6 @@ def place(high_latency, low_latency, actuator, min_pm, f_v, stiffness_embeddable
 
     if loop is not None:
         return loop_place(loop, as_json)
-
     timing = _process_timing(high_timing, low_timing, high_loss, low_loss, rate_hz)
     hi = _ms("--high-latency", 22.0 if high_latency is None else high_latency)
     lo = _ms("--low-latency", 0.5 if low_latency is None else low_latency)

@@ -358,10 +358,10 @@ def step(spec: DesignSpec, amplitude: float, mode: str, rate_hz: float, zero: bo
 
     if not (math.isfinite(amplitude) and amplitude != 0):
         raise InputError("--amplitude [rad]", amplitude, "a finite non-zero number")
+    check_simulation(spec, mode, rate_hz, t_end or 0.5)
     if loop is not None:
         return loop_response(loop, "step", mode, t_end or 0.5, amplitude, as_json, outs, plot,
                              csv_path)
-    check_simulation(spec, mode, rate_hz, t_end or 0.5)
     if timing is not None:
         return _monte_carlo(spec, "step", timing, outs, plot, csv_path, as_json,
                             f"Step response (sampled, {rate_hz:g} Hz)", rate_hz=rate_hz,
@@ -404,10 +404,10 @@ def impulse(spec: DesignSpec, impulse_nms: float, band: float, mode: str, rate_h
         raise InputError("--band", band, "a fraction in (0, 1)")
     if not (math.isfinite(impulse_nms) and impulse_nms != 0):
         raise InputError("--impulse [N m s]", impulse_nms, "a finite non-zero number")
+    check_simulation(spec, mode, rate_hz, t_end or 1.0)
     if loop is not None:
         return loop_response(loop, "impulse", mode, t_end or 1.0, impulse_nms, as_json, outs,
                              plot, csv_path)
-    check_simulation(spec, mode, rate_hz, t_end or 1.0)
     if timing is not None:
         return _monte_carlo(spec, "impulse", timing, outs, plot, csv_path, as_json,
                             f"Impulse response, {impulse_nms:g} N m s (sampled, {rate_hz:g} Hz)",

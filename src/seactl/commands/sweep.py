@@ -226,31 +226,6 @@ def sweep(actuator, sampling, n_samples, seed, chunk_size, unc_points, z_freq, o
         console.print(f"figure: {escape(fig_path)}")
 
 
-def _loop_sweep(loop_file, sets, out, chunk_size, overwrite, as_json, given) -> None:
-    """``seactl sweep --loop FILE --set ...``: in-process, one vectorized batch per chunk."""
-    from ..loopsweep import sweep_loop
-    from ..userloop import load_loop
-    from .loops import parse_sets
-
-    if not loop_file:
-        raise InputError("--set", sets[0], "used with --loop FILE")
-    if given:
-        raise InputError(given[0] if given[0].startswith("--") else AXES[given[0]].option,
-                         "given", "absent with --loop (sweep the file's variables with --set)")
-    values = parse_sets(sets)
-    loop = load_loop(loop_file)
-    res = sweep_loop(loop, values, out, chunk_size=chunk_size, overwrite=overwrite)
-    if as_json:
-        echo_json({**res, "out": str(out)})
-        return
-    console.print(escape(f"loop sweep of '{res['loop']}': {res['n_points']:,} points, "
-                         f"{res['stable']:,} stable, {res['points_per_s'] or 0:,.0f} points/s "
-                         f"-> {out}"), highlight=False)
-    if res["best_phase_margin"]:
-        console.print(escape("largest outer phase margin among stable points: " + ", ".join(
-            f"{k}={v:.6g}" for k, v in res["best_phase_margin"].items())), highlight=False)
-
-
 def _check_size(spec, yes: bool) -> None:
     n = spec.n_points
     if n <= LARGE_SWEEP_POINTS or yes:
@@ -280,6 +255,31 @@ def _run(spec, out: str, resume: bool, overwrite: bool, workers, scheduler, quie
         err_console.print(f"[yellow]{escape(str(exc))}[/yellow]", highlight=False,
                           soft_wrap=True)
         raise click.exceptions.Exit(130) from None
+
+
+def _loop_sweep(loop_file, sets, out, chunk_size, overwrite, as_json, given) -> None:
+    """``seactl sweep --loop FILE --set ...``: in-process, one vectorized batch per chunk."""
+    from ..loopsweep import sweep_loop
+    from ..userloop import load_loop
+    from .loops import parse_sets
+
+    if not loop_file:
+        raise InputError("--set", sets[0], "used with --loop FILE")
+    if given:
+        raise InputError(given[0] if given[0].startswith("--") else AXES[given[0]].option,
+                         "given", "absent with --loop (sweep the file's variables with --set)")
+    values = parse_sets(sets)
+    loop = load_loop(loop_file)
+    res = sweep_loop(loop, values, out, chunk_size=chunk_size, overwrite=overwrite)
+    if as_json:
+        echo_json({**res, "out": str(out)})
+        return
+    console.print(escape(f"loop sweep of '{res['loop']}': {res['n_points']:,} points, "
+                         f"{res['stable']:,} stable, {res['points_per_s'] or 0:,.0f} points/s "
+                         f"-> {out}"), highlight=False)
+    if res["best_phase_margin"]:
+        console.print(escape("largest outer phase margin among stable points: " + ", ".join(
+            f"{k}={v:.6g}" for k, v in res["best_phase_margin"].items())), highlight=False)
 
 
 def _parse_plot_axes(text: str, spec) -> tuple[str, str]:
