@@ -369,7 +369,7 @@ def test_cli_loop_errors_are_one_line_exit_2(tmp_path, capsys):
     assert main(["analyze", "--loop", str(tmp_path / "missing.toml")]) == 2
 
 
-def test_cli_views_on_a_loop_file(capsys):
+def test_cli_views_on_a_loop_file(capsys, tmp_path):
     path = str(EXAMPLES / "rigid.toml")
     assert main(["analyze", "--loop", path, "--set", "fn=4:12:4", "--json",
                  "--no-jitter"]) == 0
@@ -383,6 +383,9 @@ def test_cli_views_on_a_loop_file(capsys):
     # rigid actuator: Z = -F/(s x) = (K e^{-sTs} + B Q s e^{-sTd})/s, |Z| ~ K/w at 1 Hz
     K = 256.0 * (2 * np.pi * 8.0) ** 2
     assert z["magnitude"][0] == pytest.approx(K / (2 * np.pi), rel=0.05)
+    assert main(["analyze", "--loop", path, "--plot", str(tmp_path / "bode.png")]) == 0
+    assert (tmp_path / "bode.png").read_bytes()[:4] == b"\x89PNG"
+    capsys.readouterr()
     assert main(["place", "--loop", path, "--json"]) == 0
     best = json.loads(capsys.readouterr().out)["options"][0]
     assert best["stable"]

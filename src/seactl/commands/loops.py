@@ -119,8 +119,11 @@ def _fmt(x: Any, spec: str) -> str:
               help="Override a variable or parameter (VALUE: number, a,b,c or "
                    "START:STOP:STEP; ranges make a sweep).")
 @click.option("--no-jitter", is_flag=True, help="Skip the jitter margins.")
+@click.option("--plot", "plot", default=None, metavar="FILE.png|.svg|.pdf",
+              help="Write a Bode plot of the loop at every break.")
 @click.option("--json", "as_json", is_flag=True, help="Print JSON instead of a table.")
-def analyze(loop_file: str, sets: tuple[str, ...], no_jitter: bool, as_json: bool) -> None:
+def analyze(loop_file: str, sets: tuple[str, ...], no_jitter: bool, plot: str | None,
+            as_json: bool) -> None:
     """Margins at every named break of a loop file, delay and jitter margins per loop,
     stability of the whole loop.
 
@@ -129,8 +132,15 @@ def analyze(loop_file: str, sets: tuple[str, ...], no_jitter: bool, as_json: boo
       seactl analyze --loop examples/loops/paper-sea.toml
       seactl analyze --loop examples/loops/rigid.toml --set fn=4:16:2
     """
-    loop = load(loop_file, sets)
-    a = loop.analyze(jitter=not no_jitter)
+    from ..outputs import FIGURE_SUFFIXES, OutputSet
+
+    with OutputSet() as outs:
+        plot_p = outs.add("--plot", plot, FIGURE_SUFFIXES)
+        loop = load(loop_file, sets)
+        a = loop.analyze(jitter=not no_jitter)
+        if plot_p:
+            outs.figure(plot_p, _bode(loop, a))
+        outs.commit()
     labels = _labels(loop)
     rows = []
     for i, lab in enumerate(labels):
@@ -179,6 +189,24 @@ def _write_outputs(outs: Any, plot: Any, csv_path: Any, fig_fn: Callable[[], Any
     if plot:
         outs.figure(plot, fig_fn())
     outs.commit()
+
+
+def _bode(loop: Any, a: Any):
+    """Bode figure of every break's loop transfer (one curve per design, up to 12)."""
+    from ..plots import loop_bode_figure
+
+    om = loop.grid()
+    f = np.logspace(np.log10(om[0] / (2 * np.pi)), np.log10(om[-1] / (2 * np.pi)), 600)
+    labels = _labels(loop)[:12]
+    names = [" ".join(f"{k}={v:g}" for k, v in lab.items()) for lab in labels]
+    cols = []
+    for b in a.breaks:
+        L = loop.loop_transfer(b.name)(loop.design, 2j * np.pi * f).reshape(-1, f.size)
+        fc = np.asarray(b.margins.crossover_hz).reshape(-1)[:12]
+        cols.append((f"break '{b.name}' ({b.signal})", list(zip(names, L[:12])),
+                     [float(x) for x in fc if np.isfinite(x)]))
+    return loop_bode_figure(f, cols, suptitle=f"loop '{loop.name}': L at each break, other "
+                            "loops closed")
 
 
 def loop_impedance(loop: Any, f: np.ndarray, port: str | None, as_json: bool, outs: Any,
