@@ -11,6 +11,7 @@ import numpy as np
 from rich.markup import escape
 from rich.table import Table
 
+from ..axes import AXES
 from ..errors import InputError
 from ..outputs import CSV_SUFFIXES, FIGURE_SUFFIXES, OutputSet
 from ._common import VARIADIC, cli, console, echo_json, finite_or_none, json_option, parse_values
@@ -28,13 +29,13 @@ def _f_v(value: float | None) -> float | None:
     """``--f-v``: cut-off [Hz] > 0; ``inf`` or ``none`` means no filter."""
     if value is None or str(value).lower() in ("none", "inf"):
         return None
-    from .._validate import finite_array
+    from ..limits import check_range
 
     try:
         v = float(value)
     except ValueError:
         raise InputError("--f-v [Hz]", value, "a cut-off > 0 [Hz] or 'none'") from None
-    return float(finite_array("--f-v [Hz]", v, minimum=0.0, strict=True))
+    return check_range("--f-v [Hz]", v, "filter_hz")
 
 
 def load_model(spec: str, f_v: float | None = 50.0):
@@ -229,8 +230,11 @@ def _latency_map(actuators, fn_rigid, fn_sea, t_max, t_min, n, max_fn, f_v, outs
     jobs = []
     for spec in actuators:
         model = load_model(spec, fv)
-        jobs.append((model, parse_values("--fn-rigid" if model.kind == "rigid" else "--fn-sea",
-                                         fn_rigid if model.kind == "rigid" else fn_sea)))
+        flag = "--fn-rigid" if model.kind == "rigid" else "--fn-sea"
+        fns = parse_values(flag, fn_rigid if model.kind == "rigid" else fn_sea)
+        if fns.size == 0:
+            raise InputError(flag, "", "at least one frequency")
+        jobs.append((model, AXES["fn_hz"].check(fns, f"{flag} [Hz]")))
     _check_latency_budget(jobs, n, max_fn)
     for model, fns in jobs:
         mf = max_stable_fn(model, grid[:, None], grid[None, :]) if max_fn else None
