@@ -21,9 +21,9 @@ from importlib.metadata import PackageNotFoundError, version
 from . import design as _gain_design
 from . import rigid as _rigid_module  # noqa: F401
 from . import sweep as _sweep_module  # noqa: F401
-from ._results import ImpedanceResult, MarginsResult, ResponseResult
+from ._results import ImpedanceResult, MarginsResult, ResponseResult, RootsResult
 from .actuators import UT_SEA, SEAParams, load_sea
-from .api import Design, UnitWarning, design
+from .api import Design, UnitWarning, design, rightmost_roots
 from .errors import InfeasibleDesignError, InputError, SeactlError
 from .systems import (
     LatencyMapResult,
@@ -49,7 +49,7 @@ except PackageNotFoundError:  # pragma: no cover - running from a source tree
 __all__ = [
     # SEA designs
     "design", "Design", "SEAParams", "UT_SEA", "load_sea", "feasible_fn_range",
-    "MarginsResult", "ImpedanceResult", "ResponseResult",
+    "MarginsResult", "ImpedanceResult", "ResponseResult", "rightmost_roots", "RootsResult",
     # other systems
     "rigid", "RigidBatch", "loop_model", "latency_map", "place", "sweep", "read_sweep",
     "compare_mobile_base", "mobile_base_params", "LatencyMapResult", "PlacementResult",

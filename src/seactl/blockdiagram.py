@@ -618,3 +618,20 @@ def _determinant(diagram: BlockDiagram, held: tuple[str, ...]) -> Any:
         except OSError:
             pass
     return expr
+
+
+def shifted(q: QuasiPolynomial, sigma: np.ndarray) -> QuasiPolynomial:
+    """``Q(s + sigma)`` per design (Taylor shift of each polynomial, ``e^{-sigma tau}``
+    folded into it): its right-half-plane roots are ``Q``'s roots right of ``sigma``."""
+    from math import comb
+
+    n1 = q.coeffs.shape[-1]
+    sig = np.asarray(sigma, float)[None, :, None]
+    binom = np.array([[comb(j, i) if j >= i else 0 for j in range(n1)] for i in range(n1)],
+                     float)
+    out = np.zeros_like(q.coeffs)
+    for i in range(n1):
+        j = np.arange(i, n1)
+        out[..., i] = (q.coeffs[..., j] * binom[i, j] * sig ** (j - i)).sum(axis=-1)
+    out *= np.exp(-np.asarray(sigma, float)[None, :, None] * q.delays[..., None])
+    return QuasiPolynomial(out, q.delays)

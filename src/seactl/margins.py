@@ -783,3 +783,14 @@ def sea_margins(design: Any, omega: np.ndarray | None = None) -> Margins:
     if omega is None:
         omega = default_grid(sea_reference_frequency(design))
     return loop_margins(outer_loop(), design, omega)
+
+
+def count_right_roots(q: QuasiPolynomial, w_ref: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Roots of a flat retarded quasi-polynomial with ``Re s > 0`` (multiplicity and
+    conjugates counted), by the certified scan of :func:`certified_margins` (steps 2-5);
+    and whether the count is certain (``False`` when a root lies on the axis)."""
+    zero = QuasiPolynomial(np.zeros_like(q.coeffs[:1]), np.zeros_like(q.delays[:1]))
+    scan = _CertifiedScan(q, zero, stability_only=True)
+    scan.run(*_base_grid(np.asarray(w_ref, float), q.delays.max(axis=0), cauchy_bound(q)))
+    Z, odd = _stepan_count(q, cauchy_bound(q), scan.winding)
+    return Z, ~odd & ~scan.uncertain

@@ -14,9 +14,12 @@ Its roots are found in three steps, for every design of a batch:
 2. **Polish**: each candidate is refined by Newton's method on the exact ``Delta`` and
    accepted only if ``|Delta(s)|`` is below ``1e-9`` of the sum of the moduli of its
    terms (an exact root in floating point).
-3. **Convergence**: ``N`` grows (by half) until the rightmost roots of two successive
-   discretizations agree to ``1e-7`` relative; the starting ``N`` follows the root
-   modulus bound of :func:`seactl.margins.cauchy_bound` times the longest delay.
+3. **Convergence**: ``N`` grows (by half, from :data:`START_NODES`) until the rightmost
+   roots of two successive discretizations agree to :data:`AGREE_TOL` relative, and
+   **completeness** is certified: the argument principle on ``Delta(s + sigma)``
+   (:func:`seactl.margins.count_right_roots`), with ``sigma`` between the last root
+   listed and the next one, counts exactly the roots listed right of ``sigma``.  A
+   design that never passes both by ``MAX_NODES`` is reported ``converged = False``.
 
 Designs without delay are solved as polynomials (companion eigenvalues, polished).
 
@@ -32,14 +35,18 @@ array([-1.+0.j, -1.+0.j])
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+import contextlib
+import ctypes
+from collections.abc import Iterator, Sequence
 from dataclasses import dataclass
+from functools import lru_cache
+from pathlib import Path
 from typing import Any
 
 import numpy as np
 
-from .blockdiagram import BlockDiagram, QuasiPolynomial
-from .margins import cauchy_bound
+from .blockdiagram import BlockDiagram, QuasiPolynomial, shifted
+from .margins import count_right_roots
 
 RESIDUAL_TOL = 1e-9
 """Accept a polished root when ``|Delta(s)| <= RESIDUAL_TOL * sum_k |p_k(s) e^{-s tau_k}|``."""
@@ -47,6 +54,9 @@ RESIDUAL_TOL = 1e-9
 AGREE_TOL = 1e-7
 """Successive discretizations agree when the rightmost roots move by less than this,
 relative to the design's frequency scale."""
+
+START_NODES = 12
+"""First Chebyshev collocation size ``N``; it grows by half until the roots converge."""
 
 MAX_NODES = 240
 
@@ -112,16 +122,15 @@ def characteristic_roots(diagram: BlockDiagram, design: Any, *, count: int = 6,
     n = q.shape[0]
     out = np.full((n, count), np.nan + 0j)
     nodes, ok = np.zeros(n, int), np.zeros(n, bool)
-    tau_max = q.delays.max(axis=0)
+    delayed = q.delays.max(axis=0) > 0
     scale = _frequency_scale(q)
-    start = _start_nodes(q, tau_max)
-    for key in np.unique(np.stack([q.degree, np.where(tau_max > 0, start, 0)]), axis=1).T:
-        idx = np.nonzero((q.degree == key[0]) & (np.where(tau_max > 0, start, 0) == key[1]))[0]
+    for deg, dl in {(int(a), bool(b)) for a, b in zip(q.degree, delayed)}:
+        idx = np.nonzero((q.degree == deg) & (delayed == dl))[0]
         sub = q.take(idx)
-        if key[1] == 0:
-            r, nd, conv = _polynomial_roots(sub, int(key[0]), count), 0, True
+        if not dl:
+            r, nd, conv = _polynomial_roots(sub, deg, count), 0, True
         else:
-            r, nd, conv = _delay_roots(sub, int(key[0]), int(key[1]), count, scale[idx])
+            r, nd, conv = _delay_roots(sub, deg, count, scale[idx])
         out[idx], nodes[idx], ok[idx] = r, nd, conv
     absc = np.nanmax(out.real, axis=1, initial=-np.inf)
     return Roots(out.reshape(shape + (count,)), absc.reshape(shape), nodes.reshape(shape),
@@ -138,15 +147,6 @@ def _frequency_scale(q: QuasiPolynomial) -> np.ndarray:
         r = np.where(j < n[:, None], (q.abs_coeffs / lead[:, None]) ** (1.0 / (n[:, None] - j)),
                      0.0)
     return np.maximum(r.max(axis=1), 1e-12)
-
-
-def _start_nodes(q: QuasiPolynomial, tau_max: np.ndarray) -> np.ndarray:
-    """First collocation size: Chebyshev interpolation of ``e^{s theta}`` on
-    ``[-tau, 0]`` is accurate once ``N`` exceeds about ``e |s| tau / 4``; take ``|s|`` up
-    to the bound on right-half-plane roots, rounded up to a multiple of 4."""
-    R = cauchy_bound(q)
-    N = np.ceil(np.e * R * tau_max / 4.0 + 8.0)
-    return (4 * np.ceil(np.clip(N, 12, MAX_NODES) / 4)).astype(int)
 
 
 def _monic(q: QuasiPolynomial, n: int, scale: np.ndarray) -> np.ndarray:
@@ -216,13 +216,15 @@ def _lagrange(x: np.ndarray, t: np.ndarray) -> np.ndarray:
     return np.where(on_node, hit.astype(float), ell)
 
 
-def _delay_roots(q: QuasiPolynomial, n: int, N: int, count: int, scale: np.ndarray
+def _delay_roots(q: QuasiPolynomial, n: int, count: int, scale: np.ndarray
                  ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Grow ``N`` until the rightmost polished roots of two discretizations agree."""
+    """Grow ``N`` until the rightmost polished roots of two discretizations agree and
+    the argument principle finds no other root right of them."""
     c = _monic(q, n, scale)
     tau = (q.delays * scale).T
     B = scale.size
-    prev = _select(q, _polish(q, _igd_candidates(c, tau, N, scale)), count)
+    N = START_NODES
+    prev = _select(q, _polish(q, _igd_candidates(c, tau, N, scale)), count + 1)
     done, nodes = np.zeros(B, bool), np.full(B, N)
     result = prev.copy()
     while True:
@@ -232,18 +234,45 @@ def _delay_roots(q: QuasiPolynomial, n: int, N: int, count: int, scale: np.ndarr
             break
         sub = q.take(todo)
         cur = _select(sub, _polish(sub, _igd_candidates(c[todo], tau[todo], N_next,
-                                                        scale[todo])), count)
-        agree = _agree(prev[todo], cur, scale[todo])
-        result[todo] = cur
-        nodes[todo] = N_next
+                                                        scale[todo])), count + 1)
+        agree = _agree(prev[todo, :count], cur[:, :count], scale[todo])
+        agree[agree] = _complete(sub.take(np.nonzero(agree)[0]), cur[agree], count,
+                                 scale[todo][agree])
+        result[todo], nodes[todo] = cur, N_next
         done[todo[agree]] = True
         prev[todo] = cur
         N = N_next
-    return result, nodes, done
+    return result[:, :count], nodes, done
+
+
+def _complete(q: QuasiPolynomial, found: np.ndarray, count: int, scale: np.ndarray
+              ) -> np.ndarray:
+    """The roots found right of a line ``Re s = sigma`` between the ``count``-th and the
+    next one are all there are: the certified count of :func:`seactl.margins.count_right_roots`
+    on ``Delta(s + sigma)`` (multiplicity and conjugates counted) equals theirs."""
+    if found.shape[0] == 0:
+        return np.zeros(0, bool)
+    re = found.real
+    last = _last_finite(re[:, :count])
+    nxt = re[:, count]
+    sigma = np.where(np.isfinite(nxt), 0.5 * (last + nxt), last - 0.05 * scale)
+    sigma = np.where(np.isfinite(sigma), sigma, -0.05 * scale)
+    mult = np.where(found.imag > 0, 2, 1)
+    expected = np.where(np.isfinite(re) & (re > sigma[:, None]), mult, 0).sum(axis=1)
+    Z, certain = count_right_roots(shifted(q, sigma), scale)
+    return certain & (Z == expected)
+
+
+def _last_finite(re: np.ndarray) -> np.ndarray:
+    """The smallest finite real part per row (NaN if none)."""
+    with np.errstate(invalid="ignore"):
+        m = np.where(np.isfinite(re), re, np.inf).min(axis=1)
+    return np.where(np.isfinite(m), m, np.nan)
 
 
 def _igd_candidates(c: np.ndarray, tau: np.ndarray, N: int, scale: np.ndarray) -> np.ndarray:
-    ev = np.linalg.eigvals(_generator(c, tau, N)) * scale[:, None]
+    with _single_threaded_blas():  # many small eigenproblems: threads only contend
+        ev = np.linalg.eigvals(_generator(c, tau, N)) * scale[:, None]
     return np.where(ev.imag >= -1e-9 * np.abs(ev), ev, np.nan)
 
 
@@ -306,3 +335,36 @@ def _select(q: QuasiPolynomial, s: np.ndarray, count: int, distinct: bool = True
                 break
         out[i, :len(kept)] = kept
     return out
+
+
+@lru_cache(maxsize=1)
+def _openblas() -> tuple[Any, Any] | None:
+    """numpy's bundled OpenBLAS thread get/set functions, if it has them."""
+    libs = Path(np.__file__).parent.parent / "numpy.libs"
+    for path in sorted(libs.glob("libscipy_openblas*.so")) + sorted(libs.glob("libopenblas*.so")):
+        try:
+            lib = ctypes.CDLL(str(path))
+        except OSError:
+            continue
+        for get, set_ in (("scipy_openblas_get_num_threads64_",
+                           "scipy_openblas_set_num_threads64_"),
+                          ("openblas_get_num_threads", "openblas_set_num_threads")):
+            if hasattr(lib, get) and hasattr(lib, set_):
+                return getattr(lib, get), getattr(lib, set_)
+    return None
+
+
+@contextlib.contextmanager
+def _single_threaded_blas() -> Iterator[None]:
+    """Run LAPACK on one thread inside the block (no-op without numpy's OpenBLAS)."""
+    funcs = _openblas()
+    if funcs is None:
+        yield
+        return
+    get, set_ = funcs
+    before = int(get())
+    set_(1)
+    try:
+        yield
+    finally:
+        set_(before)

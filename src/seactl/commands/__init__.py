@@ -8,6 +8,7 @@ from . import (
     impedance,  # noqa: F401
     mobile_base,  # noqa: F401
     placement,  # noqa: F401
+    roots,  # noqa: F401
     simulate,  # noqa: F401
     sweep,  # noqa: F401
 )

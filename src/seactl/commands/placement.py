@@ -13,7 +13,16 @@ from rich.table import Table
 
 from ..errors import InputError
 from ..plots import save_figure
-from ._common import VARIADIC, cli, console, echo_json, finite_or_none, json_option, parse_values
+from ._common import (
+    VARIADIC,
+    cli,
+    console,
+    echo_json,
+    finite_or_none,
+    json_option,
+    parse_values,
+    pm_text,
+)
 
 VARIADIC.update({"--fn-rigid", "--fn-sea"})
 
@@ -159,7 +168,7 @@ def rigid(fn, t_s, t_d, f_v, actuator, no_passive_damping, step, as_json) -> Non
         t.add_column(escape(c), justify="right")
     for r in rows:
         cells = [f"{r['fn_hz']:g}", f"{r['K']:.4g}", f"{r['B']:.4g}",
-                 _fmt(r["phase_margin_deg"], ".2f"), _fmt(r["crossover_hz"], ".2f"),
+                 pm_text(r["phase_margin_deg"], r["stable"]), _fmt(r["crossover_hz"], ".2f"),
                  _fmt(r["gain_margin_db"], ".2f"), _fmt(r["delay_margin_ms"], ".2f"),
                  _fmt(r["stiffness_delay_margin_ms"], ".2f"),
                  _fmt(r["damping_delay_margin_ms"], ".2f"),
