@@ -19,7 +19,7 @@ from seactl.cli import main
 from seactl.design import critically_damped_gains
 from seactl.loops import SEA_DIAGRAM, SEADesign, Timing, closed_loop, outer_loop
 from seactl.margins import sea_margins
-from seactl.rigid import RIGID_DIAGRAM, RigidDesign, UT_LINEAR
+from seactl.rigid import RIGID_DIAGRAM, UT_LINEAR, RigidDesign
 from seactl.roots import characteristic_roots
 
 # The counterexample: a PM of 18 degrees was reported "stable".
