@@ -55,7 +55,7 @@ AGREE_TOL = 1e-7
 """Successive discretizations agree when the rightmost roots move by less than this,
 relative to the design's frequency scale."""
 
-START_NODES = 12
+START_NODES = 8
 """First Chebyshev collocation size ``N``; it grows by half until the roots converge."""
 
 MAX_NODES = 240
