@@ -442,20 +442,24 @@ class QuasiPolynomial:
 
     def with_derivative(self, s: np.ndarray, second: bool = False) -> tuple[np.ndarray, ...]:
         """``(Q(s), dQ/ds)``, and ``d^2Q/ds^2`` if ``second``, in one Horner pass."""
-        ex = np.exp(-s * self.delays[..., None].astype(s.real.dtype))
-        c = self.coeffs.astype(s.real.dtype)[..., None, :]
-        p = c[..., -1] + 0 * s
-        dp = np.zeros_like(p)
-        d2p = np.zeros_like(p)
+        real = s.real.dtype
+        c = self.coeffs if self.coeffs.dtype == real else self.coeffs.astype(real)
+        c = c[..., None, :]
+        tau = self.delays[..., None].astype(real, copy=False)
+        p: Any = c[..., -1]
+        dp: Any = 0.0
+        d2p: Any = 0.0
         for j in range(c.shape[-1] - 2, -1, -1):
             if second:
                 d2p = d2p * s + 2 * dp
             dp = dp * s + p
             p = p * s + c[..., j]
-        tau = self.delays[..., None]
+        p, dp, d2p = (np.broadcast_to(x, tau.shape[:-1] + s.shape[-1:]) if np.ndim(x) else
+                      np.zeros(tau.shape[:-1] + s.shape[-1:], s.dtype) for x in (p, dp, d2p))
+        ex = np.exp(-s * tau)
         out = ((p * ex).sum(axis=0), ((dp - tau * p) * ex).sum(axis=0))
         if second:
-            out += (((d2p - 2 * tau * dp + tau**2 * p) * ex).sum(axis=0),)
+            out += (((d2p - 2 * tau * dp + tau * tau * p) * ex).sum(axis=0),)
         return out
 
     def take(self, idx: np.ndarray) -> QuasiPolynomial:
