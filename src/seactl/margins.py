@@ -14,10 +14,13 @@ of a block diagram), :func:`loop_margins` returns, per design:
   exact-delay loop, counting the open loop's own right-half-plane poles
   (given by the caller, e.g. from an inner loop) and poles at the origin.
 
-Crossings are bracketed on a log grid (refined where the phase moves too fast
-to unwrap reliably) and then solved on the exact function with
-``scipy.optimize.elementwise.find_root``, so no result comes from
-interpolation alone.
+A loop of a block diagram is scanned by :func:`certified_margins`: a grid bounded by
+the loop's delays, bisected until derivative bounds prove that no root, encirclement or
+crossing lies unseen between samples, with the closed loop's right-half-plane roots
+counted on its characteristic quasi-polynomial (the soundness argument is in that
+function's docstring).  Opaque loop callables keep a heuristic grid scan.  Crossings are
+then solved on the exact function with ``scipy.optimize.elementwise.find_root``, so no
+result comes from interpolation alone.
 """
 
 from __future__ import annotations
@@ -349,17 +352,18 @@ class _Bounded:
         return acc
 
 
-def cauchy_bound(q: QuasiPolynomial) -> np.ndarray:
+def cauchy_bound(q: QuasiPolynomial, majorant: np.ndarray | None = None) -> np.ndarray:
     """Per design of a flat retarded quasi-polynomial, an ``R`` with
     ``|a_n| w^n > sum_{j<n} (sum_k |c_kj|) w^j`` for every ``w > R``: beyond it the
     leading term dominates every other term together, so ``Q`` has no root with
     ``Re s >= 0`` and ``|s| > R``, and ``Q(jw) / (a_n (jw)^n)`` stays in the disc
     ``|z - 1| < 1``.  Newton from Fujiwara's bound on the polynomial
-    ``|a_n| x^n - sum_j c_j x^j``, whose only positive root is the tightest such ``R``."""
+    ``|a_n| x^n - sum_j c_j x^j``, whose only positive root is the tightest such ``R``.
+    ``majorant`` replaces ``c_j`` by larger coefficients (e.g. ``N``'s and ``D``'s apart)."""
     n = q.degree
     rows = np.arange(n.size)
     lead = np.abs(q.coeffs[0, rows, n])
-    c = q.abs_coeffs.copy()
+    c = (q.abs_coeffs if majorant is None else majorant).copy()
     c[rows, n] = -lead
     j = np.arange(c.shape[-1])
     below = j[None, :] < n[:, None]
@@ -551,13 +555,17 @@ def certified_margins(loop: Transfer, design: Any, w_ref: np.ndarray | float, *,
     every term is a polynomial ``p_k(s)`` times ``e^{-s tau_k}``, with known
     coefficients.  Why no root, crossing or encirclement can be skipped:
 
-    1. **Derivative bounds.**  On ``[0, w]``,
-       ``|dQ(jw)/dw| <= sum_k (|p_k|'(w) + tau_k |p_k|(w))`` where ``|p_k|`` has the
-       absolute coefficients: the delays bound how fast each term turns, the
-       polynomials (whose roots are the resonances of the rational part) how fast it
-       grows.  So over an interval of width ``h`` the path of ``Q`` is no longer than
-       ``h`` times that bound, and the path of ``log L`` no longer than
-       ``h (S_N / m_N + S_D / m_D)`` with ``m`` a lower bound of ``|N|``, ``|D|``.
+    1. **Derivative bounds.**  On ``[0, w]``, ``|d^3 Q(jw)/dw^3|`` is at most the sum over
+       terms of ``|c_kj| |d^3/dw^3 (w^j e^{-j w tau_k})|`` majorized with ``|e| = 1``: the
+       delays bound how fast each term turns, the polynomials (whose roots are the
+       resonances of the rational part) how fast it grows.  With ``Q'`` and ``Q''``
+       evaluated exactly at both ends of an interval of width ``h``,
+       ``sup |f| <= (|f_a| + |f_b| + h sup |f'|) / 2`` gives ``sup |Q''|``, then
+       ``sup |Q'|``: the path of ``Q`` is no longer than ``h sup |Q'|``, and that of
+       ``log L = log N - log D`` no longer than ``h`` times a bound on
+       ``|(log L)'|`` built the same way from ``(log L)'`` at the ends and
+       ``|(log L)''| <= |N''|/m_N + (|N'|/m_N)^2 + |D''|/m_D + (|D'|/m_D)^2`` with
+       ``m`` lower bounds of ``|N|``, ``|D|`` on the interval.
     2. **Base grid.**  From 0 to the Cauchy bound ``R`` (:func:`cauchy_bound`),
        ``PER_DECADE`` points per decade and steps on which no delay turns by more than
        ``TURN_FRACTION`` of a turn, so most intervals pass step 3 at once.
@@ -568,7 +576,8 @@ def certified_margins(loop: Transfer, design: Any, w_ref: np.ndarray | float, *,
        takes at least that length.  Likewise ``log L`` must travel at least
        ``|log|L_a|| + |log|L_b||`` to cross the unit circle twice unseen (and the
        distances to ``+-pi`` for the negative real axis); the test allows a hidden
-       excursion of at most :data:`HIDDEN_PAIR_TOL`.  Near a lightly damped resonance
+       excursion of at most :data:`HIDDEN_PAIR_TOL` (:data:`CROSSING_PAIR_TOL` in an
+       interval that brackets a crossing).  Near a lightly damped resonance
        ``|D|`` is small, so intervals there are bisected until the bound resolves it.
     4. **Beyond R** the leading term of ``Delta`` outweighs all others (and ``|N| <
        |D|``: no gain crossover), so ``arg Delta(jw)`` changes from ``R`` to infinity
@@ -606,7 +615,9 @@ def certified_margins(loop: Transfer, design: Any, w_ref: np.ndarray | float, *,
     if np.any(delta.delayed_degree >= delta.degree):
         raise ValueError(f"diagram {loop.diagram.name!r}: a delayed term has the degree of "
                          "the undelayed one (a neutral delay equation), not supported")
-    top = cauchy_bound(delta)
+    m = delta.coeffs.shape[-1]
+    top = cauchy_bound(delta, sum(np.pad(x.abs_coeffs, [(0, 0), (0, m - x.coeffs.shape[-1])])
+                                  for x in (N, D)))
     tau_max = np.concatenate([N.delays, D.delays]).max(axis=0)
     w_ref = np.broadcast_to(np.asarray(w_ref, float), shape).reshape(n)
     scan = _CertifiedScan(N, D, stability_only)
