@@ -11,11 +11,10 @@ import importlib
 import inspect
 import pkgutil
 
+import numpydoc.validate as numpydoc_validate
 import pytest
 
 import seactl as sc
-
-numpydoc_validate = pytest.importorskip("numpydoc.validate")
 
 # Checks not enforced: summary on the quotes' line (GL01), See Also (SA01), extended
 # summary (ES01), wording rules for summaries/descriptions (SS03, SS05, SS06, PR08, PR09,

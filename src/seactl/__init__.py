@@ -13,46 +13,72 @@ The public API is this namespace (``__all__``); the submodules hold the implemen
 array([45.13, 43.26, 40.03])
 """
 
-from importlib.metadata import PackageNotFoundError, version
+import importlib
+import sys
+import types
 
-# Submodules whose names the public functions reuse (design, rigid, sweep) are loaded
-# first: the functions bound below then own those names in this namespace, and
-# ``from seactl.design import ...`` keeps finding the modules in sys.modules.
-from . import design as _gain_design
-from . import rigid as _rigid_module  # noqa: F401
-from . import sweep as _sweep_module  # noqa: F401
-from ._results import ImpedanceResult, MarginsResult, ResponseResult, RootsResult
-from .actuators import UT_SEA, SEAParams, load_sea
-from .api import Design, UnitWarning, design, rightmost_roots
-from .errors import InfeasibleDesignError, InputError, SeactlError
-from .systems import (
-    LatencyMapResult,
-    PlacementResult,
-    RigidBatch,
-    compare_mobile_base,
-    latency_map,
-    loop_model,
-    mobile_base_params,
-    place,
-    read_sweep,
-    rigid,
-    sweep,
-)
-
-feasible_fn_range = _gain_design.feasible_fn_range
-
-try:
-    __version__ = version("seactl")
-except PackageNotFoundError:  # pragma: no cover - running from a source tree
-    __version__ = "0+unknown"
+# Public name -> module that defines it.  Loaded on first use (PEP 562), so ``import
+# seactl`` and the command line's start-up stay fast; ``seactl.design`` etc. resolve to the
+# functions even though submodules of the same names exist (see _Namespace).
+_PUBLIC = {
+    ".api": ("design", "Design", "UnitWarning", "rightmost_roots"),
+    ".actuators": ("SEAParams", "UT_SEA", "load_sea"),
+    ".design": ("feasible_fn_range",),
+    "._results": ("MarginsResult", "ImpedanceResult", "ResponseResult", "JitterResult",
+                  "RootsResult"),
+    ".systems": ("rigid", "RigidBatch", "loop_model", "latency_map", "place", "sweep",
+                 "read_sweep", "compare_mobile_base", "mobile_base_params",
+                 "LatencyMapResult", "PlacementResult"),
+    ".userloop": ("load_loop", "LoopBuilder", "UserLoop"),
+    ".errors": ("SeactlError", "InputError", "InfeasibleDesignError", "LoopFileError"),
+}
+_HOME = {name: module for module, names in _PUBLIC.items() for name in names}
 
 __all__ = [
     # SEA designs
     "design", "Design", "SEAParams", "UT_SEA", "load_sea", "feasible_fn_range",
-    "MarginsResult", "ImpedanceResult", "ResponseResult", "rightmost_roots", "RootsResult",
+    "MarginsResult", "ImpedanceResult", "ResponseResult", "JitterResult", "rightmost_roots",
+    "RootsResult",
     # other systems
     "rigid", "RigidBatch", "loop_model", "latency_map", "place", "sweep", "read_sweep",
     "compare_mobile_base", "mobile_base_params", "LatencyMapResult", "PlacementResult",
+    # your own loop (loop files, docs/loops.md)
+    "load_loop", "LoopBuilder", "UserLoop",
     # errors and warnings
-    "SeactlError", "InputError", "InfeasibleDesignError", "UnitWarning",
+    "SeactlError", "InputError", "InfeasibleDesignError", "LoopFileError", "UnitWarning",
 ]
+
+
+class _Namespace(types.ModuleType):
+    """The package module: public names load lazily, and importing a submodule that shares
+    a public function's name (``seactl.design``, ``seactl.rigid``, ``seactl.sweep``) does
+    not replace the function in this namespace (the submodule stays in ``sys.modules``)."""
+
+    def __getattr__(self, name: str):
+        if name == "__version__":
+            return _version()
+        if name not in _HOME:
+            raise AttributeError(f"module 'seactl' has no attribute {name!r}")
+        value = getattr(importlib.import_module(_HOME[name], __name__), name)
+        super().__setattr__(name, value)
+        return value
+
+    def __setattr__(self, name: str, value) -> None:
+        if name in _HOME and isinstance(value, types.ModuleType):
+            return
+        super().__setattr__(name, value)
+
+    def __dir__(self) -> list[str]:
+        return sorted(set(super().__dir__()) | set(__all__))
+
+
+def _version() -> str:
+    from importlib.metadata import PackageNotFoundError, version
+
+    try:
+        return version("seactl")
+    except PackageNotFoundError:  # pragma: no cover - running from a source tree
+        return "0+unknown"
+
+
+sys.modules[__name__].__class__ = _Namespace

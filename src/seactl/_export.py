@@ -21,6 +21,9 @@ MAX_PADE_ORDER = 4
 """Beyond this, the SEA's polynomial coefficients exceed 1e60 and margins fail (measured)."""
 
 
+RIGID_TRANSFERS = ("loop", "closed", "compliance")
+
+
 def sea_transfer(name: str) -> tuple[Any, bool]:
     """The SEA transfer called ``name`` and whether it is divided by ``-s`` (impedance)."""
     from . import loops
@@ -31,6 +34,16 @@ def sea_transfer(name: str) -> tuple[Any, bool]:
     if name not in table:
         raise InputError("transfer", name, "one of " + ", ".join(SEA_TRANSFERS))
     return table[name](), name == "impedance"
+
+
+def rigid_transfer(name: str) -> tuple[Any, bool]:
+    """The rigid-actuator transfer called ``name`` (never divided by ``-s``)."""
+    from .rigid import rigid_closed_loop, rigid_compliance, rigid_loop
+
+    table = {"loop": rigid_loop, "closed": rigid_closed_loop, "compliance": rigid_compliance}
+    if name not in table:
+        raise InputError("transfer", name, "one of " + ", ".join(RIGID_TRANSFERS))
+    return table[name](), False
 
 
 def block_tf(block: Any, design: Any, order: int) -> Any:
@@ -60,13 +73,15 @@ def pade_tf(transfer: Any, design: Any, order: int) -> Any:
     return ct.minreal(value, verbose=False)
 
 
-def to_control(design: Any, kind: str, transfer: str, f_hz: Any, order: int) -> Any:
-    """Export one SEA design (a 0-d batch); see :meth:`seactl.api.Design.to_control`."""
+def to_control(design: Any, kind: str, transfer: str, f_hz: Any, order: int,
+               transfers: Any = sea_transfer) -> Any:
+    """Export one design (a 0-d batch); see :meth:`seactl.api.Design.to_control`.
+    ``transfers`` maps a transfer name to ``(Transfer, divide by -s)``."""
     import control as ct
 
     if kind not in KINDS:
         raise InputError("kind", kind, "one of " + ", ".join(KINDS))
-    T, integrate = sea_transfer(transfer)
+    T, integrate = transfers(transfer)
     if kind == "frd":
         f = np.geomspace(0.01, 1e4, 2000) if f_hz is None else np.asarray(f_hz, float)
         if f.ndim != 1 or f.size < 2 or not np.all(np.isfinite(f)) or np.any(f <= 0):

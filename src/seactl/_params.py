@@ -1,23 +1,59 @@
-"""Validated parameter sets: pydantic schemas to clear errors, presets and TOML files.
+"""Validated parameter sets: one declaration per set, clear errors, presets and TOML files.
 
-A schema's numeric fields carry their bounds (``gt``, ``ge``, ``le``, ``lt``) and a
-description ending in the unit in brackets, e.g. ``"joint inertia I_j [kg m^2]"``; errors
-then read ``invalid joint_inertia = -1.0: must be > 0 and finite [kg m^2]``.
+Each parameter set is declared once, as a frozen dataclass whose fields are annotated
+``Annotated[float, positive("joint inertia I_j [kg m^2]")]`` (bounds and a description
+ending in the unit in brackets).  :func:`schema_of` derives the pydantic schema (used for
+TOML files and by the dataclass's own ``__post_init__`` through :func:`check`) from those
+annotations, so the two can never drift.  Errors read
+``invalid joint_inertia = -1.0: must be > 0 and finite [kg m^2]``.
 """
 
 from __future__ import annotations
 
 import tomllib
+import typing
 from collections.abc import Callable, Mapping
-from dataclasses import fields
+from dataclasses import MISSING, asdict, fields
+from functools import cache
 from pathlib import Path
 from typing import Any
 
-from pydantic import BaseModel, ValidationError
+from pydantic import BaseModel, ConfigDict, Field, ValidationError, create_model
 
 from .errors import InputError
 
 _BOUNDS = (("gt", ">"), ("ge", ">="), ("lt", "<"), ("le", "<="))
+
+
+def positive(description: str, **bounds: Any) -> Any:
+    """Field metadata: a finite value > 0 (``bounds`` may add ``le`` etc.)."""
+    return Field(description=description, gt=0, allow_inf_nan=False, **bounds)
+
+
+def nonnegative(description: str, **bounds: Any) -> Any:
+    """Field metadata: a finite value >= 0."""
+    return Field(description=description, ge=0, allow_inf_nan=False, **bounds)
+
+
+@cache
+def schema_of(cls: type) -> type[BaseModel]:
+    """The pydantic model of a dataclass whose fields are ``Annotated[type, Field(...)]``:
+    same names, bounds, descriptions and defaults; unknown keys are refused."""
+    hints = typing.get_type_hints(cls, include_extras=True)
+    spec = {f.name: (hints[f.name], ... if f.default is MISSING else f.default)
+            for f in fields(cls)}
+    return create_model(f"{cls.__name__}Schema", __config__=ConfigDict(extra="forbid"),
+                        **spec)
+
+
+def check(obj: Any) -> None:
+    """Validate a dataclass instance against :func:`schema_of` its class (InputError)."""
+    check_values(type(obj), asdict(obj))
+
+
+def check_values(cls: type, values: Mapping[str, Any]) -> None:
+    """Validate field values of the dataclass ``cls`` (InputError naming the field)."""
+    validate(schema_of(cls), values)
 
 
 def input_error(exc: ValidationError, model: type[BaseModel], prefix: str = "") -> InputError:
@@ -56,15 +92,19 @@ def read_toml(field: str, spec: str, what: str) -> dict[str, Any]:
     if path.suffix != ".toml" or not path.is_file():
         raise InputError(field, spec, f"{what} or an existing .toml file")
     try:
-        return tomllib.loads(path.read_text())
+        return tomllib.loads(path.read_text(encoding="utf-8"))
     except tomllib.TOMLDecodeError as exc:
         raise InputError(field, spec, f"valid TOML ({exc})") from None
+    except UnicodeDecodeError:
+        raise InputError(field, spec, "a UTF-8 text file (TOML); this file is binary") from None
+    except OSError as exc:
+        raise InputError(field, spec, f"a readable file ({exc.strerror or exc})") from None
 
 
-def load_params(spec: str | Path, presets: Mapping[str, Any], model: type[BaseModel],
-                cls: Callable[..., Any], field: str = "actuator") -> Any:
+def load_params(spec: str | Path, presets: Mapping[str, Any], cls: Callable[..., Any],
+                field: str = "actuator") -> Any:
     """A preset by name, or a TOML file whose top level (or single ``[actuator]`` table)
-    holds the fields of ``cls``, validated by ``model``."""
+    holds the fields of the dataclass ``cls``, validated by :func:`schema_of` ``cls``."""
     key = str(spec)
     if key.lower() in presets:
         return presets[key.lower()]
@@ -72,5 +112,5 @@ def load_params(spec: str | Path, presets: Mapping[str, Any], model: type[BaseMo
     if "actuator" in data and isinstance(data["actuator"], dict) and len(data) == 1:
         data = data["actuator"]
     data.setdefault("name", Path(key).stem)
-    obj = validate(model, data)
+    obj = validate(schema_of(cls), data)
     return cls(**{f.name: getattr(obj, f.name) for f in fields(cls)})

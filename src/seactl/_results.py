@@ -290,6 +290,108 @@ class ResponseResult(_Wrapped):
         return ax
 
 
+JITTER_COLUMNS = {"jitter_margin_ms": "overall", "stiffness_jitter_margin_ms": "stiffness",
+                  "damping_jitter_margin_ms": "damping", "torque_jitter_margin_ms": "torque"}
+
+
+class JitterResult(_Wrapped):
+    """Jitter margins of a design batch (arrays of the batch shape).
+
+    Every attribute of :class:`seactl.jitter.JitterMargins` is available (``overall_s``,
+    ``stiffness_s``, ``damping_s``, ``torque_s``, ``peak_hz``, ``delay_margin_s``,
+    ``stable``, ``bottleneck``, ``ms(loop)``).  The jitter margin of a loop is the largest
+    ``J`` such that any time-varying extra delay in ``[0, J]`` keeps the loop stable
+    (Kao-Lincoln small-gain bound, sufficient).
+
+    Parameters
+    ----------
+    margins : seactl.jitter.JitterMargins
+        The computed margins.
+    labels : dict
+        Per-design columns (``fn_hz``, ``gs``) of the batch shape.
+
+    Examples
+    --------
+    >>> import seactl as sc
+    >>> j = sc.design(14, delays_ms=(0.5, 2, 0.5), filters_hz=(50, 100)).jitter_margins()
+    >>> r = j.records()[0]
+    >>> round(r["jitter_margin_ms"], 2), round(r["delay_margin_ms"], 2)
+    (8.04, 9.45)
+    """
+
+    def __init__(self, margins: Any, labels: dict[str, Any]):
+        self._inner = margins
+        self.labels = labels
+
+    def __repr__(self) -> str:
+        j = np.round(np.asarray(self._inner.overall_s, float) * 1e3, 3)
+        return f"JitterResult(jitter_margin_ms={j.tolist()})"
+
+    def _columns(self) -> dict[str, np.ndarray]:
+        cols = dict(self.labels)
+        for name, loop in JITTER_COLUMNS.items():
+            if getattr(self._inner, f"{loop}_s") is not None:
+                cols[name] = self._inner.ms(loop)
+        cols["delay_margin_ms"] = np.asarray(self._inner.delay_margin_s) * 1e3
+        cols["stable"] = self._inner.stable
+        shape = np.shape(self._inner.overall_s)
+        return {k: np.broadcast_to(np.asarray(v), shape) for k, v in cols.items()}
+
+    def to_dict(self) -> dict[str, Any]:
+        """Every column as a (nested) list of the batch shape.
+
+        Returns
+        -------
+        dict
+            ``labels`` columns, ``jitter_margin_ms`` (whole outer loop),
+            ``stiffness_jitter_margin_ms``, ``damping_jitter_margin_ms``,
+            ``torque_jitter_margin_ms``, ``delay_margin_ms``, ``stable``.
+        """
+        return {k: json_array(v) for k, v in self._columns().items()}
+
+    def records(self) -> list[dict[str, Any]]:
+        """One JSON-ready dict per design, in C order (the rows of ``seactl jitter``).
+
+        Returns
+        -------
+        list of dict
+            Keys as in :meth:`to_dict`; an infinite margin is ``None``.
+        """
+        cols = {k: np.ravel(v) for k, v in self._columns().items()}
+        n = len(next(iter(cols.values())))
+        return [{k: json_value(v[i]) for k, v in cols.items()} for i in range(n)]
+
+    def plot(self, ax: Any = None, x: str = "fn_hz") -> Any:
+        """Jitter margins of every loop and the delay margin against a label column.
+
+        Parameters
+        ----------
+        ax : matplotlib.axes.Axes, optional
+            Where to draw (default: a new figure).
+        x : str
+            Label column on the horizontal axis.
+
+        Returns
+        -------
+        matplotlib.axes.Axes
+            The axes drawn on.
+        """
+        ax = _axes(ax)
+        cols = {k: np.ravel(v) for k, v in self._columns().items()}
+        xs = cols[x] if x in cols else np.arange(cols["stable"].size)
+        order = np.argsort(xs, kind="stable")
+        for name in (*JITTER_COLUMNS, "delay_margin_ms"):
+            if name in cols:
+                ax.plot(xs[order], cols[name][order], "o-" if name != "delay_margin_ms"
+                        else "k--", label=name.replace("_ms", ""))
+        ax.set_xlabel(x)
+        ax.set_ylabel("margin [ms]")
+        ax.set_yscale("log")
+        ax.grid(True, which="both", alpha=0.3)
+        ax.legend(loc="best", fontsize=8)
+        return ax
+
+
 class RootsResult(_Wrapped):
     """Rightmost characteristic roots of a design batch.
 

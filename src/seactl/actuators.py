@@ -14,35 +14,11 @@ from __future__ import annotations
 import math
 from dataclasses import asdict, dataclass
 from pathlib import Path
-from typing import Any
+from typing import Annotated, Any
 
-from pydantic import BaseModel, ConfigDict, Field
+import numpy as np
 
-from ._params import load_params, validate
-
-_POS = dict(gt=0, allow_inf_nan=False)
-
-
-class _SEAModel(BaseModel):
-    """Validation schema of :class:`SEAParams` (also the TOML schema)."""
-
-    model_config = ConfigDict(extra="forbid", frozen=True)
-
-    name: str = "custom"
-    motor_inertia: float = Field(description="reflected motor inertia I_m [kg m^2]", **_POS)
-    joint_inertia: float = Field(description="joint (load side) inertia I_j [kg m^2]", **_POS)
-    motor_damping: float = Field(description="reflected motor damping b_m [N m s/rad]", ge=0,
-                                 allow_inf_nan=False)
-    joint_damping: float = Field(description="joint damping b_j [N m s/rad]", ge=0,
-                                 allow_inf_nan=False)
-    spring_stiffness: float = Field(description="spring stiffness k [N m/rad]", **_POS)
-    current_to_torque: float = Field(description="beta = eta N k_tau r, current to joint "
-                                     "torque [N m/A]", **_POS)
-    motor_torque_constant: float = Field(0.0276, description="motor torque constant k_tau "
-                                         "[N m/A]", **_POS)
-    pulley_radius: float = Field(0.025, description="joint pulley radius r [m], for the "
-                                 "linear-space view", **_POS)
-    max_current: float = Field(30.0, description="motor current limit [A]", **_POS)
+from ._params import check, check_values, load_params, nonnegative, positive
 
 
 @dataclass(frozen=True)
@@ -85,19 +61,22 @@ class SEAParams:
     360.0
     """
 
-    motor_inertia: float
-    joint_inertia: float
-    motor_damping: float
-    joint_damping: float
-    spring_stiffness: float
-    current_to_torque: float
-    motor_torque_constant: float = 0.0276
-    pulley_radius: float = 0.025
-    max_current: float = 30.0
+    motor_inertia: Annotated[float, positive("reflected motor inertia I_m [kg m^2]")]
+    joint_inertia: Annotated[float, positive("joint (load side) inertia I_j [kg m^2]")]
+    motor_damping: Annotated[float, nonnegative("reflected motor damping b_m [N m s/rad]")]
+    joint_damping: Annotated[float, nonnegative("joint damping b_j [N m s/rad]")]
+    spring_stiffness: Annotated[float, positive("spring stiffness k [N m/rad]")]
+    current_to_torque: Annotated[float, positive("beta = eta N k_tau r, current to joint "
+                                                 "torque [N m/A]")]
+    motor_torque_constant: Annotated[float, positive("motor torque constant k_tau "
+                                                     "[N m/A]")] = 0.0276
+    pulley_radius: Annotated[float, positive("joint pulley radius r [m], for the "
+                                             "linear-space view")] = 0.025
+    max_current: Annotated[float, positive("motor current limit [A]")] = 30.0
     name: str = "custom"
 
     def __post_init__(self) -> None:
-        validate(_SEAModel, asdict(self))
+        check(self)
 
     # Paper symbols, for readable equations.
     @property
@@ -123,6 +102,37 @@ class SEAParams:
     @property
     def beta(self) -> float:
         return self.current_to_torque
+
+    def batch(self, **arrays: Any) -> SEAParams:
+        """A copy whose named fields hold arrays: a batch of plants on the leading axes.
+
+        Every element is validated against the same bounds as a single actuator (the
+        extremes of each array are checked).
+
+        Parameters
+        ----------
+        **arrays : array_like
+            Field name to values, e.g. ``motor_inertia=[0.2, 0.25]``.
+
+        Returns
+        -------
+        SEAParams
+            Same type; the block diagram and the gain design broadcast over its arrays.
+
+        Examples
+        --------
+        >>> b = UT_SEA.batch(joint_inertia=[0.01, 0.02])
+        >>> b.Ij.tolist(), b.k
+        ([0.01, 0.02], 218.75000000000003)
+        """
+        values = asdict(self) | {k: np.asarray(v, float) for k, v in arrays.items()}
+        for extreme in (np.min, np.max):
+            check_values(type(self), {k: float(extreme(v)) if isinstance(v, np.ndarray) else v
+                                      for k, v in values.items()})
+        obj = object.__new__(type(self))
+        for k, v in values.items():
+            object.__setattr__(obj, k, v)
+        return obj
 
     def linear(self) -> dict[str, float]:
         """The same actuator in linear (pushrod) space: kg, N s/m, N/m, N/A.
@@ -211,4 +221,4 @@ def load_sea(spec: str | Path) -> SEAParams:
     >>> round(load_sea("UT-SEA").spring_stiffness, 2)
     218.75
     """
-    return load_params(spec, SEA_PRESETS, _SEAModel, SEAParams)
+    return load_params(spec, SEA_PRESETS, SEAParams)

@@ -20,13 +20,17 @@ from typing import Any
 
 import numpy as np
 
-from ._results import ImpedanceResult, MarginsResult, ResponseResult, RootsResult
+from ._results import (
+    ImpedanceResult,
+    JitterResult,
+    MarginsResult,
+    ResponseResult,
+    RootsResult,
+)
 from ._validate import finite_array
+from .axes import MAX_DELAY_MS
 from .errors import InputError
 from .loops import Gains, SEADesign, Timing
-
-MAX_DELAY_MS = 1000.0
-"""Largest delay :func:`design` accepts [ms]; larger values are almost surely a unit slip."""
 
 SUSPICIOUS_DELAY_MS = 1e-3
 """Non-zero delays below this [ms] (1 us) trigger a :class:`UnitWarning`."""
@@ -71,7 +75,8 @@ def delays_from_ms(delays_ms: Sequence[Any], names: Sequence[str]) -> list[np.nd
     >>> [float(x) for x in delays_from_ms((0.5, 2), ("T_s", "T_d"))]
     [0.0005, 0.002]
     """
-    if isinstance(delays_ms, (str, bytes)) or np.ndim(delays_ms) == 0 \
+    # not np.ndim(delays_ms): the delays may have different shapes (a batch grid)
+    if isinstance(delays_ms, (str, bytes)) or not isinstance(delays_ms, (Sequence, np.ndarray)) \
             or len(delays_ms) != len(names):
         raise InputError("delays_ms", delays_ms,
                          f"a sequence of {len(names)} delays ({', '.join(names)}) [ms]")
@@ -90,7 +95,7 @@ def delays_from_ms(delays_ms: Sequence[Any], names: Sequence[str]) -> list[np.nd
 
 
 def _filters(filters_hz: Sequence[Any], names: Sequence[str]) -> list[Any]:
-    if isinstance(filters_hz, (str, bytes)) or np.ndim(filters_hz) == 0 \
+    if isinstance(filters_hz, (str, bytes)) or not isinstance(filters_hz, (Sequence, np.ndarray)) \
             or len(filters_hz) != len(names):
         raise InputError("filters_hz", filters_hz,
                          f"a sequence of {len(names)} cut-offs ({', '.join(names)}) [Hz], "
@@ -237,6 +242,34 @@ class Design:
 
         return MarginsResult(sea_margins(self.sea), self._label_columns())
 
+    def jitter_margins(self) -> JitterResult:
+        """Jitter margins of the whole outer loop and of the stiffness, damping and torque
+        loops (Kao-Lincoln small-gain bound with exact delays).
+
+        The jitter margin of a loop is the largest ``J`` such that any *time-varying*
+        extra delay in ``[0, J]`` at that loop's break keeps the closed loop stable:
+        ``J = 1 / max_w (w |T(jw)|)``, ``T = L/(1+L)`` the complementary sensitivity there
+        (:mod:`seactl.jitter`); 0 for an unstable design.
+
+        Returns
+        -------
+        JitterResult
+            Arrays of the batch shape (``overall_s``, ``stiffness_s``, ``damping_s``,
+            ``torque_s``, ``delay_margin_s``, ``stable``), with ``records()``.
+
+        Examples
+        --------
+        >>> import seactl as sc
+        >>> d = sc.design([12, 14], delays_ms=(0.5, 2, 0.5), filters_hz=(50, 100))
+        >>> j = d.jitter_margins()
+        >>> j.ms("overall").round(2), bool(j.ms("damping")[1] > j.ms("overall")[1])
+        (array([11.47,  8.04]), True)
+        """
+        from .jitter import sea_jitter_margins
+
+        return JitterResult(sea_jitter_margins(self.sea),
+                            {"fn_hz": self.fn_hz, "gs": self.gs})
+
     def roots(self, count: int = 6) -> RootsResult:
         """Rightmost roots of the closed loop (exact delays), per design.
 
@@ -335,9 +368,20 @@ class Design:
         """
         from .simulate import sea_step
 
+        self._check_simulation(mode, rate_hz, t_end_s)
         return ResponseResult(sea_step(self.sea, zero=zero, mode=mode, rate_hz=rate_hz,
                                        t_end_s=t_end_s, saturation_a=saturation_a),
                               self.labels())
+
+    def _check_simulation(self, mode: str, rate_hz: float, t_end_s: float) -> None:
+        """Ranges, samples, memory and time of a simulation (errors name the parameters)."""
+        from .limits import check_simulation
+
+        t = self.sea.timing
+        delays = [float(np.min(np.where(np.asarray(d) > 0, d, np.inf)))
+                  for d in (t.T_tau, t.T_qs, t.T_qd)]
+        check_simulation(int(np.prod(self.shape)), mode, rate_hz, t_end_s,
+                         [d for d in delays if np.isfinite(d)])
 
     def impulse(self, *, impulse_nms: float = 0.05, t_end_s: float = 1.0,
                 mode: str = "continuous", rate_hz: float = 1000.0,
@@ -372,9 +416,59 @@ class Design:
         """
         from .simulate import sea_impulse
 
+        self._check_simulation(mode, rate_hz, t_end_s)
         return ResponseResult(sea_impulse(self.sea, impulse_nms=impulse_nms, mode=mode,
                                           rate_hz=rate_hz, t_end_s=t_end_s,
                                           saturation_a=saturation_a), self.labels())
+
+    def monte_carlo(self, kind: str = "step", *, latency: Any = None, loss: Any = None,
+                    runs: int = 100, seed: int = 0, rate_hz: float = 1000.0,
+                    t_end_s: float | None = None) -> Any:
+        """Sampled step or impulse responses under random latency and message loss.
+
+        Parameters
+        ----------
+        kind : {"step", "impulse"}
+            Step of 0.01 rad on ``q_des``, or 0.05 N m s impulse of external torque.
+        latency : dict, optional
+            Link (``"stiffness"``, ``"damping"``, ``"torque"``) -> latency model of
+            :mod:`seactl.timing_models` (seconds), or its text form in ms
+            (``"uniform:0.5:3"``).
+        loss : dict, optional
+            Link -> loss probability, loss model, or text (``"ge:0.01:0.3"``).
+        runs : int
+            Timing realizations per design.
+        seed : int
+            Seed (each run has its own stream: reproducible).
+        rate_hz : float
+            Servo rate of both processes [Hz].
+        t_end_s : float, optional
+            Window [s] (default 0.5 for steps, 1 for impulses).
+
+        Returns
+        -------
+        seactl.timing.MonteCarloSummary
+            ``fraction_stable``, ``rms_error_mean``, ``rms_error_worst``,
+            ``peak_current_worst_a``, ``worst_run`` (batch shape), per-run arrays and the
+            batched simulation.
+
+        Examples
+        --------
+        >>> import seactl as sc
+        >>> d = sc.design(14, delays_ms=(0.5, 2, 0.5), filters_hz=(50, 100))
+        >>> mc = d.monte_carlo(latency={"damping": "uniform:0.5:3"}, runs=10, t_end_s=0.3)
+        >>> float(mc.fraction_stable)
+        1.0
+        """
+        from .timing import sea_monte_carlo
+        from .timing_models import parse_latency, parse_loss
+
+        lat = {k: parse_latency(v, f"latency {k}") if isinstance(v, str) else v
+               for k, v in (latency or {}).items()}
+        los = {k: parse_loss(v, f"loss {k}") if isinstance(v, str) else v
+               for k, v in (loss or {}).items()}
+        return sea_monte_carlo(self.sea, kind, latency=lat, loss=los, runs=runs, seed=seed,
+                               rate_hz=rate_hz, t_end_s=t_end_s)
 
     def to_control(self, kind: str = "frd", *, transfer: str = "loop", f_hz: Any = None,
                    order: int = 3) -> Any:

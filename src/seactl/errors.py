@@ -52,6 +52,41 @@ class InputError(SeactlError, ValueError):
         super().__init__(f"invalid {field} = {value!r}: must be {valid}")
 
 
+class LoopFileError(InputError):
+    """A loop file (or a :class:`~seactl.LoopBuilder` call) describes no valid loop.
+
+    The message names the file, where in it (block and field), the offending value and
+    what is valid, on one line.
+
+    Parameters
+    ----------
+    file : str
+        The loop file (or ``"<builder>"``).
+    where : str
+        The block and field, variable, break or port, e.g. ``"block 'Kq_fb', field 'gain'"``.
+    value : Any
+        The rejected value (``None``: the error is about structure, not one value).
+    valid : str
+        What is valid, or why the structure is rejected.
+
+    Examples
+    --------
+    >>> import seactl as sc
+    >>> b = sc.LoopBuilder("demo").variables(m=1.0)
+    >>> try:
+    ...     b.block("k", "gain", input="e", output="u", gain="m * oops")
+    ... except sc.LoopFileError as exc:
+    ...     print(exc)
+    <builder>: block 'k', field 'gain' = 'm * oops': unknown name 'oops'; known: m, pi, e
+    """
+
+    def __init__(self, file: Any, where: str, value: Any, valid: str):
+        self.file, self.where = str(file), where
+        self.field, self.value, self.valid = where, value, valid
+        shown = "" if value is None else f" = {value!r}"
+        SeactlError.__init__(self, f"{self.file}: {where}{shown}: {valid}")
+
+
 class InfeasibleDesignError(SeactlError, ValueError):
     """No critically-damped gain set with four positive gains exists.
 
@@ -102,3 +137,19 @@ class OutputError(SeactlError, OSError):
         self.path = str(path)
         self.reason = reason
         SeactlError.__init__(self, f"cannot write {path}: {reason}")
+
+
+class ResourceError(SeactlError, ValueError):
+    """The work asked for needs more memory or time than the machine can give.
+
+    Parameters
+    ----------
+    message : str
+        The estimate, the limit, and how to ask for less.
+
+    Examples
+    --------
+    >>> from seactl.errors import ResourceError
+    >>> print(ResourceError("a 1e12-point grid needs about 14.6 TiB of memory"))
+    a 1e12-point grid needs about 14.6 TiB of memory
+    """

@@ -320,9 +320,14 @@ class MaxFn:
 
 def max_stable_fn(model: LoopModel, T_s, T_d, *, min_pm_deg: float | None = None,
                   fn_lo: float | None = None, fn_hi: float | None = None, n_scan: int = 32,
-                  rtol: float = 1e-4, **overrides) -> MaxFn:
+                  rtol: float = 1e-4, extra_ok: Callable[..., np.ndarray] | None = None,
+                  **overrides) -> MaxFn:
     """Highest ``f_n`` that keeps the closed loop stable (and, with ``min_pm_deg``, the
     phase margin at least that), for every ``(T_s, T_d)`` (broadcast) [s].
+
+    ``extra_ok(design, margins, idx, scan_axis)`` (optional) adds a criterion, e.g. jitter
+    margins: ``idx`` are the flat grid points being evaluated (``scan_axis``: the designs
+    have a trailing ``f_n`` axis).
 
     ``f_n`` is scanned on ``n_scan`` log-spaced values in ``[fn_lo, fn_hi]`` as a
     batch axis; the first failing value brackets the boundary, refined by bisection
@@ -347,6 +352,8 @@ def max_stable_fn(model: LoopModel, T_s, T_d, *, min_pm_deg: float | None = None
         good = m.stable
         if min_pm_deg is not None:
             good = good & (m.phase_margin_deg >= min_pm_deg)
+        if extra_ok is not None:
+            good = good & extra_ok(d, m, idx, scan_axis)
         return good
 
     n = flat[0].size

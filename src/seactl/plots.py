@@ -80,6 +80,40 @@ def impedance_bode_figure(columns, *, suptitle: str | None = None, unit: str = "
     return fig
 
 
+def loop_bode_figure(f_hz, columns, *, suptitle: str | None = None):
+    """Bode plot of loop transfers broken at named points, one column per break.
+
+    ``columns``: list of ``(title, curves, crossings)``; each curve is ``(label, L)`` with
+    ``L`` complex on ``f_hz``; ``crossings`` lists gain-crossover frequencies [Hz] to mark.
+    """
+    plt = _pyplot()
+    n = len(columns)
+    fig, axes = plt.subplots(2, n, figsize=(4.6 * n, 6.2), sharex="col", squeeze=False,
+                             gridspec_kw={"height_ratios": [1.4, 1]})
+    for j, (title, curves, crossings) in enumerate(columns):
+        am, ap = axes[0, j], axes[1, j]
+        for label, L in curves:
+            am.semilogx(f_hz, 20 * np.log10(np.abs(L)), lw=1.4, label=label)
+            ap.semilogx(f_hz, np.degrees(np.unwrap(np.angle(L))), lw=1.4)
+        am.axhline(0.0, color="k", lw=0.7)
+        for fc in crossings:
+            am.axvline(fc, color="0.5", ls="--", lw=0.7)
+            ap.axvline(fc, color="0.5", ls="--", lw=0.7)
+        am.set_title(title, fontsize=10)
+        am.grid(True, which="both", alpha=0.3)
+        ap.grid(True, which="both", alpha=0.3)
+        ap.set_xlabel("frequency [Hz]")
+        if j == 0:
+            am.set_ylabel("|L| [dB]")
+            ap.set_ylabel("phase of L [deg]")
+        if any(label for label, _ in curves):
+            am.legend(fontsize=7)
+    if suptitle:
+        fig.suptitle(suptitle, fontsize=11)
+    fig.tight_layout()
+    return fig
+
+
 def zregion_figure(region, fn_hz, gs, *, spring=None, unit: str = "N m s/rad"):
     """Z-region: admissible |Z| envelope, Z-width with the Z-depth, admissible design map."""
     plt = _pyplot()
@@ -345,37 +379,61 @@ def base_tracking_figure(comparison, paper_kx: dict | None = None):
 
 
 def base_animation(comparison, path, fps: int = 12, seconds: float | None = None) -> None:
-    """Animated GIF of the bases tracking the circle side by side (Pillow writer)."""
-    plt = _pyplot()
-    from matplotlib.animation import FuncAnimation, PillowWriter
+    """Animated GIF of the bases tracking the circle side by side.
 
-    p = comparison.params
+    The axes, titles and reference are drawn once; each frame restores that background and
+    draws only the moving artists (blitting), then Pillow assembles the GIF on one shared
+    palette.  A full redraw per frame spent most of its time laying out the same text.
+    """
+    plt = _pyplot()
+    from PIL import Image
+
     res = comparison.track
-    archs = list(comparison.results)
     T = res.t[-1] if seconds is None else min(seconds, res.t[-1])
     idx = np.searchsorted(res.t, np.arange(0.0, T, 1.0 / fps))
-    fig, axs = plt.subplots(1, len(archs), figsize=(4.2 * len(archs), 4.2), squeeze=False)
-    axs = axs[0]
-    R = p.circle_radius
-    a_w = p.alpha
-    L = p.wheel_distance
+    fig, artists, draw = _base_animation_figure(comparison)
+    canvas = fig.canvas
+    canvas.draw()
+    background = canvas.copy_from_bbox(fig.bbox)
+    frames = []
+    for k in idx:
+        canvas.restore_region(background)
+        for artist in draw(k):
+            artist.axes.draw_artist(artist)
+        frames.append(Image.fromarray(np.asarray(canvas.buffer_rgba())[..., :3].copy()))
+    plt.close(fig)
+    palette = frames[-1].quantize(colors=64)
+    images = [f.quantize(palette=palette, dither=Image.Dither.NONE) for f in frames]
+    images[0].save(str(path), save_all=True, append_images=images[1:],
+                   duration=int(round(1000 / fps)), loop=0)
+
+
+def _base_animation_figure(comparison):
+    """The static figure of :func:`base_animation`, its moving artists, and a function that
+    moves them to sample ``k`` (returns the artists to draw)."""
+    plt = _pyplot()
+    p, res = comparison.params, comparison.track
+    archs = list(comparison.results)
+    thin = max(1, res.t.size // 2000)      # at most ~2000 points per line
+    fig, axs = plt.subplots(1, len(archs), figsize=(4.2 * len(archs), 4.2), squeeze=False,
+                            dpi=80)
+    R, a_w, L = p.circle_radius, p.alpha, p.wheel_distance
     artists = []
-    for ax, (i, a) in zip(axs, enumerate(archs)):
-        ax.plot(res.x_d[:, 0], res.x_d[:, 1], "k--", lw=0.8)
+    for ax, (i, a) in zip(axs[0], enumerate(archs)):
+        ax.plot(res.x_d[::thin, 0], res.x_d[::thin, 1], "k--", lw=0.8)
         ax.set_xlim(-2 * R - 0.4, 0.4)
         ax.set_ylim(-R - 0.4, R + 0.4)
         ax.set_aspect("equal")
         r = comparison.results[a]
         ax.set_title(f"{a.upper()}: K_x = {r.kx:.3g} N/(m kg)\nRMS error "
                      f"{r.rms_position_m * 1e3:.3g} mm", fontsize=9)
-        body, = ax.fill([], [], color=_BASE_COLORS[a], alpha=0.35)
-        wheels, = ax.plot([], [], "k-", lw=3, solid_capstyle="butt")
-        trace, = ax.plot([], [], color=_BASE_COLORS[a], lw=1)
-        target, = ax.plot([], [], "kx", ms=6)
+        body, = ax.fill([], [], color=_BASE_COLORS[a], alpha=0.35, animated=True)
+        wheels, = ax.plot([], [], "k-", lw=3, solid_capstyle="butt", animated=True)
+        trace, = ax.plot([], [], color=_BASE_COLORS[a], lw=1, animated=True)
+        target, = ax.plot([], [], "kx", ms=6, animated=True)
         artists.append((i, body, wheels, trace, target))
 
-    def frame(j):
-        k = idx[j]
+    def draw(k):
         out = []
         for i, body, wheels, trace, target in artists:
             x, y, th = res.x[k, i]
@@ -387,14 +445,12 @@ def base_animation(comparison, path, fps: int = 12, seconds: float | None = None
                 seg += [[px - d[0], py - d[1]], [px + d[0], py + d[1]], [np.nan, np.nan]]
             seg = np.asarray(seg)
             wheels.set_data(seg[:, 0], seg[:, 1])
-            trace.set_data(res.x[:k + 1, i, 0], res.x[:k + 1, i, 1])
+            trace.set_data(res.x[:k + 1:thin, i, 0], res.x[:k + 1:thin, i, 1])
             target.set_data([res.x_d[k, 0]], [res.x_d[k, 1]])
-            out += [body, wheels, trace, target]
+            out += [trace, body, wheels, target]
         return out
 
-    anim = FuncAnimation(fig, frame, frames=len(idx), blit=True)
-    anim.save(str(path), writer=PillowWriter(fps=fps))
-    plt.close(fig)
+    return fig, artists, draw
 
 
 # --- time-domain responses (seactl.simulate) -------------------------------------------------
@@ -498,27 +554,46 @@ FIGURE_FORMATS = ("png", "svg", "pdf")
 def save_figure(fig, path, dpi: int = 120) -> None:
     """Write ``fig`` to ``path`` atomically (temporary sibling + rename) and close it; the
     format follows the suffix (png, svg or pdf)."""
-    plt = _pyplot()
-    import os
-    import tempfile
     from pathlib import Path
 
     from .errors import InputError
+    from .outputs import save_figure_to, write_atomic_with
 
     path = Path(path)
     fmt = path.suffix[1:].lower()
     if fmt not in FIGURE_FORMATS:
-        plt.close(fig)
+        _pyplot().close(fig)
         raise InputError("--plot", str(path), "a file name ending in ." +
                          ", .".join(FIGURE_FORMATS))
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", suffix=path.suffix, dir=path.parent)
-    os.close(fd)
-    try:
-        fig.savefig(tmp, dpi=dpi, bbox_inches="tight", format=fmt)
-        os.replace(tmp, path)
-    except BaseException:
-        Path(tmp).unlink(missing_ok=True)
-        raise
-    finally:
-        plt.close(fig)
+    write_atomic_with(path, lambda tmp: save_figure_to(fig, tmp, fmt, dpi))
+
+
+def jitter_figure(fn_hz, margins_ms: dict, delay_margin_ms, factors, fractions: dict,
+                  title: str = ""):
+    """Left: jitter margins [ms] of each loop and the whole-loop delay margin against f_n.
+    Right: fraction of Monte Carlo runs that stay stable against the jitter range, in
+    multiples of each link's jitter margin (the bound guarantees 100 % up to 1)."""
+    plt = _pyplot()
+    fig, (a, b) = plt.subplots(1, 2, figsize=(11.0, 4.0), layout="constrained")
+    colors = dict(zip(["overall", "stiffness", "damping", "torque"],
+                      ["tab:blue", "tab:orange", "tab:green", "tab:red"]))
+    for name, v in margins_ms.items():
+        a.plot(fn_hz, v, "o-", ms=3, color=colors.get(name), label=f"{name} loop")
+    a.plot(fn_hz, delay_margin_ms, "k--", label="delay margin (constant), outer loop")
+    a.set_yscale("log")
+    a.set_xlabel("f_n [Hz]")
+    a.set_ylabel("margin [ms]")
+    a.grid(True, which="both", alpha=0.3)
+    a.legend(fontsize=8)
+    for name, fr in fractions.items():
+        b.plot(factors, 100 * np.asarray(fr), "o-", color=colors.get(name),
+               label=f"{name} link")
+    b.axvline(1.0, color="k", lw=0.8, ls=":")
+    b.set_xlabel("latency range above nominal / jitter margin")
+    b.set_ylabel("stable runs [%]")
+    b.set_ylim(-5, 105)
+    b.grid(True, alpha=0.3)
+    b.legend(fontsize=8)
+    if title:
+        fig.suptitle(title)
+    return fig

@@ -25,6 +25,10 @@ from typing import Any
 import numpy as np
 
 from .errors import OutputError
+from .outputs import (
+    reason,
+    write_atomic,  # noqa: F401  (re-exported; it lives in seactl.outputs)
+)
 
 STATUSES = ("pass", "fail", "info")
 
@@ -194,7 +198,7 @@ def build(out: Path, sections: Iterable[SectionFn], console: Any = None
         out.parent.mkdir(parents=True, exist_ok=True)
         tmp = Path(tempfile.mkdtemp(prefix=f".{out.name}.tmp-", dir=out.parent))
     except OSError as exc:
-        raise OutputError(out, exc.strerror or str(exc)) from None
+        raise OutputError(out, reason(exc)) from None
     try:
         os.chmod(tmp, 0o777 & ~_umask())
         (tmp / MARKER).write_text("written by seactl reproduce; seactl may replace this "
@@ -215,7 +219,7 @@ def build(out: Path, sections: Iterable[SectionFn], console: Any = None
     except BaseException as exc:
         shutil.rmtree(tmp, ignore_errors=True)
         if isinstance(exc, OSError) and not isinstance(exc, OutputError):
-            raise OutputError(out, exc.strerror or str(exc)) from None
+            raise OutputError(out, reason(exc)) from None
         raise
     return claims
 
@@ -252,20 +256,6 @@ def _swap_into_place(tmp: Path, out: Path) -> None:
     os.replace(tmp, out)
     if old is not None:
         shutil.rmtree(old, ignore_errors=True)
-
-
-def write_atomic(path: Path, data: str | bytes) -> None:
-    """Write a file through a temporary sibling and a rename."""
-    path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(prefix=f".{path.name}.", dir=path.parent)
-    try:
-        with os.fdopen(fd, "wb") as fh:
-            fh.write(data.encode() if isinstance(data, str) else data)
-        os.replace(tmp, path)
-    except BaseException:
-        Path(tmp).unlink(missing_ok=True)
-        raise
 
 
 def _render(sections: list[Section], claims: list[dict[str, Any]]) -> str:

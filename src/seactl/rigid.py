@@ -32,38 +32,23 @@ Examples
 from __future__ import annotations
 
 import math
-from dataclasses import asdict, dataclass, fields, replace
+from dataclasses import dataclass, fields, replace
 from pathlib import Path
-from types import SimpleNamespace
-from typing import Any
+from typing import Annotated, Any
 
 import numpy as np
-from pydantic import BaseModel, ConfigDict, Field
 
-from ._params import load_params, validate
+from ._params import check, load_params, nonnegative, positive
 from ._validate import finite_array
 from .actuators import UT_SEA
 from .blockdiagram import Block, BlockDiagram, DesignBatch, Transfer
 from .errors import InfeasibleDesignError, InputError
 from .loops import filter_time_constant
 from .margins import Margins, default_grid, loop_margins
+from .simulate import Step, simulate, step_metrics
+
 
 # ------------------------------------------------------------------ parameters
-_POS = dict(gt=0, allow_inf_nan=False)
-
-
-class _RigidModel(BaseModel):
-    """Validation schema of :class:`RigidParams` (also the TOML schema)."""
-
-    model_config = ConfigDict(extra="forbid", frozen=True)
-
-    name: str = "custom"
-    mass: float = Field(description="effective output mass m [kg]", **_POS)
-    damping: float = Field(description="passive damping b [N s/m]", ge=0, allow_inf_nan=False)
-    current_to_force: float = Field(description="beta, motor current to force [N/A]", **_POS)
-    max_current: float = Field(30.0, description="motor current limit [A]", **_POS)
-
-
 @dataclass(frozen=True)
 class RigidParams:
     """Immutable, validated rigid (stiff drivetrain) linear actuator, SI units.
@@ -90,14 +75,14 @@ class RigidParams:
     invalid mass = -1.0: must be > 0 and finite [kg]
     """
 
-    mass: float
-    damping: float
-    current_to_force: float
-    max_current: float = 30.0
+    mass: Annotated[float, positive("effective output mass m [kg]")]
+    damping: Annotated[float, nonnegative("passive damping b [N s/m]")]
+    current_to_force: Annotated[float, positive("beta, motor current to force [N/A]")]
+    max_current: Annotated[float, positive("motor current limit [A]")] = 30.0
     name: str = "custom"
 
     def __post_init__(self) -> None:
-        validate(_RigidModel, asdict(self))
+        check(self)
 
     @property
     def m(self) -> float:
@@ -149,7 +134,7 @@ def load_rigid(spec: str | Path) -> RigidParams:
     >>> load_rigid("ut-linear").mass
     256.0
     """
-    return load_params(spec, RIGID_PRESETS, _RigidModel, RigidParams)
+    return load_params(spec, RIGID_PRESETS, RigidParams)
 
 
 # ------------------------------------------------------------------ gains and designs
@@ -391,32 +376,17 @@ def step_experiment(actuator: RigidParams = UT_LINEAR, fn_hz=(4.0, 8.0, 12.0), *
                     delays_ms=PAPER_DELAYS_MS, f_v: float | None = 50.0,
                     passive_damping: bool = True, rate_hz: float = 1000.0,
                     x_from_m: float = 0.131, x_to_m: float = 0.135, t_end_s: float = 1.0,
-                    saturate: bool = True, residual_tol: float = 0.05,
-                    simulator: str = "auto") -> StepExperiment:
+                    saturate: bool = True, residual_tol: float = 0.05) -> StepExperiment:
     """Replica of the paper's step experiment (sampled controllers, delay buffers).
 
-    Both loops run at ``rate_hz`` on the simulator of :mod:`seactl.simulate`
-    (Tustin-discretized derivative filter, zero-order hold on the force, position
-    sampled every tick).  A delay of ``n`` ms is a buffer of ``n`` samples at 1 kHz, so the
-    effective delay is ``n + 0.5`` ms (``T_d = T_s/2 + T_e``).  The step is
+    Both loops run at ``rate_hz`` on the sampled simulator of :mod:`seactl.simulate` on
+    :data:`RIGID_DIAGRAM` (Tustin-discretized derivative filter, zero-order hold on the
+    force, position sampled every tick).  A delay of ``n`` ms is a buffer of ``n`` samples
+    at 1 kHz, so the effective delay is ``n + 0.5`` ms (``T_d = T_s/2 + T_e``).  The step is
     ``x_from_m -> x_to_m``; the plant is linear, so the response is simulated in deviation
     from ``x_from_m`` and normalized to 0..1.  With ``saturate`` the force command is
     clipped at ``beta * max_current``.
-
-    ``simulator``: ``"generic"`` (:func:`seactl.simulate.simulate` on
-    :data:`RIGID_DIAGRAM`), ``"rigid"`` (:func:`simulate_rigid_sampled`, this module's
-    minimal stand-alone simulation with the same conventions) or ``"auto"`` (generic
-    when :mod:`seactl.simulate` is available).
     """
-    if simulator not in ("auto", "generic", "rigid"):
-        raise InputError("simulator", simulator, "one of auto, generic, rigid")
-    if simulator == "auto":
-        try:
-            import seactl.simulate  # noqa: F401
-            simulator = "generic"
-        except ImportError:
-            simulator = "rigid"
-
     fn = finite_array("fn [Hz]", fn_hz, minimum=0.0, strict=True).reshape(-1)
     rate = float(finite_array("rate [Hz]", rate_hz, minimum=0.0, strict=True))
     dl = np.asarray(delays_ms, float).reshape(-1, 2)
@@ -431,19 +401,10 @@ def step_experiment(actuator: RigidParams = UT_LINEAR, fn_hz=(4.0, 8.0, 12.0), *
     d = RigidDesign.from_fn(actuator, fn[None, :], T_s=eff[:, :1], T_d=eff[:, 1:],
                             f_v=f_v, passive_damping=passive_damping)
     limit = actuator.max_force if saturate else None
-    if simulator == "generic":
-        from .simulate import Step, simulate
-
-        res = simulate(RIGID_DIAGRAM, d, {"x_des": Step(step)}, t_end_s=t_end_s,
-                       mode="sampled", rates_hz=rate, outputs=("x", "F_des"),
-                       saturation={"F_des": limit} if saturate else None)
-        t_s, x, force, stable, left = (res.t_s, res.outputs["x"], res.outputs["F_des"],
-                                       res.stable, res.left_bounds_s)
-    else:
-        t_s, x, force = simulate_rigid_sampled(d, step, t_end_s=t_end_s, rate_hz=rate,
-                                               force_limit=limit)
-        stable = np.abs(x).max(axis=-1) < 1e3 * abs(step)
-        left = np.full(d.shape, np.inf)
+    res = simulate(RIGID_DIAGRAM, d, {"x_des": Step(step)}, t_end_s=t_end_s,
+                   mode="sampled", rates_hz=rate, outputs=("x", "F_des"),
+                   saturation={"F_des": limit} if saturate else None)
+    t_s, x, force = res.t_s, res.outputs["x"], res.outputs["F_des"]
     y = x / step
     if saturate:
         force = np.clip(force, -limit, limit)
@@ -452,82 +413,10 @@ def step_experiment(actuator: RigidParams = UT_LINEAR, fn_hz=(4.0, 8.0, 12.0), *
         sat = np.zeros(d.shape)
     tail = y[..., -max(2, y.shape[-1] // 4):]
     resid = np.where(np.isfinite(tail).all(axis=-1), np.ptp(tail, axis=-1), np.inf)
-    ooc = ~stable | (resid > residual_tol)
-    met = _step_metrics(t_s, y, ~ooc, left)
+    ooc = ~res.stable | (resid > residual_tol)
+    met = step_metrics(t_s, y, ~ooc, res.left_bounds_s)
     lin = rigid_margins(d)
     return StepExperiment(t_s, y, force, fn, tuple(map(tuple, dl.tolist())), eff, sat,
                           resid, residual_tol, ooc, lin.stable, lin.phase_margin_deg,
                           met.overshoot_pct, met.settling_time_s, limit, rate)
 
-
-def _step_metrics(t, y, ok, left):
-    try:
-        from .simulate import step_metrics
-    except ImportError:   # overshoot and 2 % settling time, computed here
-        final = y[..., -max(1, y.shape[-1] // 50):].mean(axis=-1)
-        over = np.maximum(y.max(axis=-1) / final - 1, 0) * 100
-        out = np.abs(y - final[..., None]) > 0.02 * np.abs(final[..., None])
-        last = y.shape[-1] - 1 - np.argmax(out[..., ::-1], axis=-1)
-        settle = np.where(out.any(axis=-1), np.where(last >= y.shape[-1] - 1, np.inf,
-                                                     t[np.minimum(last + 1, t.size - 1)]), t[0])
-        return SimpleNamespace(overshoot_pct=np.where(ok, over, np.nan),
-                               settling_time_s=np.where(ok, settle, np.nan))
-    return step_metrics(t, y, ok, left)
-
-
-# ------------------------------------------------------------------ stand-alone sampled simulation
-def simulate_rigid_sampled(design: RigidDesign, step_m: float, *, t_end_s: float = 1.0,
-                           rate_hz: float = 1000.0, force_limit: float | None = None
-                           ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Minimal sampled simulation of the rigid loop, independent of :mod:`seactl.simulate`.
-
-    The plant ``1/(m s^2 + b s)`` is discretized exactly under a zero-order hold
-    (:func:`scipy.signal.cont2discrete`).  Every tick ``k`` the position is sampled, the
-    stiffness term reads it ``n_s`` ticks old and the damping term ``n_d`` ticks old
-    (``n = round((T - T_s/2)/T_s)``, the effective-delay convention ``T = T_s/2 + n T_s``),
-    the velocity filter ``B s/(T_f s + 1)`` is the Tustin transform, and the force
-    ``K (x_des - x[k-n_s]) - B v[k]`` is clipped to ``force_limit`` and held for one period.
-    Kept as a cross-check of the generic simulator (tests compare the two).
-
-    Returns
-    -------
-    t_s, x, force : times [s] ``(N,)``; position and applied force ``design.shape + (N,)``.
-    """
-    from scipy.signal import cont2discrete
-
-    T = 1.0 / rate_hz
-    n_steps = int(round(t_end_s * rate_hz)) + 1
-    shape = design.shape
-    m, b = float(design.actuator.m), float(design.actuator.b)
-    Ad, Bd, *_ = cont2discrete((np.array([[0.0, 1.0], [0.0, -b / m]]),
-                                np.array([[0.0], [1.0 / m]]), np.eye(2), np.zeros((2, 1))),
-                               T, method="zoh")
-    flat = lambda a: np.broadcast_to(a, shape).reshape(-1)  # noqa: E731
-    K, B, Tf = flat(design.K), flat(design.B), flat(design.Tf_v)
-    n_s = np.maximum(np.floor((flat(design.T_s) - T / 2) / T + 0.5 + 1e-9), 0).astype(int)
-    n_d = np.maximum(np.floor((flat(design.T_d) - T / 2) / T + 0.5 + 1e-9), 0).astype(int)
-    nb = K.size
-    a = 2 * Tf / T                       # Tustin: (a+1) v_k + (1-a) v_{k-1} = 2/T (u_k - u_{k-1})
-    hist = np.zeros((nb, n_steps + 1))   # sampled positions, hist[:, k + 1] = x_k (x_{-1} = 0)
-    state = np.zeros((nb, 2))
-    v_prev = np.zeros(nb)
-    u_prev = np.zeros(nb)
-    x_out = np.zeros((nb, n_steps))
-    f_out = np.zeros((nb, n_steps))
-    rows = np.arange(nb)
-    for k in range(n_steps):
-        xk = state[:, 0]
-        hist[:, k + 1] = xk
-        xs = hist[rows, np.maximum(k - n_s, -1) + 1]
-        ud = hist[rows, np.maximum(k - n_d, -1) + 1]
-        v = ((2 / T) * (ud - u_prev) - (1 - a) * v_prev) / (a + 1)
-        v_prev, u_prev = v, ud
-        f = K * (step_m - xs) - B * v
-        if force_limit is not None:
-            f = np.clip(f, -force_limit, force_limit)
-        x_out[:, k], f_out[:, k] = xk, f
-        state = state @ Ad.T + f[:, None] * Bd[:, 0]
-        if not np.all(np.isfinite(state)):
-            state = np.nan_to_num(state, nan=0.0, posinf=1e300, neginf=-1e300)
-    t = np.arange(n_steps) * T
-    return t, x_out.reshape(shape + (n_steps,)), f_out.reshape(shape + (n_steps,))

@@ -18,6 +18,11 @@ state space ``x' = A x + B v``, ``S = C x + D v`` whose inputs ``v`` are the
 exogenous inputs and the *delayed* block inputs.  Delayed inputs are read from
 delay buffers holding the past values of their source signals.
 
+Each mode is a compile step returning a plan (:class:`ContinuousPlan`,
+:class:`SampledPlan`: batched matrices plus a :class:`Layout` naming the slices
+of every packed vector) and a run loop over time steps (:func:`run_continuous`,
+:func:`run_sampled`); :func:`simulate` does both.
+
 Modes
 -----
 ``continuous``
@@ -89,6 +94,7 @@ from __future__ import annotations
 import math
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
+from functools import cached_property
 from typing import Any
 
 import numpy as np
@@ -494,7 +500,7 @@ def simulate(diagram: BlockDiagram, design: Any, inputs: Mapping[str, Any], t_en
              saturation: Mapping[str, float] | None = None,
              quantization: Mapping[str, float] | None = None, friction: Friction | None = None,
              friction_substeps: int = 10, bound: float | None = None,
-             derivative_tau_s: float = 1e-7) -> SimResult:
+             derivative_tau_s: float = 1e-7, timing: Any = None) -> SimResult:
     """Simulate ``diagram`` for a batch of designs (see the module docstring).
 
     Parameters
@@ -518,11 +524,44 @@ def simulate(diagram: BlockDiagram, design: Any, inputs: Mapping[str, Any], t_en
     bound : divergence bound on the first recorded output (default 1e3 x the largest input
         scale); the first output is also the one checked for growth at the end.
     derivative_tau_s : roll-off of unfiltered derivatives in continuous mode [s].
+    timing : object, optional
+        Time-varying latency and message loss (sampled mode; see :mod:`seactl.timing`):
+        ``timing.blocks`` names the delayed blocks it drives (compiled to always read
+        their buffers) and ``timing.schedules(plan)`` returns, per block, the source tick
+        each tick uses (see :func:`run_sampled`).
 
     Returns
     -------
     SimResult
     """
+    t_end_s, outputs = _check_args(diagram, inputs, mode, t_end_s, outputs)
+    shape = tuple(getattr(design, "shape", ()))
+    bound = _default_bound(inputs) if bound is None else float(bound)
+    if mode == "continuous":
+        if saturation or quantization or friction or timing is not None:
+            raise InputError("mode", mode, "'sampled' for saturation, quantization, friction "
+                             "or timing")
+        plan = compile_continuous(diagram, design, inputs, t_end_s, outputs, dt=dt,
+                                  record_dt=record_dt, derivative_tau_s=derivative_tau_s)
+        res = run_continuous(plan, bound)
+    else:
+        plan = compile_sampled(diagram, design, inputs, t_end_s, outputs, rates_hz=rates_hz,
+                               saturation=saturation, quantization=quantization,
+                               friction=friction, friction_substeps=friction_substeps,
+                               buffered=timing.blocks if timing is not None else ())
+        res = run_sampled(plan, bound, timing.schedules(plan) if timing is not None else None)
+    scale = max(bound / 1e3, 1e-300)
+    grow = _growing(res.outputs[outputs[0]], scale)
+    stable = np.isinf(res.left_bounds_s) & ~grow
+    out = {o: res.outputs[o].reshape(shape + (res.t_s.size,)) for o in outputs}
+    return SimResult(mode, res.t_s, out, stable.reshape(shape), res.left_bounds_s.reshape(shape),
+                     bound, res.info)
+
+
+def _check_args(diagram: BlockDiagram, inputs: Mapping[str, Any], mode: str, t_end_s: float,
+                outputs: Sequence[str]) -> tuple[float, tuple[str, ...]]:
+    """Validate mode, duration and input names; the outputs to record (default: plant
+    signals)."""
     if mode not in MODES:
         raise InputError("mode", mode, " or ".join(MODES))
     t_end_s = float(t_end_s)
@@ -538,32 +577,93 @@ def simulate(diagram: BlockDiagram, design: Any, inputs: Mapping[str, Any], t_en
     for o in outputs:
         if o not in diagram.signals:
             raise InputError("outputs", o, "signals of the diagram: " + ", ".join(diagram.signals))
-    shape = tuple(getattr(design, "shape", ()))
-    n = int(np.prod(shape, dtype=int))
-    bound = _default_bound(inputs) if bound is None else float(bound)
-    if mode == "continuous":
-        if saturation or quantization or friction:
-            raise InputError("mode", mode, "'sampled' for saturation, quantization or friction")
-        res = _continuous(diagram, design, inputs, t_end_s, tuple(outputs), dt, record_dt,
-                          shape, n, bound, derivative_tau_s)
-    else:
-        res = _sampled(diagram, design, inputs, t_end_s, tuple(outputs), rates_hz,
-                       dict(saturation or {}), dict(quantization or {}), friction,
-                       int(friction_substeps), shape, n, bound)
-    t, rec, left = res[:3]
-    info = res[3]
-    scale = max(bound / 1e3, 1e-300)
-    grow = _growing(rec[outputs[0]], scale)
-    stable = np.isinf(left) & ~grow
-    out = {o: rec[o].reshape(shape + (t.size,)) for o in outputs}
-    return SimResult(mode, t, out, stable.reshape(shape), left.reshape(shape), bound, info)
+    return t_end_s, tuple(outputs)
 
 
-def _continuous(diagram, design, inputs, t_end, outputs, dt, record_dt, shape, n, bound,
-                derivative_tau_s):
-    blocks = list(diagram.blocks)
-    delayed = [b for b in blocks if b.delay is not None]
-    delays = {b.name: _delay_attr(design, b, shape, n) for b in delayed}
+@dataclass(frozen=True)
+class Layout:
+    """Named consecutive slices of a packed vector (states, inputs, ... of one batch).
+
+    Examples
+    --------
+    >>> lay = Layout.of(x=3, u=2)
+    >>> lay["u"], lay.size
+    (slice(3, 5, None), 5)
+    """
+
+    parts: tuple[tuple[str, int], ...]
+
+    @classmethod
+    def of(cls, **sizes: int) -> Layout:
+        return cls(tuple((k, int(v)) for k, v in sizes.items()))
+
+    @cached_property
+    def _slices(self) -> dict[str, slice]:
+        out, off = {}, 0
+        for name, size in self.parts:
+            out[name] = slice(off, off + size)
+            off += size
+        return out
+
+    def __getitem__(self, name: str) -> slice:
+        return self._slices[name]
+
+    def upto(self, name: str) -> slice:
+        """From the start up to the end of part ``name``."""
+        return slice(0, self._slices[name].stop)
+
+    @property
+    def size(self) -> int:
+        return sum(s for _, s in self.parts)
+
+
+@dataclass(frozen=True)
+class RunResult:
+    """What a run loop returns: flat-batch outputs ``(n, T)``, exit times, details."""
+
+    t_s: np.ndarray
+    outputs: dict[str, np.ndarray]
+    left_bounds_s: np.ndarray
+    info: dict[str, Any]
+
+
+def _batch_last(a: np.ndarray) -> np.ndarray:
+    return np.ascontiguousarray(np.moveaxis(a, 0, -1))
+
+
+# ----------------------------------------------------------------------------- continuous
+@dataclass(frozen=True)
+class ContinuousPlan:
+    """A diagram compiled for the continuous run loop (batch on the last axis).
+
+    ``H = [F G0 G1]`` advances ``z = [x; v_i; v_{i+1}]`` (layout ``z``; each ``v`` has the
+    layout ``v``: exogenous inputs, then delayed block inputs); ``CD`` gives the signal rows
+    of layout ``rows`` (the delayed blocks' sources, then the recorded outputs) from
+    ``[x; v_i]``.  Delay buffers read ``whole`` steps back, interpolated by ``frac``."""
+
+    t_s: np.ndarray
+    dt_s: float
+    every: int
+    outputs: tuple[str, ...]
+    H: np.ndarray
+    CD: np.ndarray
+    inputs: np.ndarray
+    x0: np.ndarray
+    z: Layout
+    v: Layout
+    rows: Layout
+    whole: np.ndarray
+    frac: np.ndarray
+    ring_len: int
+    delays_s: dict[str, np.ndarray]
+    shape: tuple[int, ...]
+
+    @property
+    def steps(self) -> int:
+        return self.t_s.size - 1
+
+
+def _continuous_step(delays: Mapping[str, np.ndarray], dt: float | None) -> float:
     positive = [d[d > 0] for d in delays.values()]
     min_pos = min([float(p.min()) for p in positive if p.size] or [np.inf])
     if dt is None:
@@ -573,7 +673,21 @@ def _continuous(diagram, design, inputs, t_end, outputs, dt, record_dt, shape, n
         raise InputError("dt", dt, "a finite step > 0 [s]")
     if dt > min_pos * (1 + 1e-9):
         raise InputError("dt", dt, f"<= the smallest positive delay ({min_pos:g} s)")
-    steps = int(math.ceil(t_end / dt - 1e-9))
+    return dt
+
+
+def compile_continuous(diagram: BlockDiagram, design: Any, inputs: Mapping[str, Any],
+                       t_end_s: float, outputs: Sequence[str], *, dt: float | None = None,
+                       record_dt: float | None = None,
+                       derivative_tau_s: float = 1e-7) -> ContinuousPlan:
+    """Compile ``diagram`` for :func:`run_continuous` (see :func:`simulate`)."""
+    shape = tuple(getattr(design, "shape", ()))
+    n = int(np.prod(shape, dtype=int))
+    blocks = list(diagram.blocks)
+    delayed = [b for b in blocks if b.delay is not None]
+    delays = {b.name: _delay_attr(design, b, shape, n) for b in delayed}
+    dt = _continuous_step(delays, dt)
+    steps = int(math.ceil(t_end_s / dt - 1e-9))
     every = 1 if record_dt is None else max(1, int(round(record_dt / dt)))
     reals = [realize_continuous(b, design, shape, n, derivative_tau_s) for b in blocks]
     exo = list(diagram.inputs)
@@ -586,30 +700,19 @@ def _continuous(diagram, design, inputs, t_end, outputs, dt, record_dt, shape, n
     net = _assemble(n, signals, blocks, reals, exo, inst, wcol)
     F, G0, G1 = _foh(net.A, net.B, dt)
     idx = {s: i for i, s in enumerate(signals)}
-    # Rows of S we need each step: delayed blocks' sources, then the recorded outputs.
-    src_rows = [idx[b.src] for b in delayed]
-    out_rows = [idx[o] for o in outputs]
-    rows = src_rows + out_rows
+    rows = [idx[b.src] for b in delayed] + [idx[o] for o in outputs]
     Cr, Dr = net.C[:, rows, :], net.D[:, rows, :]
+    nd, ne, N = len(delayed), len(exo), F.shape[1]
+    v = Layout.of(exo=ne, delayed=nd)
     # Delay buffers: position of t - T in steps, split into whole steps and a fraction.
-    nd = len(delayed)
     mpos = np.stack([delays[b.name] / dt for b in delayed], axis=1) if nd else np.zeros((n, 0))
     mint = np.floor(mpos + 1e-9)
     frac = np.clip(mpos - mint, 0.0, 1.0)
     frac[frac < 1e-9] = 0.0
     mint = mint.astype(int)
-    L = int(mint.max(initial=0)) + 3
-    ring = np.zeros(L * nd * n)
     t = np.arange(steps + 1) * dt
-    U = _input_values(inputs, exo, t, shape, n)
+    x0 = np.zeros((N, n))
     imp = _impulses(inputs, exo)
-    N, nv = F.shape[1], Dr.shape[2]
-    ne = len(exo)
-    # Batch-last layout: one contraction per step over (state + input) x batch.
-    Ht = np.ascontiguousarray(np.concatenate([F, G0, G1], axis=2).transpose(1, 2, 0))
-    CDt = np.ascontiguousarray(np.concatenate([Cr, Dr], axis=2).transpose(1, 2, 0))
-    Ut = U
-    zb = np.zeros((N + 2 * nv, n))  # [x; v_i; v_{i+1}]
     if np.any(imp):
         # A Dirac on an input: x(0+) = B_u * area, valid if it feeds no signal we read.
         cols = np.nonzero(imp)[0]
@@ -617,49 +720,62 @@ def _continuous(diagram, design, inputs, t_end, outputs, dt, record_dt, shape, n
             raise InputError("inputs", ", ".join(exo[c] for c in cols),
                              "an impulse only on inputs that reach the outputs and delay "
                              "buffers through dynamics (no direct feed-through)")
-        zb[:N] = np.einsum("nij,j->in", net.B[:, :, cols], imp[cols])
+        x0 = np.einsum("nij,j->in", net.B[:, :, cols], imp[cols])
+    return ContinuousPlan(
+        t, dt, every, tuple(outputs), _batch_last(np.concatenate([F, G0, G1], axis=2)),
+        _batch_last(np.concatenate([Cr, Dr], axis=2)), _input_values(inputs, exo, t, shape, n),
+        x0, Layout.of(x=N, v0=v.size, v1=v.size), v, Layout.of(src=nd, out=len(outputs)),
+        mint.T.copy(), frac.T.copy(), int(mint.max(initial=0)) + 3, delays, shape)
+
+
+def run_continuous(plan: ContinuousPlan, bound: float) -> RunResult:
+    """Step a :class:`ContinuousPlan` in time (one contraction per step over the batch)."""
+    p, z, v = plan, plan.z, plan.v
+    n = p.H.shape[-1]
+    nd = v["delayed"].stop - v["delayed"].start
     stride = nd * n
     base = np.arange(stride).reshape(nd, n)
-    mint_t, frac_t = mint.T.copy(), frac.T.copy()
-    ring_flat = ring.reshape(-1)  # (L, nd, n) flattened; unwritten slots hold zeros
+    ring = np.zeros((p.ring_len, nd, n))
+    ring_flat = ring.reshape(-1)  # unwritten slots hold zeros
+    zb = np.zeros((z.size, n))
+    zb[z["x"]] = p.x0
 
-    def fill_v(slot: int, i: int) -> None:
-        zb[slot:slot + ne] = Ut[i]
+    def fill_v(part: str, i: int) -> None:
+        vv = zb[z[part]]
+        vv[v["exo"]] = p.inputs[i]
         if nd:
-            a = ring_flat[((i - mint_t) % L) * stride + base]
-            b = ring_flat[((i - 1 - mint_t) % L) * stride + base]
-            zb[slot + ne:slot + nv] = a + frac_t * (b - a)
+            a = ring_flat[((i - p.whole) % p.ring_len) * stride + base]
+            b = ring_flat[((i - 1 - p.whole) % p.ring_len) * stride + base]
+            vv[v["delayed"]] = a + p.frac * (b - a)
 
-    ring = ring.reshape(L, nd, n)
-    nrec = steps // every + 1
-    rec = np.zeros((len(outputs), n, nrec))
+    rec = np.zeros((len(p.outputs), n, p.steps // p.every + 1))
     left = np.full(n, np.inf)
     alive = np.ones(n, bool)
-    fill_v(N, 0)
-    for i in range(steps + 1):
-        S = np.einsum("rkn,kn->rn", CDt, zb[:N + nv])
+    fill_v("v0", 0)
+    for i in range(p.steps + 1):
+        S = np.einsum("rkn,kn->rn", p.CD, zb[z.upto("v0")])
         if nd:
-            ring[i % L] = S[:nd]
-        y = S[nd:]
+            ring[i % p.ring_len] = S[p.rows["src"]]
+        y = S[p.rows["out"]]
         bad = alive & ~(np.abs(y[0]) <= bound)
         if bad.any():
-            left[bad] = t[i]
+            left[bad] = p.t_s[i]
             alive &= ~bad
             zb[:, bad] = 0.0
             ring[:, :, bad] = 0.0
-        if i % every == 0:
-            rec[:, :, i // every] = np.where(alive[None, :], y, np.nan)
-        if i == steps:
+        if i % p.every == 0:
+            rec[:, :, i // p.every] = np.where(alive[None, :], y, np.nan)
+        if i == p.steps:
             break
-        fill_v(N + nv, i + 1)
-        zb[:N] = np.einsum("ijn,jn->in", Ht, zb)
-        zb[N:N + nv] = zb[N + nv:]
+        fill_v("v1", i + 1)
+        zb[z["x"]] = np.einsum("ijn,jn->in", p.H, zb)
+        zb[z["v0"]] = zb[z["v1"]]
         if not alive.all():
             zb[:, ~alive] = 0.0
     rec = _fill_diverged(rec, left)
-    info = {"dt_s": dt, "record_dt_s": dt * every,
-            "effective_delays_s": {b.name: delays[b.name].reshape(shape) for b in delayed}}
-    return t[::every], {o: rec[j] for j, o in enumerate(outputs)}, left, info
+    info = {"dt_s": p.dt_s, "record_dt_s": p.dt_s * p.every,
+            "effective_delays_s": {k: d.reshape(p.shape) for k, d in p.delays_s.items()}}
+    return RunResult(p.t_s[::p.every], {o: rec[j] for j, o in enumerate(p.outputs)}, left, info)
 
 
 def _fill_diverged(rec: np.ndarray, left: np.ndarray) -> np.ndarray:
@@ -678,6 +794,7 @@ def _fill_diverged(rec: np.ndarray, left: np.ndarray) -> np.ndarray:
     return out
 
 
+# ----------------------------------------------------------------------------- sampled
 def _rates(rates_hz, processes) -> dict[str, float]:
     if isinstance(rates_hz, Mapping):
         missing = [p for p in processes if p not in rates_hz]
@@ -693,21 +810,9 @@ def _rates(rates_hz, processes) -> dict[str, float]:
     return rates
 
 
-def _sampled(diagram, design, inputs, t_end, outputs, rates_hz, saturation, quantization,
-             friction, substeps, shape, n, bound):
-    blocks = list(diagram.blocks)
-    plant = [b for b in blocks if b.role == "plant"]
-    ctrl = [b for b in blocks if b.role != "plant"]
-    if not plant:
-        raise ValueError(f"diagram {diagram.name!r} has no plant blocks")
-    if any(b.delay is not None for b in plant):
-        raise ValueError("sampled mode: delays on plant blocks are not supported")
-    plant_sig = {b.dst for b in plant}
-    ctrl_sig = {b.dst for b in ctrl}
-    processes = sorted({b.process for b in ctrl if b.process is not None}) or ["embedded"]
-    rates = _rates(rates_hz, processes)
+def _ticks(rates: Mapping[str, float]) -> tuple[float, dict[str, int]]:
+    """Base period [s] (fastest rate) and each process's period in base ticks."""
     base = max(rates.values())
-    Tb = 1.0 / base
     ticks = {}
     for p, r in rates.items():
         k = base / r
@@ -715,8 +820,32 @@ def _sampled(diagram, design, inputs, t_end, outputs, rates_hz, saturation, quan
             raise InputError(f"rate ({p})", r,
                              f"an integer divisor of the fastest rate {base:g} Hz")
         ticks[p] = int(round(k))
-    period = {b.name: Tb * ticks.get(b.process, 1) for b in ctrl}
-    # Plant network: injections = actuation signals, exogenous physical inputs, friction.
+    return 1.0 / base, ticks
+
+
+@dataclass(frozen=True)
+class _PlantNet:
+    """The continuous plant: its network, the signals it injects and exposes."""
+
+    net: _Net
+    index: dict[str, int]
+    actuation: list[str]
+    exo: list[str]
+    sensed: list[str]
+
+
+def _plant_network(diagram: BlockDiagram, design: Any, shape: tuple[int, ...], n: int,
+                   saturation: Mapping[str, float], quantization: Mapping[str, float],
+                   friction: Friction | None) -> _PlantNet:
+    """Plant network: injections = actuation signals, exogenous physical inputs, friction."""
+    plant = [b for b in diagram.blocks if b.role == "plant"]
+    ctrl = [b for b in diagram.blocks if b.role != "plant"]
+    if not plant:
+        raise ValueError(f"diagram {diagram.name!r} has no plant blocks")
+    if any(b.delay is not None for b in plant):
+        raise ValueError("sampled mode: delays on plant blocks are not supported")
+    plant_sig = {b.dst for b in plant}
+    ctrl_sig = {b.dst for b in ctrl}
     actuation = sorted({b.src for b in plant if b.src in ctrl_sig})
     for s in saturation:
         if s not in actuation:
@@ -727,20 +856,18 @@ def _sampled(diagram, design, inputs, t_end, outputs, rates_hz, saturation, quan
     p_reals = [realize_continuous(b, design, shape, n) for b in plant]
     pnet = _assemble(n, p_signals, plant, p_reals, p_inject,
                      {b.name: np.ones(n) for b in plant}, {})
-    pidx = {s: i for i, s in enumerate(p_signals)}
     sensed = sorted({b.src for b in ctrl if b.src in plant_sig})
     for s in quantization:
         if s not in sensed:
             raise InputError("quantization", s, "a sampled plant signal: " + ", ".join(sensed))
-    # Controller network: injections = sampled plant signals, exogenous inputs, delayed
-    # inputs (buffers), held outputs of slower processes.
-    c_exo = sorted({b.src for b in ctrl if b.src in diagram.inputs})
-    c_inject = sensed + c_exo
-    c_signals = sorted(ctrl_sig | set(c_inject))
-    cidx = {s: i for i, s in enumerate(c_signals)}
-    delayed = [b for b in ctrl if b.delay is not None]
-    nbuf = {}
-    eff = {}
+    return _PlantNet(pnet, {s: i for i, s in enumerate(p_signals)}, actuation, p_exo, sensed)
+
+
+def _buffers(delayed: Sequence[Block], design: Any, shape: tuple[int, ...], n: int,
+             period: Mapping[str, float], ticks: Mapping[str, int]
+             ) -> tuple[dict[str, np.ndarray], dict[str, np.ndarray]]:
+    """Whole-sample buffer lengths [base ticks] and effective delays [s] of delayed blocks."""
+    nbuf, eff = {}, {}
     for b in delayed:
         T = _delay_attr(design, b, shape, n)
         Ts = period[b.name]
@@ -748,10 +875,43 @@ def _sampled(diagram, design, inputs, t_end, outputs, rates_hz, saturation, quan
         nb = np.maximum(np.ceil((T - Ts / 2) / Ts - 0.5 - 1e-9), 0).astype(int)
         nbuf[b.name] = nb * ticks.get(b.process, 1)  # in base ticks
         eff[b.name] = (Ts / 2 + nb * Ts).reshape(shape)
+    return nbuf, eff
+
+
+@dataclass(frozen=True)
+class _CtrlNets:
+    """Controller networks, one per phase of the slowest process's period."""
+
+    nets: list[_Net]
+    hold_rows: list[list[tuple[np.ndarray, np.ndarray]]]
+    index: dict[str, int]
+    exo: list[str]
+    delayed: list[Block]
+    slow: list[Block]
+    nbuf: dict[str, np.ndarray]
+    eff: dict[str, np.ndarray]
+    period: dict[str, float]
+
+
+def _controller_networks(diagram: BlockDiagram, design: Any, shape: tuple[int, ...], n: int,
+                         sensed: Sequence[str], Tb: float, ticks: Mapping[str, int],
+                         buffered: Sequence[str] = ()) -> _CtrlNets:
+    """Injections = sampled plant signals, exogenous inputs, delayed inputs (buffers), held
+    outputs of slower processes.  ``buffered``: delayed blocks always read their buffer (no
+    instantaneous path even for a zero-sample buffer; time-varying latency)."""
+    ctrl = [b for b in diagram.blocks if b.role != "plant"]
+    period = {b.name: Tb * ticks.get(b.process, 1) for b in ctrl}
+    c_exo = sorted({b.src for b in ctrl if b.src in diagram.inputs})
+    c_inject = list(sensed) + c_exo
+    c_signals = sorted({b.dst for b in ctrl} | set(c_inject))
+    cidx = {s: i for i, s in enumerate(c_signals)}
+    delayed = [b for b in ctrl if b.delay is not None]
+    nbuf, eff = _buffers(delayed, design, shape, n, period, ticks)
     inst = {b.name: np.ones(n) for b in ctrl}
     wcol = {}
     for j, b in enumerate(delayed):
-        inst[b.name] = (nbuf[b.name] == 0).astype(float)
+        inst[b.name] = np.zeros(n) if b.name in buffered else \
+            (nbuf[b.name] == 0).astype(float)
         wcol[b.name] = len(c_inject) + j
     slow = [b for b in ctrl if ticks.get(b.process, 1) > 1]
     hcol = {b.name: len(c_inject) + len(delayed) + j for j, b in enumerate(slow)}
@@ -762,6 +922,7 @@ def _sampled(diagram, design, inputs, t_end, outputs, rates_hz, saturation, quan
         held = {b.name: hcol[b.name] for b in slow if r % ticks[b.process] != 0}
         nets.append(_assemble(n, c_signals, ctrl, c_reals, c_inject, inst, wcol, held,
                               nv=len(c_inject) + len(delayed) + len(slow)))
+
     # Held outputs of slow blocks, evaluated when they run: y_b = C_b x_b + D_b u_b.
     def block_out_rows(net: _Net, b: Block) -> tuple[np.ndarray, np.ndarray]:
         _A, _B, C, D = c_reals[ctrl.index(b)]
@@ -775,141 +936,354 @@ def _sampled(diagram, design, inputs, t_end, outputs, rates_hz, saturation, quan
         return Cy, Dy
 
     hold_rows = [[block_out_rows(net, b) for b in slow] for net in nets]
+    return _CtrlNets(nets, hold_rows, cidx, c_exo, delayed, slow, nbuf, eff, period)
 
-    # Plant discretization (sub-steps if friction).
-    nsub = max(1, substeps) if friction else 1
-    h = Tb / nsub
-    F, G0, G1 = _foh(pnet.A, pnet.B, h)
-    na, ne = len(actuation), len(p_exo)
-    if friction:
-        for s in (friction.signal, friction.velocity_of):
-            if s not in pidx:
-                raise InputError("friction", s, "a plant signal")
-        vrow = pidx[friction.velocity_of]
-        if np.any(pnet.D[:, vrow, :] != 0):
-            raise InputError("friction.velocity_of", friction.velocity_of,
-                             "a plant signal without direct feed-through (a position)")
-    steps = int(math.ceil(t_end / Tb - 1e-9))
-    t = np.arange(steps + 1) * Tb
-    tfine = np.arange(steps * nsub + 1) * h
-    Ue = _input_values(inputs, p_exo, tfine, shape, n)
-    Uc = _input_values(inputs, c_exo, t, shape, n)
-    if np.any(_impulses(inputs, c_exo)):
-        raise InputError("inputs", "impulse", "impulses only on physical (plant) inputs")
-    nd = len(delayed)
-    maxbuf = max([int(v.max(initial=0)) for v in nbuf.values()] or [0])
-    L = maxbuf + 2
-    nbuf_t = np.stack([nbuf[b.name] for b in delayed]) if nd else np.zeros((0, n), int)
-    stride = nd * n
-    base = np.arange(stride).reshape(nd, n)
-    ring = np.zeros(L * stride)
-    ring3 = ring.reshape(L, nd, n)
-    rec_p = [o for o in outputs if o in pidx]
-    rec_c = [o for o in outputs if o not in pidx]
-    for o in rec_c:
-        if o not in cidx:
+
+@dataclass(frozen=True)
+class SampledPlan:
+    """A diagram compiled for the sampled run loop (batch on the last axis).
+
+    Packed vectors, each with a :class:`Layout`:
+
+    * plant ``zp`` (``zp``): states ``x``, then the inputs at ``t`` (``act`` actuation,
+      ``exo`` physical inputs, ``fric`` friction force) and at ``t + h`` (``next``);
+      ``Hp = [F G0 G1]`` advances ``x`` by a (sub-)step ``h``; ``CDp`` gives the plant rows
+      of layout ``prow`` (``sensed``, then recorded plant ``out``) from ``zp[upto fric]``;
+    * controller ``zc`` (``zc``): states ``x``, sampled plant signals ``ys``, exogenous
+      inputs ``uc``, delayed inputs ``w`` (buffers), held outputs of slow blocks ``held``;
+      per phase ``r`` of the slowest period, ``ABc[r]`` updates ``x`` and ``CDc[r]`` gives
+      the rows of layout ``crow`` (``src`` delayed sources, ``act``, recorded ``out``).
+    """
+
+    t_s: np.ndarray
+    base_period_s: float
+    substeps: int
+    outputs: tuple[str, ...]
+    order: tuple[str, ...]
+    zp: Layout
+    zc: Layout
+    prow: Layout
+    crow: Layout
+    Hp: np.ndarray
+    CDp: np.ndarray
+    ABc: list[np.ndarray]
+    CDc: list[np.ndarray]
+    HOLD: list[list[np.ndarray]]
+    slow_ticks: tuple[int, ...]
+    plant_inputs: np.ndarray
+    ctrl_inputs: np.ndarray
+    x0: np.ndarray
+    nbuf: np.ndarray
+    limit: np.ndarray
+    quantum: np.ndarray
+    friction: Friction | None
+    VEL: np.ndarray | None
+    shape: tuple[int, ...]
+    info: dict[str, Any]
+    actuation: tuple[str, ...]
+    links: tuple[str, ...]
+
+    @property
+    def steps(self) -> int:
+        return self.t_s.size - 1
+
+    @property
+    def phases(self) -> int:
+        return len(self.CDc)
+
+
+def _friction_rows(pn: _PlantNet, friction: Friction | None) -> np.ndarray | None:
+    """Batch-last rows giving the velocity of ``friction.velocity_of`` from ``[x; v]``."""
+    if not friction:
+        return None
+    for s in (friction.signal, friction.velocity_of):
+        if s not in pn.index:
+            raise InputError("friction", s, "a plant signal")
+    vrow = pn.index[friction.velocity_of]
+    if np.any(pn.net.D[:, vrow, :] != 0):
+        raise InputError("friction.velocity_of", friction.velocity_of,
+                         "a plant signal without direct feed-through (a position)")
+    C = pn.net.C[:, vrow]
+    return _batch_last(np.concatenate([np.einsum("nk,nkj->nj", C, pn.net.A),
+                                       np.einsum("nk,nkv->nv", C, pn.net.B)], axis=1))
+
+
+def _sampled_layout(pn: _PlantNet, cn: _CtrlNets, n_plant: int, friction: Friction | None,
+                    outputs: Sequence[str]) -> tuple[Any, ...]:
+    """Layouts of the packed plant/controller vectors and of the rows read each tick."""
+    for o in outputs:
+        if o not in pn.index and o not in cn.index:
             raise InputError("outputs", o, "a plant or controller signal")
-    order = rec_p + rec_c
-    i_first = order.index(outputs[0])
-    ns, na, ne, nf = len(sensed), len(actuation), len(p_exo), 1 if friction else 0
-    nvp = na + ne + nf
-    Np = F.shape[1]
-    # Batch-last matrices restricted to the rows needed each tick.
-    bl = lambda a: np.ascontiguousarray(np.moveaxis(a, 0, -1))  # noqa: E731
-    Hp = bl(np.concatenate([F, G0, G1], axis=2))
-    prows = [pidx[s] for s in sensed] + [pidx[o] for o in rec_p]
-    CDp = bl(np.concatenate([pnet.C[:, prows], pnet.D[:, prows]], axis=2))
-    crows = [cidx[b.src] for b in delayed] + [cidx[s] for s in actuation] + \
-        [cidx[o] for o in rec_c]
-    CDc = [bl(np.concatenate([nt.C[:, crows], nt.D[:, crows]], axis=2)) for nt in nets]
-    ABc = [bl(np.concatenate([nt.A, nt.B], axis=2)) for nt in nets]
-    HOLD = [[bl(np.concatenate([cy, dy], axis=1)) for cy, dy in hr] for hr in hold_rows]
-    Nc = nets[0].A.shape[1]
-    if friction:
-        VEL = bl(np.concatenate([np.einsum("nk,nkj->nj", pnet.C[:, vrow], pnet.A),
-                                 np.einsum("nk,nkv->nv", pnet.C[:, vrow], pnet.B)], axis=1))
-    zp = np.zeros((Np + 2 * nvp, n))   # [x_p; v_p(t); v_p(t + h)]
-    imp = _impulses(inputs, p_exo)
+    rec_p = [o for o in outputs if o in pn.index]
+    rec_c = [o for o in outputs if o not in pn.index]
+    na, ne, nf = len(pn.actuation), len(pn.exo), 1 if friction else 0
+    zp = Layout.of(x=n_plant, act=na, exo=ne, fric=nf, next=na + ne + nf)
+    nd, Nc = len(cn.delayed), cn.nets[0].A.shape[1]
+    zc = Layout.of(x=Nc, ys=len(pn.sensed), uc=len(cn.exo), w=nd, held=len(cn.slow))
+    prows = [pn.index[s] for s in pn.sensed] + [pn.index[o] for o in rec_p]
+    crows = [cn.index[b.src] for b in cn.delayed] + [cn.index[s] for s in pn.actuation] + \
+        [cn.index[o] for o in rec_c]
+    return (zp, zc, Layout.of(sensed=len(pn.sensed), out=len(rec_p)),
+            Layout.of(src=nd, act=na, out=len(rec_c)), prows, crows, tuple(rec_p + rec_c))
+
+
+def compile_sampled(diagram: BlockDiagram, design: Any, inputs: Mapping[str, Any],
+                    t_end_s: float, outputs: Sequence[str], *,
+                    rates_hz: Mapping[str, float] | float = 1000.0,
+                    saturation: Mapping[str, float] | None = None,
+                    quantization: Mapping[str, float] | None = None,
+                    friction: Friction | None = None, friction_substeps: int = 10,
+                    buffered: Sequence[str] = ()) -> SampledPlan:
+    """Compile ``diagram`` for :func:`run_sampled` (see :func:`simulate`); ``buffered``
+    names delayed blocks whose input always comes through their buffer (timing links)."""
+    saturation, quantization = dict(saturation or {}), dict(quantization or {})
+    shape = tuple(getattr(design, "shape", ()))
+    n = int(np.prod(shape, dtype=int))
+    ctrl = [b for b in diagram.blocks if b.role != "plant"]
+    processes = sorted({b.process for b in ctrl if b.process is not None}) or ["embedded"]
+    rates = _rates(rates_hz, processes)
+    Tb, ticks = _ticks(rates)
+    pn = _plant_network(diagram, design, shape, n, saturation, quantization, friction)
+    cn = _controller_networks(diagram, design, shape, n, pn.sensed, Tb, ticks, buffered)
+    nsub = max(1, int(friction_substeps)) if friction else 1
+    h = Tb / nsub
+    F, G0, G1 = _foh(pn.net.A, pn.net.B, h)
+    VEL = _friction_rows(pn, friction)
+    steps = int(math.ceil(t_end_s / Tb - 1e-9))
+    t = np.arange(steps + 1) * Tb
+    if np.any(_impulses(inputs, cn.exo)):
+        raise InputError("inputs", "impulse", "impulses only on physical (plant) inputs")
+    zp, zc, prow, crow, prows, crows, order = _sampled_layout(pn, cn, F.shape[1], friction,
+                                                              outputs)
+    na = len(pn.actuation)
+    x0 = np.zeros((zp.size, n))
+    imp = _impulses(inputs, pn.exo)
     if np.any(imp):
         cols = na + np.nonzero(imp)[0]
-        zp[:Np] = np.einsum("nij,j->in", pnet.B[:, :, cols], imp[cols - na])
-    zc = np.zeros((Nc + ns + len(c_exo) + nd + len(slow), n))  # [x_c; y_s; u_c; w; held]
-    o_ys, o_uc = Nc, Nc + ns
-    o_w = o_uc + len(c_exo)
-    o_h = o_w + nd
-    lim = np.array([saturation.get(s, np.inf) for s in actuation])[:, None]
-    qstep = np.array([quantization.get(s, 0.0) for s in sensed])[:, None]
-    quant = bool(np.any(qstep > 0))
-    qsafe = np.where(qstep > 0, qstep, 1.0)
-    rec = np.zeros((len(outputs), n, steps + 1))
-    act = np.zeros((na, n))
-    left = np.full(n, np.inf)
-    alive = np.ones(n, bool)
-    peak_act = np.zeros((na, n))
-    sat_ticks = np.zeros(n, int)
-    fric = np.zeros((nf, n))
-    for k in range(steps + 1):
-        zp[Np:Np + na] = act
-        zp[Np + na:Np + na + ne] = Ue[k * nsub]
-        zp[Np + na + ne:Np + nvp] = fric
-        Sp = np.einsum("rkn,kn->rn", CDp, zp[:Np + nvp])
-        ys = Sp[:ns]
-        if quant:
-            ys = np.where(qstep > 0, np.round(ys / qsafe) * qstep, ys)
-        zc[o_ys:o_uc] = ys
-        zc[o_uc:o_w] = Uc[k]
-        if nd:
-            zc[o_w:o_h] = ring[((k - nbuf_t) % L) * stride + base]
-        r = k % lcm
-        Sc = np.einsum("rkn,kn->rn", CDc[r], zc)
-        if nd:
-            # whole-sample buffers hold each source's value at this tick
-            ring3[k % L] = Sc[:nd]
-        raw = Sc[nd:nd + na]
-        new_act = np.clip(raw, -lim, lim)
-        sat_ticks += np.any(np.abs(raw) > lim, axis=0)
-        for j, b in enumerate(slow):
-            if k % ticks[b.process] == 0:
-                zc[o_h + j] = np.einsum("kn,kn->n", HOLD[r][j], zc)
-        zc[:Nc] = np.einsum("ijn,jn->in", ABc[r], zc)
-        y = np.concatenate([Sp[ns:], Sc[nd + na:]], axis=0)
-        # out of bounds, or controller states running away (e.g. wind-up of a marginal mode)
-        bad = alive & ~((np.abs(y[i_first]) <= bound)
-                        & (np.max(np.abs(zc[:Nc]), axis=0, initial=0.0) <= 1e100))
-        if bad.any():
-            left[bad] = t[k]
-            alive &= ~bad
-        rec[:, :, k] = np.where(alive, y, np.nan)
-        if k == steps:
+        x0[zp["x"]] = np.einsum("nij,j->in", pn.net.B[:, :, cols], imp[cols - na])
+    info = {"rates_hz": rates, "base_period_s": Tb, "effective_delays_s": cn.eff,
+            "buffer_samples": {b: v.reshape(shape) for b, v in cn.nbuf.items()},
+            "saturation": dict(saturation), "friction_step_s": h if friction else None}
+    return SampledPlan(
+        t, Tb, nsub, tuple(outputs), order, zp, zc, prow, crow,
+        _batch_last(np.concatenate([F, G0, G1], axis=2)),
+        _batch_last(np.concatenate([pn.net.C[:, prows], pn.net.D[:, prows]], axis=2)),
+        [_batch_last(np.concatenate([nt.A, nt.B], axis=2)) for nt in cn.nets],
+        [_batch_last(np.concatenate([nt.C[:, crows], nt.D[:, crows]], axis=2))
+         for nt in cn.nets],
+        [[_batch_last(np.concatenate([cy, dy], axis=1)) for cy, dy in hr]
+         for hr in cn.hold_rows],
+        tuple(ticks[b.process] for b in cn.slow),
+        _input_values(inputs, pn.exo, np.arange(steps * nsub + 1) * h, shape, n),
+        _input_values(inputs, cn.exo, t, shape, n), x0,
+        np.stack([cn.nbuf[b.name] for b in cn.delayed]) if cn.delayed else
+        np.zeros((0, n), int),
+        np.array([saturation.get(s, np.inf) for s in pn.actuation])[:, None],
+        np.array([quantization.get(s, 0.0) for s in pn.sensed])[:, None],
+        friction, VEL, shape, info, tuple(pn.actuation), tuple(b.name for b in cn.delayed))
+
+
+@dataclass
+class _SampledState:
+    """Mutable state of a sampled run (batch on the last axis)."""
+
+    zp: np.ndarray
+    zc: np.ndarray
+    ring: np.ndarray
+    act: np.ndarray
+    fric: np.ndarray
+    rec: np.ndarray
+    left: np.ndarray
+    alive: np.ndarray
+    peak_act: np.ndarray
+    sat_ticks: np.ndarray
+    held: np.ndarray | None = None
+
+    @classmethod
+    def start(cls, plan: SampledPlan, ring_len: int) -> _SampledState:
+        n = plan.x0.shape[1]
+        na = plan.zp["act"].stop - plan.zp["act"].start
+        nf = plan.zp["fric"].stop - plan.zp["fric"].start
+        nd = plan.zc["w"].stop - plan.zc["w"].start
+        return cls(plan.x0.copy(), np.zeros((plan.zc.size, n)), np.zeros((ring_len, nd, n)),
+                   np.zeros((na, n)), np.zeros((nf, n)),
+                   np.zeros((len(plan.outputs), n, plan.steps + 1)), np.full(n, np.inf),
+                   np.ones(n, bool), np.zeros((na, n)), np.zeros(n, int))
+
+
+def _check_schedule(plan: SampledPlan, timing: Mapping[str, np.ndarray]) -> dict[int, np.ndarray]:
+    """Validate a per-link schedule: link -> source tick used at each tick ``(T, n)``."""
+    n = plan.x0.shape[1]
+    out = {}
+    for name, sched in timing.items():
+        if name not in plan.links:
+            raise InputError("timing", name, "a delayed block: " + ", ".join(plan.links))
+        sched = np.asarray(sched)
+        if sched.shape != (plan.steps + 1, n):
+            raise InputError(f"timing[{name}] shape", sched.shape, f"{(plan.steps + 1, n)}")
+        k = np.arange(plan.steps + 1)[:, None]
+        if np.any(sched > k) or np.any(np.diff(sched, axis=0) < 0):
+            raise InputError(f"timing[{name}]", "schedule", "non-decreasing source ticks "
+                             "no later than the tick that uses them")
+        j = plan.links.index(name)
+        col = plan.zc["w"].start + j
+        src = plan.crow["src"].start + j
+        if any(np.any(cd[src, col] != 0) for cd in plan.CDc):
+            raise InputError("timing", name, "a delayed block whose source does not depend "
+                             "instantly on its own output")
+        out[j] = sched
+    return out
+
+
+def _oldest_arrival(sched: Mapping[int, np.ndarray] | None) -> int:
+    """Largest age [ticks] of a message when it arrives (how long buffers must be)."""
+    age = 0
+    for s in (sched or {}).values():
+        prev = np.vstack([np.full((1, s.shape[1]), -1), s[:-1]])
+        k = np.arange(s.shape[0])[:, None]
+        age = max(age, int(np.max(np.where(s > prev, k - s, 0), initial=0)))
+    return age
+
+
+def _read_fixed(plan: SampledPlan, st: _SampledState, k: int) -> np.ndarray:
+    """Delayed inputs from whole-sample buffers: the source value ``nbuf`` ticks ago."""
+    L, nd, n = st.ring.shape
+    flat = st.ring.reshape(-1)
+    return flat[((k - plan.nbuf) % L) * (nd * n) + np.arange(nd * n).reshape(nd, n)]
+
+
+def _read_timed(plan: SampledPlan, st: _SampledState, k: int,
+                sched: Mapping[int, np.ndarray]) -> np.ndarray:
+    """Fixed buffers, except links with a schedule: the newest message that has arrived
+    (its source tick), or the last value held when nothing new arrived."""
+    w = _read_fixed(plan, st, k)
+    L = st.ring.shape[0]
+    cols = np.arange(st.ring.shape[2])
+    for j, s in sched.items():
+        src = s[k]
+        new = src > (s[k - 1] if k else -1)
+        st.held[j] = np.where(new, st.ring[src % L, j, cols], st.held[j])
+        w[j] = st.held[j]
+    return w
+
+
+def _control(plan: SampledPlan, st: _SampledState, k: int, ys: np.ndarray,
+             sched: Mapping[int, np.ndarray] | None) -> tuple[np.ndarray, np.ndarray]:
+    """One controller tick: returns the controller rows and the (clipped) actuation."""
+    zc, lay, r = st.zc, plan.zc, k % plan.phases
+    L = st.ring.shape[0]
+    zc[lay["ys"]] = ys
+    zc[lay["uc"]] = plan.ctrl_inputs[k]
+    nd = st.ring.shape[1]
+    if sched:
+        # sources first (they do not depend on the scheduled inputs), then what arrived
+        st.ring[k % L] = np.einsum("rkn,kn->rn", plan.CDc[r], zc)[plan.crow["src"]]
+        zc[lay["w"]] = _read_timed(plan, st, k, sched)
+    elif nd:
+        zc[lay["w"]] = _read_fixed(plan, st, k)
+    Sc = np.einsum("rkn,kn->rn", plan.CDc[r], zc)
+    if nd and not sched:
+        # whole-sample buffers hold each source's value at this tick
+        st.ring[k % L] = Sc[plan.crow["src"]]
+    raw = Sc[plan.crow["act"]]
+    new_act = np.clip(raw, -plan.limit, plan.limit)
+    st.sat_ticks += np.any(np.abs(raw) > plan.limit, axis=0)
+    h0 = lay["held"].start
+    for j, tk in enumerate(plan.slow_ticks):
+        if k % tk == 0:
+            zc[h0 + j] = np.einsum("kn,kn->n", plan.HOLD[r][j], zc)
+    zc[lay["x"]] = np.einsum("ijn,jn->in", plan.ABc[r], zc)
+    return Sc, new_act
+
+
+def _sense(plan: SampledPlan, st: _SampledState, k: int) -> np.ndarray:
+    """Plant rows at tick ``k`` (actuation held from the previous tick)."""
+    zp, lay = st.zp, plan.zp
+    zp[lay["act"]] = st.act
+    zp[lay["exo"]] = plan.plant_inputs[k * plan.substeps]
+    zp[lay["fric"]] = st.fric
+    return np.einsum("rkn,kn->rn", plan.CDp, zp[lay.upto("fric")])
+
+
+def _quantize(plan: SampledPlan, ys: np.ndarray) -> np.ndarray:
+    q = plan.quantum
+    if not np.any(q > 0):
+        return ys
+    return np.where(q > 0, np.round(ys / np.where(q > 0, q, 1.0)) * q, ys)
+
+
+def _advance_plant(plan: SampledPlan, st: _SampledState, k: int) -> None:
+    """Integrate the plant over one base period (sub-steps with friction held)."""
+    zp, lay, fr = st.zp, plan.zp, plan.friction
+    nxt = zp[lay["next"]]
+    na = lay["act"].stop - lay["act"].start
+    ne = lay["exo"].stop - lay["exo"].start
+    for sub in range(plan.substeps):
+        i = k * plan.substeps + sub
+        zp[lay["act"]] = st.act
+        zp[lay["exo"]] = plan.plant_inputs[i]
+        if fr:
+            zp[lay["fric"]] = st.fric
+            vel = np.einsum("kn,kn->n", plan.VEL, zp[lay.upto("fric")])
+            st.fric = -(fr.coulomb * np.sign(vel) + fr.viscous * vel)[None, :]
+            zp[lay["fric"]] = st.fric
+        nxt[:] = zp[lay["act"].start:lay["fric"].stop]
+        nxt[na:na + ne] = plan.plant_inputs[i + 1]
+        zp[lay["x"]] = np.einsum("ijn,jn->in", plan.Hp, zp)
+
+
+def _check_bounds(plan: SampledPlan, st: _SampledState, k: int, y: np.ndarray,
+                  bound: float) -> None:
+    """Out of bounds, or controller states running away (e.g. wind-up of a marginal mode)."""
+    i_first = plan.order.index(plan.outputs[0])
+    xc = st.zc[plan.zc["x"]]
+    bad = st.alive & ~((np.abs(y[i_first]) <= bound)
+                       & (np.max(np.abs(xc), axis=0, initial=0.0) <= 1e100))
+    if bad.any():
+        st.left[bad] = plan.t_s[k]
+        st.alive &= ~bad
+    st.rec[:, :, k] = np.where(st.alive, y, np.nan)
+
+
+def run_sampled(plan: SampledPlan, bound: float,
+                timing: Mapping[str, np.ndarray] | None = None) -> RunResult:
+    """Step a :class:`SampledPlan` tick by tick.
+
+    ``timing`` (optional) maps delayed blocks (``plan.links``, compiled with
+    ``buffered=``) to the source tick each tick uses, shape ``(T, n)`` (-1: nothing has
+    arrived yet); between arrivals the receiver holds the last value."""
+    sched = _check_schedule(plan, timing) if timing else None
+    ring_len = max(int(plan.nbuf.max(initial=0)), _oldest_arrival(sched)) + 2
+    st = _SampledState.start(plan, ring_len)
+    if sched:
+        st.held = np.zeros(st.ring.shape[1:])
+    for k in range(plan.steps + 1):
+        Sp = _sense(plan, st, k)
+        Sc, new_act = _control(plan, st, k, _quantize(plan, Sp[plan.prow["sensed"]]), sched)
+        y = np.concatenate([Sp[plan.prow["out"]], Sc[plan.crow["out"]]], axis=0)
+        _check_bounds(plan, st, k, y, bound)
+        if k == plan.steps:
             break
-        act = np.where(alive, new_act, 0.0)
-        peak_act = np.maximum(peak_act, np.abs(act))
-        for sub in range(nsub):
-            i = k * nsub + sub
-            zp[Np:Np + na] = act
-            zp[Np + na:Np + na + ne] = Ue[i]
-            if friction:
-                zp[Np + na + ne:Np + nvp] = fric
-                vel = np.einsum("kn,kn->n", VEL, zp[:Np + nvp])
-                fric = -(friction.coulomb * np.sign(vel) + friction.viscous * vel)[None, :]
-                zp[Np + na + ne:Np + nvp] = fric
-            zp[Np + nvp:] = zp[Np:Np + nvp]
-            zp[Np + nvp + na:Np + nvp + na + ne] = Ue[i + 1]
-            zp[:Np] = np.einsum("ijn,jn->in", Hp, zp)
-        if not alive.all():
-            zp[:, ~alive] = 0.0
-            zc[:, ~alive] = 0.0
-            ring3[:, :, ~alive] = 0.0
-    rec = {o: rec[order.index(o)] for o in outputs}
-    peak_act = peak_act.T
-    recs = _fill_diverged(np.stack([rec[o] for o in outputs]), left)
-    info = {"rates_hz": rates, "base_period_s": Tb, "effective_delays_s": eff,
-            "buffer_samples": {b: v.reshape(shape) for b, v in nbuf.items()},
-            "saturation": dict(saturation), "peak_actuation": {
-                s: peak_act[:, j].reshape(shape) for j, s in enumerate(actuation)},
-            "saturated_fraction": (sat_ticks / (steps + 1)).reshape(shape),
-            "friction_step_s": h if friction else None}
-    return t, {o: recs[j] for j, o in enumerate(outputs)}, left, info
+        st.act = np.where(st.alive, new_act, 0.0)
+        st.peak_act = np.maximum(st.peak_act, np.abs(st.act))
+        _advance_plant(plan, st, k)
+        if not st.alive.all():
+            st.zp[:, ~st.alive] = 0.0
+            st.zc[:, ~st.alive] = 0.0
+            st.ring[:, :, ~st.alive] = 0.0
+    return _sampled_result(plan, st)
+
+
+def _sampled_result(plan: SampledPlan, st: _SampledState) -> RunResult:
+    rec = {o: st.rec[plan.order.index(o)] for o in plan.outputs}
+    peak_act = st.peak_act.T
+    recs = _fill_diverged(np.stack([rec[o] for o in plan.outputs]), st.left)
+    info = {k: v for k, v in plan.info.items() if k != "friction_step_s"}
+    info["peak_actuation"] = {s: peak_act[:, j].reshape(plan.shape)
+                              for j, s in enumerate(plan.actuation)}
+    info["saturated_fraction"] = (st.sat_ticks / (plan.steps + 1)).reshape(plan.shape)
+    info["friction_step_s"] = plan.info["friction_step_s"]
+    return RunResult(plan.t_s, {o: recs[j] for j, o in enumerate(plan.outputs)}, st.left, info)
 
 
 # ----------------------------------------------------------------------------- metrics

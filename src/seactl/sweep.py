@@ -44,6 +44,7 @@ import hashlib
 import json
 import math
 import os
+import signal
 import time
 from collections.abc import Callable, Iterable
 from dataclasses import asdict, dataclass, field
@@ -53,51 +54,12 @@ from typing import Any
 import numpy as np
 
 from .actuators import SEAParams
-from .errors import InputError
+from .axes import ACTUATOR_AXES, ACTUATOR_FIELDS, AXES, SAMPLINGS
+from .errors import InputError, OutputError
 
 FORMAT = "seactl-sweep/1"
 
 
-@dataclass(frozen=True)
-class AxisInfo:
-    """A sweepable quantity: column name, CLI option, unit, default (``None``: from the
-    actuator) and the smallest valid value (exclusive when ``strict``)."""
-
-    name: str
-    option: str
-    unit: str
-    default: float | None
-    minimum: float = 0.0
-    strict: bool = True
-    description: str = ""
-
-
-AXES: dict[str, AxisInfo] = {a.name: a for a in (
-    AxisInfo("fn_hz", "--fn", "Hz", 14.0, description="natural frequency f_n"),
-    AxisInfo("gs", "--gs", "", 1.0, description="gain scale GS"),
-    AxisInfo("zeta1", "--zeta1", "", 1.0, description="damping ratio of pole pair 1"),
-    AxisInfo("zeta2", "--zeta2", "", 1.0, description="damping ratio of pole pair 2"),
-    AxisInfo("ratio", "--ratio", "", 1.0, description="w2 / w1"),
-    AxisInfo("t_tau_ms", "--t-tau", "ms", 0.0, strict=False, description="torque delay"),
-    AxisInfo("t_qs_ms", "--t-qs", "ms", 0.0, strict=False, description="stiffness delay"),
-    AxisInfo("t_qd_ms", "--t-qd", "ms", 0.0, strict=False, description="damping delay"),
-    AxisInfo("f_qd_hz", "--f-qd", "Hz", math.inf,
-             description="velocity filter cut-off (inf: no filter)"),
-    AxisInfo("f_taud_hz", "--f-taud", "Hz", math.inf,
-             description="torque-derivative filter cut-off (inf: no filter)"),
-    AxisInfo("Im", "--im", "kg m^2", None, description="motor inertia (plant)"),
-    AxisInfo("Ij", "--ij", "kg m^2", None, description="joint inertia (plant)"),
-    AxisInfo("bm", "--bm", "N m s/rad", None, strict=False,
-             description="motor damping (plant)"),
-    AxisInfo("bj", "--bj", "N m s/rad", None, strict=False,
-             description="joint damping (plant)"),
-    AxisInfo("k", "--k", "N m/rad", None, description="spring stiffness (plant)"),
-    AxisInfo("beta", "--beta", "N m/A", None, description="current to torque (plant)"),
-)}
-ACTUATOR_AXES = ("Im", "Ij", "bm", "bj", "k", "beta")
-_ACTUATOR_FIELDS = dict(Im="motor_inertia", Ij="joint_inertia", bm="motor_damping",
-                        bj="joint_damping", k="spring_stiffness", beta="current_to_torque")
-SAMPLINGS = ("grid", "random", "lhs")
 
 OUTPUTS: dict[str, str] = {
     "point": "point index in the sweep's deterministic order",
@@ -158,6 +120,8 @@ class SweepSpec:
             raise InputError("--sample", self.sampling, "one of " + ", ".join(SAMPLINGS))
         if int(self.chunk_size) != self.chunk_size or self.chunk_size < 1:
             raise InputError("--chunk-size", self.chunk_size, "an integer >= 1")
+        if isinstance(self.seed, bool) or int(self.seed) != self.seed or self.seed < 0:
+            raise InputError("seed", self.seed, "an integer >= 0")
         if self.sampling != "grid" and (int(self.n_samples) != self.n_samples
                                         or self.n_samples < 1):
             raise InputError("--n", self.n_samples, f"an integer >= 1 for --sample "
@@ -198,7 +162,7 @@ class SweepSpec:
             elif info.default is not None:
                 out[name] = info.default
             else:
-                out[name] = float(getattr(self.actuator, _ACTUATOR_FIELDS[name]))
+                out[name] = float(getattr(self.actuator, ACTUATOR_FIELDS[name]))
         return out
 
     @property
@@ -275,40 +239,10 @@ def _json_float(x: float) -> float | str:
 
 
 def _check_axis(name: str, vals: np.ndarray) -> None:
-    info = AXES[name]
-    label = f"{info.option}" + (f" [{info.unit}]" if info.unit else "")
-    if np.isnan(vals).any():
-        raise InputError(label, float("nan"), "a number")
-    allow_inf = name in ("f_qd_hz", "f_taud_hz")
-    bad_inf = np.isinf(vals) & ~(allow_inf & (vals > 0))
-    if bad_inf.any():
-        raise InputError(label, float(vals[bad_inf][0]), "finite")
-    low = vals <= info.minimum if info.strict else vals < info.minimum
-    if low.any():
-        raise InputError(label, float(vals[low][0]),
-                         f"{'>' if info.strict else '>='} {info.minimum:g}"
-                         + (" (inf: no filter)" if allow_inf else ""))
+    AXES[name].check(vals, AXES[name].label)
 
 
 # ------------------------------------------------------------------ evaluation
-@dataclass(frozen=True)
-class ActuatorBatch:
-    """Actuator parameters as arrays (a batch of perturbed plants), rotary SI.
-
-    Duck-types the attributes of :class:`~seactl.actuators.SEAParams` that the
-    block diagram and the gain design read."""
-
-    Im: np.ndarray
-    Ij: np.ndarray
-    bm: np.ndarray
-    bj: np.ndarray
-    k: np.ndarray
-    beta: np.ndarray
-    motor_torque_constant: float = 0.0276
-    pulley_radius: float = 0.025
-    name: str = "batch"
-
-
 def impedance_magnitude(design: Any, f_hz: np.ndarray) -> np.ndarray:
     """``|Z(j 2 pi f)|`` [N m s/rad] of the SEA, ``Z = tau_k / (-s q_j)`` with the joint
     motion imposed (``q_des = 0``), from :data:`~seactl.loops.SEA_DIAGRAM`.
@@ -326,13 +260,8 @@ def impedance_magnitude(design: Any, f_hz: np.ndarray) -> np.ndarray:
     >>> bool(abs(z * 2 * np.pi * f / d.gains.Kq - 1) < 1e-6)
     True
     """
-    try:  # the impedance module, where present, is the project's one entry point
-        from .impedance import impedance
-    except ImportError:  # pragma: no cover - same transfer, straight from the diagram
-        from .loops import SEA_DIAGRAM
+    from .impedance import impedance
 
-        s = 2j * np.pi * np.asarray(f_hz, float)
-        return np.abs(-SEA_DIAGRAM.transfer("tau_k", "q_j", cut=("q_j",))(design, s) / s)
     return impedance(design, f_hz).magnitude
 
 
@@ -364,9 +293,7 @@ def evaluate_points(spec: SweepSpec, values: dict[str, np.ndarray], n: int
                                 col("f_qd_hz")[ok], col("f_taud_hz")[ok])
         plant: Any = a
         if any(name in dict(spec.axes) for name in ACTUATOR_AXES):
-            plant = ActuatorBatch(*(col(name)[ok] for name in ACTUATOR_AXES),
-                                  motor_torque_constant=a.motor_torque_constant,
-                                  pulley_radius=a.pulley_radius, name=a.name)
+            plant = a.batch(**{ACTUATOR_FIELDS[n]: col(n)[ok] for n in ACTUATOR_AXES})
         design = SEADesign(plant, gains, timing)
         m = sea_margins(design)
         res = {"Kq": gains.Kq, "Bq": gains.Bq, "Ktau": gains.Ktau, "Btau": gains.Btau,
@@ -490,7 +417,7 @@ def missing_chunks(spec: SweepSpec, out: Path) -> list[int]:
 
 
 def _write_manifest(spec: SweepSpec, out: Path, status: str) -> None:
-    from .report import write_atomic
+    from .outputs import write_atomic
 
     fixed = {k: _json_float(v) for k, v in spec.fixed().items()}
     units = {n: AXES[n].unit for n in AXES}
@@ -505,42 +432,100 @@ def _write_manifest(spec: SweepSpec, out: Path, status: str) -> None:
     write_atomic(out / "_manifest.json", json.dumps(manifest, indent=2) + "\n")
 
 
-def prepare_output(spec: SweepSpec, out: Path, *, resume: bool, overwrite: bool) -> None:
-    """Create ``out`` or check it belongs to the same sweep (``resume``).
+MANIFEST = "_manifest.json"
+
+
+def read_manifest(out: Path) -> dict[str, Any]:
+    """The manifest of the sweep in ``out``; a one-line error saying how to recover when it
+    is unreadable."""
+    path = Path(out) / MANIFEST
+    try:
+        data = json.loads(path.read_text(encoding="utf-8"))
+        if not isinstance(data, dict):
+            raise ValueError("not a JSON object")
+        return data
+    except (ValueError, UnicodeDecodeError) as exc:
+        raise InputError("out", str(out), f"a sweep with a readable {MANIFEST} (it is corrupt:"
+                         f" {str(exc).splitlines()[0][:80]}); rerun with --overwrite to start "
+                         "this sweep again, or choose a new --out") from None
+    except OSError as exc:
+        raise InputError("out", str(out), f"a sweep with a readable {MANIFEST} "
+                         f"({exc.strerror or exc})") from None
+
+
+def check_output(spec: SweepSpec, out: Path, *, resume: bool, overwrite: bool) -> None:
+    """Check, without writing anything, that ``out`` may receive this sweep.
 
     Raises
     ------
     InputError
-        ``out`` holds a sweep of another spec, or exists without ``resume`` /
-        ``overwrite``, or is a non-sweep directory.
+        ``resume`` and ``overwrite`` together; ``out`` holds a sweep of another spec, or
+        exists without ``resume`` / ``overwrite``, or is a non-sweep directory, or its
+        manifest is corrupt (without ``overwrite``).
+    OutputError
+        ``out`` or its parent cannot be created.
     """
-    import shutil
-
     out = Path(out)
-    manifest = out / "_manifest.json"
+    if resume and overwrite:
+        raise InputError("overwrite", True, "False with resume=True (resume completes a sweep,"
+                         " overwrite restarts it: choose one)")
+    if not str(out).strip():
+        raise InputError("out", str(out), "a directory path")
     if out.exists() and not out.is_dir():
-        raise InputError("--out", str(out), "a directory path (a Parquet dataset), not a file")
+        raise InputError("out", str(out), "a directory path (a Parquet dataset), not a file")
     if out.is_dir() and any(out.iterdir()):
-        if not manifest.is_file():
-            raise InputError("--out", str(out), "a new or empty directory, or a seactl sweep "
-                             "(this directory has no _manifest.json)")
-        old = json.loads(manifest.read_text())
+        if not (out / MANIFEST).is_file():
+            raise InputError("out", str(out), "a new or empty directory, or a seactl sweep "
+                             f"(this directory has no {MANIFEST})")
         if overwrite:
-            shutil.rmtree(out)
-        elif old.get("spec_hash") != spec.hash:
+            return
+        old = read_manifest(out)
+        if old.get("spec_hash") != spec.hash:
             diff = _spec_diff(old.get("spec", {}), spec.as_json())
             raise InputError(
-                "--out", str(out),
+                "out", str(out),
                 "a new directory or --overwrite: it holds a different sweep (spec hash "
                 f"{str(old.get('spec_hash'))[:12]} vs {spec.hash[:12]}; differs in: "
                 f"{', '.join(diff) or 'format'}); results of different specs are never mixed")
-        elif not resume:
-            raise InputError("--out", str(out), "a new directory, or --resume to complete this "
+        if not resume:
+            raise InputError("out", str(out), "a new directory, or --resume to complete this "
                              "sweep (same spec), or --overwrite to restart it")
-    out.mkdir(parents=True, exist_ok=True)
-    for stale in out.glob(".part-*.tmp-*"):   # left by a killed writer
-        stale.unlink(missing_ok=True)
+        return
+    parent = out.absolute().parent
+    while not parent.exists():
+        parent = parent.parent
+    if not parent.is_dir() or not os.access(parent, os.W_OK | os.X_OK):
+        raise OutputError(out, f"{parent} is not a writable directory")
+
+
+def prepare_output(spec: SweepSpec, out: Path, *, resume: bool, overwrite: bool) -> None:
+    """Create ``out`` or check it belongs to the same sweep (``resume``), then write the
+    manifest (status ``running``); see :func:`check_output` for the errors."""
+    import shutil
+
+    out = Path(out)
+    check_output(spec, out, resume=resume, overwrite=overwrite)
+    try:
+        if overwrite and (out / MANIFEST).is_file():
+            shutil.rmtree(out)
+        out.mkdir(parents=True, exist_ok=True)
+        for stale in out.glob(".part-*.tmp-*"):   # left by a killed writer
+            stale.unlink(missing_ok=True)
+    except OSError as exc:
+        from .outputs import reason
+
+        raise OutputError(out, reason(exc)) from None
     _write_manifest(spec, out, "running")
+
+
+def _remove_new_sweep(out: Path) -> None:
+    """Undo :func:`prepare_output` on a directory it created (no chunk was written)."""
+    for p in [out / MANIFEST, *out.glob(".part-*.tmp-*"), *out.glob(f".{MANIFEST}*")]:
+        p.unlink(missing_ok=True)
+    try:
+        out.rmdir()
+    except OSError:
+        pass
 
 
 def _spec_diff(a: dict[str, Any], b: dict[str, Any]) -> list[str]:
@@ -616,9 +601,22 @@ def _local_cluster(workers: int):
     environ = {k: v for k, v in (dask.config.get("distributed.nanny.pre-spawn-environ",
                                                  default={}) or {}).items()
                if k != "MALLOC_TRIM_THRESHOLD_"}
-    with dask.config.set({"distributed.nanny.pre-spawn-environ": environ}):
-        return LocalCluster(n_workers=workers, threads_per_worker=1, processes=True,
-                            dashboard_address=None, silence_logs=logging.ERROR)
+    # Worker processes inherit an ignored SIGINT (it survives exec), so Ctrl-C reaches only
+    # this process, which cancels the chunks and closes the cluster: no worker tracebacks.
+    previous = signal.signal(signal.SIGINT, signal.SIG_IGN) if _main_thread() else None
+    try:
+        with dask.config.set({"distributed.nanny.pre-spawn-environ": environ}):
+            return LocalCluster(n_workers=workers, threads_per_worker=1, processes=True,
+                                dashboard_address=None, silence_logs=logging.ERROR)
+    finally:
+        if previous is not None:
+            signal.signal(signal.SIGINT, previous)
+
+
+def _main_thread() -> bool:
+    import threading
+
+    return threading.current_thread() is threading.main_thread()
 
 
 def run_sweep(spec: SweepSpec, out: Path | str, *, resume: bool = False,
@@ -645,6 +643,35 @@ def run_sweep(spec: SweepSpec, out: Path | str, *, resume: bool = False,
     complete; on Ctrl-C the pending ones are cancelled and
     :class:`SweepInterrupted` is raised, every written chunk staying on disk.
     """
+    out = Path(out)
+    if workers is not None and workers < 0:
+        raise InputError("workers", workers, ">= 0 (0: in this process)")
+    check_output(spec, out, resume=resume, overwrite=overwrite)
+    own_client = None
+    if client is None and scheduler is not None:   # reachable before anything is written
+        own_client = client = _connect(scheduler)
+    new_dir = not out.exists() or overwrite or not any(out.iterdir())
+    try:
+        prepare_output(spec, out, resume=resume, overwrite=overwrite)
+        if console is not None:
+            from rich.markup import escape
+
+            console.print(f"sweep: {spec.n_points:,} points in {spec.n_chunks:,} chunks of "
+                          f"{spec.chunk_size:,} -> {escape(str(out))}"
+                          + (f" on {escape(scheduler)}" if scheduler else ""))
+        return _run(spec, out, workers, client, own_client, console, _on_chunk)
+    except BaseException as exc:
+        if new_dir and not isinstance(exc, KeyboardInterrupt) and out.is_dir() \
+                and not any(out.glob("part-*.parquet")):
+            _remove_new_sweep(out)
+        raise
+    finally:
+        if own_client is not None:
+            own_client.close()
+
+
+def _run(spec: SweepSpec, out: Path, workers: int | None, client: Any, own_client: Any,
+         console: Any, _on_chunk: Callable[[int], None] | None) -> SweepResult:
     from rich.progress import (
         BarColumn,
         MofNCompleteColumn,
@@ -654,16 +681,12 @@ def run_sweep(spec: SweepSpec, out: Path | str, *, resume: bool = False,
         TimeRemainingColumn,
     )
 
-    out = Path(out)
-    if workers is not None and workers < 0:
-        raise InputError("--workers", workers, ">= 0 (0: in this process)")
-    prepare_output(spec, out, resume=resume, overwrite=overwrite)
     todo = missing_chunks(spec, out)
+    own_cluster = None
     t0 = time.perf_counter()
     peak = 0.0
     done = spec.n_chunks - len(todo)
     n_workers = 0
-    own_client = own_cluster = None
     progress = Progress(TextColumn("[bold]sweep"), BarColumn(), MofNCompleteColumn(),
                         TextColumn("chunks"), TimeElapsedColumn(), TimeRemainingColumn(),
                         console=console, disable=console is None, transient=False)
@@ -684,18 +707,15 @@ def run_sweep(spec: SweepSpec, out: Path | str, *, resume: bool = False,
                 if _on_chunk is not None:
                     _on_chunk(i)
 
-            if todo and workers == 0 and client is None and scheduler is None:
+            if todo and workers == 0 and client is None:
                 for i in todo:
                     finish(i, *evaluate_chunk(spec, i))
             elif todo:
                 from distributed import Client, as_completed
 
                 if client is None:
-                    if scheduler is None:
-                        own_cluster = _local_cluster(workers or os.cpu_count() or 1)
-                        own_client = client = Client(own_cluster)
-                    else:
-                        own_client = client = _connect(scheduler)
+                    own_cluster = _local_cluster(workers or os.cpu_count() or 1)
+                    own_client = client = Client(own_cluster)
                 n_workers = len(client.scheduler_info(n_workers=-1)["workers"])
                 futures = {}
                 for i in todo:
@@ -715,16 +735,15 @@ def run_sweep(spec: SweepSpec, out: Path | str, *, resume: bool = False,
         have = spec.n_chunks - len(missing_chunks(spec, out))
         raise SweepInterrupted(out, have, spec.n_chunks) from None
     finally:
-        if own_client is not None:
-            own_client.close()
         if own_cluster is not None:
+            own_client.close()
             own_cluster.close()
     seconds = time.perf_counter() - t0
     summary = summarize(spec, out)
     summary["run"] = {"chunks_computed": computed, "seconds": round(seconds, 3),
                       "workers": n_workers, "worker_peak_rss_mb": round(peak, 1),
                       "worker_cpu_seconds": round(cpu, 3)}
-    from .report import write_atomic
+    from .outputs import write_atomic
 
     write_atomic(out / "_summary.json", json.dumps(summary, indent=2) + "\n")
     _write_manifest(spec, out, "complete")
@@ -736,12 +755,12 @@ def _connect(address: str):
     from distributed import Client
 
     if not address.startswith(("tcp://", "tls://", "inproc://", "ucx://", "ws://", "wss://")):
-        raise InputError("--scheduler", address, "a Dask scheduler address such as "
+        raise InputError("scheduler", address, "a Dask scheduler address such as "
                          "tcp://HOST:PORT")
     try:
         return Client(address, timeout="10s")
-    except OSError as exc:
-        raise InputError("--scheduler", address, f"a reachable Dask scheduler ({exc})") from None
+    except (OSError, ValueError, TypeError) as exc:
+        raise InputError("scheduler", address, f"a reachable Dask scheduler ({exc})") from None
 
 
 def summarize(spec: SweepSpec, out: Path) -> dict[str, Any]:
@@ -825,7 +844,7 @@ def relative_interval(actuator: SEAParams, name: str, percent: float) -> tuple[f
     if not (0 <= percent < 100):
         raise InputError(AXES[name].option, f"{percent:g}%", "a relative uncertainty in "
                          "[0%, 100%)")
-    nom = float(getattr(actuator, _ACTUATOR_FIELDS[name]))
+    nom = float(getattr(actuator, ACTUATOR_FIELDS[name]))
     return nom * (1 - percent / 100), nom * (1 + percent / 100)
 
 
@@ -861,7 +880,7 @@ def monte_carlo(spec: SweepSpec) -> RobustResult:
 
 
 __all__ = [
-    "AXES", "ActuatorBatch", "RobustResult", "SweepInterrupted", "SweepResult", "SweepSpec",
+    "AXES", "RobustResult", "SweepInterrupted", "SweepResult", "SweepSpec",
     "evaluate_chunk", "evaluate_points", "impedance_magnitude", "missing_chunks",
     "monte_carlo", "read_sweep", "relative_interval", "run_sweep", "summarize",
 ]
@@ -879,7 +898,7 @@ def sweep_map(out: Path | str, x: str, y: str, z: str = "phase_margin_deg",
     ``(len(y), len(x))``, NaN where no feasible point) and ``stable_fraction``.
     """
     out = Path(out)
-    manifest = json.loads((out / "_manifest.json").read_text())
+    manifest = read_manifest(out)
     swept = manifest["swept_axes"]
     for opt, name in (("--plot", x), ("--plot", y)):
         if name not in swept:

@@ -16,7 +16,14 @@ from typing import Any
 
 import numpy as np
 
-from ._results import MarginsResult, _axes, json_array, json_value
+from ._results import (
+    ImpedanceResult,
+    MarginsResult,
+    ResponseResult,
+    _axes,
+    json_array,
+    json_value,
+)
 from ._validate import finite_array
 from .api import delays_from_ms, resolve_actuator
 from .errors import InputError
@@ -150,6 +157,143 @@ class RigidBatch:
 
         model = rigid_model(self.rigid.actuator)
         return model.delay_margins(self.rigid)
+
+    def labels(self) -> list[str]:
+        """One legend label per design (flattened batch).
+
+        Returns
+        -------
+        list of str
+            ``"f_n=8 Hz, T_s=1.5 ms, T_d=1.5 ms"`` style labels.
+
+        Examples
+        --------
+        >>> import seactl as sc
+        >>> sc.rigid(8, delays_ms=(1.5, 1.5)).labels()
+        ['f_n=8 Hz, T_s=1.5 ms, T_d=1.5 ms']
+        """
+        r = self.rigid
+        cols = [np.ravel(np.broadcast_to(x, self.shape)) for x in (self.fn_hz, r.T_s, r.T_d)]
+        return [f"f_n={f:g} Hz, T_s={ts * 1e3:g} ms, T_d={td * 1e3:g} ms"
+                for f, ts, td in zip(*cols)]
+
+    def step(self, *, t_end_s: float = 1.0, mode: str = "continuous", rate_hz: float = 1000.0,
+             saturate: bool = False) -> ResponseResult:
+        """Response of the position ``x`` to a unit step of ``x_des`` (normalized).
+
+        Parameters
+        ----------
+        t_end_s : float
+            Simulated time [s].
+        mode : {"continuous", "sampled"}
+            Exact continuous-time delays, or both loops sampled at ``rate_hz`` with
+            whole-sample delay buffers (Tustin velocity filter, zero-order hold).
+        rate_hz : float
+            Controller rate of the sampled mode [Hz].
+        saturate : bool
+            Sampled mode: clip the force at ``beta * max_current`` (the response is then
+            that of a 1 m step; use :func:`seactl.rigid.step_experiment` for the paper's
+            4 mm step).
+
+        Returns
+        -------
+        ResponseResult
+            ``t_s``, ``position`` (``x / step``), ``current`` (force command / ``beta``
+            [A]) and ``metrics`` (rise, overshoot, settling).
+
+        Examples
+        --------
+        >>> import seactl as sc
+        >>> r = sc.rigid([8, 12], delays_ms=(1.5, 1.5)).step(t_end_s=1.0)
+        >>> r.metrics.stable.tolist(), bool(abs(r.position[0, -1] - 1) < 1e-3)
+        ([True, True], True)
+        """
+        from .rigid import RIGID_DIAGRAM
+        from .simulate import SEAResponse, SimResult, Step, simulate, step_metrics
+
+        r = self.rigid
+        limit = r.actuator.max_force if (saturate and mode == "sampled") else None
+        res = simulate(RIGID_DIAGRAM, r, {"x_des": Step(1.0)}, t_end_s, mode=mode,
+                       rates_hz=rate_hz, outputs=("x", "F_des"),
+                       saturation={"F_des": limit} if limit else None)
+        force = res.outputs["F_des"] if limit is None else np.clip(res.outputs["F_des"],
+                                                                   -limit, limit)
+        res = SimResult(res.mode, res.t_s, {"q_j": res.outputs["x"],
+                                            "i_m": force / r.actuator.beta},
+                        res.stable, res.left_bounds_s, res.bound, res.info)
+        met = step_metrics(res.t_s, res.outputs["q_j"], res.stable, res.left_bounds_s)
+        return ResponseResult(SEAResponse("step", res, met), self.labels())
+
+    def impedance(self, f_hz: Any) -> ImpedanceResult:
+        """Impedance ``Z(j 2 pi f) = F_ext / (j 2 pi f x)`` [N s/m] felt at the output.
+
+        The inverse of the closed-loop compliance ``x / F_ext`` divided by ``s``, from
+        :data:`seactl.rigid.RIGID_DIAGRAM` with exact delays; it includes the mass.
+
+        Parameters
+        ----------
+        f_hz : array_like
+            Frequencies [Hz] > 0 (the last axis of the result).
+
+        Returns
+        -------
+        ImpedanceResult
+            ``z`` of shape ``shape + (len(f_hz),)`` [N s/m], ``magnitude``, ``stiffness``...
+
+        Examples
+        --------
+        >>> import seactl as sc
+        >>> r = sc.rigid(8, delays_ms=(1.5, 1.5))
+        >>> z = r.impedance([1e-4])               # s Z -> K at low frequency
+        >>> round(float(z.stiffness[..., 0].real) / float(r.rigid.K), 6)
+        1.0
+        """
+        from .impedance import ImpedanceResponse
+        from .rigid import rigid_compliance
+
+        f = finite_array("f_hz [Hz]", f_hz, minimum=0.0, strict=True).reshape(-1)
+        s = 2j * np.pi * f
+        z = 1.0 / (s * rigid_compliance()(self.rigid, s))
+        return ImpedanceResult(ImpedanceResponse("block-diagram", f, z, "linear", True),
+                               self.labels())
+
+    def to_control(self, kind: str = "frd", *, transfer: str = "loop", f_hz: Any = None,
+                   order: int = 3) -> Any:
+        """Export to python-control: exact-delay frequency response or a Padé model.
+
+        Parameters
+        ----------
+        kind : {"frd", "pade", "pade-ss"}
+            As :meth:`seactl.Design.to_control`.
+        transfer : {"loop", "closed", "compliance"}
+            Whole loop ``L`` (broken at the sensor), ``x / x_des``, or ``x / F_ext``
+            [m/N].
+        f_hz : array_like, optional
+            Frequencies of the FRD [Hz] (default: 2000 points from 0.01 Hz to 10 kHz).
+        order : int
+            Padé order per delay, 1 to 4.
+
+        Returns
+        -------
+        control.FrequencyResponseData or control.TransferFunction or control.StateSpace
+            For a single design; a list (flattened batch order) for a batch.
+
+        Examples
+        --------
+        >>> import control as ct
+        >>> import seactl as sc
+        >>> L = sc.rigid(8, delays_ms=(1.5, 1.5)).to_control("frd")
+        >>> round(float(ct.margin(L)[1]), 1)
+        52.6
+        """
+        from ._export import rigid_transfer, to_control
+
+        if not self.shape:
+            return to_control(self.rigid, kind, transfer, f_hz, order, rigid_transfer)
+        n = int(np.prod(self.shape))
+        flat = self[np.unravel_index(np.arange(n), self.shape)]
+        return [to_control(flat[i].rigid, kind, transfer, f_hz, order, rigid_transfer)
+                for i in range(n)]
 
 
 def rigid(fn_hz: Any, *, actuator: Any = "ut-linear", delays_ms: Sequence[Any] = (0.0, 0.0),
@@ -377,7 +521,7 @@ class PlacementResult:
 
 def place(high_latency_ms: float, low_latency_ms: float, *, kind: str = "rigid",
           actuator: Any = None, min_pm_deg: float = 45.0,
-          stiffness_embeddable: bool = False) -> PlacementResult:
+          stiffness_embeddable: bool = False, timing: Any = None) -> PlacementResult:
     """Recommend where the stiffness and damping loops should run.
 
     Parameters
@@ -392,6 +536,10 @@ def place(high_latency_ms: float, low_latency_ms: float, *, kind: str = "rigid",
         Required whole-loop phase margin [deg].
     stiffness_embeddable : bool
         Whether the stiffness loop may run on the embedded process too.
+    timing : dict, optional
+        ``"high-level"`` / ``"embedded"`` -> :class:`seactl.placement.ProcessTiming`
+        (latency distribution and loss): the nominal latency replaces the constant one and
+        every loop's jitter margin must cover its process's jitter.
 
     Returns
     -------
@@ -410,7 +558,7 @@ def place(high_latency_ms: float, low_latency_ms: float, *, kind: str = "rigid",
     from .placement import advise
 
     return PlacementResult(advise(model, float(high), float(low), min_pm_deg=min_pm_deg,
-                                  stiffness_embeddable=stiffness_embeddable))
+                                  stiffness_embeddable=stiffness_embeddable, timing=timing))
 
 
 # ------------------------------------------------------------------ sweeps

@@ -11,7 +11,7 @@ from __future__ import annotations
 from collections.abc import Callable, Iterable
 from typing import Any
 
-from . import core, impedance, mobile_base, placement, roots, simulate, sweep
+from . import core, impedance, jitter, loopfile, mobile_base, placement, roots, simulate, sweep
 from ._harness import BenchResult, benchmark, median_time
 
 __all__ = ["BENCHMARKS", "BenchResult", "benchmark", "median_time", "registered",
@@ -19,9 +19,11 @@ __all__ = ["BENCHMARKS", "BenchResult", "benchmark", "median_time", "registered"
 
 
 BENCHMARKS: tuple[Callable, ...] = (
-    core.bench_gain_design, core.bench_margins, roots.bench_roots, impedance.bench_impedance,
+    core.bench_gain_design, core.bench_margins, roots.bench_roots, loopfile.bench_loop_file,
+    impedance.bench_impedance,
     simulate.bench_simulate, placement.bench_latency_map, sweep.bench_sweep,
-    mobile_base.bench_circle, mobile_base.bench_tuning,
+    mobile_base.bench_circle, mobile_base.bench_tuning, core.bench_cli_startup,
+    jitter.bench_jitter,
 )
 
 
@@ -39,7 +41,7 @@ def run_benchmarks(only: Iterable[str] | None = None, repeat: int = 5,
     if only:
         unknown = set(only) - set(names)
         if unknown:
-            raise InputError("--only", ", ".join(sorted(unknown)), "one of " + ", ".join(names))
+            raise InputError("only", ", ".join(sorted(unknown)), "one of " + ", ".join(names))
         names = [n for n in names if n in set(only)]
     out: list[dict[str, Any]] = []
     for name in names:

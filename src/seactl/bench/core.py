@@ -3,6 +3,8 @@
 from __future__ import annotations
 
 import warnings
+from collections.abc import Callable
+from typing import Any
 
 import numpy as np
 
@@ -139,3 +141,21 @@ def bench_margins(repeat: int) -> BenchResult:
              f"baseline timed on {n_base} designs. Max |PM error| vs a 200,000-point reference "
              f"grid: seactl {err_ours:.2g} deg, python-control {err_pc:.2g} deg",
         max_error_text=f"{err_ours:.2g} deg (python-control {err_pc:.2g})")
+
+
+@benchmark("cli-startup")
+def bench_cli_startup(repeat: int) -> BenchResult:
+    """``seactl --help`` in a fresh interpreter against ``import control`` (python-control)
+    in a fresh interpreter: what a user pays before anything is computed."""
+    import subprocess
+    import sys
+
+    def start(code: str) -> Callable[[], Any]:
+        return lambda: subprocess.run([sys.executable, "-c", code], check=True,
+                                      capture_output=True)
+
+    t_ours = median_time(start("from seactl.cli import main; main(['--help'])"), repeat)
+    t_base = median_time(start("import control"), repeat)
+    return BenchResult("cli-startup", 1.0 / t_ours, "python -c 'import control'", 1.0 / t_base,
+                       0.0, note=f"seactl --help: {t_ours * 1e3:.0f} ms (target < 300 ms)",
+                       max_error_text="n/a (start-up time)")

@@ -5,7 +5,10 @@ entry point and the only importer of this package.
 """
 from . import (
     core,  # noqa: F401
+    explore,  # noqa: F401
     impedance,  # noqa: F401
+    jitter,  # noqa: F401
+    loops,  # noqa: F401
     mobile_base,  # noqa: F401
     placement,  # noqa: F401
     roots,  # noqa: F401

@@ -7,11 +7,12 @@ Options listed in :data:`VARIADIC` take several values after one flag
 
 from __future__ import annotations
 
+import contextlib
 import functools
 import json
 import math
 import sys
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Iterator, Mapping, Sequence
 from dataclasses import dataclass
 from typing import Any
 
@@ -19,7 +20,9 @@ import click
 import numpy as np
 from rich.console import Console
 
+from ..axes import AXES, DESIGN_AXES
 from ..errors import InputError
+from ..limits import BYTES_PER_DESIGN, check_budget, check_count
 
 VARIADIC: set[str] = {"--fn", "--gs"}
 """Options that accept several space-separated values."""
@@ -33,31 +36,50 @@ err_console = Console(stderr=True)
 def parse_values(name: str, tokens: Sequence[str], *, log: bool = False) -> np.ndarray:
     """Numbers, or ranges ``START:STOP:STEP`` (inclusive; ``log``: ``START:STOP:N``
     log-spaced points), concatenated in the given order."""
-    out: list[float] = []
+    out: list[np.ndarray] = []
+    total = 0
     for tok in tokens:
         for part in str(tok).replace(",", " ").split():
             try:
-                if ":" in part:
-                    a, b, c = (float(x) for x in part.split(":"))
-                    if log:
-                        if a <= 0 or b <= 0 or c < 2 or c != int(c):
-                            raise InputError(name, part, "START:STOP:N with START, STOP > 0 and "
-                                             "an integer N >= 2")
-                        out.extend(np.logspace(math.log10(a), math.log10(b), int(c)))
-                    else:
-                        if c <= 0 or b < a:
-                            raise InputError(name, part, "START:STOP:STEP with STEP > 0 and "
-                                             "STOP >= START")
-                        n = int(math.floor((b - a) / c + 1e-9)) + 1
-                        out.extend(a + c * np.arange(n))
-                else:
-                    out.append(float(part))
+                values = _range(name, part, log) if ":" in part else np.array([float(part)])
             except ValueError as exc:
                 if isinstance(exc, InputError):
                     raise
                 raise InputError(name, part, "a number or a range START:STOP:"
                                  + ("N" if log else "STEP")) from None
-    return np.asarray(out, float)
+            total = check_count(name, part, total + values.size)
+            out.append(values)
+    return np.concatenate(out) if out else np.zeros(0)
+
+
+def _range(name: str, part: str, log: bool) -> np.ndarray:
+    """``START:STOP:STEP`` (or ``START:STOP:N`` log-spaced), its size checked first."""
+    a, b, c = (float(x) for x in part.split(":"))
+    if not all(math.isfinite(x) for x in (a, b, c)):
+        raise InputError(name, part, "a range of finite numbers")
+    if log:
+        if a <= 0 or b <= 0 or c < 2 or c != int(c):
+            raise InputError(name, part, "START:STOP:N with START, STOP > 0 and an integer "
+                             "N >= 2")
+        return np.logspace(math.log10(a), math.log10(b), check_count(name, part, c))
+    if c <= 0 or b < a:
+        raise InputError(name, part, "START:STOP:STEP with STEP > 0 and STOP >= START")
+    steps = (b - a) / c
+    n = check_count(name, part, math.floor(steps + 1e-9) + 1 if math.isfinite(steps) else steps)
+    return a + c * np.arange(n)
+
+
+@contextlib.contextmanager
+def flag_names(names: Mapping[str, str]) -> Iterator[None]:
+    """Library errors name parameters (``t_end``); inside this block they are re-raised
+    naming the command-line flag instead (``{"t_end": "--t-end"}``)."""
+    try:
+        yield
+    except InputError as exc:
+        head, sep, tail = exc.field.partition(" ")
+        if head not in names:
+            raise
+        raise InputError(names[head] + sep + tail, exc.value, exc.valid) from None
 
 
 def expand_variadic(argv: Sequence[str]) -> list[str]:
@@ -124,57 +146,59 @@ class DesignSpec:
         return [self.designs(i) for i in range(max(n, 1))]
 
 
+def axis_option(name: str, *, multiple: bool = False, help_extra: str = "") -> Callable:
+    """The click option of design axis ``name`` (:data:`seactl.axes.AXES`), passed to the
+    command under the axis name (``t_qs_ms``); ``multiple`` takes values and ranges."""
+    info = AXES[name]
+    unit = f" [{info.unit}]" if info.unit else ""
+    what = info.description[:1].upper() + info.description[1:] + unit
+    if multiple:
+        return click.option(info.option, name, multiple=True, default=(f"{info.default:g}",),
+                            show_default=True, help=f"{what}: values, or START:STOP:STEP."
+                            + help_extra)
+    if info.allow_inf:
+        return click.option(info.option, name, type=float, default=None,
+                            help=f"{what} (default: no filter).{help_extra}")
+    return click.option(info.option, name, type=float, default=info.default,
+                        show_default=True, help=f"{what}.{help_extra}")
+
+
+MULTI_AXES = ("fn_hz", "gs")
+"""Design axes that take several values at once (a batch of designs)."""
+
+
 def design_options(func: Callable) -> Callable:
-    """Add the shared design options; the command receives ``spec: DesignSpec``."""
-    opts = [
-        click.option("--fn", "fn", multiple=True, default=("14",), show_default=True,
-                     help="Natural frequency f_n [Hz]: values, or START:STOP:STEP."),
-        click.option("--gs", "gs", multiple=True, default=("1",), show_default=True,
-                     help="Gain scale GS (torque gains x GS, impedance gains / GS)."),
-        click.option("--zeta1", type=float, default=1.0, show_default=True,
-                     help="Damping ratio of the first pole pair."),
-        click.option("--zeta2", type=float, default=1.0, show_default=True,
-                     help="Damping ratio of the second pole pair."),
-        click.option("--ratio", type=float, default=1.0, show_default=True,
-                     help="w2 / w1 of the two pole pairs."),
-        click.option("--t-tau", type=float, default=0.0, show_default=True,
-                     help="Torque-feedback delay T_tau [ms]."),
-        click.option("--t-qs", type=float, default=0.0, show_default=True,
-                     help="Stiffness-feedback delay T_qs [ms]."),
-        click.option("--t-qd", type=float, default=0.0, show_default=True,
-                     help="Damping-feedback delay T_qd [ms]."),
-        click.option("--f-qd", type=float, default=None,
-                     help="Velocity filter cut-off f_qd [Hz] (default: no filter)."),
-        click.option("--f-taud", type=float, default=None,
-                     help="Torque-derivative filter cut-off f_taud [Hz] (default: no filter)."),
-        click.option("--actuator", default="ut-sea", show_default=True,
-                     help="Preset name or TOML file of the SEA."),
-    ]
+    """Add the shared design options (one per axis of :data:`seactl.axes.DESIGN_AXES`, plus
+    ``--actuator``); the command receives ``spec: DesignSpec``."""
 
     @functools.wraps(func)
-    def wrapper(*args, fn, gs, zeta1, zeta2, ratio, t_tau, t_qs, t_qd, f_qd, f_taud,
-                actuator, **kwargs):
-        from .._validate import finite_array
+    def wrapper(*args, actuator, **kwargs):
         from ..actuators import load_sea
 
-        for name, val in (("--t-tau", t_tau), ("--t-qs", t_qs), ("--t-qd", t_qd)):
-            finite_array(f"{name} [ms]", val, minimum=0.0)
-        for name, val in (("--f-qd", f_qd), ("--f-taud", f_taud)):
-            if val is not None:
-                finite_array(f"{name} [Hz]", val, minimum=0.0, strict=True)
-        for name, val in (("--zeta1", zeta1), ("--zeta2", zeta2), ("--ratio", ratio)):
-            finite_array(name, val, minimum=0.0, strict=True)
-        fn_hz = finite_array("--fn [Hz]", parse_values("--fn", fn), minimum=0.0, strict=True)
-        gs_v = finite_array("--gs", parse_values("--gs", gs), minimum=0.0, strict=True)
-        if fn_hz.size == 0:
-            raise InputError("--fn", "", "at least one frequency")
-        spec = DesignSpec(load_sea(actuator), fn_hz, gs_v, zeta1, zeta2, ratio,
-                          t_tau, t_qs, t_qd, f_qd, f_taud)
+        values = {}
+        for name in DESIGN_AXES:
+            raw = kwargs.pop(name)
+            info = AXES[name]
+            if name in MULTI_AXES:
+                raw = parse_values(info.option, raw)
+                if raw.size == 0:
+                    raise InputError(info.option, "", "at least one value")
+            values[name] = raw if raw is None else info.check(raw, info.label)
+        n = values["fn_hz"].size * values["gs"].size
+        check_budget(f"{n:,} designs (--fn x --gs)", n_bytes=n * BYTES_PER_DESIGN,
+                     hint="give fewer --fn or --gs values")
+        spec = DesignSpec(load_sea(actuator), **{n: _scalar(v) for n, v in values.items()})
         return func(*args, spec=spec, **kwargs)
 
-    for opt in reversed(opts):
-        wrapper = opt(wrapper)
+    wrapper = click.option("--actuator", default="ut-sea", show_default=True,
+                           help="Preset name or TOML file of the SEA.")(wrapper)
+    for name in reversed(DESIGN_AXES):
+        wrapper = axis_option(name, multiple=name in MULTI_AXES)(wrapper)
     return wrapper
+
+
+def _scalar(v: Any) -> Any:
+    return v if v is None or np.ndim(v) else float(v)
 
 
 def json_option(func: Callable) -> Callable:
@@ -200,7 +224,37 @@ def echo_json(obj: Any) -> None:
 
 
 # ------------------------------------------------------------------ commands
-@click.group(context_settings={"help_option_names": ["-h", "--help"]})
+class _Command(click.Command):
+    """A command whose library errors are re-worded for the command line: an
+    :class:`InputError` naming a parameter (``t_qs_ms``, ``out``) names the flag the user
+    typed instead (``--t-qs [ms]``, ``--out``)."""
+
+    def invoke(self, ctx: click.Context) -> Any:
+        try:
+            return super().invoke(ctx)
+        except InputError as exc:
+            flag = flag_for(ctx.command, exc.field)
+            if flag is not None:
+                exc.field = flag
+                exc.args = (f"invalid {flag} = {exc.value!r}: must be {exc.valid}",)
+            raise
+
+
+def flag_for(command: click.Command, field: str) -> str | None:
+    """The flag (with the axis unit, if any) of ``command`` whose parameter is ``field``."""
+    name = str(field).split(" [")[0]
+    for param in command.params:
+        if isinstance(param, click.Option) and param.name == name:
+            unit = AXES[name].unit if name in AXES else ""
+            return max(param.opts, key=len) + (f" [{unit}]" if unit else "")
+    return None
+
+
+class _Group(click.Group):
+    command_class = _Command
+
+
+@click.group(context_settings={"help_option_names": ["-h", "--help"]}, cls=_Group)
 @click.version_option(package_name="seactl")
 def cli() -> None:
     """seactl: distributed impedance control of series elastic actuators."""

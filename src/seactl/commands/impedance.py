@@ -12,7 +12,8 @@ from rich.markup import escape
 from rich.table import Table
 
 from ..errors import InputError
-from ..plots import save_figure
+from ..limits import FREQ_BYTES_PER_POINT, check_budget, check_range
+from ..outputs import CSV_SUFFIXES, FIGURE_SUFFIXES, OutputSet
 from ._common import (
     VARIADIC,
     DesignSpec,
@@ -24,11 +25,9 @@ from ._common import (
     json_option,
     parse_values,
 )
+from .loops import loop_impedance, loop_options
 
 VARIADIC.add("--freq")
-
-_FIG_SUFFIXES = (".png", ".svg", ".pdf")
-
 
 def _freq(tokens: tuple[str, ...]) -> np.ndarray:
     f = parse_values("--freq", tokens, log=True)
@@ -37,22 +36,29 @@ def _freq(tokens: tuple[str, ...]) -> np.ndarray:
     bad = ~np.isfinite(f) | (f <= 0)
     if bad.any():
         raise InputError("--freq [Hz]", float(f[bad][0]), "finite frequencies > 0")
+    for x in (f.min(), f.max()):
+        check_range("--freq [Hz]", x, "freq_hz")
     return f
 
 
-def _check_plot_path(path: str | None) -> None:
-    if path is not None and Path(path).suffix.lower() not in _FIG_SUFFIXES:
-        raise InputError("--plot", path, "a file name ending in " + ", ".join(_FIG_SUFFIXES))
+def _budget(spec: DesignSpec, f: np.ndarray) -> np.ndarray:
+    n = spec.fn_hz.size * spec.gs.size
+    check_budget(f"{n:,} design(s) at {f.size:,} frequencies",
+                 n_bytes=n * f.size * FREQ_BYTES_PER_POINT,
+                 hint="give fewer --freq points or fewer designs")
+    return f
 
 
-def _write_csv(path: str, header: list[str], rows: list[list[Any]]) -> None:
-    from ..report import write_atomic
-
+def _csv_text(header: list[str], rows: list[list[Any]]) -> str:
     buf = io.StringIO()
     buf.write(",".join(header) + "\n")
     for r in rows:
         buf.write(",".join(f"{x:.10g}" if isinstance(x, float) else str(x) for x in r) + "\n")
-    write_atomic(Path(path), buf.getvalue())
+    return buf.getvalue()
+
+
+def _outputs(outs: OutputSet, plot: str | None, csv: str | None) -> tuple[Path | None, ...]:
+    return outs.add("--plot", plot, FIGURE_SUFFIXES), outs.add("--csv", csv, CSV_SUFFIXES)
 
 
 _MODEL = click.option("--model", type=click.Choice(["block-diagram", "paper"]),
@@ -86,8 +92,12 @@ def _timing_text(spec: DesignSpec) -> str:
 @_PLOT
 @_CSV
 @json_option
+@click.option("--port", default=None, help="Impedance port of the --loop file (default: its "
+              "first).")
+@loop_options
 def impedance(spec: DesignSpec, freq: tuple[str, ...], model: str, load: bool, units: str,
-              plot: str | None, csv: str | None, as_json: bool) -> None:
+              plot: str | None, csv: str | None, as_json: bool, port: str | None,
+              loop: Any) -> None:
     """SEA impedance Z(jw) = tau_j / (-jw q_j) with exact delays and filters.
 
     Reports the low-frequency virtual stiffness, the high-frequency asymptote, stability
@@ -98,6 +108,23 @@ def impedance(spec: DesignSpec, freq: tuple[str, ...], model: str, load: bool, u
     Example:
       seactl impedance --fn 30 --t-tau 1 --t-qs 10 --t-qd 3 --plot z.png
     """
+    if loop is None and port is not None:
+        raise InputError("--port", port, "used with --loop FILE")
+    with OutputSet() as outs:
+        if loop is not None:
+            return loop_impedance(loop, _freq(freq), port, as_json, outs,
+                                  *_outputs(outs, plot, csv))
+        f = _budget(spec, _freq(freq))
+        plot_p, csv_p = _outputs(outs, plot, csv)
+        if loop is not None:
+            return loop_impedance(loop, f, port, as_json, outs, plot_p, csv_p)
+        if port is not None:
+            raise InputError("--port", port, "used with --loop FILE")
+        _impedance(spec, f, model, load, units, plot_p, csv_p, outs, as_json)
+
+
+def _impedance(spec: DesignSpec, f: np.ndarray, model: str, load: bool, units: str,
+               plot: Path | None, csv: Path | None, outs: OutputSet, as_json: bool) -> None:
     from ..impedance import (
         UNITS,
         asymptote_case,
@@ -110,8 +137,6 @@ def impedance(spec: DesignSpec, freq: tuple[str, ...], model: str, load: bool, u
     from ..impedance import impedance as compute
     from ..margins import sea_margins
 
-    f = _freq(freq)
-    _check_plot_path(plot)
     designs = spec.designs()
     resp = compute(designs, f, model=model, load=load, units=units)
     asym = asymptotes(designs, f, model=model, load=load, units=units)
@@ -152,10 +177,11 @@ def impedance(spec: DesignSpec, freq: tuple[str, ...], model: str, load: bool, u
                 rows.append([r["fn_hz"], r["gs"], float(fk), float(abs(zk)),
                              float(20 * np.log10(abs(zk))), float(r["phase_deg"][k]),
                              float(zk.real), float(zk.imag)])
-        _write_csv(csv, ["fn_hz", "gs", "f_hz", f"magnitude [{unit}]", "magnitude_db",
-                         "phase_deg", f"re [{unit}]", f"im [{unit}]"], rows)
+        outs.write(csv, _csv_text(["fn_hz", "gs", "f_hz", f"magnitude [{unit}]", "magnitude_db",
+                         "phase_deg", f"re [{unit}]", f"im [{unit}]"], rows))
     if plot:
-        save_figure(_impedance_plot(spec, designs, resp, asym, model, load, unit), plot)
+        outs.figure(plot, _impedance_plot(spec, designs, resp, asym, model, load, unit))
+    outs.commit()
     if as_json:
         echo_json(out[0] if len(out) == 1 else out)
         return
@@ -256,11 +282,18 @@ def zregion(spec: DesignSpec, freq: tuple[str, ...], model: str, load: bool, min
       seactl zregion --fn 10:40:2 --gs 0.5:2:0.1 --t-tau 0.5 --t-qs 2 --t-qd 0.5 \\
                      --f-qd 50 --f-taud 100 --plot zregion.png
     """
+    with OutputSet() as outs:
+        plot_p, csv_p = _outputs(outs, plot, csv)
+        _zregion(spec, _budget(spec, _freq(freq)), model, load, min_pm, require_passive,
+                 threshold_db, plot_p, csv_p, outs, as_json)
+
+
+def _zregion(spec: DesignSpec, f: np.ndarray, model: str, load: bool, min_pm: float,
+             require_passive: bool, threshold_db: float, plot: Path | None,
+             csv: Path | None, outs: OutputSet, as_json: bool) -> None:
     from ..impedance import UNITS
     from ..impedance import zregion as compute
 
-    f = _freq(freq)
-    _check_plot_path(plot)
     designs = spec.designs()
     reg = compute(designs, f, min_pm_deg=min_pm, require_passive=require_passive,
                   threshold_db=threshold_db, model=model, load=load)
@@ -289,13 +322,15 @@ def zregion(spec: DesignSpec, freq: tuple[str, ...], model: str, load: bool, min
     if csv:
         rows = [[float(fk), float(reg.z_min[k]), float(reg.z_max[k]), float(reg.width_db[k])]
                 for k, fk in enumerate(f)]
-        _write_csv(csv, ["f_hz", f"z_min [{unit}]", f"z_max [{unit}]", "width_db"], rows)
+        outs.write(csv, _csv_text(["f_hz", f"z_min [{unit}]", f"z_max [{unit}]", "width_db"],
+                                  rows))
     if plot:
         from ..plots import zregion_figure
 
         fig = zregion_figure(reg, spec.fn_hz, spec.gs, spring=spec.actuator.k / (2j * np.pi * f))
         fig.suptitle(f"Z-region, {_timing_text(spec)}", fontsize=10, y=1.02)
-        save_figure(fig, plot)
+        outs.figure(plot, fig)
+    outs.commit()
     if as_json:
         echo_json(out)
         return

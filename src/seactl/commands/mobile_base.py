@@ -2,8 +2,6 @@
 
 from __future__ import annotations
 
-import os
-import tempfile
 from pathlib import Path
 from typing import Any
 
@@ -11,6 +9,7 @@ import click
 from rich.markup import escape
 from rich.table import Table
 
+from ..outputs import FIGURE_SUFFIXES, OutputSet
 from ._common import cli, console, echo_json, finite_or_none
 
 PAPER_KX = {"cosc": 30.0, "dosc": 140.0}
@@ -34,23 +33,15 @@ def comparison_json(comp) -> dict[str, Any]:
     return out
 
 
-def _save_plot(comp, path: Path) -> None:
-    """PNG/SVG/PDF of the comparison, or an animated GIF; atomic."""
-    from ..plots import base_animation, base_tracking_figure, save_figure
+def _save_plot(comp, outs: OutputSet, path: Path) -> None:
+    """PNG/SVG/PDF of the comparison, or an animated GIF, into the output set."""
+    from ..plots import base_animation, base_tracking_figure
 
-    path = Path(path)
     if path.suffix.lower() != ".gif":
-        save_figure(base_tracking_figure(comp, PAPER_KX), path, dpi=110)
-        return
-    path.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(prefix=f".{path.stem}.", suffix=path.suffix, dir=path.parent)
-    os.close(fd)
-    try:
-        base_animation(comp, tmp)
-        os.replace(tmp, path)
-    except BaseException:
-        Path(tmp).unlink(missing_ok=True)
-        raise
+        outs.figure(path, base_tracking_figure(comp, PAPER_KX), dpi=110)
+    else:
+        outs.write_with(path, lambda tmp: base_animation(comp, tmp))
+    outs.commit()
 
 
 @cli.command()
@@ -63,7 +54,7 @@ def _save_plot(comp, path: Path) -> None:
               help="Radius of the tracked circle [m] (default 0.5).")
 @click.option("--circle-period", type=float, default=None,
               help="Period of the tracked circle [s] (default 8).")
-@click.option("--plot", "plot", type=click.Path(dir_okay=False), default=None,
+@click.option("--plot", "plot", default=None, metavar="FILE.png|.svg|.pdf|.gif",
               help="Write the figure (circle, errors, gain search) to FILE; a .gif suffix "
                    "writes an animation of the bases tracking the circle.")
 @click.option("--json", "as_json", is_flag=True, help="Print machine-readable JSON.")
@@ -83,6 +74,14 @@ def base(arch: str, extra_delay: float | None, circle_radius: float | None,
     Example:
       seactl base --arch both --plot base.png
     """
+    with OutputSet() as outs:
+        _base(arch, extra_delay, circle_radius, circle_period, outs,
+              outs.add("--plot", plot, (*FIGURE_SUFFIXES, ".gif")), as_json)
+
+
+def _base(arch: str, extra_delay: float | None, circle_radius: float | None,
+          circle_period: float | None, outs: OutputSet, plot: Path | None,
+          as_json: bool) -> None:
     from .. import mobile_base as mb
     from .._validate import finite_array
     from ..errors import InputError
@@ -96,8 +95,8 @@ def base(arch: str, extra_delay: float | None, circle_radius: float | None,
         changes["extra_delay"] = extra_delay * 1e-3
     if circle_radius is not None:
         finite_array("--circle-radius [m]", circle_radius, minimum=0.0, strict=True)
-        if circle_radius > 20:
-            raise InputError("--circle-radius", circle_radius, "> 0 and <= 20 [m]")
+        if not 1e-3 <= circle_radius <= 20:
+            raise InputError("--circle-radius", circle_radius, ">= 0.001 and <= 20 [m]")
         changes["circle_radius"] = circle_radius
     if circle_period is not None:
         finite_array("--circle-period [s]", circle_period, minimum=0.0, strict=True)
@@ -109,7 +108,7 @@ def base(arch: str, extra_delay: float | None, circle_radius: float | None,
     archs = mb.ARCHS if arch == "both" else (arch,)
     comp = mb.tune(p, archs)
     if plot:
-        _save_plot(comp, Path(plot))
+        _save_plot(comp, outs, plot)
     if as_json:
         echo_json(comparison_json(comp))
         return

@@ -11,8 +11,9 @@ import numpy as np
 from rich.markup import escape
 from rich.table import Table
 
+from ..axes import AXES
 from ..errors import InputError
-from ..plots import save_figure
+from ..outputs import CSV_SUFFIXES, FIGURE_SUFFIXES, OutputSet
 from ._common import (
     VARIADIC,
     cli,
@@ -23,36 +24,33 @@ from ._common import (
     parse_values,
     pm_text,
 )
+from .loops import loop_options, loop_place
 
 VARIADIC.update({"--fn-rigid", "--fn-sea"})
 
-_FIG_SUFFIXES = (".png", ".svg", ".pdf")
-
-
 def _ms(name: str, value: float) -> float:
-    from .._validate import finite_array
+    from ..limits import check_range
 
-    return float(finite_array(f"{name} [ms]", value, minimum=0.0)) * 1e-3
+    return check_range(f"{name} [ms]", value, "delay_ms") * 1e-3
 
 
 def _f_v(value: float | None) -> float | None:
     """``--f-v``: cut-off [Hz] > 0; ``inf`` or ``none`` means no filter."""
     if value is None or str(value).lower() in ("none", "inf"):
         return None
-    from .._validate import finite_array
+    from ..limits import check_range
 
     try:
         v = float(value)
     except ValueError:
         raise InputError("--f-v [Hz]", value, "a cut-off > 0 [Hz] or 'none'") from None
-    return float(finite_array("--f-v [Hz]", v, minimum=0.0, strict=True))
+    return check_range("--f-v [Hz]", v, "filter_hz")
 
 
 def load_model(spec: str, f_v: float | None = 50.0):
     """A :class:`~seactl.latency.LoopModel` from a preset (``ut-linear``, ``ut-sea``) or a
     TOML file (a rigid actuator has a ``mass`` key, an SEA a ``motor_inertia`` key)."""
-    import tomllib
-
+    from .._params import read_toml
     from ..actuators import SEA_PRESETS, load_sea
     from ..latency import rigid_model, sea_model
     from ..rigid import RIGID_PRESETS, load_rigid
@@ -64,21 +62,13 @@ def load_model(spec: str, f_v: float | None = 50.0):
         return sea_model(load_sea(key), f_qd=f_v)
     path = Path(spec)
     if path.suffix == ".toml" and path.is_file():
-        try:
-            data = tomllib.loads(path.read_text())
-        except tomllib.TOMLDecodeError as exc:
-            raise InputError("--actuator", spec, f"valid TOML ({exc})") from None
+        data = read_toml("--actuator", spec, "a preset")
         table = data.get("actuator", data) if isinstance(data.get("actuator"), dict) else data
         if "mass" in table:
             return rigid_model(load_rigid(path), f_v=f_v)
         return sea_model(load_sea(path), f_qd=f_v)
     raise InputError("--actuator", spec, "a preset (" + ", ".join([*RIGID_PRESETS, *SEA_PRESETS])
                      + ") or an existing .toml file")
-
-
-def _check_plot(path: str | None) -> None:
-    if path is not None and Path(path).suffix.lower() not in _FIG_SUFFIXES:
-        raise InputError("--plot", path, "a file name ending in " + ", ".join(_FIG_SUFFIXES))
 
 
 def _fmt(x: float | None, spec: str) -> str:
@@ -125,6 +115,16 @@ def rigid(fn, t_s, t_d, f_v, actuator, no_passive_damping, step, as_json) -> Non
     from .._validate import finite_array
 
     finite_array("--fn [Hz]", fn_hz, minimum=0.0, strict=True)
+    from ..limits import check_range
+
+    for f in (fn_hz.min(), fn_hz.max()):
+        check_range("--fn [Hz]", f, "fn_hz")
+    from ..limits import BYTES_PER_DESIGN, check_budget, simulation_estimate
+
+    sim_bytes, sim_s = simulation_estimate(fn_hz.size, 1000, 1000) if step else (0.0, 0.0)
+    check_budget(f"{fn_hz.size:,} rigid design(s)" + (" and their 1 s steps" if step else ""),
+                 n_bytes=fn_hz.size * BYTES_PER_DESIGN + sim_bytes, seconds=sim_s,
+                 hint="give fewer --fn values" + (" or --no-step" if step else ""))
     ts, td = _ms("--t-s", t_s), _ms("--t-d", t_d)
     model = rigid_model(a, f_v=fv, passive_damping=not no_passive_damping)
     d = model.design(fn_hz, ts, td)
@@ -219,24 +219,38 @@ def latency_map_cmd(actuators, fn_rigid, fn_sea, t_max, t_min, n, max_fn, f_v, p
     The SEA torque loop keeps T_tau = 0.5 ms and f_taud = 100 Hz. The sensitivity
     ratio is (dPM/dT_d)/(dPM/dT_s) at the smallest delays (T_s = T_d = --t-min).
     """
+    with OutputSet() as outs:
+        plot_p = outs.add("--plot", plot, FIGURE_SUFFIXES)
+        csv_p = outs.add("--csv", csv, CSV_SUFFIXES)
+        _latency_map(actuators, fn_rigid, fn_sea, t_max, t_min, n, max_fn, f_v, outs, plot_p,
+                     csv_p, as_json)
+
+
+def _latency_map(actuators, fn_rigid, fn_sea, t_max, t_min, n, max_fn, f_v, outs, plot, csv,
+                 as_json) -> None:
     from ..latency import latency_map, max_stable_fn, pm_sensitivity
 
-    _check_plot(plot)
     tmin, tmax = _ms("--t-min", t_min), _ms("--t-max", t_max)
     if tmax <= tmin:
         raise InputError("--t-max [ms]", t_max, f"> --t-min ({t_min:g} ms)")
     fv = _f_v(f_v)
     grid = np.linspace(tmin, tmax, n)
     maps, maxfns, summary, csv_rows = [], [], [], []
+    jobs = []
     for spec in actuators:
         model = load_model(spec, fv)
-        fns = parse_values("--fn-rigid" if model.kind == "rigid" else "--fn-sea",
-                           fn_rigid if model.kind == "rigid" else fn_sea)
+        flag = "--fn-rigid" if model.kind == "rigid" else "--fn-sea"
+        fns = parse_values(flag, fn_rigid if model.kind == "rigid" else fn_sea)
+        if fns.size == 0:
+            raise InputError(flag, "", "at least one frequency")
+        jobs.append((model, AXES["fn_hz"].check(fns, f"{flag} [Hz]")))
+    _check_latency_budget(jobs, n, max_fn)
+    for model, fns in jobs:
+        mf = max_stable_fn(model, grid[:, None], grid[None, :]) if max_fn else None
         for f in fns:
             mp = latency_map(model, float(f), grid, grid)
             sens = pm_sensitivity(model, float(f), tmin, tmin)
             dm = model.delay_margins(model.design(float(f), tmin, tmin))
-            mf = max_stable_fn(model, grid[:, None], grid[None, :]) if max_fn else None
             maps.append(mp)
             if mf is not None:
                 maxfns.append((grid, grid, mf))
@@ -264,8 +278,6 @@ def latency_map_cmd(actuators, fn_rigid, fn_sea, t_max, t_min, n, max_fn, f_v, p
                         row.append(str(mf.status[i, j]))
                     csv_rows.append(row)
     if csv:
-        from ..report import write_atomic
-
         head = ["actuator", "fn_hz", "T_s_ms", "T_d_ms", "phase_margin_deg", "stable"]
         if max_fn:
             head += ["max_stable_fn_hz", "max_fn_status"]
@@ -275,13 +287,14 @@ def latency_map_cmd(actuators, fn_rigid, fn_sea, t_max, t_min, n, max_fn, f_v, p
             buf.write(",".join("none" if x is None else
                                (f"{x:.10g}" if isinstance(x, float) else str(x)) for x in r)
                       + "\n")
-        write_atomic(Path(csv), buf.getvalue())
+        outs.write(csv, buf.getvalue())
     if plot:
         from ..plots import latency_map_figure
 
-        save_figure(latency_map_figure(maps, maxfns or None), plot)
+        outs.figure(plot, latency_map_figure(maps, maxfns or None))
+    outs.commit()
     if as_json:
-        echo_json({"maps": summary, "csv": csv, "plot": plot})
+        echo_json({"maps": summary, "csv": csv and str(csv), "plot": plot and str(plot)})
         return
     t = Table(title=f"Latency maps: {n} x {n} grid, delays {t_min:g}..{t_max:g} ms on each loop")
     for c in ("actuator", "f_n [Hz]", "stable [%]", "PM min delays", "PM max T_s",
@@ -304,11 +317,30 @@ def latency_map_cmd(actuators, fn_rigid, fn_sea, t_max, t_min, n, max_fn, f_v, p
                   "DM: extra latency each loop alone tolerates at the smallest delays.")
     for what, path in (("plot", plot), ("csv", csv)):
         if path:
-            console.print(f"{what}: {escape(path)}")
+            console.print(f"{what}: {escape(str(path))}")
+
+
+MAP_POINT_BYTES, MAP_POINT_S = 8e3, 1e-4
+"""Memory and time per grid point of a phase-margin map (measured: 6 kB, 0.1 ms)."""
+MAXFN_POINT_BYTES, MAXFN_POINT_S = 160e3, 3e-3
+"""... and of the highest-stable-f_n map (measured: 150 kB, 1.5-3.4 ms)."""
+
+
+def _check_latency_budget(jobs, n: int, max_fn: bool) -> None:
+    from ..limits import check_budget
+
+    maps = sum(len(fns) for _, fns in jobs)
+    points = n * n
+    check_budget(f"{maps:,} latency map(s) of {n} x {n} points" + (" with --max-fn" if max_fn
+                                                                     else ""),
+                 n_bytes=points * (MAXFN_POINT_BYTES if max_fn else MAP_POINT_BYTES),
+                 seconds=points * (maps * MAP_POINT_S + (len(jobs) * MAXFN_POINT_S
+                                                         if max_fn else 0.0)),
+                 hint="lower --n or give fewer --fn-rigid / --fn-sea values")
 
 
 # ---------------------------------------------------------------------------- seactl place
-def advice_json(a) -> dict[str, Any]:
+def advice_json(a, checks: dict[str, Any] | None = None) -> dict[str, Any]:
     def opt(o):
         return {"placement": o.placement, "stiffness_delay_ms": o.T_s * 1e3,
                 "damping_delay_ms": o.T_d * 1e3,
@@ -323,7 +355,13 @@ def advice_json(a) -> dict[str, Any]:
                 "stiffness_delay_margin_ms": None if o.stiffness_dm_s is None
                 else finite_or_none(o.stiffness_dm_s * 1e3),
                 "damping_delay_margin_ms": None if o.damping_dm_s is None
-                else finite_or_none(o.damping_dm_s * 1e3)}
+                else finite_or_none(o.damping_dm_s * 1e3),
+                **({} if o.jitter_s is None else {
+                    "jitter_ms": {k: v * 1e3 for k, v in o.jitter_s.items()},
+                    "jitter_margin_ms": None if o.jitter_margin_s is None else
+                    {k: finite_or_none(v * 1e3) for k, v in o.jitter_margin_s.items()},
+                    "bottleneck": o.bottleneck,
+                    "monte_carlo": (checks or {}).get(o.placement)})}
 
     return {"actuator": a.actuator, "kind": a.kind, "high_latency_ms": a.high_latency_s * 1e3,
             "low_latency_ms": a.low_latency_s * 1e3, "min_pm_deg": a.min_pm_deg,
@@ -337,10 +375,12 @@ def advice_json(a) -> dict[str, Any]:
 
 
 @cli.command()
-@click.option("--high-latency", type=float, default=22.0, show_default=True,
-              help="Feedback latency of the high-level (centralized) process [ms].")
-@click.option("--low-latency", type=float, default=0.5, show_default=True,
-              help="Feedback latency of the embedded process [ms].")
+@click.option("--high-latency", type=float, default=None,
+              help="Feedback latency of the high-level (centralized) process [ms] "
+                   "(default 22, or the minimum of --high-timing).")
+@click.option("--low-latency", type=float, default=None,
+              help="Feedback latency of the embedded process [ms] (default 0.5, or the "
+                   "minimum of --low-timing).")
 @click.option("--actuator", default="ut-linear", show_default=True,
               help="Preset (ut-linear, ut-sea) or TOML file.")
 @click.option("--min-pm", type=float, default=45.0, show_default=True,
@@ -350,36 +390,108 @@ def advice_json(a) -> dict[str, Any]:
 @click.option("--stiffness-embeddable", is_flag=True,
               help="Allow the stiffness loop on the embedded process (default: it needs the "
                    "high-level process; 'embedded' is then only the upper bound).")
+@click.option("--high-timing", default=None, metavar="MODEL",
+              help="Latency distribution of the high-level process [ms]: uniform:LOW:HIGH, "
+                   "exp:SHIFT:MEAN, hist:TRACE.csv, or a constant.")
+@click.option("--low-timing", default=None, metavar="MODEL",
+              help="Latency distribution of the embedded process [ms] (as --high-timing).")
+@click.option("--high-loss", default=None, metavar="P",
+              help="Message loss of the high-level process: P or ge:P_GB:P_BG[:BAD[:GOOD]].")
+@click.option("--low-loss", default=None, metavar="P",
+              help="Message loss of the embedded process (as --high-loss).")
+@click.option("--rate", "rate_hz", type=float, default=1000.0, show_default=True,
+              help="Servo rate of both processes [Hz] (loss bursts age the held value).")
+@click.option("--runs", type=click.IntRange(0, 100_000), default=200, show_default=True,
+              help="Monte Carlo check of each placement with timing (0: none).")
+@click.option("--seed", type=int, default=0, show_default=True, help="Monte Carlo seed.")
 @json_option
+@loop_options
 def place(high_latency, low_latency, actuator, min_pm, f_v, stiffness_embeddable,
-          as_json) -> None:
+          high_timing, low_timing, high_loss, low_loss, rate_hz, runs, seed,
+          as_json, loop) -> None:
     """Which process should run the stiffness and damping loops?
 
     \b
     Example (the mobile base: 7 ms + 15 ms centralized, 0.5 ms embedded):
       seactl place --high-latency 22 --low-latency 0.5
+    With jitter and loss (a measured trace for the high-level process):
+      seactl place --high-timing hist:trace.csv --low-timing uniform:0.5:1 --low-loss 0.01
 
     For each placement (centralized: all loops high-level; distributed: stiffness
     high-level, damping embedded; embedded: all embedded) it finds the highest
     critically-damped f_n whose loop is stable with PM >= --min-pm (and every
-    lower f_n too), and recommends the best allowed placement.
+    lower f_n too), and recommends the best allowed placement.  With a timing
+    spec, every loop's jitter margin must also cover its process's jitter; the
+    tightest constraint is the bottleneck, and a Monte Carlo simulation checks
+    each placement with the full latency distributions and losses.
     """
     from ..placement import advise
 
-    hi, lo = _ms("--high-latency", high_latency), _ms("--low-latency", low_latency)
+    if loop is not None:
+        return loop_place(loop, as_json)
+    timing = _process_timing(high_timing, low_timing, high_loss, low_loss, rate_hz)
+    hi = _ms("--high-latency", 22.0 if high_latency is None else high_latency)
+    lo = _ms("--low-latency", 0.5 if low_latency is None else low_latency)
     if not 0 <= min_pm < 180:
         raise InputError("--min-pm [deg]", min_pm, ">= 0 and < 180")
     model = load_model(actuator, _f_v(f_v))
-    a = advise(model, hi, lo, min_pm_deg=min_pm, stiffness_embeddable=stiffness_embeddable)
+    a = advise(model, hi, lo, min_pm_deg=min_pm, stiffness_embeddable=stiffness_embeddable,
+               timing=timing)
+    checks = _monte_carlo_checks(model, a, timing, runs, seed)
     if as_json:
-        echo_json(advice_json(a))
+        echo_json(advice_json(a, checks))
         return
-    t = Table(title=f"Loop placement for '{escape(a.actuator)}': high-level "
-              f"{high_latency:g} ms, embedded {low_latency:g} ms, PM >= {min_pm:g} deg")
+    _print_advice(a, checks)
+
+
+def _process_timing(high_timing, low_timing, high_loss, low_loss, rate_hz):
+    """``{"high-level": ProcessTiming, "embedded": ...}`` from the options, or None."""
+    from ..placement import ProcessTiming
+    from ..timing_models import parse_latency, parse_loss
+
+    if not (rate_hz > 0 and np.isfinite(rate_hz)):
+        raise InputError("--rate [Hz]", rate_hz, "a finite rate > 0")
+    out = {}
+    for proc, lat, loss, opt in (("high-level", high_timing, high_loss, "--high"),
+                                 ("embedded", low_timing, low_loss, "--low")):
+        if lat is None and loss is None:
+            continue
+        model = parse_latency(lat, f"{opt}-timing") if lat is not None else None
+        if model is None:
+            raise InputError(f"{opt}-timing", None, f"a latency model with {opt}-loss")
+        out[proc] = ProcessTiming(model, parse_loss(loss, f"{opt}-loss")
+                                  if loss is not None else None, rate_hz)
+    return out or None
+
+
+def _monte_carlo_checks(model, advice, timing, runs, seed) -> dict[str, Any]:
+    if not timing or runs == 0:
+        return {}
+    from ..timing import verify_placement
+
+    out = {}
+    for o in advice.options:
+        mc = verify_placement(model, o, timing, runs=runs, seed=seed)
+        if mc is not None:
+            out[o.placement] = {"runs": runs, "seed": seed,
+                                "fraction_stable": float(mc.fraction_stable),
+                                "rms_error_mean": finite_or_none(mc.rms_error_mean),
+                                "rms_error_worst": finite_or_none(mc.rms_error_worst)}
+    return out
+
+
+def _print_advice(a, checks: dict[str, Any]) -> None:
+    t = Table(title=escape(f"Loop placement for '{a.actuator}': high-level "
+                           f"{a.high_latency_s * 1e3:g} ms, embedded {a.low_latency_s * 1e3:g} "
+                           f"ms, PM >= {a.min_pm_deg:g} deg"
+                           + (" (+ jitter)" if a.timing else "")))
     gnames = list(next((o.gains for o in a.options if o.gains), {}))
-    for c in ["placement", "T_s [ms]", "T_d [ms]"] + (["T_tau [ms]"] if a.kind == "sea" else []) \
-            + ["max f_n [Hz]"] + gnames + [f"stiffness [{a.stiffness_unit}]", "PM [deg]",
-                                            "DM stiff. [ms]", "DM damp. [ms]"]:
+    cols = ["placement", "T_s [ms]", "T_d [ms]"] + (["T_tau [ms]"] if a.kind == "sea" else []) \
+        + ["max f_n [Hz]"] + gnames + [f"stiffness [{a.stiffness_unit}]", "PM [deg]",
+                                        "DM stiff. [ms]", "DM damp. [ms]"]
+    if a.timing:
+        cols += ["bottleneck", "MC stable"]
+    for c in cols:
         t.add_column(escape(c), justify="right" if c != "placement" else "left")
     for o in a.options:
         mark = " *" if o.placement == a.recommended else ""
@@ -392,6 +504,10 @@ def place(high_latency, low_latency, actuator, min_pm, f_v, stiffness_embeddable
         cells += [_fmt(o.static_stiffness, ".4g"), _fmt(o.phase_margin_deg, ".1f"),
                   _fmt(None if o.stiffness_dm_s is None else o.stiffness_dm_s * 1e3, ".2f"),
                   _fmt(None if o.damping_dm_s is None else o.damping_dm_s * 1e3, ".2f")]
+        if a.timing:
+            mc = checks.get(o.placement)
+            cells += [o.bottleneck or "-",
+                      "-" if mc is None else f"{100 * mc['fraction_stable']:.1f}%"]
         t.add_row(*cells)
     console.print(t)
     console.print(escape(a.reason))

@@ -12,9 +12,23 @@ simulated in one vectorized batch) and::
     --saturation A              motor current limit (sampled mode; default: the actuator's,
                                 'none' for no limit)
     --plot FILE, --csv FILE, --json
+    --latency LINK=MODEL        random latency of a link (stiffness, damping, torque) in ms:
+                                2, uniform:LOW:HIGH, exp:SHIFT:MEAN, hist:FILE.csv
+    --loss LINK=P               message loss: a probability, or ge:P_GB:P_BG[:BAD[:GOOD]]
+    --runs N, --seed S          Monte Carlo over N timing realizations (sampled mode)
 
-JSON for one design: ``{"mode", "t_s", "position", "stable", "metrics", ...}``; for several
-designs: ``{"mode", "t_s", "runs": [{"fn_hz", "gs", "position", "stable", "metrics", ...}]}``.
+With --latency, --loss or --runs the command runs a Monte Carlo (seactl.timing) and prints
+per design the fraction of stable runs, the RMS tracking error (mean and worst of the
+stable runs), the largest current and the worst run; JSON ``{"mode", "runs", "seed",
+"latency", "loss", "designs": [{"fn_hz", "gs", "fraction_stable", "rms_error_mean",
+"rms_error_worst", "peak_current_worst_a", "worst_run"}]}``.
+
+JSON for one design: ``{"mode", "t_s", "position", "stable", "verdict", "evidence",
+"metrics", "warnings", ...}``; for several designs: ``{"mode", "t_s", "warnings", "runs":
+[{"fn_hz", "gs", "position", "stable", "verdict", "evidence", "warnings", "metrics", ...}]}``.
+``verdict`` is one of settled, not settled, unstable, limit cycle, saturated
+(:mod:`seactl.verdict`); ``stable`` is false for unstable and limit cycle.  The top-level
+``warnings`` are the lines the table prints after ``warning:``.
 Metrics that do not exist (unstable response, never settled) are ``null``.
 """
 
@@ -33,9 +47,18 @@ import numpy as np
 from rich.markup import escape
 from rich.table import Table
 
+from .. import limits
 from ..errors import InputError
-from ..report import write_atomic
+from ..limits import check_range
+from ..outputs import CSV_SUFFIXES, FIGURE_SUFFIXES, OutputSet
+from ..verdict import judge_response
 from ._common import DesignSpec, cli, console, design_options, echo_json, finite_or_none
+from .loops import loop_options, loop_response
+
+STEP_BAND = 0.02
+"""Settling band of a step (2 % of the step), as in the settling-time metric."""
+BAD = ("unstable", "limit cycle")
+"""Verdicts under which a response is not called stable."""
 
 
 def _parse_saturation(value: str | None) -> float | None:
@@ -50,6 +73,76 @@ def _parse_saturation(value: str | None) -> float | None:
     if not (sat > 0) or math.isnan(sat):
         raise InputError("--saturation [A]", value, "a current > 0 or 'none'")
     return sat
+
+
+def _timing_options(mode: str, latency: tuple[str, ...], loss: tuple[str, ...],
+                    runs: int | None, seed: int) -> dict[str, Any] | None:
+    """Monte Carlo options, or None when none is given."""
+    from ..timing_models import parse_latency, parse_link_specs, parse_loss
+
+    if not latency and not loss and runs is None:
+        return None
+    if mode != "sampled":
+        raise InputError("--mode", mode, "'sampled' with --latency, --loss or --runs")
+    if runs is not None and not 1 <= runs <= 100_000:
+        raise InputError("--runs", runs, "an integer in [1, 100000]")
+    return {"latency": parse_link_specs(latency, parse_latency, "--latency"),
+            "loss": parse_link_specs(loss, parse_loss, "--loss"),
+            "runs": 100 if runs is None else runs, "seed": seed,
+            "text": {"latency": dict(x.split("=", 1) for x in latency),
+                     "loss": dict(x.split("=", 1) for x in loss)}}
+
+
+def _monte_carlo(spec: DesignSpec, kind: str, timing: dict[str, Any], outs: OutputSet,
+                 plot: Path | None, csv_path: Path | None, as_json: bool, title: str,
+                 **kwargs: Any) -> None:
+    """Run and print a Monte Carlo over timing realizations (``seactl.timing``)."""
+    from ..errors import InputError as _IE
+    from ..timing import sea_monte_carlo
+
+    if csv_path:
+        raise _IE("--csv", csv_path, "not used with --latency/--loss/--runs (use --json)")
+    try:
+        mc = sea_monte_carlo(spec.designs(), kind, latency=timing["latency"],
+                             loss=timing["loss"], runs=timing["runs"], seed=timing["seed"],
+                             **kwargs)
+    except _IE as exc:
+        if exc.field == "link":
+            raise _IE("--latency/--loss link", exc.value, exc.valid) from None
+        raise
+    rows = [{"fn_hz": f, "gs": g, **r} for (f, g), r in zip(_labels(spec), mc.records())]
+    if plot:
+        from ..plots import response_figure
+
+        pos = mc.result.outputs["q_j"].reshape(mc.runs, len(rows), -1)[:50, 0]
+        norm = kwargs.get("amplitude", 1.0) if kind == "step" else 1.0
+        fig = response_figure(mc.result.t_s, pos / norm, [f"run {i}" for i in range(len(pos))],
+                              title=title, ylabel="joint position" + (" / step" if kind ==
+                                                                      "step" else " [rad]"),
+                              unstable=[not s for s in mc.stable.reshape(mc.runs, -1)[:50, 0]])
+        outs.figure(plot, fig, dpi=110)
+    outs.commit()
+    if as_json:
+        echo_json({"mode": "sampled", "kind": kind, "runs": mc.runs, "seed": timing["seed"],
+                   **timing["text"], "designs": rows})
+        return
+    tab = Table(title=escape(f"{title}: {mc.runs} timing realizations, seed {timing['seed']}"))
+    for c in ("f_n [Hz]", "GS", "stable runs", "RMS error mean", "RMS error worst",
+              "peak |i_m| [A]", "worst run"):
+        tab.add_column(escape(c), justify="right")
+    for r in rows:
+        def fmt(x, spec=".3g"):
+            return "none" if x is None else format(x, spec)
+        tab.add_row(f"{r['fn_hz']:g}", f"{r['gs']:g}", f"{100 * r['fraction_stable']:.1f}%",
+                    fmt(r["rms_error_mean"]), fmt(r["rms_error_worst"]),
+                    fmt(r["peak_current_worst_a"], ".2f"), str(r["worst_run"]))
+    console.print(tab)
+    console.print(escape("RMS error: " + ("q_j/step - 1" if kind == "step" else "q_j [rad]")
+                         + " over the window, stable runs only; links: " + ", ".join(
+                             f"{k} latency {v} ms" for k, v in timing["text"]["latency"].items())
+                         + (" " if timing["text"]["loss"] else "") + ", ".join(
+                             f"{k} loss {v}" for k, v in timing["text"]["loss"].items())),
+                  highlight=False)
 
 
 def sim_options(func: Callable) -> Callable:
@@ -67,28 +160,53 @@ def sim_options(func: Callable) -> Callable:
         click.option("--saturation", default=None,
                      help="Motor current limit [A] in sampled mode (default: the actuator's "
                           "max_current; 'none': no limit)."),
-        click.option("--plot", "plot", type=click.Path(dir_okay=False), default=None,
-                     help="Write a PNG of the responses."),
-        click.option("--csv", "csv_path", type=click.Path(dir_okay=False), default=None,
+        click.option("--plot", "plot", default=None, metavar="FILE.png|.svg|.pdf",
+                     help="Write a figure of the responses (format from the suffix)."),
+        click.option("--csv", "csv_path", default=None, metavar="FILE.csv",
                      help="Write the responses as CSV (t_s, one column per design)."),
         click.option("--json", "as_json", is_flag=True, help="Print JSON instead of a table."),
+        click.option("--latency", "latency", multiple=True, metavar="LINK=MODEL",
+                     help="Random latency [ms] of a link (stiffness, damping, torque): 2, "
+                          "uniform:LOW:HIGH, exp:SHIFT:MEAN or hist:FILE.csv (sampled mode)."),
+        click.option("--loss", "loss", multiple=True, metavar="LINK=P",
+                     help="Message loss of a link: a probability or ge:P_GB:P_BG[:BAD[:GOOD]] "
+                          "(Gilbert-Elliott); the receiver holds the last value."),
+        click.option("--runs", type=int, default=None,
+                     help="Monte Carlo realizations per design (default 100 with --latency "
+                          "or --loss)."),
+        click.option("--seed", type=int, default=0, show_default=True,
+                     help="Seed of the Monte Carlo."),
     ]
 
     @functools.wraps(func)
-    def wrapper(*args, mode, rate_hz, no_zero, t_end, saturation, **kwargs):
-        if not (math.isfinite(rate_hz) and rate_hz > 0):
-            raise InputError("--rate [Hz]", rate_hz, "a finite rate > 0")
-        if t_end is not None and not (math.isfinite(t_end) and 0 < t_end <= 60):
-            raise InputError("--t-end [s]", t_end, "> 0 and <= 60")
+    def wrapper(*args, mode, rate_hz, no_zero, t_end, saturation, plot, csv_path, latency,
+                loss, runs, seed, **kwargs):
+        check_range("--rate [Hz]", rate_hz, "rate_hz")
+        if t_end is not None:
+            check_range("--t-end [s]", t_end, "t_end_s")
         sat = _parse_saturation(saturation)
         if sat is not None and mode != "sampled":
             raise InputError("--saturation", saturation, "used with --mode sampled only")
-        return func(*args, mode=mode, rate_hz=rate_hz, zero=not no_zero, t_end=t_end,
-                    saturation=sat, **kwargs)
+        timing = _timing_options(mode, latency, loss, runs, seed)
+        with OutputSet() as outs:
+            plot_p = outs.add("--plot", plot, FIGURE_SUFFIXES)
+            csv_p = outs.add("--csv", csv_path, CSV_SUFFIXES)
+            return func(*args, mode=mode, rate_hz=rate_hz, zero=not no_zero, t_end=t_end,
+                        saturation=sat, outs=outs, plot=plot_p, csv_path=csv_p,
+                        timing=timing, **kwargs)
 
     for opt in reversed(opts):
         wrapper = opt(wrapper)
     return wrapper
+
+
+def check_simulation(spec: DesignSpec, mode: str, rate_hz: float, t_end_s: float) -> None:
+    """Enough samples to judge the response, and memory and time within the machine's."""
+    limits.check_simulation(
+        spec.fn_hz.size * spec.gs.size, mode, rate_hz, t_end_s,
+        [d * 1e-3 for d in (spec.t_tau_ms, spec.t_qs_ms, spec.t_qd_ms)],
+        record_dt_s=limits.RECORD_DT_S, rate_name="--rate [Hz]", t_end_name="--t-end [s]",
+        hint="shorten --t-end, lower --rate, or give fewer designs")
 
 
 def _labels(spec: DesignSpec) -> list[tuple[float, float]]:
@@ -111,9 +229,9 @@ def _metrics_json(m: Any, i: int) -> dict[str, Any]:
 
 
 def _output(spec: DesignSpec, resp: Any, mode: str, zero: bool, extra: dict[str, Any],
-            plot: str | None, csv_path: str | None, as_json: bool, title: str,
-            ylabel: str) -> None:
-    from ..plots import response_figure, save_figure
+            outs: OutputSet, plot: Path | None, csv_path: Path | None, as_json: bool,
+            title: str, ylabel: str) -> None:
+    from ..plots import response_figure
 
     res, m = resp.result, resp.metrics
     labels = _labels(spec)
@@ -129,29 +247,37 @@ def _output(spec: DesignSpec, resp: Any, mode: str, zero: bool, extra: dict[str,
         w.writerow(["t_s"] + names)
         for k in range(t.size):
             w.writerow([f"{t[k]:.9g}"] + [f"{pos[i, k]:.9g}" for i in range(len(labels))])
-        write_atomic(Path(csv_path), buf.getvalue())
+        outs.write(csv_path, buf.getvalue())
     if plot:
         fig = response_figure(t, pos, names, title=title, ylabel=ylabel,
                               current=cur if mode == "sampled" else None,
                               unstable=[not s for s in stable])
-        save_figure(fig, plot, dpi=110)
+        outs.figure(plot, fig, dpi=110)
+    outs.commit()
+    verdict = judge_response(resp, STEP_BAND if resp.kind == "step" else m.band)
     runs = []
     for i, (f, g) in enumerate(labels):
         runs.append({"fn_hz": f, "gs": g, "position": [round(float(x), 9) for x in pos[i]],
-                     "stable": bool(stable[i]), "left_bounds_s": finite_or_none(left[i]),
+                     "stable": bool(stable[i]) and verdict.verdict[i] not in BAD,
+                     "verdict": verdict.verdict[i], "evidence": verdict.evidence(i),
+                     "warnings": verdict.warnings[i],
+                     "left_bounds_s": finite_or_none(left[i]),
                      "peak_current_a": finite_or_none(np.max(np.abs(cur[i]))),
                      "metrics": _metrics_json(m, i)})
-    common = {"mode": mode, "zero": zero, **extra}
+    warnings = [f"f_n={r['fn_hz']:g} Hz, GS={r['gs']:g}: {w}" for r in runs
+                for w in r["warnings"]] + _notes(spec, mode, extra)
+    common = {"mode": mode, "zero": zero, **extra, "warnings": warnings}
     if as_json:
         t_list = [round(float(x), 9) for x in t]
         if len(runs) == 1:
-            echo_json({**common, "t_s": t_list, **runs[0]})
+            one = {k: v for k, v in runs[0].items() if k != "warnings"}
+            echo_json({**common, "t_s": t_list, **one})
         else:
             echo_json({**common, "t_s": t_list, "runs": runs})
         return
     tab = Table(title=escape(title))
     step = resp.kind == "step"
-    cols = ["f_n [Hz]", "GS", "stable"] + (
+    cols = ["f_n [Hz]", "GS", "verdict"] + (
         ["rise [ms]", "overshoot [%]", "settling 2% [ms]", "ss error"] if step else
         ["peak [deg]", "peak at [ms]", f"recovery {m.band:.0%} [ms]"]) + ["peak |i_m| [A]"]
     for c in cols:
@@ -162,9 +288,7 @@ def _output(spec: DesignSpec, resp: Any, mode: str, zero: bool, extra: dict[str,
 
     for r in runs:
         mt = r["metrics"]
-        st = "yes" if r["stable"] else (
-            f"[red]NO[/red] (left bounds at {r['left_bounds_s']:.3f} s)"
-            if r["left_bounds_s"] is not None else "[red]NO[/red] (not decaying)")
+        st = r["verdict"] if r["verdict"] == "settled" else f"[red]{r['verdict']}[/red]"
         vals = ([ms(mt["rise_time_s"]), "none" if mt["overshoot_pct"] is None else
                  f"{mt['overshoot_pct']:.2f}", ms(mt["settling_time_s"]),
                  "none" if mt["steady_state_error"] is None else
@@ -178,18 +302,27 @@ def _output(spec: DesignSpec, resp: Any, mode: str, zero: bool, extra: dict[str,
     if eff:
         console.print(escape("effective delays [ms]: " + ", ".join(
             f"{k} {v:g}" for k, v in eff.items())), highlight=False)
+    for w in warnings:
+        console.print(escape(f"warning: {w}"), highlight=False)
+
+
+def _notes(spec: DesignSpec, mode: str, extra: dict[str, Any]) -> list[str]:
+    """Warnings that apply to the whole command (printed and in JSON alike)."""
+    notes = []
+    eff = extra.get("effective_delays_ms", {})
     if mode == "sampled" and (spec.f_qd_hz is None or spec.f_taud_hz is None):
-        console.print("note: an unfiltered derivative discretized with Tustin rings at the "
-                      "Nyquist frequency (pole at z = -1); give --f-qd and --f-taud for a "
-                      "realistic sampled controller", highlight=False)
+        notes.append("an unfiltered derivative discretized with Tustin rings at the Nyquist "
+                     "frequency (pole at z = -1); give --f-qd and --f-taud for a realistic "
+                     "sampled controller")
     if mode == "sampled" and eff:
         asked = {"Kq_fb": spec.t_qs_ms, "Bq_fb": spec.t_qd_ms, "tau_delay": spec.t_tau_ms}
         off = [f"{k} {asked[k]:g} -> {v:g}" for k, v in eff.items()
                if k in asked and abs(asked[k] - v) > 1e-9]
         if off:
-            console.print(escape("note: at this rate the whole-sample buffers give effective "
-                                 "delays T_s/2 + n T_s that differ from the requested ones: "
-                                 + ", ".join(off) + " ms"), highlight=False)
+            notes.append("at this rate the whole-sample buffers give effective delays "
+                         "T_s/2 + n T_s that differ from the requested ones: "
+                         + ", ".join(off) + " ms")
+    return notes
 
 
 def _extra(res: Any, mode: str, rate_hz: float, saturation: float | None) -> dict[str, Any]:
@@ -209,9 +342,11 @@ def _extra(res: Any, mode: str, rate_hz: float, saturation: float | None) -> dic
               help="Step size [rad] (responses are normalized by it; it matters only with "
                    "saturation).")
 @sim_options
+@loop_options
 def step(spec: DesignSpec, amplitude: float, mode: str, rate_hz: float, zero: bool,
-         t_end: float | None, saturation: float | None, plot: str | None,
-         csv_path: str | None, as_json: bool) -> None:
+         t_end: float | None, saturation: float | None, outs: OutputSet,
+         plot: Path | None, csv_path: Path | None, as_json: bool,
+         timing: dict[str, Any] | None, loop: Any) -> None:
     """Step response of the joint position to a position reference step.
 
     \b
@@ -221,16 +356,24 @@ def step(spec: DesignSpec, amplitude: float, mode: str, rate_hz: float, zero: bo
     """
     from ..simulate import sea_step
 
-    if not (math.isfinite(amplitude) and amplitude != 0):
-        raise InputError("--amplitude [rad]", amplitude, "a finite non-zero number")
+    check_range("--amplitude [rad]", abs(amplitude), "amplitude_rad")
+    check_simulation(spec, mode, rate_hz, t_end or 0.5)
+    if loop is not None:
+        return loop_response(loop, "step", mode, t_end or 0.5, amplitude, as_json, outs, plot,
+                             csv_path)
+    if timing is not None:
+        return _monte_carlo(spec, "step", timing, outs, plot, csv_path, as_json,
+                            f"Step response (sampled, {rate_hz:g} Hz)", rate_hz=rate_hz,
+                            t_end_s=t_end or 0.5, zero=zero, saturation_a=saturation,
+                            amplitude=amplitude)
     design = spec.designs()
     resp = sea_step(design, zero=zero, mode=mode, rate_hz=rate_hz, t_end_s=t_end or 0.5,
                     saturation_a=saturation, amplitude=amplitude,
-                    record_dt=5e-4 if mode == "continuous" else None)
+                    record_dt=limits.RECORD_DT_S if mode == "continuous" else None)
     extra = _extra(resp.result, mode, rate_hz, saturation) | {"amplitude_rad": amplitude}
     title = (f"Step response ({mode}{f', {rate_hz:g} Hz' if mode == 'sampled' else ''}, "
              f"{'with' if zero else 'without'} the torque-derivative zero)")
-    _output(spec, resp, mode, zero, extra, plot, csv_path, as_json, title,
+    _output(spec, resp, mode, zero, extra, outs, plot, csv_path, as_json, title,
             "joint position / step size")
 
 
@@ -241,9 +384,11 @@ def step(spec: DesignSpec, amplitude: float, mode: str, rate_hz: float, zero: bo
 @click.option("--band", type=float, default=0.05, show_default=True,
               help="Recovery band, as a fraction of the peak deviation.")
 @sim_options
+@loop_options
 def impulse(spec: DesignSpec, impulse_nms: float, band: float, mode: str, rate_hz: float,
-            zero: bool, t_end: float | None, saturation: float | None, plot: str | None,
-            csv_path: str | None, as_json: bool) -> None:
+            zero: bool, t_end: float | None, saturation: float | None, outs: OutputSet,
+            plot: Path | None, csv_path: Path | None, as_json: bool,
+            timing: dict[str, Any] | None, loop: Any) -> None:
     """Joint position after an impulse of external torque (q_des = 0), e.g. a ball hitting
     the arm (Fig. ExperimentImpulse). Position in rad; recovery = last exit from the band.
 
@@ -256,12 +401,22 @@ def impulse(spec: DesignSpec, impulse_nms: float, band: float, mode: str, rate_h
 
     if not (0 < band < 1):
         raise InputError("--band", band, "a fraction in (0, 1)")
+    check_range("--impulse [N m s]", abs(impulse_nms), "impulse_nms")
+    check_simulation(spec, mode, rate_hz, t_end or 1.0)
+    if loop is not None:
+        return loop_response(loop, "impulse", mode, t_end or 1.0, impulse_nms, as_json, outs,
+                             plot, csv_path)
+    if timing is not None:
+        return _monte_carlo(spec, "impulse", timing, outs, plot, csv_path, as_json,
+                            f"Impulse response, {impulse_nms:g} N m s (sampled, {rate_hz:g} Hz)",
+                            rate_hz=rate_hz, t_end_s=t_end or 1.0, zero=zero,
+                            saturation_a=saturation, impulse_nms=impulse_nms)
     design = spec.designs()
     resp = sea_impulse(design, impulse_nms=impulse_nms, zero=zero, mode=mode, rate_hz=rate_hz,
                        t_end_s=t_end or 1.0, saturation_a=saturation, band=band,
-                       record_dt=5e-4 if mode == "continuous" else None)
+                       record_dt=limits.RECORD_DT_S if mode == "continuous" else None)
     extra = _extra(resp.result, mode, rate_hz, saturation) | {"impulse_nms": impulse_nms}
     title = (f"Impulse response, {impulse_nms:g} N m s ({mode}"
              f"{f', {rate_hz:g} Hz' if mode == 'sampled' else ''})")
-    _output(spec, resp, mode, zero, extra, plot, csv_path, as_json, title,
+    _output(spec, resp, mode, zero, extra, outs, plot, csv_path, as_json, title,
             "joint position [rad]")

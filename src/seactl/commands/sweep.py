@@ -4,6 +4,7 @@
 from __future__ import annotations
 
 import math
+import os
 from pathlib import Path
 from typing import Any
 
@@ -12,13 +13,31 @@ import numpy as np
 from rich.markup import escape
 from rich.table import Table
 
-from ..errors import InputError
-from ..sweep import ACTUATOR_AXES, AXES, SAMPLINGS, relative_interval
-from ._common import VARIADIC, cli, console, echo_json, err_console, finite_or_none, parse_values
+from ..axes import ACTUATOR_AXES, AXES, DESIGN_AXES, SAMPLINGS
+from ..errors import InputError, ResourceError
+from ..outputs import FIGURE_SUFFIXES, OutputSet
+from ._common import (
+    VARIADIC,
+    axis_option,
+    cli,
+    console,
+    echo_json,
+    err_console,
+    finite_or_none,
+    flag_names,
+    parse_values,
+)
 
 VARIADIC.add("--z-freq")
 
 _FILTERS = ("f_qd_hz", "f_taud_hz")
+
+LARGE_SWEEP_POINTS = 1e8
+"""Sweeps above this many points run only with ``--yes``."""
+POINTS_PER_CORE_S = 20_000.0
+"""Sweep throughput per core used for the estimate (the default design options, measured)."""
+PARQUET_BYTES_PER_POINT = 60.0
+"""Dataset size per point used for the estimate (Parquet, the default columns, measured)."""
 
 
 def parse_axis(actuator: Any, name: str, tokens: tuple[str, ...], *, sampling: str,
@@ -40,6 +59,8 @@ def parse_axis(actuator: Any, name: str, tokens: tuple[str, ...], *, sampling: s
                     pct = float(part[:-1])
                 except ValueError:
                     raise InputError(info.option, part, "P% with a number P") from None
+                from ..sweep import relative_interval
+
                 lo, hi = relative_interval(actuator, name, pct)
                 if pct == 0:
                     out.append(lo)
@@ -93,7 +114,8 @@ def _spec_from_options(opts: dict[str, Any], *, actuator: str, sampling: str, n_
               "samples over the intervals the axes span.")
 @click.option("--n", "n_samples", type=int, default=None,
               help="Number of points for --sample random/lhs.")
-@click.option("--seed", type=int, default=0, show_default=True, help="Sampling seed.")
+@click.option("--seed", type=click.IntRange(min=0), default=0, show_default=True,
+              help="Sampling seed (an integer >= 0).")
 @click.option("--chunk-size", type=int, default=5_000, show_default=True,
               help="Points per chunk (one Parquet file each; about 27 kB per point at peak).")
 @click.option("--unc-points", type=click.IntRange(2, 101), default=3, show_default=True,
@@ -116,13 +138,21 @@ def _spec_from_options(opts: dict[str, Any], *, actuator: str, sampling: str, n_
               help="Output column to plot.")
 @click.option("--plot-reduce", type=click.Choice(["min", "max", "mean"]), default="min",
               show_default=True, help="Reduction over the other swept axes.")
-@click.option("--plot-file", type=click.Path(dir_okay=False), default=None,
+@click.option("--plot-file", default=None, metavar="FILE.png|.svg|.pdf",
               help="Figure file (default: OUT/_plot-Z-X-Y.png).")
+@click.option("--yes", is_flag=True,
+              help=f"Run a sweep of more than {LARGE_SWEEP_POINTS:.0e} points.")
 @click.option("--quiet", is_flag=True, help="No progress bar.")
 @click.option("--json", "as_json", is_flag=True, help="Print the summary as JSON.")
+@click.option("--loop", "loop_file", default=None, metavar="FILE.toml",
+              type=click.Path(dir_okay=False),
+              help="Sweep a loop file (docs/loops.md) over its variables given with --set.")
+@click.option("--set", "sets", multiple=True, metavar="NAME=VALUES",
+              help="With --loop: a variable and its values (number, a,b,c or "
+                   "START:STOP:STEP); every combination is a point.")
 def sweep(actuator, sampling, n_samples, seed, chunk_size, unc_points, z_freq, out, resume,
-          overwrite, workers, scheduler, plot_axes, plot_z, plot_reduce, plot_file, quiet,
-          as_json, **axes) -> None:
+          overwrite, workers, scheduler, plot_axes, plot_z, plot_reduce, plot_file, yes, quiet,
+          as_json, loop_file, sets, **axes) -> None:
     """Sweep the design space: gains, margins (and |Z|) for every point, as Parquet.
 
     \b
@@ -142,27 +172,34 @@ def sweep(actuator, sampling, n_samples, seed, chunk_size, unc_points, z_freq, o
     Runs on local worker processes (all cores) unless --workers or --scheduler
     say otherwise; Dask schedules the chunks and retries failed ones.
     """
-    from ..sweep import SweepInterrupted, run_sweep
-
+    if loop_file or sets:
+        return _loop_sweep(loop_file, sets, out, chunk_size, overwrite, as_json,
+                           given=[k for k, v in axes.items() if v] + (["--resume"] if resume
+                                                                       else []))
     if sampling != "grid" and n_samples is None:
         raise InputError("--n", None, f"given with --sample {sampling} (number of points)")
+    if not out.strip():
+        raise InputError("--out", out, "a directory path")
+    if resume and overwrite:
+        raise InputError("--overwrite", "with --resume", "used alone (--resume completes a "
+                         "sweep, --overwrite restarts it: choose one)")
     spec = _spec_from_options(axes, actuator=actuator, sampling=sampling,
                               n_samples=n_samples or 0, seed=seed, chunk_size=chunk_size,
                               unc_points=unc_points, z_freq=z_freq)
     plot_xy = _parse_plot_axes(plot_axes, spec) if plot_axes else None
-    if not quiet:
-        err_console.print(f"sweep: {spec.n_points:,} points in {spec.n_chunks:,} chunks of "
-                          f"{spec.chunk_size:,} -> {escape(str(out))}"
-                          + (f" on {escape(scheduler)}" if scheduler else ""))
-    try:
-        res = run_sweep(spec, Path(out), resume=resume, overwrite=overwrite, workers=workers,
-                        scheduler=scheduler, console=None if quiet else err_console)
-    except SweepInterrupted as exc:
-        err_console.print(f"[yellow]{escape(str(exc))}[/yellow]")
-        raise click.exceptions.Abort() from None
-    fig_path = None
-    if plot_xy:
-        fig_path = _plot(Path(out), plot_xy, plot_z, plot_reduce, plot_file)
+    _check_size(spec, yes)
+    from ..limits import BYTES_PER_DESIGN, check_budget
+
+    check_budget(f"a chunk of {spec.chunk_size:,} points per worker",
+                 n_bytes=spec.chunk_size * BYTES_PER_DESIGN * (os.cpu_count() or 1)
+                 if workers != 0 else spec.chunk_size * BYTES_PER_DESIGN,
+                 hint="lower --chunk-size")
+    with OutputSet() as outs:
+        fig_file = outs.add("--plot-file", plot_file, FIGURE_SUFFIXES)
+        res = _run(spec, out, resume, overwrite, workers, scheduler, quiet)
+        fig_path = None
+        if plot_xy:
+            fig_path = _plot(Path(out), plot_xy, plot_z, plot_reduce, outs, fig_file)
     s = res.summary
     if as_json:
         echo_json({**s, "out": str(out), "figure": fig_path,
@@ -191,6 +228,62 @@ def sweep(actuator, sampling, n_samples, seed, chunk_size, unc_points, z_freq, o
         console.print(f"figure: {escape(fig_path)}")
 
 
+def _check_size(spec, yes: bool) -> None:
+    n = spec.n_points
+    if n <= LARGE_SWEEP_POINTS or yes:
+        return
+    from ..limits import human_bytes, human_seconds
+
+    cores = os.cpu_count() or 1
+    raise ResourceError(f"the sweep has {n:.3g} points (more than {LARGE_SWEEP_POINTS:.0e}): "
+                        f"about {human_seconds(n / (POINTS_PER_CORE_S * cores))} on {cores} "
+                        f"cores and {human_bytes(n * PARQUET_BYTES_PER_POINT)} of Parquet; add "
+                        "--yes to run it")
+
+
+_SWEEP_FLAGS = {"out": "--out", "scheduler": "--scheduler", "workers": "--workers",
+                "seed": "--seed", "overwrite": "--overwrite", "resume": "--resume"}
+
+
+def _run(spec, out: str, resume: bool, overwrite: bool, workers, scheduler, quiet: bool):
+    from ..sweep import SweepInterrupted, run_sweep
+
+    try:
+        with flag_names(_SWEEP_FLAGS):
+            return run_sweep(spec, Path(out), resume=resume, overwrite=overwrite,
+                             workers=workers, scheduler=scheduler,
+                             console=None if quiet else err_console)
+    except SweepInterrupted as exc:
+        err_console.print(f"[yellow]{escape(str(exc))}[/yellow]", highlight=False,
+                          soft_wrap=True)
+        raise click.exceptions.Exit(130) from None
+
+
+def _loop_sweep(loop_file, sets, out, chunk_size, overwrite, as_json, given) -> None:
+    """``seactl sweep --loop FILE --set ...``: in-process, one vectorized batch per chunk."""
+    from ..loopsweep import sweep_loop
+    from ..userloop import load_loop
+    from .loops import parse_sets
+
+    if not loop_file:
+        raise InputError("--set", sets[0], "used with --loop FILE")
+    if given:
+        raise InputError(given[0] if given[0].startswith("--") else AXES[given[0]].option,
+                         "given", "absent with --loop (sweep the file's variables with --set)")
+    values = parse_sets(sets)
+    loop = load_loop(loop_file)
+    res = sweep_loop(loop, values, out, chunk_size=chunk_size, overwrite=overwrite)
+    if as_json:
+        echo_json({**res, "out": str(out)})
+        return
+    console.print(escape(f"loop sweep of '{res['loop']}': {res['n_points']:,} points, "
+                         f"{res['stable']:,} stable, {res['points_per_s'] or 0:,.0f} points/s "
+                         f"-> {out}"), highlight=False)
+    if res["best_phase_margin"]:
+        console.print(escape("largest outer phase margin among stable points: " + ", ".join(
+            f"{k}={v:.6g}" for k, v in res["best_phase_margin"].items())), highlight=False)
+
+
 def _parse_plot_axes(text: str, spec) -> tuple[str, str]:
     parts = [p.strip() for p in text.split(",") if p.strip()]
     swept = [n for n, _ in spec.swept]
@@ -203,47 +296,47 @@ def _parse_plot_axes(text: str, spec) -> tuple[str, str]:
     return parts[0], parts[1]
 
 
-def _plot(out: Path, xy: tuple[str, str], z: str, reduce: str, plot_file: str | None) -> str:
-
+def _plot(out: Path, xy: tuple[str, str], z: str, reduce: str, outs: OutputSet,
+          plot_file: Path | None) -> str:
     from ..plots import save_figure, sweep_map_figure
     from ..sweep import sweep_map
 
     m = sweep_map(out, xy[0], xy[1], z, reduce)
     fig = sweep_map_figure(m)
-    path = Path(plot_file) if plot_file else out / f"_plot-{z}-{xy[0]}-{xy[1]}.png"
-    save_figure(fig, path)
-    return str(path)
+    if plot_file is None:
+        path = out / f"_plot-{z}-{xy[0]}-{xy[1]}.png"
+        save_figure(fig, path)
+        return str(path)
+    outs.figure(plot_file, fig)
+    outs.commit()
+    return str(plot_file)
 
 
 # ------------------------------------------------------------------ robust
+def _robust_options(func):
+    """One design (single values of the design axes), the nominal actuator and the
+    uncertain plant parameters, all from :data:`seactl.axes.AXES`."""
+    for name in reversed(ACTUATOR_AXES):
+        info = AXES[name]
+        func = click.option(info.option, name, default=None,
+                            help=f"Uncertainty of the {info.description}: P% or LO,HI "
+                                 f"[{info.unit}].")(func)
+    func = click.option("--actuator", default="ut-sea", show_default=True,
+                        help="Nominal SEA (preset or TOML).")(func)
+    for name in reversed(DESIGN_AXES):
+        func = axis_option(name)(func)
+    return func
+
+
 @cli.command()
-@click.option("--fn", type=float, default=14.0, show_default=True,
-              help="Natural frequency f_n [Hz] of the design.")
-@click.option("--gs", type=float, default=1.0, show_default=True, help="Gain scale GS.")
-@click.option("--zeta1", type=float, default=1.0, show_default=True)
-@click.option("--zeta2", type=float, default=1.0, show_default=True)
-@click.option("--ratio", type=float, default=1.0, show_default=True)
-@click.option("--t-tau", type=float, default=0.0, show_default=True, help="T_tau [ms].")
-@click.option("--t-qs", type=float, default=0.0, show_default=True, help="T_qs [ms].")
-@click.option("--t-qd", type=float, default=0.0, show_default=True, help="T_qd [ms].")
-@click.option("--f-qd", type=float, default=None, help="f_qd [Hz] (default: no filter).")
-@click.option("--f-taud", type=float, default=None, help="f_taud [Hz] (default: no filter).")
-@click.option("--actuator", default="ut-sea", show_default=True,
-              help="Nominal SEA (preset or TOML).")
-@click.option("--im", "Im", default=None, help="Uncertainty of I_m: P% or LO,HI [kg m^2].")
-@click.option("--ij", "Ij", default=None, help="Uncertainty of I_j: P% or LO,HI [kg m^2].")
-@click.option("--bm", "bm", default=None, help="Uncertainty of b_m: P% or LO,HI [N m s/rad].")
-@click.option("--bj", "bj", default=None, help="Uncertainty of b_j: P% or LO,HI [N m s/rad].")
-@click.option("--k", "k", default=None, help="Uncertainty of k: P% or LO,HI [N m/rad].")
-@click.option("--beta", "beta", default=None, help="Uncertainty of beta: P% or LO,HI [N m/A].")
+@_robust_options
 @click.option("--n", "n_samples", type=click.IntRange(10, 10_000_000), default=2000,
               show_default=True, help="Monte Carlo samples.")
-@click.option("--seed", type=int, default=0, show_default=True)
-@click.option("--plot", "plot_file", type=click.Path(dir_okay=False), default=None,
-              help="Write the phase-margin histogram to this PNG.")
+@click.option("--seed", type=click.IntRange(min=0), default=0, show_default=True)
+@click.option("--plot", "plot_file", default=None, metavar="FILE.png|.svg|.pdf",
+              help="Write the phase-margin histogram (format from the suffix).")
 @click.option("--json", "as_json", is_flag=True, help="Print machine-readable JSON.")
-def robust(fn, gs, zeta1, zeta2, ratio, t_tau, t_qs, t_qd, f_qd, f_taud, actuator, n_samples,
-           seed, plot_file, as_json, **unc) -> None:
+def robust(actuator, n_samples, seed, plot_file, as_json, **axes) -> None:
     """Monte Carlo of one design over actuator parameter uncertainty.
 
     \b
@@ -261,45 +354,42 @@ def robust(fn, gs, zeta1, zeta2, ratio, t_tau, t_qs, t_qd, f_qd, f_taud, actuato
     """
     from ..sweep import monte_carlo
 
-    opts = {"fn_hz": (str(fn),), "gs": (str(gs),), "zeta1": (str(zeta1),),
-            "zeta2": (str(zeta2),), "ratio": (str(ratio),), "t_tau_ms": (str(t_tau),),
-            "t_qs_ms": (str(t_qs),), "t_qd_ms": (str(t_qd),),
-            "f_qd_hz": (str(f_qd if f_qd is not None else "none"),),
-            "f_taud_hz": (str(f_taud if f_taud is not None else "none"),)}
-    given = {k: v for k, v in unc.items() if v is not None}
+    fn, gs = axes["fn_hz"], axes["gs"]
+    opts = {n: ("none" if axes[n] is None else str(axes[n]),) for n in DESIGN_AXES}
+    given = {n: axes[n] for n in ACTUATOR_AXES if axes[n] is not None}
     if not given:
         raise InputError("--ij/--bm/--k/...", None, "at least one uncertain actuator "
                          "parameter, e.g. --ij 20%")
     for name, v in given.items():
         opts[name] = (v,)
+    from ..limits import BYTES_PER_DESIGN, check_budget
+
+    check_budget(f"a Monte Carlo of {n_samples:,} samples", n_bytes=n_samples * BYTES_PER_DESIGN,
+                 hint="lower --n")
     spec = _spec_from_options(opts, actuator=actuator, sampling="random", n_samples=n_samples,
                               seed=seed, chunk_size=5_000, unc_points=3, z_freq=())
     for name in given:
         if len(dict(spec.axes)[name]) < 2 or np.ptp(dict(spec.axes)[name]) == 0:
             raise InputError(AXES[name].option, given[name], "an interval: P% with P > 0 or "
                              "two values LO,HI")
-    r = monte_carlo(spec)
+    with OutputSet() as outs:
+        fig_file = outs.add("--plot", plot_file, FIGURE_SUFFIXES)
+        r = monte_carlo(spec)
+        fig_path = None
+        if fig_file:
+            from ..plots import robust_histogram_figure
+
+            unc_text = ", ".join(f"{n} " + (f"±{v}" if v.endswith("%") else v)
+                                 for n, v in given.items())
+            fig = robust_histogram_figure(r.phase_margin_deg, r.stable,
+                                          r.nominal_phase_margin_deg,
+                                          f"f_n = {fn:g} Hz, GS = {gs:g}: {unc_text} "
+                                          f"({r.n} samples)")
+            outs.figure(fig_file, fig)
+            outs.commit()
+            fig_path = str(fig_file)
     lo, hi = r.p_unstable_ci95()
     pct = r.percentiles()
-    fig_path = None
-    if plot_file:
-        import io
-
-        import matplotlib.pyplot as plt
-
-        from ..plots import robust_histogram_figure
-        from ..report import write_atomic
-
-        unc_text = ", ".join(f"{n} " + (f"±{v}" if v.endswith("%") else v)
-                             for n, v in given.items())
-        fig = robust_histogram_figure(r.phase_margin_deg, r.stable, r.nominal_phase_margin_deg,
-                                      f"f_n = {fn:g} Hz, GS = {gs:g}: {unc_text} "
-                                      f"({r.n} samples)")
-        buf = io.BytesIO()
-        fig.savefig(buf, format="png", dpi=120, bbox_inches="tight")
-        plt.close(fig)
-        write_atomic(Path(plot_file), buf.getvalue())
-        fig_path = plot_file
     res = {"n_samples": r.n, "nominal_phase_margin_deg": finite_or_none(
                r.nominal_phase_margin_deg),
            "p_unstable": finite_or_none(r.p_unstable),

@@ -11,7 +11,7 @@ from typing import Any
 
 from ..errors import InputError
 from ..report import SectionFn, build
-from . import gain_design, impedance, mobile_base, placement, simulation, sweep
+from . import gain_design, impedance, jitter, mobile_base, placement, simulation, sweep
 
 SECTIONS: tuple[SectionFn, ...] = (
     gain_design.table_i,
@@ -32,6 +32,7 @@ SECTIONS: tuple[SectionFn, ...] = (
     sweep.latency_sweep,
     sweep.robustness_mc,
     placement.placement_advisor,
+    jitter.jitter_section,
     mobile_base.mobile_base,
 )
 
@@ -50,7 +51,7 @@ def reproduce(out: Path, only: Iterable[str] | None = None, console: Any = None
         wanted = set(only)
         unknown = wanted - set(section_ids())
         if unknown:
-            raise InputError("--only", ", ".join(sorted(unknown)),
+            raise InputError("only", ", ".join(sorted(unknown)),
                              "one of " + ", ".join(section_ids()))
         sections = [f for f in sections if f.section_id in wanted]
     return build(Path(out), sections, console=console)

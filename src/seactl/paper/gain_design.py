@@ -6,32 +6,25 @@ from __future__ import annotations
 import numpy as np
 
 from ..actuators import UT_SEA
+from ..api import Design, design
 from ..design import critically_damped_gains, feasible_fn_range
 from ..loops import SEADesign, Timing
 from ..margins import sea_margins
 from ..report import Claim, Context, Figure, Section, numeric_claim, section
-
-# Table I of the paper: f_n -> (Kq, Bq, Ktau, Btau, PM) as printed, and printed decimals.
-TABLE_I = {
-    12: (65, 0.46, 1.18, 0.057, 45.1),
-    14: (83, 0.76, 1.80, 0.067, 43.2),
-    16: (103, 1.02, 2.56, 0.077, 40.0),
-    18: (124, 1.26, 3.45, 0.087, 36.5),
-    20: (148, 1.49, 4.48, 0.097, 33.2),
-}
-TABLE_I_DECIMALS = (0, 2, 2, 3, 1)
-TABLE_I_TIMING = dict(t_tau_ms=0.5, t_qs_ms=2.0, t_qd_ms=0.5, f_qd_hz=50.0, f_taud_hz=100.0)
+from .constants import TABLE_I, TABLE_I_DECIMALS, TABLE_I_TIMING
 
 
-def table_i_designs() -> SEADesign:
-    fn = np.array(sorted(TABLE_I), float)
-    return SEADesign(UT_SEA, critically_damped_gains(UT_SEA, fn), Timing.from_ms(**TABLE_I_TIMING))
+def table_i_designs() -> Design:
+    """The designs of Table I, through the public API (as a user would build them)."""
+    t = TABLE_I_TIMING
+    return design(sorted(TABLE_I), delays_ms=(t["t_tau_ms"], t["t_qs_ms"], t["t_qd_ms"]),
+                  filters_hz=(t["f_qd_hz"], t["f_taud_hz"]))
 
 
 @section(10, "table-i")
 def table_i(ctx: Context) -> Section:
     d = table_i_designs()
-    m = sea_margins(d)
+    m = d.margins()
     g = d.gains
     sec = Section("table-i", "Table I: critically-damped gains and phase margins",
                   intro="Gains solved in closed form (no fsolve) for the UT-SEA, rotary units; "

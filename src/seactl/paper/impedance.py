@@ -25,11 +25,11 @@ from ..impedance import (
 from ..loops import SEADesign, Timing, closed_loop
 from ..margins import sea_margins
 from ..report import Claim, Context, Figure, Section, numeric_claim, pm_cell, section
+from .constants import FILTERS, TABLE_I_TIMING
 
 F_HZ = np.logspace(-1, 3, 600)
 F_LOW = np.array([1e-4])
 F_HIGH = np.array([1e5])
-FILTERS = dict(f_qd_hz=50.0, f_taud_hz=100.0)
 NATFREQ_DELAYS = dict(t_tau_ms=1.0, t_qs_ms=10.0, t_qd_ms=1.0)
 # The reference MATLAB's delay sets at f_n = 30 Hz: (label, T_tau, T_qs, T_qd) [ms].
 DELAY_SETS = [("no delay", 0.0, 0.0, 0.0), ("T_qs=1, T_qd=1, T_tau=1 ms", 1.0, 1.0, 1.0),
@@ -71,25 +71,9 @@ def _rms_db(a: np.ndarray, b: np.ndarray) -> float:
     return float(np.sqrt(np.mean((20 * np.log10(np.abs(a) / np.abs(b))) ** 2)))
 
 
-# ------------------------------------------------------------------ Fig. impedanceFilterDelay
-@section(40, "impedance-filter-delay")
-def filter_delay(ctx: Context) -> Section:
+def _filter_delay_figures(sec: Section, ctx: Context, ideal, filt, delayed) -> None:
     from ..plots import impedance_bode_figure
 
-    sec = Section("impedance-filter-delay",
-                  "Fig. impedanceFilterDelay: impedance with delays and filtering (f_n = 30 Hz)",
-                  intro="Critically-damped gains at f_n = 30 Hz, UT-SEA, rotary units "
-                        "(|Z| in dB re 1 N m s/rad). (a) ideal SEA with the physical spring "
-                        "k/(jw) and the virtual-stiffness asymptote; (b) filtering only "
-                        "(f_qd = 50 Hz, f_taud = 100 Hz); (c) delays only, the reference "
-                        "MATLAB's delay sets. Assumption: the caption gives no filter or delay "
-                        "values for this figure; the filters are those of Table I and "
-                        "Fig. impedanceNaturalFreq.")
-    _gain_claims(sec, 30, "Fig. impedanceFilterDelay")
-    ideal = _design(30.0)
-    filt = ideal.with_timing(Timing.from_ms(**FILTERS))
-    delayed = [(lbl, ideal.with_timing(Timing.from_ms(tt, ts, td)))
-               for lbl, tt, ts, td in DELAY_SETS[1:]]
     for model in MODELS:
         a_i = asymptotes(ideal, F_HZ, model=model)
         zi = _z(ideal, model)
@@ -115,9 +99,12 @@ def filter_delay(ctx: Context) -> Section:
         sec.figures.append(Figure(ctx.savefig(fig, name),
                                   f"Fig. impedanceFilterDelay regenerated with the "
                                   f"{MODEL_TEXT[model]}."))
-    # Low-frequency asymptote in all four scenarios, both models.
+
+
+def _asymptote_claims(sec: Section, ideal, filt, delayed) -> None:
+    """Low- and high-frequency asymptotes of Z in every scenario, both models."""
     both = ideal.with_timing(Timing.from_ms(1.0, 10.0, 3.0, **FILTERS))
-    cases = {"i": ideal, "f": filt, "d": delayed[-1][1], "fd": both}
+    cases = {"i": ideal, "f": filt, "d": delayed, "fd": both}
     for model in MODELS:
         k_low = float(low_frequency_stiffness(ideal, model))
         formula = ("K_q k_tau (1/beta + K_tau)/(1 + K_tau k_tau)" if model == "paper"
@@ -129,7 +116,7 @@ def filter_delay(ctx: Context) -> Section:
                 f"{model}: jw Z_{c}(jw) -> {formula} as w -> 0 [Nm/rad] (value at 1e-4 Hz)",
                 k_low, got, 1e-3 * k_low))
         # High-frequency asymptotes: ideal, delay-only (twist), filter-only.
-        for c, d in (("i", ideal), ("d", delayed[-1][1]), ("f", filt)):
+        for c, d in (("i", ideal), ("d", delayed), ("f", filt)):
             z = impedance(d, F_HIGH, model=model).z[0]
             asym = high_frequency_asymptote(d, F_HIGH, model)[0]
             what = {"i": "k (I_m + g B_tau B_q)/(jw I_m)",
@@ -139,6 +126,27 @@ def filter_delay(ctx: Context) -> Section:
                 f"{sec.id}.high.{model}.{c}", "Fig. impedanceFilterDelay",
                 f"{model}: Z_{c}(jw) -> {what}, g = {'beta' if model != 'paper' else 'k_tau'}: "
                 f"|Z / asymptote - 1| at 1e5 Hz", 0.0, float(abs(z / asym - 1)), 1e-3))
+
+
+# ------------------------------------------------------------------ Fig. impedanceFilterDelay
+@section(40, "impedance-filter-delay")
+def filter_delay(ctx: Context) -> Section:
+    sec = Section("impedance-filter-delay",
+                  "Fig. impedanceFilterDelay: impedance with delays and filtering (f_n = 30 Hz)",
+                  intro="Critically-damped gains at f_n = 30 Hz, UT-SEA, rotary units "
+                        "(|Z| in dB re 1 N m s/rad). (a) ideal SEA with the physical spring "
+                        "k/(jw) and the virtual-stiffness asymptote; (b) filtering only "
+                        "(f_qd = 50 Hz, f_taud = 100 Hz); (c) delays only, the reference "
+                        "MATLAB's delay sets. Assumption: the caption gives no filter or delay "
+                        "values for this figure; the filters are those of Table I and "
+                        "Fig. impedanceNaturalFreq.")
+    _gain_claims(sec, 30, "Fig. impedanceFilterDelay")
+    ideal = _design(30.0)
+    filt = ideal.with_timing(Timing.from_ms(**FILTERS))
+    delayed = [(lbl, ideal.with_timing(Timing.from_ms(tt, ts, td)))
+               for lbl, tt, ts, td in DELAY_SETS[1:]]
+    _filter_delay_figures(sec, ctx, ideal, filt, delayed)
+    _asymptote_claims(sec, ideal, filt, delayed[-1][1])
     # The twist: |jw Z_d / k| sweeps [|1 - x|, 1 + x], x = g B_tau B_q / I_m.
     fw = np.linspace(1e5, 1.05e5, 4001)
     d = delayed[-1][1]
@@ -383,7 +391,7 @@ def ktau_finding(ctx: Context) -> Section:
                         "diagram's is exactly K_q, consistent with P_CL(0) = 1.")
     fn = np.array([12.0, 20.0, 30.0])
     timings = [Timing(), Timing.from_ms(1.0, 10.0, 3.0), Timing.from_ms(**FILTERS),
-               Timing.from_ms(0.5, 2.0, 0.5, **FILTERS)]
+               Timing.from_ms(**TABLE_I_TIMING)]
     err = 0.0
     for t in timings:
         d = _design(fn, t)
@@ -456,7 +464,7 @@ def zregion_section(ctx: Context) -> Section:
                         "admissible designs; Z-depth = band from 0.1 Hz where the width stays "
                         ">= 6 dB.")
     g = critically_damped_gains(UT_SEA, ZR_FN[:, None], gs=ZR_GS[None, :])
-    d = SEADesign(UT_SEA, g, Timing.from_ms(0.5, 2.0, 0.5, **FILTERS))
+    d = SEADesign(UT_SEA, g, Timing.from_ms(**TABLE_I_TIMING))
     reg = zregion(d, ZR_F, min_pm_deg=30.0, threshold_db=6.0)
     fig = zregion_figure(reg, ZR_FN, ZR_GS, spring=UT_SEA.k / (2j * np.pi * ZR_F))
     sec.figures.append(Figure(ctx.savefig(fig, "zregion.png"),

@@ -6,18 +6,90 @@ from __future__ import annotations
 import numpy as np
 
 from ..report import Claim, Context, Figure, Section, section
+from .constants import TABLE_I_FN, TABLE_I_TIMING
 
 STEP_FN = (4.0, 8.0, 12.0)
 MAP_N = 81                      # grid points per axis of the phase-margin maps
 MAXFN_N = 41                    # ... of the max-stable-f_n maps
 MAP_T = (0.5e-3, 20e-3)         # delay range on each axis [s]
 RIGID_MAP_FN, SEA_MAP_FN = 8.0, 14.0
-TABLE_I_FN = (12.0, 14.0, 16.0, 18.0, 20.0)
 PM_SMALL_DEG = 10.0             # "small effect": phase margin moves by at most this much
 
 
 def _yes(b) -> str:
     return "yes" if bool(b) else "no"
+
+
+def _runs_table(e) -> tuple:
+    rows = []
+    for k, (ts, td) in enumerate(e.delays_ms):
+        for j, f in enumerate(e.fn_hz):
+            rows.append([f"{ts:g}", f"{td:g}", f"{f:g}", f"{e.linear_pm_deg[k, j]:.1f}",
+                         _yes(e.linear_stable[k, j]),
+                         "OUT OF CONTROL" if e.out_of_control[k, j] else "ok",
+                         "-" if np.isnan(e.overshoot_pct[k, j]) else
+                         f"{e.overshoot_pct[k, j]:.1f}",
+                         f"{np.max(np.abs(e.force[k, j])):.0f}",
+                         f"{100 * e.saturated_fraction[k, j]:.0f}"])
+    return ("Runs", ["T_s buffer [ms]", "T_d buffer [ms]", "f_n [Hz]",
+                                "linear PM [deg]", "linear stable", "sampled run",
+                                "overshoot [%]", "peak force [N]", "time saturated [%]"], rows)
+
+
+def _step_claims(e) -> list[Claim]:
+    """The paper's statements on the step experiment, checked run by run."""
+    claims = []
+    idx = {d: k for k, d in enumerate(e.delays_ms)}
+    base, stiff = idx[(1.0, 1.0)], idx[(15.0, 1.0)]
+    damp, both = idx[(1.0, 15.0)], idx[(15.0, 15.0)]
+    j12 = int(np.nonzero(e.fn_hz == 12.0)[0][0])
+    j8 = int(np.nonzero(e.fn_hz == 8.0)[0][0])
+    # claim 1: 15 ms on the stiffness loop has small effects
+    kept = bool(np.all(e.out_of_control[stiff] <= e.out_of_control[base]))
+    dpm = float(np.max(np.abs(e.linear_pm_deg[stiff] - e.linear_pm_deg[base])))
+    dev = float(np.max(np.abs(e.position[stiff] - e.position[base])))
+    ok = kept and dpm <= PM_SMALL_DEG
+    os_txt = ", ".join(f"{f:g} Hz: {e.overshoot_pct[base, j]:.1f} -> "
+                       f"{e.overshoot_pct[stiff, j]:.1f}%" for j, f in enumerate(e.fn_hz))
+    claims.append(Claim(
+        "rigid.step.stiffness15_small", "Step response implementation",
+        "15 ms on the stiffness loop has small effects on the step response",
+        "small effects", f"every f_n stays in control; max |dPM| = {dpm:.2f} deg",
+        f"no run lost and |dPM| <= {PM_SMALL_DEG:g} deg", "pass" if ok else "fail",
+        f"overshoot {os_txt}; largest deviation of the normalized response {dev:.3f}. The "
+        "phase margin even grows at 8 and 12 Hz: the delayed stiffness term leaves more "
+        "phase at the damping-dominated crossover."))
+    # claim 2: 15 ms on the damping loop destabilizes f_n = 12 Hz
+    lost = bool(e.out_of_control[damp, j12] and e.out_of_control[both, j12])
+    lin = bool(not e.linear_stable[damp, j12] and not e.linear_stable[both, j12])
+    claims.append(Claim(
+        "rigid.step.damping15_fn12", "Step response implementation",
+        "15 ms on the damping loop makes f_n = 12 Hz go out of control (panels c, d)",
+        "out of control", "out of control" if lost else "in control", "both damping-15 runs",
+        "pass" if lost and lin else "fail",
+        f"linear model: PM {e.linear_pm_deg[damp, j12]:.1f} / {e.linear_pm_deg[both, j12]:.1f}"
+        f" deg ({'unstable' if lin else 'stable'}); saturated "
+        f"{100 * e.saturated_fraction[damp, j12]:.0f}% / "
+        f"{100 * e.saturated_fraction[both, j12]:.0f}% of the time."))
+    ok12 = not bool(e.out_of_control[stiff, j12])
+    claims.append(Claim(
+        "rigid.step.fn12_stiffness15", "Step response implementation",
+        "with 15 ms on the stiffness loop f_n = 12 Hz is still tolerated (panel b)",
+        "in control", "in control" if ok12 else "out of control", "in control",
+        "pass" if ok12 else "fail"))
+    lost8 = bool(e.out_of_control[damp, j8])
+    claims.append(Claim(
+        "rigid.step.damping15_fn8", "Step response implementation",
+        "f_n = 8 Hz with 15 ms on the damping loop (the paper only omits 12 Hz)",
+        "not stated", "out of control" if lost8 else "in control", "-", "info",
+        "docs/theory/delays.md reconstructs '15 ms on the damping loop destabilizes "
+        "f_n = 8-12 Hz'; this model agrees" if lost8 else ""))
+    agree = bool(np.all(e.out_of_control == ~e.linear_stable))
+    claims.append(Claim(
+        "rigid.step.sampled_vs_linear", "Step response implementation",
+        "the sampled, saturated simulation and the continuous exact-delay Nyquist verdict "
+        "agree on every run", "-", _yes(agree), "all 12 runs", "pass" if agree else "fail"))
+    return claims
 
 
 @section(70, "rigid-step")
@@ -46,69 +118,8 @@ def rigid_step(ctx: Context) -> Section:
     sec.figures.append(Figure(ctx.savefig(fig, "rigid_step_experiment.png"),
                               "Sampled step responses for the four delay combinations; dashed "
                               "= out of control (clipped to the axes)."))
-    rows = []
-    for k, (ts, td) in enumerate(e.delays_ms):
-        for j, f in enumerate(e.fn_hz):
-            rows.append([f"{ts:g}", f"{td:g}", f"{f:g}", f"{e.linear_pm_deg[k, j]:.1f}",
-                         _yes(e.linear_stable[k, j]),
-                         "OUT OF CONTROL" if e.out_of_control[k, j] else "ok",
-                         "-" if np.isnan(e.overshoot_pct[k, j]) else
-                         f"{e.overshoot_pct[k, j]:.1f}",
-                         f"{np.max(np.abs(e.force[k, j])):.0f}",
-                         f"{100 * e.saturated_fraction[k, j]:.0f}"])
-    sec.tables.append(("Runs", ["T_s buffer [ms]", "T_d buffer [ms]", "f_n [Hz]",
-                                "linear PM [deg]", "linear stable", "sampled run",
-                                "overshoot [%]", "peak force [N]", "time saturated [%]"], rows))
-    idx = {d: k for k, d in enumerate(e.delays_ms)}
-    base, stiff = idx[(1.0, 1.0)], idx[(15.0, 1.0)]
-    damp, both = idx[(1.0, 15.0)], idx[(15.0, 15.0)]
-    j12 = int(np.nonzero(e.fn_hz == 12.0)[0][0])
-    j8 = int(np.nonzero(e.fn_hz == 8.0)[0][0])
-    # claim 1: 15 ms on the stiffness loop has small effects
-    kept = bool(np.all(e.out_of_control[stiff] <= e.out_of_control[base]))
-    dpm = float(np.max(np.abs(e.linear_pm_deg[stiff] - e.linear_pm_deg[base])))
-    dev = float(np.max(np.abs(e.position[stiff] - e.position[base])))
-    ok = kept and dpm <= PM_SMALL_DEG
-    os_txt = ", ".join(f"{f:g} Hz: {e.overshoot_pct[base, j]:.1f} -> "
-                       f"{e.overshoot_pct[stiff, j]:.1f}%" for j, f in enumerate(e.fn_hz))
-    sec.claims.append(Claim(
-        "rigid.step.stiffness15_small", "Step response implementation",
-        "15 ms on the stiffness loop has small effects on the step response",
-        "small effects", f"every f_n stays in control; max |dPM| = {dpm:.2f} deg",
-        f"no run lost and |dPM| <= {PM_SMALL_DEG:g} deg", "pass" if ok else "fail",
-        f"overshoot {os_txt}; largest deviation of the normalized response {dev:.3f}. The "
-        "phase margin even grows at 8 and 12 Hz: the delayed stiffness term leaves more "
-        "phase at the damping-dominated crossover."))
-    # claim 2: 15 ms on the damping loop destabilizes f_n = 12 Hz
-    lost = bool(e.out_of_control[damp, j12] and e.out_of_control[both, j12])
-    lin = bool(not e.linear_stable[damp, j12] and not e.linear_stable[both, j12])
-    sec.claims.append(Claim(
-        "rigid.step.damping15_fn12", "Step response implementation",
-        "15 ms on the damping loop makes f_n = 12 Hz go out of control (panels c, d)",
-        "out of control", "out of control" if lost else "in control", "both damping-15 runs",
-        "pass" if lost and lin else "fail",
-        f"linear model: PM {e.linear_pm_deg[damp, j12]:.1f} / {e.linear_pm_deg[both, j12]:.1f}"
-        f" deg ({'unstable' if lin else 'stable'}); saturated "
-        f"{100 * e.saturated_fraction[damp, j12]:.0f}% / "
-        f"{100 * e.saturated_fraction[both, j12]:.0f}% of the time."))
-    ok12 = not bool(e.out_of_control[stiff, j12])
-    sec.claims.append(Claim(
-        "rigid.step.fn12_stiffness15", "Step response implementation",
-        "with 15 ms on the stiffness loop f_n = 12 Hz is still tolerated (panel b)",
-        "in control", "in control" if ok12 else "out of control", "in control",
-        "pass" if ok12 else "fail"))
-    lost8 = bool(e.out_of_control[damp, j8])
-    sec.claims.append(Claim(
-        "rigid.step.damping15_fn8", "Step response implementation",
-        "f_n = 8 Hz with 15 ms on the damping loop (the paper only omits 12 Hz)",
-        "not stated", "out of control" if lost8 else "in control", "-", "info",
-        "docs/theory/delays.md reconstructs '15 ms on the damping loop destabilizes "
-        "f_n = 8-12 Hz'; this model agrees" if lost8 else ""))
-    agree = bool(np.all(e.out_of_control == ~e.linear_stable))
-    sec.claims.append(Claim(
-        "rigid.step.sampled_vs_linear", "Step response implementation",
-        "the sampled, saturated simulation and the continuous exact-delay Nyquist verdict "
-        "agree on every run", "-", _yes(agree), "all 12 runs", "pass" if agree else "fail"))
+    sec.tables.append(_runs_table(e))
+    sec.claims.extend(_step_claims(e))
     return sec
 
 
@@ -123,30 +134,11 @@ def _maps():
     return rm, sm, maps, mfs
 
 
-@section(71, "latency-maps")
-def latency_maps(ctx: Context) -> Section:
+def _sensitivity_and_reach(sec: Section, models, maps, mfs) -> None:
     from ..latency import pm_sensitivity
-    from ..plots import latency_map_figure
 
-    rm, sm, maps, mfs = _maps()
-    sec = Section(
-        "latency-maps", "Latency maps: stiffness-loop versus damping-loop delay",
-        intro=f"Whole-loop phase margin over ({MAP_N} x {MAP_N}) stiffness and damping delays "
-              f"{MAP_T[0] * 1e3:g}..{MAP_T[1] * 1e3:g} ms, exact delays: UT linear actuator "
-              f"at f_n = {RIGID_MAP_FN:g} Hz (velocity filter 50 Hz) and UT-SEA at f_n = "
-              f"{SEA_MAP_FN:g} Hz (T_tau = 0.5 ms, f_qd = 50 Hz, f_taud = 100 Hz). Right: the "
-              f"highest critically-damped f_n whose closed loop is stable ({MAXFN_N} x "
-              f"{MAXFN_N} grid; f_n scanned and bisected to 1e-4). Stability is the Nyquist "
-              "criterion on the exact-delay loop, counting the open-loop unstable poles of the "
-              "inner loops. Per-loop delay margins: the loop is broken at the stiffness (or "
-              "damping) tap only, every other loop closed.")
-    fig = latency_map_figure(maps, mfs)
-    sec.figures.append(Figure(ctx.savefig(fig, "latency_maps.png"),
-                              "Phase margin [deg] (left; thick line: stability boundary, "
-                              "hatched: unstable, dotted: equal delays) and highest stable f_n "
-                              "(right) over the stiffness-loop and damping-loop delays."))
     rows = []
-    for model, mp, (_, _, mf) in zip((rm, sm), maps, mfs):
+    for model, mp, (_, _, mf) in zip(models, maps, mfs):
         sens = pm_sensitivity(model, mp.fn_hz, MAP_T[0], MAP_T[0])
         rows.append([model.name, f"{mp.fn_hz:g}", f"{100 * mp.stable.mean():.1f}",
                      f"{sens.dpm_dTs_deg_per_ms:.3f}", f"{sens.dpm_dTd_deg_per_ms:.3f}",
@@ -162,13 +154,16 @@ def latency_maps(ctx: Context) -> Section:
         "actuator", "f_n [Hz]", "stable [% of map]", "dPM/dT_s [deg/ms]", "dPM/dT_d [deg/ms]",
         "ratio", "max stable f_n [Hz]",
         f"... at T_s = {MAP_T[1] * 1e3:g} ms", f"... at T_d = {MAP_T[1] * 1e3:g} ms"], rows))
-    # rigid actuator: the damping loop is the sensitive one
+
+
+def _rigid_damping_claim(rm) -> Claim:
+    """Rigid actuator: the damping loop is the latency-sensitive one."""
     from ..rigid import UT_LINEAR, RigidDesign
 
     d = RigidDesign.from_fn(UT_LINEAR, np.array(STEP_FN), T_s=1.5e-3, T_d=1.5e-3, f_v=50.0)
     dm = rm.delay_margins(d)
     ok = bool(np.all(dm.damping_s < dm.stiffness_s))
-    sec.claims.append(Claim(
+    return Claim(
         "latency.rigid.damping_more_sensitive", "Introduction",
         "rigid actuator: the damping loop tolerates far less extra latency than the stiffness "
         "loop (f_n = 4, 8, 12 Hz, 1.5 ms on both)", "damping << stiffness",
@@ -176,15 +171,18 @@ def latency_maps(ctx: Context) -> Section:
         "pass" if ok else "fail",
         "stiffness / damping delay margins: " + ", ".join(
             f"{f:g} Hz: {a * 1e3:.1f} / {b * 1e3:.1f} ms"
-            for f, a, b in zip(STEP_FN, dm.stiffness_s, dm.damping_s))))
-    # SEA, Table I timing: per f_n
+            for f, a, b in zip(STEP_FN, dm.stiffness_s, dm.damping_s)))
+
+
+def _sea_per_fn(sec: Section, sm) -> None:
+    """UT-SEA at Table I timing: which loop is the latency-sensitive one, per f_n."""
     from ..actuators import UT_SEA
     from ..design import critically_damped_gains
+    from ..latency import pm_sensitivity
     from ..loops import SEADesign, Timing
 
     fn = np.array(TABLE_I_FN)
-    ds = SEADesign(UT_SEA, critically_damped_gains(UT_SEA, fn),
-                   Timing.from_ms(0.5, 2.0, 0.5, 50.0, 100.0))
+    ds = SEADesign(UT_SEA, critically_damped_gains(UT_SEA, fn), Timing.from_ms(**TABLE_I_TIMING))
     dms = sm.delay_margins(ds)
     sens = pm_sensitivity(sm, fn, 2e-3, 0.5e-3)
     srows = []
@@ -208,6 +206,32 @@ def latency_maps(ctx: Context) -> Section:
                        "0.5 ms, T_qs = 2 ms)", ["f_n [Hz]", "stiffness loop [ms]",
                                                 "damping loop [ms]",
                                                 "(dPM/dT_qd)/(dPM/dT_qs)"], srows))
+
+
+@section(71, "latency-maps")
+def latency_maps(ctx: Context) -> Section:
+    from ..plots import latency_map_figure
+
+    rm, sm, maps, mfs = _maps()
+    sec = Section(
+        "latency-maps", "Latency maps: stiffness-loop versus damping-loop delay",
+        intro=f"Whole-loop phase margin over ({MAP_N} x {MAP_N}) stiffness and damping delays "
+              f"{MAP_T[0] * 1e3:g}..{MAP_T[1] * 1e3:g} ms, exact delays: UT linear actuator "
+              f"at f_n = {RIGID_MAP_FN:g} Hz (velocity filter 50 Hz) and UT-SEA at f_n = "
+              f"{SEA_MAP_FN:g} Hz (T_tau = 0.5 ms, f_qd = 50 Hz, f_taud = 100 Hz). Right: the "
+              f"highest critically-damped f_n whose closed loop is stable ({MAXFN_N} x "
+              f"{MAXFN_N} grid; f_n scanned and bisected to 1e-4). Stability is the Nyquist "
+              "criterion on the exact-delay loop, counting the open-loop unstable poles of the "
+              "inner loops. Per-loop delay margins: the loop is broken at the stiffness (or "
+              "damping) tap only, every other loop closed.")
+    fig = latency_map_figure(maps, mfs)
+    sec.figures.append(Figure(ctx.savefig(fig, "latency_maps.png"),
+                              "Phase margin [deg] (left; thick line: stability boundary, "
+                              "hatched: unstable, dotted: equal delays) and highest stable f_n "
+                              "(right) over the stiffness-loop and damping-loop delays."))
+    _sensitivity_and_reach(sec, (rm, sm), maps, mfs)
+    sec.claims.append(_rigid_damping_claim(rm))
+    _sea_per_fn(sec, sm)
     sec.notes.append(
         "Finding: for the rigid actuator the damping delay costs about ten times more phase "
         "per millisecond than the stiffness delay, and the stiffness delay even raises the "

@@ -12,6 +12,7 @@ from ..loops import SEADesign, Timing
 from ..margins import sea_margins
 from ..report import Claim, Context, Figure, Section, numeric_claim, section
 from ..simulate import impulse_metrics, sea_impulse, sea_step
+from .constants import TABLE_I_TIMING
 
 FN_A = np.array([14.0, 16.0, 18.0, 20.0])
 TIMING_A = dict(t_tau_ms=1.0, t_qs_ms=1.0, t_qd_ms=1.0, f_qd_hz=50.0, f_taud_hz=100.0)
@@ -77,78 +78,57 @@ def _consistency_claim(cid: str, fig: str, what: str, sim_stable, margin_stable)
                  [bool(x) for x in sim_stable], "equal", "pass" if ok else "fail")
 
 
-@section(40, "impedance-delay")
-def impedance_delay(ctx: Context) -> Section:
-    from ..plots import panels_figure
+COLORS = ["tab:blue", "tab:green", "tab:orange", "magenta"]
+T_END_S = 0.25
 
-    sec = Section("impedance-delay", "Fig. ImpedanceDelay: step responses affected by delays",
-                  intro="Continuous-time simulations with exact transport delays (delay buffers, "
-                        "exact integration between 0.1 ms steps), derived from the SEA block "
-                        "diagram. The caption gives no parameters; this reconstruction uses "
-                        "filters f_qd = 50 Hz, f_taud = 100 Hz and, in (a), all delays 1 ms and "
-                        f"f_n = {', '.join(f'{f:g}' for f in FN_A)} Hz (the choice is explained "
-                        "below by the caption's 36.4 degree margin); (b) sweeps T_qs and (c) "
-                        f"sweeps T_qd at f_n = {FN_BC:g} Hz with the other delays 1 ms. "
-                        "Each legend gives the phase margin of the curve (outer loop, inner "
-                        "loop closed, exact delays).")
-    t_end = 0.25
-    colors = ["tab:blue", "tab:green", "tab:orange", "magenta"]
-    # (a) several f_n, with and without the zero
+
+def _fn_sweep(sec: Section):
+    """Panel (a): several f_n, all delays 1 ms, with (solid) and without (dashed) the zero."""
     da = _design(FN_A, **TIMING_A)
     ma = sea_margins(da)
-    ra = sea_step(da, t_end_s=t_end, zero=True)
-    ra0 = sea_step(da, t_end_s=t_end, zero=False)
+    ra = sea_step(da, t_end_s=T_END_S, zero=True)
+    ra0 = sea_step(da, t_end_s=T_END_S, zero=False)
     curves = []
     for i, f in enumerate(FN_A):
         lab = f"f_n={f:g} Hz, PM {_fmt_pm(ma.phase_margin_deg[i])}"
-        curves.append((ra.t_s, ra.position[i], lab, dict(color=colors[i])))
-        curves.append((ra0.t_s, ra0.position[i], None, dict(color=colors[i], ls="--", lw=1)))
-    panels = [{"title": "(a) f_n sweep, delays 1 ms (dashed: without the zero)",
-               "ylabel": "q_j / q_des step", "curves": curves}]
-    rows = []
-    for i, f in enumerate(FN_A):
-        rows.append([f"{f:g}", _fmt_pm(ma.phase_margin_deg[i]),
-                     f"{ra.metrics.overshoot_pct[i]:.1f}", f"{ra0.metrics.overshoot_pct[i]:.1f}",
-                     f"{1e3 * ra.metrics.rise_time_s[i]:.1f}",
-                     f"{1e3 * ra0.metrics.rise_time_s[i]:.1f}"])
+        curves.append((ra.t_s, ra.position[i], lab, dict(color=COLORS[i])))
+        curves.append((ra0.t_s, ra0.position[i], None, dict(color=COLORS[i], ls="--", lw=1)))
+    rows = [[f"{f:g}", _fmt_pm(ma.phase_margin_deg[i]),
+             f"{ra.metrics.overshoot_pct[i]:.1f}", f"{ra0.metrics.overshoot_pct[i]:.1f}",
+             f"{1e3 * ra.metrics.rise_time_s[i]:.1f}", f"{1e3 * ra0.metrics.rise_time_s[i]:.1f}"]
+            for i, f in enumerate(FN_A)]
     sec.tables.append(("(a) f_n sweep: phase margin and step metrics with / without the zero",
                        ["f_n [Hz]", "PM", "overshoot [%]", "overshoot, no zero [%]",
                         "rise [ms]", "rise, no zero [ms]"], rows))
-    # (b), (c) delay sweeps
-    sweeps = {}
-    for key, Ts, lab in (("b", T_QS_B, "T_qs"), ("c", T_QD_C, "T_qd")):
-        timing = dict(t_tau_ms=1.0, t_qs_ms=Ts if key == "b" else 1.0,
-                      t_qd_ms=Ts if key == "c" else 1.0, f_qd_hz=50.0, f_taud_hz=100.0)
-        d = _design(FN_BC, **timing)
-        m = sea_margins(d)
-        r = sea_step(d, t_end_s=t_end)
-        sweeps[key] = (Ts, m, r)
-        curves = [(r.t_s, r.position[i],
-                   f"{lab}={T:g} ms, PM {_fmt_pm(m.phase_margin_deg[i])}"
-                   + ("" if r.result.stable[i] else " (unstable)"), dict(color=colors[i]))
-                  for i, T in enumerate(Ts)]
-        panels.append({"title": f"({key}) {lab} sweep, f_n = {FN_BC:g} Hz, other delays 1 ms",
-                       "ylabel": "q_j / q_des step", "curves": curves, "ylim": (-0.2, 2.2)})
-        sec.tables.append((f"({key}) {lab} sweep at f_n = {FN_BC:g} Hz",
-                           [f"{lab} [ms]", "PM", "stable (Nyquist)", "stable (simulation)",
-                            "overshoot [%]", "settling 2% [ms]"],
-                           [[f"{T:g}", _fmt_pm(m.phase_margin_deg[i], m.stable[i]),
-                             "yes" if m.stable[i] else "NO",
-                             "yes" if r.result.stable[i] else "NO",
-                             f"{r.metrics.overshoot_pct[i]:.1f}",
-                             f"{1e3 * r.metrics.settling_time_s[i]:.0f}"]
-                            for i, T in enumerate(Ts)]))
-    fig = panels_figure(panels, ncols=3, figsize=(15, 4.4))
-    sec.figures.append(Figure(ctx.savefig(fig, "impedance_delay.png"),
-                              "Fig. ImpedanceDelay reconstructed: (a) f_n sweep with (solid) and "
-                              "without (dashed) the torque-derivative zero; (b) stiffness-delay "
-                              "and (c) damping-delay sweeps. Phase margins in the legends."))
-    sec.claims.append(_consistency_claim(
-        "impdelay.sim_vs_nyquist", "Fig. ImpedanceDelay", "panels (a)-(c)",
-        np.concatenate([ra.result.stable, sweeps["b"][2].result.stable,
-                        sweeps["c"][2].result.stable]),
-        np.concatenate([ma.stable, sweeps["b"][1].stable, sweeps["c"][1].stable])))
-    # overshoot grows with f_n (a) and the zero adds overshoot
+    panel = {"title": "(a) f_n sweep, delays 1 ms (dashed: without the zero)",
+             "ylabel": "q_j / q_des step", "curves": curves}
+    return panel, ma, ra, ra0
+
+
+def _delay_sweep(sec: Section, key: str, delays_ms: np.ndarray, label: str):
+    """Panels (b) and (c): one delay swept at f_n = FN_BC, the other delays 1 ms."""
+    timing = dict(t_tau_ms=1.0, t_qs_ms=delays_ms if key == "b" else 1.0,
+                  t_qd_ms=delays_ms if key == "c" else 1.0, f_qd_hz=50.0, f_taud_hz=100.0)
+    d = _design(FN_BC, **timing)
+    m = sea_margins(d)
+    r = sea_step(d, t_end_s=T_END_S)
+    curves = [(r.t_s, r.position[i], f"{label}={T:g} ms, PM {_fmt_pm(m.phase_margin_deg[i])}"
+               + ("" if r.result.stable[i] else " (unstable)"), dict(color=COLORS[i]))
+              for i, T in enumerate(delays_ms)]
+    sec.tables.append((f"({key}) {label} sweep at f_n = {FN_BC:g} Hz",
+                       [f"{label} [ms]", "PM", "stable (Nyquist)", "stable (simulation)",
+                        "overshoot [%]", "settling 2% [ms]"],
+                       [[f"{T:g}", _fmt_pm(m.phase_margin_deg[i], m.stable[i]),
+                         "yes" if m.stable[i] else "NO", "yes" if r.result.stable[i] else "NO",
+                         f"{r.metrics.overshoot_pct[i]:.1f}",
+                         f"{1e3 * r.metrics.settling_time_s[i]:.0f}"]
+                        for i, T in enumerate(delays_ms)]))
+    panel = {"title": f"({key}) {label} sweep, f_n = {FN_BC:g} Hz, other delays 1 ms",
+             "ylabel": "q_j / q_des step", "curves": curves, "ylim": (-0.2, 2.2)}
+    return panel, m, r
+
+
+def _fn_sweep_claims(sec: Section, ma, ra, ra0) -> None:
     inc = bool(np.all(np.diff(ra.metrics.overshoot_pct) > 0))
     sec.claims.append(Claim("impdelay.a.overshoot_grows_with_fn", "Fig. ImpedanceDelay",
                             "(a) a larger f_n leads to a larger overshoot", "yes",
@@ -171,7 +151,10 @@ def impedance_delay(ctx: Context) -> Section:
         f"(a) the largest f_n ({FN_A[-1]:g} Hz, delays 1 ms, filters 50/100 Hz) has a 36.4 degree "
         "phase margin, the smallest of the four", 36.4, float(ma.phase_margin_deg[-1]), 0.1,
         "" if smallest else "it is not the smallest of the four"))
-    # which parameters give 36.4 degrees
+
+
+def _pm36_source(sec: Section) -> None:
+    """Which candidate parameter sets give the caption's 36.4 degrees."""
     matches = [(lab, f, p) for lab, f, p in _pm_search() if 36.4 <= p < 36.5]
     sec.tables.append(("Which parameter sets give the caption's 36.4 degrees (PM in [36.4, 36.5), "
                        "i.e. 36.4 when truncated as Table I's 43.2 is)",
@@ -186,7 +169,10 @@ def impedance_delay(ctx: Context) -> Section:
         "caption's magenta curve is most likely f_n = 20 Hz with filters 50/100 Hz and delays "
         "of at most 1 ms" if any(f == 20.0 for _l, f, _p in matches) else
         "no candidate set gives 36.4x"))
-    # sensitivity: damping vs stiffness delays, per f_n
+
+
+def _sensitivity_rows() -> tuple[list[list[str]], dict[float, tuple]]:
+    """Per f_n: critical delays and PM changes, and whether the damping delay is more critical."""
     s = delay_sensitivity()
     T = s["T_ms"]
     i1, i2 = int(np.argmin(np.abs(T - 1.0))), int(np.argmin(np.abs(T - 2.0)))
@@ -198,6 +184,11 @@ def impedance_delay(ctx: Context) -> Section:
         holds[float(f)] = (cd < cq and dd < dq, cq, cd, dq, dd)
         rows.append([f"{f:g}", f"{cq:g}", f"{cd:g}", f"{dq:.2f}", f"{dd:.2f}",
                      "yes" if holds[float(f)][0] else "no"])
+    return rows, holds
+
+
+def _sensitivity(sec: Section) -> None:
+    rows, holds = _sensitivity_rows()
     sec.tables.append(("Delay sensitivity per f_n (other delays 1 ms, filters 50/100 Hz): "
                        "critical delay = first unstable point of a 0.25 ms grid (Nyquist, exact "
                        "delays); dPM = phase-margin change from 1 to 2 ms",
@@ -215,27 +206,62 @@ def impedance_delay(ctx: Context) -> Section:
     fails = [f for f, v in holds.items() if not v[0]]
     sec.claims.append(Claim(
         "impdelay.damping_delay_more_sensitive.all_fn", "Fig. ImpedanceDelay",
-        "the same claim at every f_n of " + ", ".join(f"{f:g}" for f in s["fn"]) + " Hz",
+        "the same claim at every f_n of " + ", ".join(f"{f:g}" for f in FN_SENS) + " Hz",
         "holds at every f_n", {f"{f:g}": bool(v[0]) for f, v in holds.items()},
         "both measures", "pass" if not fails else "fail",
         "" if not fails else "does not hold at f_n = " + ", ".join(f"{f:g}" for f in fails)
         + " Hz: at low f_n (small B_q) the two delays are about equally critical; the claim "
           "holds from the f_n where the damping gain dominates the crossover"))
-    # overshoot versus f_n depends on the delays
+
+
+def _overshoot_trend(sec: Section) -> None:
+    """Overshoot versus f_n for several delay sets: the trend of panel (a) depends on them."""
     fn = np.array([12.0, 14.0, 16.0, 18.0, 20.0, 25.0, 30.0])
     cases = [("all 1 ms, filters 50/100", 1, 1, 1, 50), ("Table I timing", 0.5, 2, 0.5, 50),
              ("all 1 ms, no filters", 1, 1, 1, np.inf), ("T_qs=5, T_qd=2, T_tau=1 ms", 1, 5, 2, 50),
              ("T_qs=10, T_qd=3, T_tau=1 ms", 1, 10, 3, 50)]
     arr = np.array([c[1:] for c in cases], float)
     tim = Timing.from_ms(arr[:, :1], arr[:, 1:2], arr[:, 2:3], arr[:, 3:4], 2 * arr[:, 3:4])
-    dd_ = SEADesign(UT_SEA, critically_damped_gains(UT_SEA, fn[None, :]), tim)
-    ro = sea_step(dd_, t_end_s=0.25)
+    ro = sea_step(SEADesign(UT_SEA, critically_damped_gains(UT_SEA, fn[None, :]), tim),
+                  t_end_s=T_END_S)
     sec.tables.append(("Overshoot [%] versus f_n (with the zero) for several delay sets: the "
                        "trend of panel (a) depends on the delays",
                        ["delays, filters"] + [f"{f:g} Hz" for f in fn],
                        [[c[0]] + [f"{x:.1f}" if ro.result.stable[i, j] else "unstable"
                                   for j, x in enumerate(ro.metrics.overshoot_pct[i])]
                         for i, c in enumerate(cases)]))
+
+
+@section(40, "impedance-delay")
+def impedance_delay(ctx: Context) -> Section:
+    from ..plots import panels_figure
+
+    sec = Section("impedance-delay", "Fig. ImpedanceDelay: step responses affected by delays",
+                  intro="Continuous-time simulations with exact transport delays (delay buffers, "
+                        "exact integration between 0.1 ms steps), derived from the SEA block "
+                        "diagram. The caption gives no parameters; this reconstruction uses "
+                        "filters f_qd = 50 Hz, f_taud = 100 Hz and, in (a), all delays 1 ms and "
+                        f"f_n = {', '.join(f'{f:g}' for f in FN_A)} Hz (the choice is explained "
+                        "below by the caption's 36.4 degree margin); (b) sweeps T_qs and (c) "
+                        f"sweeps T_qd at f_n = {FN_BC:g} Hz with the other delays 1 ms. "
+                        "Each legend gives the phase margin of the curve (outer loop, inner "
+                        "loop closed, exact delays).")
+    panel_a, ma, ra, ra0 = _fn_sweep(sec)
+    panel_b, mb, rb = _delay_sweep(sec, "b", T_QS_B, "T_qs")
+    panel_c, mc, rc = _delay_sweep(sec, "c", T_QD_C, "T_qd")
+    fig = panels_figure([panel_a, panel_b, panel_c], ncols=3, figsize=(15, 4.4))
+    sec.figures.append(Figure(ctx.savefig(fig, "impedance_delay.png"),
+                              "Fig. ImpedanceDelay reconstructed: (a) f_n sweep with (solid) and "
+                              "without (dashed) the torque-derivative zero; (b) stiffness-delay "
+                              "and (c) damping-delay sweeps. Phase margins in the legends."))
+    sec.claims.append(_consistency_claim(
+        "impdelay.sim_vs_nyquist", "Fig. ImpedanceDelay", "panels (a)-(c)",
+        np.concatenate([ra.result.stable, rb.result.stable, rc.result.stable]),
+        np.concatenate([ma.stable, mb.stable, mc.stable])))
+    _fn_sweep_claims(sec, ma, ra, ra0)
+    _pm36_source(sec)
+    _sensitivity(sec)
+    _overshoot_trend(sec)
     return sec
 
 
@@ -359,7 +385,7 @@ def experiment_gs(ctx: Context) -> Section:
 def experiment_impulse(ctx: Context) -> Section:
     from ..plots import panels_figure
 
-    timing = dict(t_tau_ms=0.5, t_qs_ms=2.0, t_qd_ms=0.5, f_qd_hz=50.0, f_taud_hz=100.0)
+    timing = TABLE_I_TIMING
     d = _design(14.0, **timing)
     unit = sea_impulse(d, impulse_nms=1.0, t_end_s=1.0)
     J = float(np.radians(2.5) / unit.metrics.peak_deviation)

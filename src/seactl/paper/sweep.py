@@ -17,10 +17,10 @@ import numpy as np
 from ..actuators import UT_SEA
 from ..report import Claim, Context, Figure, Section, numeric_claim, section
 from ..sweep import SweepSpec, read_sweep, run_sweep
+from .constants import TABLE_I_PM
 
 FN_HZ = (12.0, 14.0, 16.0, 20.0)
 DELAYS_MS = tuple(float(x) for x in np.round(np.arange(0.0, 20.0001, 0.5), 10))
-TABLE_I_PM = {12.0: 45.1, 14.0: 43.2, 16.0: 40.0, 20.0: 33.2}
 T_QS0, T_QD0 = 2.0, 0.5   # Table I's stiffness and damping delays [ms]
 
 

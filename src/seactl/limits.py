@@ -1,0 +1,193 @@
+"""Bounds from physics and from the machine.
+
+Physical ranges of the inputs (:data:`RANGES`) and the work a command may start: every
+command estimates the memory and time of what it is asked before allocating, and
+:func:`check_budget` refuses with the estimate when the memory exceeds what this machine
+has available, or the time exceeds :func:`time_budget_s`.
+
+This module sits at the bottom of the layering (it imports :mod:`seactl.errors` and
+:mod:`seactl.axes`).
+"""
+
+from __future__ import annotations
+
+import math
+import os
+
+from .axes import AXES
+from .errors import ResourceError
+
+
+def human_bytes(n: float) -> str:
+    """``1.5 GiB``-style size."""
+    for unit in ("B", "KiB", "MiB", "GiB", "TiB", "PiB"):
+        if abs(n) < 1024 or unit == "PiB":
+            return f"{n:.3g} {unit}"
+        n /= 1024
+    return f"{n:.3g} PiB"  # pragma: no cover
+
+
+def human_seconds(s: float) -> str:
+    """``2.5 min``-style duration."""
+    if s < 120:
+        return f"{s:.3g} s"
+    if s < 7200:
+        return f"{s / 60:.3g} min"
+    if s < 2 * 86400:
+        return f"{s / 3600:.3g} h"
+    return f"{s / 86400:.3g} days"
+
+
+def available_memory_bytes() -> float:
+    """Memory this process may still use: ``MemAvailable`` (Linux), else physical memory."""
+    try:
+        with open("/proc/meminfo") as fh:
+            for line in fh:
+                if line.startswith("MemAvailable:"):
+                    return float(line.split()[1]) * 1024
+    except OSError:
+        pass
+    try:
+        return float(os.sysconf("SC_PAGE_SIZE") * os.sysconf("SC_PHYS_PAGES"))
+    except (ValueError, OSError, AttributeError):  # pragma: no cover
+        return 8 * 2.0**30
+
+
+MEMORY_FRACTION = 0.5
+"""A command may allocate at most this fraction of the available memory."""
+
+
+def time_budget_s() -> float:
+    """Longest estimated run a command starts: ``SEACTL_MAX_SECONDS`` or 15 minutes."""
+    try:
+        value = float(os.environ.get("SEACTL_MAX_SECONDS", "900"))
+    except ValueError:
+        value = 900.0
+    return value if value > 0 else 900.0
+
+
+def check_budget(what: str, *, n_bytes: float = 0.0, seconds: float = 0.0,
+                 hint: str = "") -> None:
+    """Refuse work estimated to need more memory than the machine has, or longer than
+    :func:`time_budget_s`; the message gives the estimate, the limit and ``hint``."""
+    mem = available_memory_bytes() * MEMORY_FRACTION
+    if n_bytes > mem:
+        raise ResourceError(f"{what} needs about {human_bytes(n_bytes)} of memory, more than "
+                            f"this machine can give ({human_bytes(mem)})"
+                            + (f"; {hint}" if hint else ""))
+    budget = time_budget_s()
+    if seconds > budget:
+        raise ResourceError(f"{what} would take about {human_seconds(seconds)}, longer than "
+                            f"the limit of {human_seconds(budget)} (SEACTL_MAX_SECONDS)"
+                            + (f"; {hint}" if hint else ""))
+
+
+# ------------------------------------------------------------------ physical ranges
+def _axis_range(name: str, what: str) -> tuple[float, float, str]:
+    info = AXES[name]
+    return info.minimum, info.maximum, what
+
+
+RANGES: dict[str, tuple[float, float, str]] = {
+    "delay_ms": _axis_range("t_qs_ms", "a feedback delay of a servo loop: 0 to 1 s"),
+    "fn_hz": _axis_range("fn_hz", "a closed-loop natural frequency of a joint: 1 mHz to "
+                         "1 kHz"),
+    "filter_hz": _axis_range("f_qd_hz", "a filter cut-off: above 1 mHz, up to 1 MHz"),
+    "amplitude_rad": (0.0, 100.0, "a step size: its magnitude above 0, up to 100 rad"),
+    "impulse_nms": (0.0, 1e3, "an angular impulse: its magnitude above 0, up to 1000 N m s"),
+    "rate_hz": (10.0, 1e6, "a servo rate: 10 Hz to 1 MHz"),
+    "t_end_s": (0.0, 60.0, "a simulated time: above 0, up to 60 s"),
+    "freq_hz": (0.0, 1e7, "an analysis frequency: above 0, up to 10 MHz"),
+}
+"""Documented input ranges of the quantities that are not design axes, and of the delays,
+natural frequencies and filters of the rigid-actuator and placement commands (taken from
+:data:`seactl.axes.AXES`, where the design axes keep theirs): (low, high, what) with ``low``
+exclusive for frequencies and times and inclusive for delays."""
+
+MIN_SAMPLES = 20
+"""A simulation records at least this many samples (``t_end`` x rate)."""
+MAX_VALUES = 1_000_000
+"""Most values one list or range option may expand to (``--fn``, ``--freq``, ...)."""
+
+
+def check_range(name: str, value: float, kind: str) -> float:
+    """``value`` inside ``RANGES[kind]``, else :class:`~seactl.errors.InputError` naming
+    ``name`` (the parameter in the library, the flag at the command line)."""
+    from .errors import InputError
+
+    lo, hi, what = RANGES[kind]
+    v = float(value)
+    inclusive = kind in ("delay_ms", "rate_hz", "fn_hz")
+    ok = (lo <= v <= hi) if inclusive else (lo < v <= hi)
+    if math.isnan(v) or not ok:
+        raise InputError(name, v, f"{'>=' if inclusive else '>'} {lo:g} and <= {hi:g} "
+                         f"({what})")
+    return v
+
+
+# ------------------------------------------------------------------ estimates
+BYTES_PER_DESIGN = 27e3
+"""Peak memory of one design's gains and margins (measured in the sweep: 27 kB/point)."""
+SIM_SECONDS_PER_STEP = 40e-6
+"""Time of one simulation step, plus :data:`SIM_SECONDS_PER_DESIGN_STEP` per design
+(measured: 26-46 us per step for one design, 2 us per extra design; rounded up)."""
+SIM_SECONDS_PER_DESIGN_STEP = 3e-6
+SIM_BYTES_PER_SAMPLE = 200.0
+"""Memory per design and recorded sample: the recorded signals and their JSON text."""
+FREQ_BYTES_PER_POINT = 640.0
+"""Memory per design and frequency of an impedance evaluation (complex temporaries)."""
+
+
+def simulation_estimate(n_designs: float, steps: float, recorded: float
+                        ) -> tuple[float, float]:
+    """(bytes, seconds) of a time-domain simulation of ``n_designs`` over ``steps``."""
+    seconds = steps * (SIM_SECONDS_PER_STEP + SIM_SECONDS_PER_DESIGN_STEP * n_designs)
+    return n_designs * recorded * SIM_BYTES_PER_SAMPLE, seconds
+
+
+def check_count(name: str, text: str, n: float) -> int:
+    """A list or range expanding to ``n`` values: at most :data:`MAX_VALUES`."""
+    from .errors import InputError
+
+    if not math.isfinite(n) or n > MAX_VALUES:
+        size = f"{n:.3g} values, {human_bytes(8 * n)}" if math.isfinite(n) else "unbounded"
+        raise InputError(name, text, f"at most {MAX_VALUES:.0e} values (this is {size})")
+    return int(n)
+
+
+RECORD_DT_S = 5e-4
+"""Recording interval of the command line's continuous simulations [s]."""
+
+
+def check_simulation(n_designs: int, mode: str, rate_hz: float, t_end_s: float,
+                     delays_s: list[float], *, record_dt_s: float | None = None,
+                     rate_name: str = "rate_hz", t_end_name: str = "t_end_s",
+                     hint: str = "shorten t_end_s, lower rate_hz, or simulate fewer designs"
+                     ) -> None:
+    """Check a simulation before it allocates: the rate and duration in their ranges, at
+    least :data:`MIN_SAMPLES` recorded samples, and memory and time within the machine's.
+
+    The continuous mode steps at ``min(0.1 ms, smallest positive delay)`` and records every
+    ``record_dt_s`` (every step when ``None``); the sampled mode steps at ``1/rate_hz``.
+    """
+    from .errors import InputError
+
+    check_range(t_end_name, t_end_s, "t_end_s")
+    if mode == "sampled":
+        check_range(rate_name, rate_hz, "rate_hz")
+        steps = recorded = t_end_s * rate_hz
+        need = f"{t_end_name} x {rate_name} >= {MIN_SAMPLES}"
+    else:
+        dt = min([1e-4, *(d for d in delays_s if d > 0)])
+        steps = t_end_s / dt
+        rec = max(dt, record_dt_s or dt)
+        recorded = t_end_s / rec
+        need = f"{t_end_name} >= {MIN_SAMPLES} x {rec * 1e3:g} ms (the recording step)"
+    if recorded < MIN_SAMPLES:
+        raise InputError(t_end_name, t_end_s, f"long enough to record {MIN_SAMPLES} samples "
+                         f"({need})")
+    n_bytes, seconds = simulation_estimate(n_designs, steps, recorded)
+    check_budget(f"simulating {n_designs:,} design(s) over {steps:,.4g} steps",
+                 n_bytes=n_bytes, seconds=seconds,
+                 hint=hint + ("" if mode == "sampled" else " (the continuous mode steps at "
+                              "min(0.1 ms, the smallest positive delay))"))

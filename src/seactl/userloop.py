@@ -1,0 +1,1005 @@
+"""Bring your own loop: user-defined loops (TOML loop files or :class:`LoopBuilder`) with
+every view seactl has for its built-in loops.
+
+A loop is compiled (:mod:`seactl.loopfile`) onto the one
+:class:`~seactl.blockdiagram.BlockDiagram`; the views below are the generic ones the
+built-in SEA and rigid loops use: loop transfers broken at named signals with exact delays
+and :func:`seactl.margins.loop_margins` (the open loop's right-half-plane poles counted by
+closing the other breaks one at a time, :func:`seactl.latency.path_margins`), impedance
+from a transfer with the port's motion imposed, and :func:`seactl.simulate.simulate`
+(continuous with delay buffers, or sampled with each process at its rate).
+"""
+
+from __future__ import annotations
+
+import itertools
+import tomllib
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass, replace
+from functools import cached_property
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from .errors import LoopFileError
+from .loopfile import (
+    CompiledLoop,
+    check_name,
+    compile_loop,
+    has_loop,
+    parse_block,
+    parse_expr,
+)
+from .margins import Margins, loop_margins
+
+_BUILDER = "<builder>"
+
+
+def _jsonable(x: Any) -> Any:
+    a = np.asarray(x)
+    if a.dtype == bool:
+        return a.tolist()
+    if a.ndim == 0:
+        v = float(a)
+        return round(v, 12) if np.isfinite(v) else None
+    return [_jsonable(v) for v in a]
+
+
+@dataclass(frozen=True)
+class BreakMargins:
+    """Margins of one loop broken at a named signal (arrays of the design batch shape)."""
+
+    name: str
+    signal: str
+    margins: Margins
+    jitter_margin_s: np.ndarray
+
+    def to_dict(self) -> dict[str, Any]:
+        m = self.margins
+        return {"break": self.name, "signal": self.signal,
+                "phase_margin_deg": _jsonable(m.phase_margin_deg),
+                "crossover_hz": _jsonable(m.crossover_hz),
+                "gain_margin_db": _jsonable(m.gain_margin_db),
+                "phase_crossover_hz": _jsonable(m.phase_crossover_hz),
+                "delay_margin_ms": _jsonable(m.delay_margin_ms),
+                "jitter_margin_ms": _jsonable(self.jitter_margin_s * 1e3),
+                "stable": _jsonable(m.stable), "unstable_poles": m.unstable_poles.tolist()}
+
+
+@dataclass(frozen=True)
+class LoopAnalysis:
+    """Margins at every named break of a :class:`UserLoop`, and its stability.
+
+    Attributes
+    ----------
+    loop : str
+        The loop's name.
+    breaks : list of BreakMargins
+        One per ``[[breaks]]`` entry, in file order.
+    stable : ndarray
+        Closed-loop stability (Nyquist on the exact-delay loops: no closed-loop root of
+        the characteristic quasi-polynomial in the right half plane).
+    values : dict
+        The design variables and parameters the batch was evaluated at.
+    """
+
+    loop: str
+    breaks: list[BreakMargins]
+    stable: np.ndarray
+    values: dict[str, np.ndarray]
+
+    def __getitem__(self, name: str) -> BreakMargins:
+        for b in self.breaks:
+            if b.name == name:
+                return b
+        raise KeyError(name)
+
+    def to_dict(self) -> dict[str, Any]:
+        return {"loop": self.loop, "stable": _jsonable(self.stable),
+                "values": {k: _jsonable(v) for k, v in self.values.items()},
+                "breaks": [b.to_dict() for b in self.breaks]}
+
+
+@dataclass(frozen=True)
+class Placements:
+    """Placements of the movable blocks on the processes, ranked (best first).
+
+    Attributes
+    ----------
+    blocks : list of str
+        The movable blocks (``delay_ms = "process"``).
+    latency_ms : dict
+        Process -> latency [ms] used.
+    options : list of dict
+        Block -> process, ranked.
+    analysis : LoopAnalysis
+        Margins of every option (batch axis in the original, unranked order).
+    order : ndarray
+        Ranked option -> index into ``analysis``.
+    """
+
+    blocks: list[str]
+    latency_ms: dict[str, float]
+    options: list[dict[str, str]]
+    analysis: LoopAnalysis
+    order: np.ndarray
+
+    def records(self) -> list[dict[str, Any]]:
+        """One JSON-ready row per option, best first."""
+        rows = []
+        for rank, (opt, i) in enumerate(zip(self.options, self.order)):
+            row: dict[str, Any] = {"rank": rank + 1, "placement": opt,
+                                   "stable": bool(self.analysis.stable[i])}
+            for b in self.analysis.breaks:
+                m = b.margins
+                row[b.name] = {"phase_margin_deg": _jsonable(m.phase_margin_deg[i]),
+                               "crossover_hz": _jsonable(m.crossover_hz[i]),
+                               "delay_margin_ms": _jsonable(m.delay_margin_ms[i])}
+            rows.append(row)
+        return rows
+
+
+class LoopBuilder:
+    """Build a loop in Python, with the same blocks, checks and errors as a loop file.
+
+    Each call validates what it adds at once (a :class:`~seactl.LoopFileError` names
+    the block and field); :meth:`build` checks the structure and returns a
+    :class:`UserLoop`.
+
+    Parameters
+    ----------
+    name : str
+        The loop's name.
+    description : str
+        Free text.
+
+    Examples
+    --------
+    A rigid mass under PD control with the stiffness on a slow process:
+
+    >>> import seactl as sc
+    >>> loop = (sc.LoopBuilder("rigid")
+    ...         .variables(m=256.0, b=1250.0, fn=8.0)
+    ...         .parameters(K="m * (2*pi*fn)^2", B="2*m*2*pi*fn - b")
+    ...         .process("embedded", rate_hz=1000).process("high", rate_hz=1000)
+    ...         .block("x_sensor", "sensor", input="x", output="x_s")
+    ...         .block("K_ref", "gain", input="x_des", output="F", gain="K", process="high")
+    ...         .block("K_fb", "gain", input="x_s", output="F", gain="-K", process="high",
+    ...                delay_ms=1.5)
+    ...         .block("B_fb", "pd", input="x_s", output="F", kd="-B",
+    ...                process="embedded", delay_ms=1.5)
+    ...         .block("mass", "inertia", input=["F", "F_ext"], output="x", inertia="m",
+    ...                damping="b")
+    ...         .signals(inputs=["x_des", "F_ext"], reference="x_des", output="x")
+    ...         .break_at("position", "x_s").build())
+    >>> round(float(loop.analyze()["position"].margins.phase_margin_deg), 1)  # seactl.rigid
+    69.4
+    """
+
+    def __init__(self, name: str = "loop", description: str = ""):
+        self._data: dict[str, Any] = {"name": name, "description": description,
+                                      "variables": {}, "parameters": {}, "processes": {},
+                                      "blocks": [], "breaks": [], "ports": [], "signals": {}}
+
+    def _known(self) -> list[str]:
+        return [*self._data["variables"], *self._data["parameters"]]
+
+    def variables(self, **values: float) -> LoopBuilder:
+        """Add design variables (numbers; ``--set`` and :meth:`UserLoop.with_values`
+        override them).
+
+        Parameters
+        ----------
+        **values : float
+            Name -> value.
+
+        Returns
+        -------
+        LoopBuilder
+            This builder.
+        """
+        for k, v in values.items():
+            check_name(k, _BUILDER, f"variable name {k!r}")
+            if isinstance(v, bool) or not isinstance(v, (int, float)) or not np.isfinite(v):
+                raise LoopFileError(_BUILDER, f"variable {k!r}", v, "a finite number "
+                                    "(expressions go to parameters())")
+            self._data["variables"][k] = float(v)
+        return self
+
+    def parameters(self, **exprs: float | str) -> LoopBuilder:
+        """Add derived parameters: numbers or expressions of variables and earlier
+        parameters (``"m * (2*pi*fn)^2"``).
+
+        Parameters
+        ----------
+        **exprs : float or str
+            Name -> number or expression.
+
+        Returns
+        -------
+        LoopBuilder
+            This builder.
+        """
+        for k, v in exprs.items():
+            check_name(k, _BUILDER, f"parameter name {k!r}")
+            parse_expr(v, _BUILDER, f"parameter {k!r}", self._known())
+            self._data["parameters"][k] = v
+        return self
+
+    def process(self, name: str, rate_hz: float = 1000.0, latency_ms: float | str = 0.0
+                ) -> LoopBuilder:
+        """Declare a process (a processor the controller blocks run on).
+
+        Parameters
+        ----------
+        name : str
+            Process name.
+        rate_hz : float
+            Its rate [Hz] (sampled simulations).
+        latency_ms : float or str
+            The delay of its blocks that say ``delay_ms="process"`` [ms] (number or
+            expression).
+
+        Returns
+        -------
+        LoopBuilder
+            This builder.
+        """
+        self._data["processes"][name] = {"rate_hz": rate_hz, "latency_ms": latency_ms}
+        return self
+
+    def block(self, name: str, kind: str, *, input: str | Sequence[str], output: str,
+              process: str | None = None, delay_ms: float | str | None = None,
+              measurement: str | None = None, **params: Any) -> LoopBuilder:
+        """Add a block (see docs/loops.md for the kinds and their fields).
+
+        Parameters
+        ----------
+        name : str
+            Unique block name.
+        kind : str
+            ``inertia``, ``load``, ``spring``, ``damper``, ``current_to_torque``, ``gain``,
+            ``sum``, ``sensor``, ``delay``, ``pd``, ``pid``, ``lowpass1``, ``lowpass2``,
+            ``notch``, ``leadlag``, ``tf`` or ``dob``.
+        input : str or sequence of str
+            Input signal, or signed signals summed in front of the block (``"-y"``).
+        output : str
+            Output signal (the block adds into it).
+        process : str, optional
+            The process a controller block runs on.
+        delay_ms : float or str, optional
+            Exact delay [ms]: number, expression, or ``"process"`` (its latency).
+        measurement : str, optional
+            The measured signal of a ``dob`` block.
+        **params : Any
+            The kind's fields (numbers or expressions).
+
+        Returns
+        -------
+        LoopBuilder
+            This builder.
+        """
+        data = {"name": name, "kind": kind, "input": input if isinstance(input, str)
+                else list(input), "output": output, **params}
+        for key, val in (("process", process), ("delay_ms", delay_ms),
+                         ("measurement", measurement)):
+            if val is not None:
+                data[key] = val
+        procs = self._data["processes"]
+        parse_block(data, _BUILDER, self._known(), procs, self._data.get("default_process"))
+        self._data["blocks"].append(data)
+        return self
+
+    def break_at(self, name: str, signal: str) -> LoopBuilder:
+        """Name a loop-break point (list inner loops first).
+
+        Parameters
+        ----------
+        name : str
+            The loop's name.
+        signal : str
+            The signal where the loop is broken (usually a sensor's output).
+
+        Returns
+        -------
+        LoopBuilder
+            This builder.
+        """
+        self._data["breaks"].append({"name": name, "signal": signal})
+        return self
+
+    def port(self, name: str, position: str, force: str, sign: float = -1.0) -> LoopBuilder:
+        """Name an impedance port ``Z = sign * force / (s position)``, position imposed.
+
+        Parameters
+        ----------
+        name : str
+            Port name.
+        position, force : str
+            Signals: the imposed motion and the force (torque) measured.
+        sign : float
+            -1 (default) when ``force`` acts on the moving body.
+
+        Returns
+        -------
+        LoopBuilder
+            This builder.
+        """
+        self._data["ports"].append({"name": name, "position": position, "force": force,
+                                    "sign": sign})
+        return self
+
+    def signals(self, inputs: Sequence[str] = (), reference: str | None = None,
+                disturbance: str | None = None, output: str | None = None) -> LoopBuilder:
+        """Declare the exogenous inputs and the default signals of the responses.
+
+        Parameters
+        ----------
+        inputs : sequence of str
+            Signals fed by no block (references, disturbances).
+        reference, disturbance : str, optional
+            The inputs a step and an impulse drive by default.
+        output : str, optional
+            The response's default output signal.
+
+        Returns
+        -------
+        LoopBuilder
+            This builder.
+        """
+        sig = {"inputs": list(inputs), "reference": reference, "disturbance": disturbance,
+               "output": output}
+        self._data["signals"] = {k: v for k, v in sig.items() if v is not None}
+        return self
+
+    def build(self) -> UserLoop:
+        """Check the whole structure and compile the loop.
+
+        Returns
+        -------
+        UserLoop
+            The loop at the variables' values.
+        """
+        return UserLoop(compile_loop(self._data, _BUILDER))
+
+
+def load_loop(path: str | Path, **values: Any) -> UserLoop:
+    """Load a loop file (TOML, docs/loops.md).
+
+    Parameters
+    ----------
+    path : str or Path
+        The ``.toml`` loop file.
+    **values : float or array_like
+        Overrides of design variables or parameters (arrays make a design batch).
+
+    Returns
+    -------
+    UserLoop
+        The validated, compiled loop.
+
+    Raises
+    ------
+    LoopFileError
+        The file is missing or invalid; the message names the file, the block and field,
+        the value and what is valid.
+
+    Examples
+    --------
+    An integrator ``K/s`` with a 10 ms delay in unity feedback (PM = 90 - K T deg):
+
+    >>> import seactl, tempfile, pathlib
+    >>> lines = [
+    ...     'variables = { K = 10.0 }',
+    ...     'processes = { cpu = { rate_hz = 1000 } }',
+    ...     'signals = { inputs = ["r"], reference = "r", output = "y" }',
+    ...     'breaks = [ { name = "main", signal = "y_m" } ]',
+    ...     '[[blocks]]',
+    ...     'name = "ctrl"',
+    ...     'kind = "gain"',
+    ...     'input = ["r", "-y_m"]',
+    ...     'output = "u"',
+    ...     'gain = "K"',
+    ...     'delay_ms = 10',
+    ...     '[[blocks]]',
+    ...     'name = "plant"',
+    ...     'kind = "plant_tf"',
+    ...     'input = "u"',
+    ...     'output = "y"',
+    ...     'num = [1]',
+    ...     'den = [1, 0]',
+    ...     '[[blocks]]',
+    ...     'name = "sensor"',
+    ...     'kind = "sensor"',
+    ...     'input = "y"',
+    ...     'output = "y_m"']
+    >>> path = pathlib.Path(tempfile.mkdtemp()) / "integrator.toml"
+    >>> _ = path.write_text(chr(10).join(lines))
+    >>> m = seactl.load_loop(path, K=[5.0, 10.0]).analyze()["main"].margins
+    >>> m.phase_margin_deg.round(4).tolist(), (90 - np.degrees([0.05, 0.1])).round(4).tolist()
+    ([87.1352, 84.2704], [87.1352, 84.2704])
+    """
+    p = Path(path)
+    if not p.is_file():
+        raise LoopFileError(str(path), "file", None, "an existing .toml loop file")
+    try:
+        data = tomllib.loads(p.read_text())
+    except (tomllib.TOMLDecodeError, UnicodeDecodeError) as exc:
+        raise LoopFileError(str(path), "file", None, f"valid TOML ({exc})") from None
+    loop = UserLoop(compile_loop(data, str(path)))
+    return loop.with_values(**values) if values else loop
+
+
+class UserLoop:
+    """A user-defined loop at given values of its design variables (a batch if arrays).
+
+    Every view derives from the compiled block diagram: :meth:`analyze` (margins at every
+    named break, delay and jitter margins, stability), :meth:`impedance` at a port,
+    :meth:`frequency_response` of any transfer, :meth:`step` and :meth:`impulse`
+    (continuous or sampled, each process at its rate).
+
+    Parameters
+    ----------
+    compiled : seactl.loopfile.CompiledLoop
+        From :func:`load_loop` or :meth:`LoopBuilder.build`.
+    values : dict, optional
+        Overrides of variables or parameters (arrays broadcast into a design batch).
+    latency_ms : dict, optional
+        Overrides of the processes' latencies [ms].
+
+    Examples
+    --------
+    >>> import seactl as sc
+    >>> loop = (sc.LoopBuilder("int").variables(K=10.0).process("cpu")
+    ...         .block("c", "gain", input=["r", "-y_m"], output="u", gain="K", delay_ms=10)
+    ...         .block("p", "plant_tf", input="u", output="y", num=[1], den=[1, 0])
+    ...         .block("s", "sensor", input="y", output="y_m")
+    ...         .signals(inputs=["r"], reference="r", output="y")
+    ...         .break_at("main", "y_m").build())
+    >>> loop.with_values(K=[5.0, 20.0]).shape
+    (2,)
+    """
+
+    def __init__(self, compiled: CompiledLoop, values: Mapping[str, Any] | None = None,
+                 latency_ms: Mapping[str, Any] | None = None):
+        self.compiled = compiled
+        self.values = dict(values or {})
+        self.latency_ms = dict(latency_ms or {})
+
+    # ------------------------------------------------------------ structure
+    @property
+    def name(self) -> str:
+        """The loop's name."""
+        return self.compiled.model.name
+
+    @property
+    def file(self) -> str:
+        """The loop file (``<builder>`` for a built loop)."""
+        return self.compiled.file
+
+    @property
+    def diagram(self) -> Any:
+        """The compiled :class:`~seactl.blockdiagram.BlockDiagram`."""
+        return self.compiled.diagram
+
+    @property
+    def breaks(self) -> dict[str, str]:
+        """Break name -> signal, inner loops first."""
+        return {b.name: b.signal for b in self.compiled.model.breaks}
+
+    @property
+    def ports(self) -> dict[str, Any]:
+        """Port name -> its definition (position, force, sign)."""
+        return {p.name: p for p in self.compiled.model.ports}
+
+    @property
+    def processes(self) -> dict[str, Any]:
+        """Process name -> its definition (rate_hz, latency_ms)."""
+        return dict(self.compiled.model.processes)
+
+    def with_values(self, **values: Any) -> UserLoop:
+        """The same loop with variables or parameters overridden (``--set``).
+
+        Parameters
+        ----------
+        **values : float or array_like
+            Name -> value(s); arrays broadcast together into a design batch.
+
+        Returns
+        -------
+        UserLoop
+            A new loop sharing the compiled diagram (no new derivation).
+        """
+        loop = UserLoop(self.compiled, {**self.values, **values}, self.latency_ms)
+        loop.design  # noqa: B018 - validate the values now
+        return loop
+
+    def with_latencies(self, **latency_ms: Any) -> UserLoop:
+        """The same loop with the processes' latencies overridden [ms].
+
+        Parameters
+        ----------
+        **latency_ms : float or array_like
+            Process name -> latency [ms].
+
+        Returns
+        -------
+        UserLoop
+            A new loop sharing the compiled diagram.
+        """
+        for p in latency_ms:
+            if p not in self.processes:
+                raise LoopFileError(self.file, f"process {p!r}", None,
+                                    "a declared process: " + ", ".join(self.processes))
+        return UserLoop(self.compiled, self.values, {**self.latency_ms, **latency_ms})
+
+    @cached_property
+    def design(self) -> Any:
+        """The design batch (:class:`~seactl.loopfile.LoopDesign`) the views evaluate."""
+        return self.compiled.design(self.values, self.latency_ms)
+
+    @property
+    def shape(self) -> tuple[int, ...]:
+        """Shape of the design batch."""
+        return self.design.shape
+
+    def environment(self) -> dict[str, np.ndarray]:
+        """Every variable and parameter at this loop's values.
+
+        Returns
+        -------
+        dict
+            Name -> array (broadcast to the batch shape).
+        """
+        return {k[5:]: np.broadcast_to(v, self.shape) for k, v in self.design._arrays.items()
+                if k.startswith("var__")}
+
+    # ------------------------------------------------------------ frequency domain
+    def grid(self) -> np.ndarray:
+        """The bracketing frequency grid [rad/s] of the margin scan: a decade beyond the
+        slowest and fastest block pole, zero and spring resonance (or ``[analysis]``'s
+        range), 12 points per decade; the scan refines it where the loop moves fast, extends
+        it upwards while ``|L| > 0.5`` at its top and :meth:`analyze` extends it downwards
+        while a loop still grows there below ``|L| = 2``.
+
+        Returns
+        -------
+        ndarray
+            Log-spaced angular frequencies.
+        """
+        return self._grid(self.design)
+
+    def _grid(self, design: Any) -> np.ndarray:
+        a = self.compiled.model.analysis
+        lo, hi = characteristic_range(self.compiled, design)
+        w_lo = 2 * np.pi * a.f_min_hz if a.f_min_hz else lo / 10
+        w_hi = 2 * np.pi * a.f_max_hz if a.f_max_hz else hi * 10
+        if not w_hi > w_lo:
+            raise LoopFileError(self.file, "[analysis] f_max_hz", a.f_max_hz,
+                                f"> f_min_hz ({w_lo / (2 * np.pi):g} Hz)")
+        n = int(np.ceil(12 * np.log10(w_hi / w_lo))) + 1
+        return np.logspace(np.log10(w_lo), np.log10(w_hi), n)
+
+    def _signal(self, name: str, what: str) -> str:
+        if name not in self.diagram.signals:
+            raise LoopFileError(self.file, what, name, "a signal of the loop: "
+                                + ", ".join(s for s in self.diagram.signals if "__" not in s))
+        return name
+
+    def loop_transfer(self, name: str) -> Any:
+        """The loop transfer ``L`` broken at a named break, every other loop closed.
+
+        Parameters
+        ----------
+        name : str
+            A break name.
+
+        Returns
+        -------
+        seactl.blockdiagram.Transfer
+            Callable ``L(design, s)`` with exact delays.
+        """
+        if name not in self.breaks:
+            raise LoopFileError(self.file, "break", name, "one of " + ", ".join(self.breaks))
+        return self.diagram.loop(self.breaks[name])
+
+    def frequency_response(self, output: str, input: str, f_hz: Any,
+                           cut: Sequence[str] = ()) -> np.ndarray:
+        """``output / input`` at ``s = j 2 pi f`` (every loop closed, ``cut`` signals held).
+
+        Parameters
+        ----------
+        output, input : str
+            Signal names.
+        f_hz : array_like
+            Frequencies [Hz] (last axis of the result).
+        cut : sequence of str
+            Signals held at zero (or imposed, if ``input`` is one of them).
+
+        Returns
+        -------
+        ndarray
+            Complex, shape ``batch + (F,)``.
+        """
+        self._signal(output, "output")
+        self._signal(input, "input")
+        s = 2j * np.pi * np.atleast_1d(np.asarray(f_hz, float))
+        return self.diagram.transfer(output, input, cut=tuple(cut))(self.design, s)
+
+    def impedance(self, f_hz: Any, port: str | None = None) -> np.ndarray:
+        """Impedance ``Z = sign * force / (s position)`` at a port, its motion imposed and
+        the exogenous inputs at zero.
+
+        Parameters
+        ----------
+        f_hz : array_like
+            Frequencies [Hz].
+        port : str, optional
+            Port name (default: the first).
+
+        Returns
+        -------
+        ndarray
+            Complex ``Z(j 2 pi f)``, shape ``batch + (F,)``.
+        """
+        if not self.ports:
+            raise LoopFileError(self.file, "[[ports]]", None, "at least one impedance port")
+        name = port or next(iter(self.ports))
+        if name not in self.ports:
+            raise LoopFileError(self.file, "port", name, "one of " + ", ".join(self.ports))
+        p = self.ports[name]
+        f = np.atleast_1d(np.asarray(f_hz, float))
+        T = self.frequency_response(p.force, p.position, f, cut=(p.position,))
+        return p.sign * T / (2j * np.pi * f)
+
+    def analyze(self, jitter: bool = True) -> LoopAnalysis:
+        """Margins at every named break, with every other loop closed.
+
+        The right-half-plane poles of each broken loop are counted by Nyquist, closing the
+        other breaks one at a time (inner first), so ``stable`` is the stability of the whole
+        loop.  The delay margin is the extra latency at that break that destabilizes; the
+        jitter margin is the Kao-Lincoln bound ``1 / max_w (w |L/(1+L)|)`` on a time-varying
+        extra delay there (scanned on a dense grid, then zoomed twice).
+
+        Parameters
+        ----------
+        jitter : bool
+            Also compute the jitter margins.
+
+        Returns
+        -------
+        LoopAnalysis
+            Per break: phase, gain, delay and jitter margins; overall stability.
+        """
+
+        return self._analyze(self.design, jitter)
+
+    def _analyze(self, design: Any, jitter: bool) -> LoopAnalysis:
+        if not self.breaks:
+            raise LoopFileError(self.file, "[[breaks]]", None, "at least one named break")
+        omega = self._grid(design)
+        items = list(self.breaks.items())
+        if not self.compiled.model.analysis.f_min_hz:
+            for _, sig in items:
+                omega = _extend_down(self.diagram.loop(sig), design, omega)
+        out = []
+        for name, sig in items:
+            others = [s for n, s in items if n != name]
+            m = break_margins(self.compiled, design, omega, sig, others)
+            jit = jitter_margin(self.diagram.loop(sig), design,
+                                jitter_grid(self.compiled, design, omega)) if jitter \
+                else np.full(m.stable.shape, np.nan)
+            out.append(BreakMargins(name, sig, m, np.where(m.stable, jit, 0.0)))
+        env = {k[5:]: np.broadcast_to(v, design.shape) for k, v in design._arrays.items()
+               if k.startswith("var__")}
+        return LoopAnalysis(self.name, out, out[-1].margins.stable, env)
+
+    def placements(self, max_options: int = 4096) -> Placements:
+        """Every assignment of the blocks whose delay is their process's latency
+        (``delay_ms = "process"``) to the declared processes, analysed as one batch.
+
+        Parameters
+        ----------
+        max_options : int
+            Refuse more assignments than this.
+
+        Returns
+        -------
+        Placements
+            The options ranked: stable first, then by the smallest phase margin over the
+            breaks (largest first).
+        """
+        if self.shape != ():
+            raise LoopFileError(self.file, "--set", None, "single values for place (no "
+                                "ranges)")
+        movable = [b.name for b in self.compiled.blocks if b.delay_ms == "process"]
+        if not movable:
+            raise LoopFileError(self.file, "blocks", None, "at least one block with "
+                                "delay_ms = 'process' (a loop that can move between processes)")
+        procs = list(self.processes)
+        if len(procs) ** len(movable) > max_options:
+            raise LoopFileError(self.file, "blocks", None, f"at most {max_options} placements "
+                                f"({len(procs)} processes ^ {len(movable)} movable blocks)")
+        combos = list(itertools.product(procs, repeat=len(movable)))
+        env = {k: np.asarray(v) for k, v in self.environment().items()}
+        lat = {p: float(v) for p, v in self.compiled.latencies(env, self.latency_ms).items()}
+        arrays = dict(self.design._arrays)
+        for j, blk in enumerate(movable):
+            for e in self.compiled.edges:
+                if e.block == blk and e.delay_ms == "process":
+                    arrays[f"{e.name}__T"] = np.array([lat[c[j]] for c in combos]) / 1e3
+        from .loopfile import LoopDesign
+
+        a = self._analyze(LoopDesign(arrays), jitter=False)
+        pm_min = np.min([b.margins.phase_margin_deg for b in a.breaks], axis=0)
+        order = np.lexsort((-pm_min, ~a.stable))
+        options = [dict(zip(movable, combos[i])) for i in order]
+        return Placements(movable, lat, options, a, order)
+
+    # ------------------------------------------------------------ time domain
+    def _rates(self, rates_hz: Mapping[str, float] | None) -> dict[str, float]:
+        rates = {p: m.rate_hz for p, m in self.processes.items()}
+        for p, r in (rates_hz or {}).items():
+            if p not in rates:
+                raise LoopFileError(self.file, "rate", p, "a declared process: "
+                                    + ", ".join(rates))
+            rates[p] = float(r)
+        return rates
+
+    def _response(self, which: str, excitation: Any, t_end_s: float, mode: str,
+                  input: str | None, output: str | None, rates_hz: Any, record_dt: Any
+                  ) -> Any:
+        from .simulate import simulate
+
+        sig = self.compiled.model.signals
+        inp = input or getattr(sig, which)
+        out = output or sig.output
+        if inp is None:
+            raise LoopFileError(self.file, f"[signals] {which}", None,
+                                "set (or pass input=...) to simulate")
+        if out is None:
+            raise LoopFileError(self.file, "[signals] output", None,
+                                "set (or pass output=...) to simulate")
+        if inp not in self.diagram.inputs:
+            raise LoopFileError(self.file, "input", inp, "an exogenous input: "
+                                + ", ".join(self.diagram.inputs))
+        self._signal(out, "output")
+        return simulate(self.diagram, self.design, {inp: excitation}, t_end_s, mode=mode,
+                        outputs=(out,), rates_hz=self._rates(rates_hz), record_dt=record_dt)
+
+    def step(self, t_end_s: float = 0.5, *, mode: str = "continuous", amplitude: float = 1.0,
+             input: str | None = None, output: str | None = None,
+             rates_hz: Mapping[str, float] | None = None, record_dt: float | None = None
+             ) -> Any:
+        """Step response (``[signals] reference`` to ``output`` by default).
+
+        Parameters
+        ----------
+        t_end_s : float
+            Simulated time [s].
+        mode : str
+            ``"continuous"`` (exact delays, delay buffers) or ``"sampled"`` (each process at
+            its rate, Tustin controllers, zero-order hold).
+        amplitude : float
+            Step size.
+        input, output : str, optional
+            Override the file's reference and output signals.
+        rates_hz : dict, optional
+            Override process rates [Hz].
+        record_dt : float, optional
+            Recording interval [s] (continuous mode).
+
+        Returns
+        -------
+        seactl.simulate.SimResult
+            Responses (``outputs[output]``), stability, effective delays in ``info``.
+        """
+        from .simulate import Step
+
+        return self._response("reference", Step(amplitude), t_end_s, mode, input, output,
+                              rates_hz, record_dt)
+
+    def impulse(self, t_end_s: float = 1.0, *, mode: str = "continuous", area: float = 1.0,
+                input: str | None = None, output: str | None = None,
+                rates_hz: Mapping[str, float] | None = None, record_dt: float | None = None
+                ) -> Any:
+        """Impulse response (``[signals] disturbance`` to ``output`` by default).
+
+        Parameters
+        ----------
+        t_end_s : float
+            Simulated time [s].
+        mode : str
+            ``"continuous"`` or ``"sampled"``.
+        area : float
+            Impulse area (e.g. N m s for a torque).
+        input, output : str, optional
+            Override the file's disturbance and output signals.
+        rates_hz : dict, optional
+            Override process rates [Hz].
+        record_dt : float, optional
+            Recording interval [s] (continuous mode).
+
+        Returns
+        -------
+        seactl.simulate.SimResult
+            Responses, stability, effective delays.
+        """
+        from .simulate import Impulse
+
+        return self._response("disturbance", Impulse(area), t_end_s, mode, input, output,
+                              rates_hz, record_dt)
+
+
+# ------------------------------------------------------------------ helpers
+def break_margins(compiled: CompiledLoop, design: Any, omega: np.ndarray, signal: str,
+                  others: Sequence[str]) -> Margins:
+    """Margins of the loop broken at ``signal`` with the ``others`` closed.
+
+    Its right-half-plane poles are those of the system with ``signal`` cut: the poles of
+    the system with every break cut (:func:`open_loop_rhp_poles`), then Nyquist closing
+    the ``others`` one at a time (inner first), each with the later ones cut; a break that
+    closes no loop under the current cuts is skipped."""
+    diagram = compiled.diagram
+    shape = tuple(design.shape)
+    P: np.ndarray | int = open_loop_rhp_poles(compiled, design)
+    cache: dict[str, np.ndarray] = {}  # block responses on the grid, shared by the loops
+    for i, sig in enumerate(others):
+        cut = tuple(sorted(set(others[i + 1:]) | {signal}))
+        if has_loop(compiled.edges, sig, cut):
+            loop = diagram.loop(sig, cut=cut)
+            zero = _vanishes(loop, design, omega)
+            with np.errstate(all="ignore"):
+                Pn = loop_margins(loop, design, omega, open_loop_rhp_poles=P,
+                                  stability_only=True, block_cache=cache).unstable_poles
+            P = np.where(zero, np.broadcast_to(P, shape), Pn)
+    loop = diagram.loop(signal)
+    zero = _vanishes(loop, design, omega)
+    with np.errstate(all="ignore"):
+        m = loop_margins(loop, design, omega, open_loop_rhp_poles=P, block_cache=cache)
+    if not zero.any():
+        return m
+    # A loop whose gain is zero for some designs (a gain set to 0): no crossing, and the
+    # closed loop is the open one.
+    P = np.broadcast_to(np.asarray(P), shape)
+    pick = lambda a, v: np.where(zero, v, a)  # noqa: E731
+    return replace(m, phase_margin_deg=pick(m.phase_margin_deg, np.inf),
+                   crossover_hz=pick(m.crossover_hz, np.nan),
+                   gain_margin=pick(m.gain_margin, np.inf),
+                   phase_crossover_hz=pick(m.phase_crossover_hz, np.nan),
+                   delay_margin_s=pick(m.delay_margin_s, np.where(P == 0, np.inf, 0.0)),
+                   stable=pick(m.stable, P == 0), unstable_poles=pick(m.unstable_poles, P))
+
+
+def open_loop_rhp_poles(compiled: CompiledLoop, design: Any) -> np.ndarray:
+    """Right-half-plane poles of the loop with every break cut, per design.
+
+    With every break cut no loop through a controller remains (checked when the loop is
+    compiled), so what is left (the physics, a DOB's own loop) has no delay in a loop: its
+    poles are the eigenvalues of its state-space realization (the simulator's, with delays
+    on loop-free paths dropped since they move no pole).  Poles at the origin (free
+    inertias, integrators; within ``max(1e-4, 1e-6 |largest|)`` rad/s of it) are not
+    counted; the margin scan counts them."""
+    from .simulate import _assemble, realize_continuous
+
+    breaks = set(compiled.breaks_signals)
+    blocks = [b for b in compiled.diagram.blocks if b.dst not in breaks]
+    shape = tuple(design.shape)
+    n = int(np.prod(shape, dtype=int))
+    if not blocks:
+        return np.zeros(shape, int)
+    signals = sorted({b.src for b in blocks} | {b.dst for b in blocks})
+    reals = [realize_continuous(b, design, shape, n) for b in blocks]
+    if sum(r[0].shape[1] for r in reals) == 0:
+        return np.zeros(shape, int)
+    net = _assemble(n, signals, blocks, reals, [], {b.name: np.ones(n) for b in blocks}, {})
+    ev = np.linalg.eigvals(net.A)
+    mag = np.abs(ev)
+    # A multiple pole at the origin splits numerically (+-1e-7 for a double one): poles
+    # within max(1e-4, 1e-6 |largest pole|) rad/s of the origin are taken to be on it.
+    origin = mag < np.maximum(1e-4, 1e-6 * mag.max(axis=-1, keepdims=True))
+    rhp = (ev.real > 1e-9 * np.maximum(1.0, mag)) & ~origin
+    return rhp.sum(axis=-1).reshape(shape)
+
+
+def _vanishes(loop: Any, design: Any, omega: np.ndarray) -> np.ndarray:
+    """Per design: the loop transfer is exactly zero on the whole grid."""
+    with np.errstate(all="ignore"):
+        L = loop(design, 1j * omega)
+    return np.broadcast_to(np.all(L == 0, axis=-1), tuple(design.shape))
+
+
+def _roots_magnitudes(coeffs: Sequence[Any], shape: tuple[int, ...]) -> np.ndarray:
+    """Magnitudes of the non-zero roots of a batch of polynomials (companion matrices)."""
+    n = int(np.prod(shape, dtype=int))
+    C = np.stack([np.broadcast_to(np.asarray(c, float), shape).reshape(n) for c in coeffs], 1)
+    out = []
+    nz = C != 0
+    lead = np.where(nz.any(axis=1), np.argmax(nz, axis=1), C.shape[1])
+    for j in np.unique(lead):
+        rows = C[lead == j, j:]
+        q = rows.shape[1] - 1
+        if q < 1:
+            continue
+        comp = np.zeros((rows.shape[0], q, q))
+        comp[:, 0, :] = -rows[:, 1:] / rows[:, :1]
+        comp[:, np.arange(1, q), np.arange(q - 1)] = 1.0
+        out.append(np.abs(np.linalg.eigvals(comp)).ravel())
+    mags = np.concatenate(out) if out else np.empty(0)
+    return mags[np.isfinite(mags) & (mags > 1e-12)]
+
+
+def characteristic_frequencies(compiled: CompiledLoop, design: Any) -> np.ndarray:
+    """Every block pole and zero magnitude, and spring resonance estimates
+    ``sqrt(k / J_max)``, ``sqrt(2 k / J_min)`` [rad/s], over the batch (finite, > 0)."""
+    shape = tuple(design.shape)
+    arr = design._arrays
+    mags = []
+    for e in compiled.edges:
+        if e.coeffs is None:
+            continue
+        for x in "nd":
+            k = 0
+            coeffs = []
+            while f"{e.name}__{x}{k}" in arr:
+                coeffs.append(arr[f"{e.name}__{x}{k}"])
+                k += 1
+            mags.append(_roots_magnitudes(coeffs, shape))
+    springs = [arr[f"{b.name}__n0"] for b in compiled.blocks if b.kind == "spring"]
+    masses = [arr[f"{b.name}__d0"] for b in compiled.blocks if b.kind in ("inertia", "load")]
+    if springs and masses:
+        k_all = np.concatenate([np.ravel(np.abs(k)) for k in springs])
+        j_all = np.concatenate([np.ravel(np.abs(j)) for j in masses])
+        mags.append(np.sqrt([k_all.min() / j_all.max(), 2 * k_all.max() / j_all.min()]))
+    allm = np.concatenate(mags) if mags else np.empty(0)
+    return allm[np.isfinite(allm) & (allm > 0)]
+
+
+def characteristic_range(compiled: CompiledLoop, design: Any) -> tuple[float, float]:
+    """Slowest and fastest :func:`characteristic_frequencies` [rad/s] (1 to 1000 rad/s when
+    there are none: a loop of gains and integrators)."""
+    allm = characteristic_frequencies(compiled, design)
+    if allm.size == 0:
+        return 1.0, 1e3
+    return float(allm.min()), float(allm.max())
+
+
+def jitter_grid(compiled: CompiledLoop, design: Any, omega: np.ndarray,
+                per_decade: int = 48, max_marks: int = 4000) -> np.ndarray:
+    """The jitter scan's grid: ``omega``'s range at ``per_decade`` points, plus every
+    characteristic frequency (and 0.2 % either side) when the batch has at most
+    ``max_marks`` of them, so that a lightly damped resonance (a narrow peak of
+    ``w |T|``) is not stepped over."""
+    n = int(np.ceil(per_decade * np.log10(omega[-1] / omega[0]))) + 1
+    w = np.logspace(np.log10(omega[0]), np.log10(omega[-1]), n)
+    marks = np.unique(characteristic_frequencies(compiled, design))
+    if 0 < marks.size <= max_marks:
+        marks = marks[(marks > omega[0]) & (marks < omega[-1])]
+        w = np.unique(np.concatenate([w, marks, marks * 0.998, marks * 1.002]))
+    return w
+
+
+def _extend_down(loop: Any, design: Any, omega: np.ndarray, max_decades: int = 6
+                 ) -> np.ndarray:
+    """Prepend decades while some design's loop is below 2 at the grid's bottom and still
+    growing towards lower frequencies (an integrating loop may cross 1 further down)."""
+    for _ in range(max_decades):
+        w0 = omega[0]
+        with np.errstate(all="ignore"):
+            m = np.abs(loop(design, 1j * np.array([w0 / 10, w0])))
+        if not np.any((m[..., 1] < 2) & (m[..., 0] > 1.5 * m[..., 1])):
+            break
+        omega = np.concatenate([np.logspace(np.log10(w0 / 10), np.log10(w0), 13)[:-1], omega])
+    return omega
+
+
+def jitter_margin(loop: Any, design: Any, omega: np.ndarray) -> np.ndarray:
+    """Kao-Lincoln jitter margin ``1 / max_w (w |L/(1+L)|)`` [s] per design, with the
+    peak search of :func:`seactl.jitter.peak_omega_t` (the built-in loops' own)."""
+    from .jitter import peak_omega_t
+
+    with np.errstate(all="ignore"):
+        peak, _ = peak_omega_t(loop, design, omega)
+    with np.errstate(divide="ignore"):
+        return np.where(peak > 0, 1.0 / peak, np.inf)

@@ -1,0 +1,118 @@
+"""Jitter margins against independent routes: closed forms, a per-frequency numerical
+solve of the block diagram (numpy linear algebra on the block responses, no sympy),
+python-control's FRD feedback, and the constant-delay margins (a constant extra delay is
+one of the time-varying delays the bound covers, so J <= delay margin)."""
+
+from __future__ import annotations
+
+import json
+from types import SimpleNamespace
+
+import control as ct
+import numpy as np
+import pytest
+
+import seactl as sc
+from seactl.cli import main
+from seactl.jitter import SEA_TAPS, peak_omega_t, sea_jitter_margins
+from seactl.latency import loop_delay_margins, sea_model, sea_split_diagram
+
+TABLE_I = dict(delays_ms=(0.5, 2, 0.5), filters_hz=(50, 100))
+
+
+def _solve_t(diagram, design, omega, tap):
+    """T = L/(1+L) at ``tap`` by solving the closed-loop equations x = A(jw) x + e_tap v
+    numerically at every frequency: T = 1 - x_tap / v (the tap carries v plus what the
+    loop returns, -T v).  Independent of the symbolic derivation."""
+    signals = list(diagram.signals)
+    idx = {s: i for i, s in enumerate(signals)}
+    m = len(signals)
+    s = 1j * np.asarray(omega)
+    A = np.zeros(np.shape(design.Kq) + s.shape + (m, m), complex)
+    for b in diagram.blocks:
+        A[..., idx[b.dst], idx[b.src]] += b.response(design, s)
+    rhs = np.zeros(m)
+    rhs[idx[tap]] = 1.0
+    x = np.linalg.solve(np.eye(m) - A, np.broadcast_to(rhs, A.shape[:-1])[..., None])[..., 0]
+    return 1.0 - x[..., idx[tap]]
+
+
+def _dense_peak(diagram, design, tap, w_lo, w_hi, n=4000):
+    """max w|T| on a dense log grid, then on a 2000-point zoom around the best point."""
+    w = np.logspace(np.log10(w_lo), np.log10(w_hi), n)
+    v = w * np.abs(_solve_t(diagram, design, w, tap))
+    k = int(np.argmax(v))
+    wz = np.linspace(w[max(k - 1, 0)], w[min(k + 1, n - 1)], 2000)
+    return max(float(v[k]), float(np.max(wz * np.abs(_solve_t(diagram, design, wz, tap)))))
+
+
+def test_first_order_loops_closed_form():
+    # L = K/(s(tau s + 1)): w|T| = K / sqrt(1 + (K/w - tau w)^2), max K at w = sqrt(K/tau).
+    loop = lambda p, s: p.K[..., None] / (s * (p.tau[..., None] * s + 1))  # noqa: E731
+    p = SimpleNamespace(K=np.array([3.0, 40.0, 800.0]), tau=np.array([0.5, 0.01, 1e-4]),
+                        shape=(3,))
+    peak, w = peak_omega_t(loop, p, np.logspace(-2, 3, 161))
+    np.testing.assert_allclose(1 / peak, 1 / p.K, rtol=1e-9)
+    np.testing.assert_allclose(w, np.sqrt(p.K / p.tau), rtol=1e-3)
+    # L = K/s: w|T| = K w / sqrt(w^2 + K^2) -> K only as w -> inf (grid extended upwards).
+    integ = lambda p, s: p.K[..., None] / s  # noqa: E731
+    peak, _ = peak_omega_t(integ, p, np.logspace(-2, 1, 61))
+    np.testing.assert_allclose(peak, p.K, rtol=1e-6)
+
+
+def test_table_i_14hz_against_numerical_solve_and_python_control():
+    d = sc.design(14, **TABLE_I)
+    j = sea_jitter_margins(d.sea)
+    D = sea_split_diagram()
+    # Oracle 1: per-frequency numerical solve of the diagram, dense grid.
+    ref = {k: 1 / _dense_peak(D, d.sea, tap, 1.0, 1e5) for k, tap in SEA_TAPS.items()}
+    for k in SEA_TAPS:
+        assert getattr(j, f"{k}_s") == pytest.approx(ref[k], rel=1e-7), k
+    assert j.overall_s * 1e3 == pytest.approx(8.04, abs=0.005)        # the issue's value
+    assert j.delay_margin_s * 1e3 == pytest.approx(9.45, abs=0.005)
+    # Oracle 2: python-control: FRD of the exact-delay loop, closed with ct.feedback.
+    f = np.logspace(-1, 4, 20001)
+    L = d.to_control("frd", f_hz=f)
+    T = ct.feedback(L, 1)
+    w = 2 * np.pi * f
+    peak = np.max(w * np.abs(T.frequency_response(w).magnitude.ravel()))
+    assert j.overall_s == pytest.approx(1 / peak, rel=1e-5)
+
+
+def test_batch_against_numerical_solve_and_below_delay_margins():
+    d = sc.design(np.array([10.0, 14.0, 22.0, 35.0])[:, None], gs=[0.5, 1.0, 2.5],
+                  delays_ms=(0.7, 3.0, 1.0), filters_hz=(40, 150))
+    j = sea_jitter_margins(d.sea)
+    assert j.overall_s.shape == (4, 3) and j.stable.any() and (~j.stable).any()
+    D = sea_split_diagram()
+    for i, g in zip(*np.nonzero(j.stable)):
+        one = d[i, g].sea
+        for k, tap in SEA_TAPS.items():
+            assert getattr(j, f"{k}_s")[i, g] == pytest.approx(
+                1 / _dense_peak(D, one, tap, 0.3, 3e4, n=1500), rel=1e-6), (i, g, k)
+    # Unstable designs: 0.  Stable ones: a constant delay is admissible jitter, J <= DM.
+    for k in SEA_TAPS:
+        assert np.all(getattr(j, f"{k}_s")[~j.stable] == 0)
+    assert np.all(j.overall_s <= j.delay_margin_s * (1 + 1e-9))
+    dm = loop_delay_margins(D, d.sea, sea_model().grid(d.sea), "q_s", "q_d", ("tau_sens",))
+    assert np.all(j.stiffness_s <= dm.stiffness_s * (1 + 1e-9))
+    assert np.all(j.damping_s <= dm.damping_s * (1 + 1e-9))
+
+
+def test_api_and_cli(capsys):
+    d = sc.design([12, 14], **TABLE_I)
+    r = d.jitter_margins()
+    assert isinstance(r, sc.JitterResult)
+    rec = r.records()
+    assert main(["jitter", "--fn", "12", "14", "--t-tau", "0.5", "--t-qs", "2", "--t-qd",
+                 "0.5", "--f-qd", "50", "--f-taud", "100", "--json"]) == 0
+    out = json.loads(capsys.readouterr().out)
+    assert list(out["designs"][0]) == ["fn_hz", "gs", "jitter_margin_ms",
+                                       "stiffness_jitter_margin_ms", "damping_jitter_margin_ms",
+                                       "torque_jitter_margin_ms", "delay_margin_ms"]
+    for row, ref in zip(out["designs"], rec):
+        assert row["jitter_margin_ms"] == pytest.approx(ref["jitter_margin_ms"])
+        assert row["delay_margin_ms"] == pytest.approx(ref["delay_margin_ms"])
+    assert main(["jitter", "--fn", "14", "--t-qs", "2"]) == 0
+    assert "bottleneck" in capsys.readouterr().out
+    assert main(["jitter", "--fn", "-3"]) == 2

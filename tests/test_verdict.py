@@ -1,0 +1,104 @@
+"""Time-domain verdicts (seactl.verdict) against independent methods.
+
+Oracles: the characteristic roots of the closed loop with every delay replaced by its
+order-4 Padé approximant (python-control ``pade`` and ``poles``: a model that shares no code
+with the simulator), which give the growth rate (largest real part) and the frequency of
+the dominant mode; zero crossings of the recorded current (for the Nyquist chatter); and
+synthetic signals whose envelope and frequency are known in closed form.
+"""
+
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pytest
+
+import seactl as sc
+from seactl.cli import main
+from seactl.simulate import sea_impulse, sea_step
+from seactl.verdict import judge, judge_response
+
+# (f_n [Hz], T_tau, T_qs, T_qd [ms]): hard designs near and past the stability boundary.
+HARD = [(14, 0.5, 20, 0.5), (20, 1, 20, 3), (30, 2, 2, 6), (20, 0.5, 2, 8), (30, 1, 10, 3)]
+
+
+def _pade_dominant(fn, delays):
+    ctl = sc.design([fn], delays_ms=delays)[0].to_control("pade", transfer="closed", order=4)
+    import control as ct
+
+    p = ct.poles(ctl)
+    dom = p[np.argmax(p.real)]
+    return float(dom.real), abs(float(dom.imag)) / (2 * np.pi)
+
+
+@pytest.fixture(scope="module")
+def hard_verdicts():
+    fn = np.array([h[0] for h in HARD], float)
+    delays = tuple(np.array([h[k] for h in HARD], float) for k in (1, 2, 3))
+    d = sc.design(fn, delays_ms=delays)
+    return judge_response(sea_step(d.sea, t_end_s=2.0, record_dt=5e-4), band=0.02)
+
+
+@pytest.mark.parametrize("k", range(len(HARD)))
+def test_growth_rate_and_frequency_match_pade_roots(hard_verdicts, k):
+    """Unstable designs: envelope growth rate within 10 % of the largest real part of the
+    Padé closed-loop roots and the oscillation at the dominant root's frequency (5 %);
+    stable ones are never called unstable and the lightly damped one is not settled."""
+    fn, *delays = HARD[k]
+    re, f_hz = _pade_dominant(fn, tuple(delays))
+    v = hard_verdicts
+    if re > 0:
+        assert v.verdict[k] == "unstable"
+        assert v.growth_rate_per_s[k] == pytest.approx(re, rel=0.1)
+        assert v.oscillation_hz[k] == pytest.approx(f_hz, rel=0.05)
+    elif re > -1:   # lightly damped: still ringing at the end of 2 s
+        assert v.verdict[k] == "not settled"
+        assert v.growth_rate_per_s[k] == pytest.approx(re, abs=0.05)
+        assert v.oscillation_hz[k] == pytest.approx(f_hz, rel=0.05)
+    else:
+        assert v.verdict[k] == "settled"
+
+
+def test_quick_start_impulse_without_filters_is_a_limit_cycle(capsys):
+    """``seactl impulse --fn 14 --mode sampled`` chatters at the Nyquist frequency with the
+    current at its limit; oracle for the frequency: zero crossings of the current."""
+    assert main(["impulse", "--fn", "14", "--mode", "sampled", "--json"]) == 0
+    doc = json.loads(capsys.readouterr().out)
+    assert doc["verdict"] == "limit cycle" and doc["stable"] is False
+    r = sea_impulse(sc.design([14]).sea, mode="sampled")
+    i = r.current.reshape(-1)[r.result.t_s >= 0.5]
+    crossings = np.count_nonzero(np.signbit(i[1:]) != np.signbit(i[:-1]))
+    f_zc = crossings / 2 / (0.5 - 1e-3)
+    assert doc["evidence"]["oscillation_hz"] == pytest.approx(f_zc, rel=0.01)
+    assert doc["evidence"]["saturated_fraction"] > 0.9
+    assert any("limit cycle" in w for w in doc["warnings"])
+    assert any("Nyquist" in w for w in doc["warnings"])
+    assert main(["impulse", "--fn", "14", "--mode", "sampled"]) == 0
+    table = capsys.readouterr().out
+    row = next(line for line in table.splitlines() if line.startswith("│"))
+    assert "limit cycle" in row and "yes" not in row
+    assert table.count("warning: ") == len(doc["warnings"])   # the same list as the JSON
+
+
+def test_filtered_sampled_design_settles():
+    d = sc.design([14], delays_ms=(0.5, 2, 0.5), filters_hz=(50, 100))
+    v = judge_response(sea_impulse(d.sea, mode="sampled"), band=0.05)
+    assert v.verdict == ["settled"] and v.warnings == [[]]
+
+
+def test_synthetic_signals():
+    """Closed-form signals: growing, sustained, decaying oscillations, a drift, saturation."""
+    t = np.linspace(0, 2, 4001)
+    w = 2 * np.pi * 7
+    y = 1 + np.stack([0.1 * np.exp(1.5 * t) * np.sin(w * t),      # grows at 1.5 /s
+                      0.1 * np.sin(w * t),                         # sustained
+                      0.5 * np.exp(-8 * t) * np.sin(w * t),        # decays fast
+                      0.1 * np.exp(-0.1 * t) * np.cos(w * t) * 0 + 0.1,  # constant offset
+                      0.0 * t])
+    v = judge(t, y, target=1.0, scale=1.0, band=0.02,
+              saturated_fraction=[0, 0, 0, 0, 0.5])
+    assert v.verdict == ["unstable", "limit cycle", "settled", "not settled", "saturated"]
+    assert v.growth_rate_per_s[0] == pytest.approx(1.5, rel=0.05)
+    assert v.oscillation_hz[1] == pytest.approx(7, rel=0.02)
+    assert v.growth_rate_per_s[1] == pytest.approx(0, abs=0.1)
