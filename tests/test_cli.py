@@ -11,7 +11,7 @@ from seactl.errors import InputError
 
 TABLE_I = "--fn 12 14 16 18 20 --t-tau 0.5 --t-qs 2 --t-qd 0.5 --f-qd 50 --f-taud 100"
 KEYS = {"fn_hz", "gs", "Kq", "Bq", "Ktau", "Btau", "phase_margin_deg", "crossover_hz",
-        "gain_margin_db", "delay_margin_ms", "stable"}
+        "gain_margin_db", "delay_margin_ms", "stable", "spectral_abscissa"}
 
 
 def run(args, capsys):

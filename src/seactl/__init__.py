@@ -21,10 +21,11 @@ import types
 # seactl`` and the command line's start-up stay fast; ``seactl.design`` etc. resolve to the
 # functions even though submodules of the same names exist (see _Namespace).
 _PUBLIC = {
-    ".api": ("design", "Design", "UnitWarning"),
+    ".api": ("design", "Design", "UnitWarning", "rightmost_roots"),
     ".actuators": ("SEAParams", "UT_SEA", "load_sea"),
     ".design": ("feasible_fn_range",),
-    "._results": ("MarginsResult", "ImpedanceResult", "ResponseResult", "JitterResult"),
+    "._results": ("MarginsResult", "ImpedanceResult", "ResponseResult", "JitterResult",
+                  "RootsResult"),
     ".systems": ("rigid", "RigidBatch", "loop_model", "latency_map", "place", "sweep",
                  "read_sweep", "compare_mobile_base", "mobile_base_params",
                  "LatencyMapResult", "PlacementResult"),
@@ -36,7 +37,8 @@ _HOME = {name: module for module, names in _PUBLIC.items() for name in names}
 __all__ = [
     # SEA designs
     "design", "Design", "SEAParams", "UT_SEA", "load_sea", "feasible_fn_range",
-    "MarginsResult", "ImpedanceResult", "ResponseResult", "JitterResult",
+    "MarginsResult", "ImpedanceResult", "ResponseResult", "JitterResult", "rightmost_roots",
+    "RootsResult",
     # other systems
     "rigid", "RigidBatch", "loop_model", "latency_map", "place", "sweep", "read_sweep",
     "compare_mobile_base", "mobile_base_params", "LatencyMapResult", "PlacementResult",

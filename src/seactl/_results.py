@@ -390,3 +390,93 @@ class JitterResult(_Wrapped):
         ax.grid(True, which="both", alpha=0.3)
         ax.legend(loc="best", fontsize=8)
         return ax
+
+
+class RootsResult(_Wrapped):
+    """Rightmost characteristic roots of a design batch.
+
+    Every attribute of :class:`seactl.roots.Roots` is available (``roots`` [rad/s] of
+    shape ``batch + (count,)``, ``spectral_abscissa`` [1/s], ``stable``, ``nodes``,
+    ``converged``).
+
+    Parameters
+    ----------
+    roots : seactl.roots.Roots
+        The computed roots.
+    labels : dict
+        Per-design columns (e.g. ``fn_hz``, ``gs``) of the batch shape.
+
+    Examples
+    --------
+    >>> import seactl as sc
+    >>> r = sc.design(14, delays_ms=(0.5, 2, 0.5), filters_hz=(50, 100)).roots(count=2)
+    >>> round(r.records()[0]["spectral_abscissa"], 2), len(r.records()[0]["roots"])
+    (-39.85, 2)
+    """
+
+    def __init__(self, roots: Any, labels: dict[str, Any]):
+        self._inner = roots
+        self.labels = labels
+
+    def __repr__(self) -> str:
+        a = np.round(np.asarray(self._inner.spectral_abscissa, float), 3)
+        return f"RootsResult(spectral_abscissa={a.tolist()})"
+
+    def records(self) -> list[dict[str, Any]]:
+        """One JSON-ready dict per design (C order): the label columns,
+        ``spectral_abscissa`` [1/s] and ``roots``, a list of ``{"re", "im"}`` [rad/s]
+        sorted by decreasing real part (conjugates once, ``im >= 0``).
+
+        Returns
+        -------
+        list of dict
+            The CLI's ``designs`` rows.
+        """
+        r = self._inner
+        shape = np.shape(r.spectral_abscissa)
+        cols = {k: np.ravel(np.broadcast_to(np.asarray(v), shape)) for k, v in
+                self.labels.items()}
+        absc = np.ravel(r.spectral_abscissa)
+        roots = np.reshape(r.roots, (absc.size, -1))
+        out = []
+        for i in range(absc.size):
+            row = {k: json_value(v[i]) for k, v in cols.items()}
+            row["spectral_abscissa"] = json_value(absc[i])
+            row["roots"] = [{"re": json_value(z.real), "im": json_value(z.imag)}
+                            for z in roots[i] if np.isfinite(z)]
+            out.append(row)
+        return out
+
+    def to_dict(self) -> dict[str, Any]:
+        """``{"designs": records()}``.
+
+        Returns
+        -------
+        dict
+            As printed by ``seactl roots --json``.
+        """
+        return {"designs": self.records()}
+
+    def plot(self, ax: Any = None) -> Any:
+        """The roots in the complex plane [rad/s], one marker set per design.
+
+        Parameters
+        ----------
+        ax : matplotlib.axes.Axes, optional
+            Where to draw (default: a new figure).
+
+        Returns
+        -------
+        matplotlib.axes.Axes
+            The axes drawn on.
+        """
+        ax = _axes(ax)
+        roots = np.reshape(self._inner.roots, (-1, np.shape(self._inner.roots)[-1]))
+        for z in roots:
+            z = z[np.isfinite(z)]
+            ax.plot(np.r_[z.real, z.real], np.r_[z.imag, -z.imag], "x")
+        ax.axvline(0.0, color="0.5", lw=1)
+        ax.set_xlabel("Re s [1/s]")
+        ax.set_ylabel("Im s [rad/s]")
+        ax.grid(True, alpha=0.3)
+        return ax

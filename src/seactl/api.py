@@ -20,7 +20,13 @@ from typing import Any
 
 import numpy as np
 
-from ._results import ImpedanceResult, JitterResult, MarginsResult, ResponseResult
+from ._results import (
+    ImpedanceResult,
+    JitterResult,
+    MarginsResult,
+    ResponseResult,
+    RootsResult,
+)
 from ._validate import finite_array
 from .axes import MAX_DELAY_MS
 from .errors import InputError
@@ -263,6 +269,39 @@ class Design:
 
         return JitterResult(sea_jitter_margins(self.sea),
                             {"fn_hz": self.fn_hz, "gs": self.gs})
+
+    def roots(self, count: int = 6) -> RootsResult:
+        """Rightmost roots of the closed loop (exact delays), per design.
+
+        Chebyshev collocation of the delay equation gives candidates, Newton on the exact
+        characteristic quasi-polynomial polishes them, and the argument principle checks
+        that none is missing (:func:`seactl.roots.characteristic_roots`).
+
+        Parameters
+        ----------
+        count : int
+            Roots per design (a conjugate pair counts once).
+
+        Returns
+        -------
+        RootsResult
+            ``roots`` [rad/s] of shape ``shape + (count,)`` sorted by decreasing real part,
+            ``spectral_abscissa`` [1/s], ``records()``.
+
+        Examples
+        --------
+        >>> import seactl as sc
+        >>> d = sc.design(15.93, gs=1.867, delays_ms=(1.99, 1.96, 18.54))
+        >>> r = d.roots(count=2)
+        >>> z = complex(r.roots[0])
+        >>> round(z.real, 2), round(z.imag, 1), bool(d.margins().stable)
+        (1.19, 747.3, False)
+        """
+        from .loops import SEA_DIAGRAM
+        from .roots import characteristic_roots
+
+        return RootsResult(characteristic_roots(SEA_DIAGRAM, self.sea, count=count),
+                           {"fn_hz": self.fn_hz, "gs": self.gs})
 
     def impedance(self, f_hz: Any, *, model: str = "block-diagram", load: bool = False,
                   units: str = "rotary") -> ImpedanceResult:
@@ -573,3 +612,29 @@ def design(fn_hz: Any, *, actuator: Any = "ut-sea", gs: Any = 1.0, zeta1: Any = 
     sea = SEADesign(act, gains, Timing(t_tau, t_qs, t_qd, f_qd, f_taud))
     shape = sea.shape
     return Design(sea, np.broadcast_to(fn_b, shape), np.broadcast_to(g_b, shape))
+
+
+def rightmost_roots(system: Any, count: int = 6) -> RootsResult:
+    """Rightmost closed-loop roots of an SEA or rigid design batch, with exact delays.
+
+    Parameters
+    ----------
+    system : Design or RigidBatch
+        From :func:`seactl.design` or :func:`seactl.rigid`.
+    count : int
+        Roots per design (a conjugate pair counts once).
+
+    Returns
+    -------
+    RootsResult
+        ``roots`` [rad/s], ``spectral_abscissa`` [1/s] (negative: stable; its magnitude
+        is the slowest decay rate), ``records()``.
+
+    Examples
+    --------
+    >>> import seactl as sc
+    >>> r = sc.rightmost_roots(sc.rigid(12, delays_ms=(1, 15)), count=1)
+    >>> bool(r.spectral_abscissa > 0)            # 15 ms on the damping loop: unstable
+    True
+    """
+    return system.roots(count=count)

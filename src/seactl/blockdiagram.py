@@ -180,6 +180,20 @@ class BlockDiagram:
         (or driven, if ``input`` is among them): their feeding blocks are ignored."""
         return Transfer(self, output, input, tuple(cut), None)
 
+    def characteristic(self, cut: Sequence[str] = ()) -> QuasiForm:
+        """The characteristic quasi-polynomial of the diagram with the ``cut`` signals held
+        at zero: ``prod_b den_b(s) * det(I - A(s))`` over the blocks' responses ``A``, a
+        sum of polynomials times ``e^{-s tau}`` (see :class:`QuasiForm`)."""
+        return _quasi_form(self, tuple(sorted(cut)), None)
+
+    def return_difference(self, sensor: str, cut: Sequence[str] = ()) -> tuple[
+            QuasiForm, QuasiForm]:
+        """``(N, D)`` with ``L = N / D`` for :meth:`loop` ``(sensor, cut)``: ``D`` is the
+        characteristic quasi-polynomial with ``sensor`` (and ``cut``) held, ``N + D`` the
+        one with only ``cut`` held (``1 + L`` is their ratio, the return difference)."""
+        held = tuple(sorted(set(cut) | {sensor}))
+        return _quasi_form(self, tuple(sorted(cut)), held), _quasi_form(self, held, None)
+
     def loop(self, sensor: str, cut: Sequence[str] = ()) -> Transfer:
         """Loop transfer ``L`` broken at signal ``sensor``: inject at ``sensor``,
         measure what the blocks feeding ``sensor`` return, ``L = -returned/injected``.
@@ -408,3 +422,232 @@ def _compile(diagram: BlockDiagram, output: str, input: str, cut: tuple[str, ...
     blocks = tuple(diagram.block(n) for n in used)
     func = sp.lambdify([sp.Symbol(n) for n in used], expr, modules="numpy", cse=True)
     return func, blocks
+
+
+# --------------------------------------------------------------------- quasi-polynomials
+@dataclass(frozen=True)
+class QuasiPolynomial:
+    """``Q(s) = sum_k p_k(s) e^{-s tau_k}`` for a batch of designs.
+
+    ``coeffs`` has shape ``(K,) + batch + (n + 1,)`` (ascending powers of ``s``: entry
+    ``j`` multiplies ``s^j``), ``delays`` shape ``(K,) + batch`` [s].  Term 0 is the
+    undelayed one; terms may have zero delay for some designs.
+    """
+
+    coeffs: np.ndarray
+    delays: np.ndarray
+
+    @property
+    def shape(self) -> tuple[int, ...]:
+        return self.coeffs.shape[1:-1]
+
+    def __call__(self, s: np.ndarray, derivative: bool = False) -> np.ndarray:
+        """``Q(s)`` (or ``dQ/ds``) with ``s`` of shape ``batch + (F,)``."""
+        if derivative:
+            return self.with_derivative(s)[1]
+        ex = np.exp(-s * self.delays[..., None].astype(s.real.dtype))
+        c = self.coeffs.astype(s.real.dtype)[..., None, :]
+        acc = c[..., -1] + 0 * s
+        for j in range(c.shape[-1] - 2, -1, -1):
+            acc = acc * s + c[..., j]
+        return (acc * ex).sum(axis=0)
+
+    def with_derivative(self, s: np.ndarray, second: bool = False) -> tuple[np.ndarray, ...]:
+        """``(Q(s), dQ/ds)``, and ``d^2Q/ds^2`` if ``second``, in one Horner pass."""
+        real = s.real.dtype
+        c = self.coeffs if self.coeffs.dtype == real else self.coeffs.astype(real)
+        c = c[..., None, :]
+        tau = self.delays[..., None].astype(real, copy=False)
+        p: Any = c[..., -1]
+        dp: Any = 0.0
+        d2p: Any = 0.0
+        for j in range(c.shape[-1] - 2, -1, -1):
+            if second:
+                d2p = d2p * s + 2 * dp
+            dp = dp * s + p
+            p = p * s + c[..., j]
+        p, dp, d2p = (np.broadcast_to(x, tau.shape[:-1] + s.shape[-1:]) if np.ndim(x) else
+                      np.zeros(tau.shape[:-1] + s.shape[-1:], s.dtype) for x in (p, dp, d2p))
+        ex = np.exp(-s * tau)
+        out = ((p * ex).sum(axis=0), ((dp - tau * p) * ex).sum(axis=0))
+        if second:
+            out += (((d2p - 2 * tau * dp + tau * tau * p) * ex).sum(axis=0),)
+        return out
+
+    def take(self, idx: np.ndarray) -> QuasiPolynomial:
+        """Designs ``idx`` of a flat (1-D) batch."""
+        return QuasiPolynomial(self.coeffs[:, idx], self.delays[:, idx])
+
+    def flat(self) -> QuasiPolynomial:
+        """The batch flattened to one axis."""
+        k, n1 = self.coeffs.shape[0], self.coeffs.shape[-1]
+        return QuasiPolynomial(self.coeffs.reshape(k, -1, n1), self.delays.reshape(k, -1))
+
+    def __add__(self, other: QuasiPolynomial) -> QuasiPolynomial:
+        """The sum (undelayed terms merged into term 0)."""
+        n1 = max(self.coeffs.shape[-1], other.coeffs.shape[-1])
+        a, b = (np.pad(q.coeffs, [(0, 0)] * (q.coeffs.ndim - 1)
+                       + [(0, n1 - q.coeffs.shape[-1])]) for q in (self, other))
+        coeffs = np.concatenate([(a[0] + b[0])[None], a[1:], b[1:]])
+        return QuasiPolynomial(coeffs, np.concatenate([self.delays, other.delays[1:]]))
+
+    @cached_property
+    def degree(self) -> np.ndarray:
+        """Degree of the undelayed term per design (trailing zero coefficients dropped)."""
+        nz = self.coeffs[0] != 0
+        return np.where(nz.any(axis=-1), nz.shape[-1] - 1 - np.argmax(nz[..., ::-1], axis=-1), -1)
+
+    @cached_property
+    def delayed_degree(self) -> np.ndarray:
+        """Highest degree among the delayed terms (terms ``k >= 1``) per design."""
+        nz = (self.coeffs[1:] != 0).any(axis=0)
+        return np.where(nz.any(axis=-1), nz.shape[-1] - 1 - np.argmax(nz[..., ::-1], axis=-1), -1)
+
+    @cached_property
+    def abs_coeffs(self) -> np.ndarray:
+        """``sum_k |c_kj|`` per design and power (for modulus bounds)."""
+        return np.abs(self.coeffs).sum(axis=0)
+
+
+_DELAY_SEP = "+"
+
+
+def _structure(diagram: BlockDiagram, cut: tuple[str, ...], minus: tuple[str, ...] | None):
+    """Terms of ``det(I - A)`` (held: ``cut``), minus the one with ``minus`` held if given,
+    expanded in block symbols: ``[(coef, blocks), ...]``."""
+    import sympy as sp
+
+    expr = _determinant(diagram, cut)
+    if minus is not None:
+        expr = sp.expand(expr - _determinant(diagram, minus))
+    names = sorted(str(x) for x in expr.free_symbols)
+    if not names:
+        return [(float(expr), ())] if expr != 0 else []
+    poly = sp.Poly(expr, *[sp.Symbol(n) for n in names])
+    terms = []
+    for exps, coef in poly.terms():
+        if any(e > 1 for e in exps):
+            raise ValueError(f"diagram {diagram.name!r}: a block appears twice in a loop term")
+        terms.append((float(coef), tuple(n for n, e in zip(names, exps) if e)))
+    return terms
+
+
+@lru_cache(maxsize=64)
+def _quasi_form(diagram: BlockDiagram, cut: tuple[str, ...], minus: tuple[str, ...] | None
+                ) -> QuasiForm:
+    return QuasiForm(diagram, _structure(diagram, cut, minus))
+
+
+@dataclass(frozen=True)
+class QuasiForm:
+    """A characteristic quasi-polynomial of a diagram, structurally: every term of
+    ``prod_b den_b(s) det(I - A(s))`` is a coefficient times the numerators of the blocks
+    on its loops, the denominators of all other non-constant blocks and the product of
+    their delays.  :meth:`evaluate` turns it into a :class:`QuasiPolynomial` for a design
+    batch (undelayed terms first)."""
+
+    diagram: BlockDiagram
+    terms: list
+
+    def __hash__(self) -> int:
+        return id(self)
+
+    @cached_property
+    def dynamic(self) -> tuple[Block, ...]:
+        """Blocks that are not design-independent constants (their denominators multiply)."""
+        return tuple(b for b in self.diagram.blocks if _constant_gain(b) is None)
+
+    def evaluate(self, design: Any) -> QuasiPolynomial:
+        shape = tuple(getattr(design, "shape", ()))
+        nums, dens = {}, {}
+        for b in self.dynamic:
+            num, den = b.coefficients(design)
+            nums[b.name] = _ascending(num, shape)
+            dens[b.name] = _ascending(den, shape)
+        groups: dict[tuple[str, ...], np.ndarray] = {}
+        for coef, blocks in self.terms:
+            poly = np.full(shape + (1,), coef)
+            for b in self.dynamic:
+                poly = _polymul(poly, nums[b.name] if b.name in blocks else dens[b.name])
+            key = tuple(sorted(self.diagram.block(n).delay for n in blocks
+                               if self.diagram.block(n).delay is not None))
+            groups[key] = poly if key not in groups else _polyadd(groups[key], poly)
+        keys = sorted(groups, key=lambda k: (len(k), k))
+        if not keys or keys[0] != ():
+            keys.insert(0, ())
+            groups[()] = np.zeros(shape + (1,))
+        n1 = max(g.shape[-1] for g in groups.values())
+        coeffs = np.stack([_polyadd(groups[k], np.zeros(shape + (n1,))) for k in keys])
+        delays = np.stack([np.broadcast_to(sum((np.asarray(getattr(design, d), float)
+                                                for d in k), np.zeros(shape)), shape)
+                           for k in keys])
+        return QuasiPolynomial(coeffs, delays)
+
+
+def _ascending(coeffs: Sequence[np.ndarray], shape: tuple[int, ...]) -> np.ndarray:
+    return np.stack([np.broadcast_to(c, shape) for c in coeffs[::-1]], axis=-1)
+
+
+def _polymul(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    out = np.zeros(a.shape[:-1] + (a.shape[-1] + b.shape[-1] - 1,))
+    for i in range(a.shape[-1]):
+        out[..., i:i + b.shape[-1]] += a[..., i:i + 1] * b
+    return out
+
+
+def _polyadd(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    n = max(a.shape[-1], b.shape[-1])
+    pad = lambda x: np.pad(x, [(0, 0)] * (x.ndim - 1) + [(0, n - x.shape[-1])])  # noqa: E731
+    return pad(a) + pad(b)
+
+
+@lru_cache(maxsize=64)
+def _determinant(diagram: BlockDiagram, held: tuple[str, ...]) -> Any:
+    """``det(I - A)`` of the diagram with the ``held`` signals exogenous, in block symbols
+    (constant blocks substituted), expanded; cached on disk like :func:`_symbolic`."""
+    import sympy as sp
+
+    folder = _cache_dir()
+    key = _structure_key(diagram, "", "", held, "det")
+    path = folder / f"{key}.srepr" if folder else None
+    if path is not None and path.is_file():
+        try:
+            return sp.sympify(path.read_text())
+        except (SyntaxError, TypeError, ValueError):
+            pass
+    exogenous = set(diagram.inputs) | set(held)
+    unknowns = sorted(set(diagram.signals) - exogenous)
+    index = {n: i for i, n in enumerate(unknowns)}
+    A = sp.eye(len(unknowns))
+    for b in diagram.blocks:
+        if b.dst in index and b.src in index:
+            const = _constant_gain(b)
+            A[index[b.dst], index[b.src]] -= sp.Symbol(b.name) if const is None \
+                else sp.nsimplify(const)
+    expr = sp.expand(A.det(method="berkowitz"))
+    if path is not None:
+        try:
+            folder.mkdir(parents=True, exist_ok=True)
+            tmp = path.with_suffix(f".{os.getpid()}.tmp")
+            tmp.write_text(sp.srepr(expr))
+            os.replace(tmp, path)
+        except OSError:
+            pass
+    return expr
+
+
+def shifted(q: QuasiPolynomial, sigma: np.ndarray) -> QuasiPolynomial:
+    """``Q(s + sigma)`` per design (Taylor shift of each polynomial, ``e^{-sigma tau}``
+    folded into it): its right-half-plane roots are ``Q``'s roots right of ``sigma``."""
+    from math import comb
+
+    n1 = q.coeffs.shape[-1]
+    sig = np.asarray(sigma, float)[None, :, None]
+    binom = np.array([[comb(j, i) if j >= i else 0 for j in range(n1)] for i in range(n1)],
+                     float)
+    out = np.zeros_like(q.coeffs)
+    for i in range(n1):
+        j = np.arange(i, n1)
+        out[..., i] = (q.coeffs[..., j] * binom[i, j] * sig ** (j - i)).sum(axis=-1)
+    out *= np.exp(-np.asarray(sigma, float)[None, :, None] * q.delays[..., None])
+    return QuasiPolynomial(out, q.delays)

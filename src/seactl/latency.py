@@ -79,24 +79,22 @@ class LoopDelayMargins:
 
 def unstable_poles(diagram: BlockDiagram, design: Any, omega: np.ndarray,
                    order: Sequence[str], held: Sequence[str] = ()) -> np.ndarray:
-    """Closed-loop right-half-plane poles with the ``held`` signals cut, found by closing
-    the loops broken at ``order`` one at a time (Nyquist on each, counting the poles the
-    previous ones left).  The system with all of them open must be stable (poles at the
-    origin allowed)."""
-    P: np.ndarray | int = 0
-    for i, sensor in enumerate(order):
-        cut = tuple(sorted(set(order[i + 1:]) | set(held)))  # one cache entry per cut set
-        P = loop_margins(diagram.loop(sensor, cut=cut), design, omega, open_loop_rhp_poles=P,
-                         stability_only=True).unstable_poles
-    return np.broadcast_to(np.asarray(P), tuple(getattr(design, "shape", ())))
+    """Closed-loop right-half-plane roots with the ``held`` signals cut (the loops broken
+    at ``order`` closed), counted on the diagram's characteristic quasi-polynomial by
+    :func:`~seactl.margins.certified_margins`."""
+    shape = tuple(getattr(design, "shape", ()))
+    if not order:
+        return np.zeros(shape, int)
+    m = loop_margins(diagram.loop(order[0], cut=tuple(sorted(held))), design, omega,
+                     stability_only=True)
+    return np.broadcast_to(np.asarray(m.unstable_poles), shape)
 
 
 def path_margins(diagram: BlockDiagram, design: Any, omega: np.ndarray, path: str,
                  others: Sequence[str]) -> Margins:
     """Margins of the loop broken at tap ``path`` with every loop in ``others`` closed
     (``others`` lists the remaining breakable loops, innermost first)."""
-    P = unstable_poles(diagram, design, omega, others, held=(path,))
-    return loop_margins(diagram.loop(path), design, omega, open_loop_rhp_poles=P)
+    return loop_margins(diagram.loop(path), design, omega)
 
 
 def loop_delay_margins(diagram: BlockDiagram, design: Any, omega: np.ndarray,
@@ -123,8 +121,7 @@ def loop_delay_margins(diagram: BlockDiagram, design: Any, omega: np.ndarray,
     md = path_margins(diagram, design, omega, damping_tap, inner + (stiffness_tap,))
     if sensor is None:
         sensor = next(b.src for b in diagram.blocks if b.dst == stiffness_tap)
-    P = unstable_poles(diagram, design, omega, inner, held=(sensor,))
-    mo = loop_margins(diagram.loop(sensor), design, omega, open_loop_rhp_poles=P)
+    mo = loop_margins(diagram.loop(sensor), design, omega)
     return LoopDelayMargins(ms.delay_margin_s, md.delay_margin_s, mo.delay_margin_s, mo.stable,
                             _dm_crossover(ms), _dm_crossover(md))
 
@@ -208,9 +205,8 @@ class LoopModel:
     def margins(self, design: Any, stability_only: bool = False) -> Margins:
         """Whole-loop margins with correct closed-loop stability."""
         omega = self.grid(design)
-        P = unstable_poles(self.diagram, design, omega, self.inner, held=(self.sensor,))
         return loop_margins(self.diagram.loop(self.sensor), design, omega,
-                            open_loop_rhp_poles=P, stability_only=stability_only)
+                            stability_only=stability_only)
 
     def delay_margins(self, design: Any) -> LoopDelayMargins:
         return loop_delay_margins(self.diagram, design, self.grid(design), self.stiffness_tap,

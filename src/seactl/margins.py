@@ -14,10 +14,13 @@ of a block diagram), :func:`loop_margins` returns, per design:
   exact-delay loop, counting the open loop's own right-half-plane poles
   (given by the caller, e.g. from an inner loop) and poles at the origin.
 
-Crossings are bracketed on a log grid (refined where the phase moves too fast
-to unwrap reliably) and then solved on the exact function with
-``scipy.optimize.elementwise.find_root``, so no result comes from
-interpolation alone.
+A loop of a block diagram is scanned by :func:`certified_margins`: a grid bounded by
+the loop's delays, bisected until derivative bounds prove that no root, encirclement or
+crossing lies unseen between samples, with the closed loop's right-half-plane roots
+counted on its characteristic quasi-polynomial (the soundness argument is in that
+function's docstring).  Opaque loop callables keep a heuristic grid scan.  Crossings are
+then solved on the exact function with ``scipy.optimize.elementwise.find_root``, so no
+result comes from interpolation alone.
 """
 
 from __future__ import annotations
@@ -29,7 +32,7 @@ from typing import Any
 import numpy as np
 from scipy.optimize import elementwise
 
-from .blockdiagram import DesignSubset, Transfer
+from .blockdiagram import DesignSubset, QuasiPolynomial, Transfer
 
 LoopFn = Callable[[Any, np.ndarray], np.ndarray]
 
@@ -108,15 +111,26 @@ def _wrap180(deg: np.ndarray) -> np.ndarray:
     return 180.0 - np.remainder(180.0 - deg, 360.0)
 
 
-def _refine(loop: LoopFn, design: Any, shape: tuple[int, ...], b: np.ndarray,
+def _subset_loop(loop: LoopFn, design: Any, shape: tuple[int, ...]
+                 ) -> Callable[[np.ndarray, np.ndarray], np.ndarray]:
+    """``L(j w)`` at one frequency per listed design (flat indices) of an opaque loop."""
+
+    def at(idx: np.ndarray, w: np.ndarray) -> np.ndarray:
+        sub = DesignSubset(design, idx.astype(np.intp), shape)
+        return loop(sub, 1j * w[..., None])[..., 0]
+
+    return at
+
+
+def _refine(loop_at: Callable[[np.ndarray, np.ndarray], np.ndarray], b: np.ndarray,
             lo: np.ndarray, hi: np.ndarray, kind: str) -> np.ndarray:
-    """Solve a crossing exactly in ``log w`` inside each bracket (vectorized)."""
+    """Solve a crossing exactly in ``log w`` inside each bracket (vectorized);
+    ``loop_at(idx, w)`` is ``L(j w)`` of the flat designs ``idx``."""
     if b.size == 0:
         return np.empty(0)
 
     def f(x, idx):
-        sub = DesignSubset(design, idx.astype(np.intp), shape)
-        val = loop(sub, 1j * np.exp(x)[..., None])[..., 0]
+        val = loop_at(idx.astype(np.intp), np.exp(x))
         if kind == "gain":
             return np.log(np.abs(val))
         return np.angle(-val)  # zero where L is on the negative real axis
@@ -158,30 +172,31 @@ def loop_margins(loop: LoopFn, design: Any, omega: np.ndarray, *,
                  block_cache: dict[str, np.ndarray] | None = None) -> Margins:
     """Margins and Nyquist stability of ``L`` for a batch of designs.
 
+    A loop of a block diagram (``diagram.loop(sensor, cut)``, a
+    :class:`~seactl.blockdiagram.Transfer`) is scanned by :func:`certified_margins`,
+    which cannot skip a crossing or an encirclement and counts the closed loop's
+    right-half-plane roots from the diagram's characteristic quasi-polynomial; ``omega``
+    then only sets the frequency scale and ``open_loop_rhp_poles`` is not needed.
+    Any other callable is scanned heuristically on ``omega`` (:func:`_heuristic_margins`).
+
     Parameters
     ----------
     loop : callable
-        ``loop(design, s) -> L`` with ``s`` on the last axis.
+        ``loop(design, s) -> L`` with ``s`` on the last axis, or a block-diagram loop.
     design : object
         Design batch; attributes are arrays broadcastable to ``design.shape``.
     omega : ndarray
-        Bracketing grid [rad/s], shape ``(F,)`` or ``design.shape + (F,)``;
-        its first point must lie below the loop's low-frequency features.
-        Grid intervals where the phase of ``L`` (where ``|L| > 0.05``) or of
-        ``1 + L`` (where ``|L| > 0.5``) turns by more than 60 degrees, or where
-        the step of ``log L`` exceeds the endpoints' distances (in ``log L``) to
-        the unit circle or to the negative real axis (a pair of crossings could
-        hide between them), are
-        subdivided, recursively (``max_depth``), and the grid is extended
-        upwards while ``|L| > 0.5`` at its top, so that no crossing and no
-        encirclement is missed.
+        Grid [rad/s], shape ``(F,)`` or ``design.shape + (F,)``.  For an opaque
+        callable its first point must lie below the loop's low-frequency features;
+        intervals where the phase of ``L`` or ``1 + L`` turns by more than 60 degrees
+        (or where ``log L`` moves by more than its distance to the unit circle or the
+        negative real axis) are subdivided up to ``max_depth`` times.
     open_loop_rhp_poles : int or ndarray
-        Number of right-half-plane poles of ``L`` (e.g. unstable inner loop).
+        Opaque callables only: right-half-plane poles of ``L``.
     stability_only : bool
-        Only count encirclements (skip crossings): for inner loops.
+        Only the stability verdict (skip crossings).
     block_cache : dict, optional
-        Shared block responses on the base grid, when ``loop`` is a block-diagram
-        :class:`~seactl.blockdiagram.Transfer` (several loops of one diagram).
+        Opaque path only: shared block responses on the base grid.
 
     Returns
     -------
@@ -202,6 +217,18 @@ def loop_margins(loop: LoopFn, design: Any, omega: np.ndarray, *,
     >>> round(float(m.delay_margin_s[0]), 9) == round(np.pi / 20 - 0.05, 9)
     True
     """
+    if isinstance(loop, Transfer) and loop.kind == "loop":
+        w = np.asarray(omega, float)
+        scale = np.sqrt(w[..., 0] * w[..., -1]) if w[..., 0].all() else w[..., -1] / 30.0
+        return certified_margins(loop, design, scale, stability_only=stability_only)
+    return _heuristic_margins(loop, design, omega, open_loop_rhp_poles, max_depth,
+                              stability_only, block_cache)
+
+
+def _heuristic_margins(loop: LoopFn, design: Any, omega: np.ndarray,
+                       open_loop_rhp_poles: np.ndarray | int, max_depth: int,
+                       stability_only: bool, block_cache: dict | None) -> Margins:
+    """The grid scan of an opaque loop callable (see :func:`loop_margins`)."""
     shape = tuple(getattr(design, "shape", ()))
     n = int(np.prod(shape, dtype=int))
     omega = np.broadcast_to(np.asarray(omega, float), shape + (np.shape(omega)[-1],))
@@ -209,7 +236,19 @@ def loop_margins(loop: LoopFn, design: Any, omega: np.ndarray, *,
     P = np.broadcast_to(np.asarray(open_loop_rhp_poles, int), shape).reshape(n)
     scan = _Scan(loop, design, shape, stability_only)
     L0 = scan.segments(np.arange(n), omega, max_depth, block_cache)
-    # Extend upwards while the loop is still large at the top of the grid.
+    _extend_upwards(scan, L0, omega, max_depth)
+    mag0 = np.abs(L0[:, :2])
+    slope = -np.log(mag0[:, 1] / mag0[:, 0]) / np.log(omega[:, 1] / omega[:, 0])
+    n0 = np.clip(np.round(slope), 0, None)  # poles of L at the origin
+    Z = np.round(P + n0 / 2 - scan.winding(n) / np.pi).astype(int)
+    if stability_only:
+        return _stability_only(shape, Z == 0, Z)
+    at = _subset_loop(loop, design, shape)
+    return _assemble(shape, Z == 0, Z, scan.solve("gain"), scan.solve("phase"), at)
+
+
+def _extend_upwards(scan: _Scan, L0: np.ndarray, omega: np.ndarray, max_depth: int) -> None:
+    """Scan above the grid while the loop is still large at its top."""
     top, w_top = np.abs(L0[:, -1]), omega[:, -1].copy()  # omega may be a broadcast view
     todo = np.nonzero(top > 0.5)[0]
     for _ in range(max_depth):
@@ -220,38 +259,31 @@ def loop_margins(loop: LoopFn, design: Any, omega: np.ndarray, *,
         w_top[todo] = ext[:, -1]
         todo = todo[np.abs(Lx[:, -1]) > 0.5]
 
-    mag0 = np.abs(L0[:, :2])
-    slope = -np.log(mag0[:, 1] / mag0[:, 0]) / np.log(omega[:, 1] / omega[:, 0])
-    n0 = np.clip(np.round(slope), 0, None)  # poles of L at the origin
-    Z = np.round(P + n0 / 2 - scan.winding(n) / np.pi).astype(int)
-    stable = Z == 0
-    if stability_only:
-        nan = np.full(n, np.nan)
-        empty = Crossings(np.empty(0, int), np.empty(0), np.empty(0))
-        return Margins(*(x.reshape(shape) for x in (nan, nan, nan, nan, nan, stable, Z)),
-                       gain_crossovers=empty, phase_crossovers=empty)
 
-    b, wc = scan.solve("gain")
-    Lc = scan.at(b, wc)
-    pm = _wrap180(180.0 + np.degrees(np.angle(Lc)))
-    bp, w180 = scan.solve("phase")
-    L180 = scan.at(bp, w180)
+def _stability_only(shape: tuple[int, ...], stable: np.ndarray, Z: np.ndarray) -> Margins:
+    n = int(np.prod(shape, dtype=int))
+    nan = np.full(n, np.nan)
+    empty = Crossings(np.empty(0, int), np.empty(0), np.empty(0))
+    return Margins(*(x.reshape(shape) for x in (nan, nan, nan, nan, nan, stable, Z)),
+                   gain_crossovers=empty, phase_crossovers=empty)
+
+
+def _assemble(shape: tuple[int, ...], stable: np.ndarray, Z: np.ndarray,
+              gain: tuple[np.ndarray, np.ndarray], phase: tuple[np.ndarray, np.ndarray],
+              at: Callable[[np.ndarray, np.ndarray], np.ndarray]) -> Margins:
+    """Margins from the solved crossings ``(design index, omega)`` of every design."""
+    n = int(np.prod(shape, dtype=int))
+    b, wc = gain
+    pm = _wrap180(180.0 + np.degrees(np.angle(at(b, wc)))) if b.size else np.empty(0)
+    bp, w180 = phase
+    L180 = at(bp, w180) if bp.size else np.empty(0, complex)
     keep = np.real(L180) < 0
     bp, w180 = bp[keep], w180[keep]
     with np.errstate(divide="ignore"):
         gm = 1.0 / np.abs(L180[keep])
-
-    pm_best = np.full(n, np.inf)
-    wc_best = np.full(n, np.nan)
-    if b.size:
-        first = first_per_design(b, np.abs(pm))
-        pm_best[b[first]], wc_best[b[first]] = pm[first], wc[first]
-    gm_best = np.full(n, np.inf)
-    w180_best = np.full(n, np.nan)
-    if bp.size:
-        with np.errstate(divide="ignore"):
-            first = first_per_design(bp, np.abs(np.log(gm)))
-        gm_best[bp[first]], w180_best[bp[first]] = gm[first], w180[first]
+    pm_best, wc_best = _best(n, b, pm, wc, np.abs(pm))
+    with np.errstate(divide="ignore"):
+        gm_best, w180_best = _best(n, bp, gm, w180, np.abs(np.log(gm)))
     gain_crossovers = Crossings(b, wc, pm)
     dm = np.full(n, np.inf)
     if b.size:
@@ -260,6 +292,357 @@ def loop_margins(loop: LoopFn, design: Any, omega: np.ndarray, *,
     res = (pm_best, wc_best / (2 * np.pi), gm_best, w180_best / (2 * np.pi), dm, stable, Z)
     return Margins(*(x.reshape(shape) for x in res),
                    gain_crossovers=gain_crossovers, phase_crossovers=Crossings(bp, w180, gm))
+
+
+def _best(n: int, groups: np.ndarray, value: np.ndarray, omega: np.ndarray,
+          key: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Per design, the value (default inf) and frequency (default NaN) of the smallest key."""
+    best, w = np.full(n, np.inf), np.full(n, np.nan)
+    if groups.size:
+        first = first_per_design(groups, key)
+        best[groups[first]], w[groups[first]] = value[first], omega[first]
+    return best, w
+
+
+# ----------------------------------------------------------------- the certified scan
+HIDDEN_PAIR_TOL = 0.05
+"""A pair of crossings hidden inside one certified interval can only exist if ``log L``
+leaves the unit circle (or the negative real axis) by less than this (0.43 dB, 2.9 deg)."""
+
+CROSSING_PAIR_TOL = 0.1
+"""The same, for a pair hidden in the interval of another crossing (0.9 dB, 6 deg)."""
+
+TURN_FRACTION = 1.0 / 2.0
+"""Base grid: no loop delay turns the phase by more than this fraction of a turn per step."""
+
+PER_DECADE = 4
+"""Base grid: points per decade at low frequency."""
+
+MAX_BISECTIONS = 48
+
+_PHASE_BAND = (0.05, 20.0)
+
+
+class _Bounded:
+    """A flat quasi-polynomial ``Q`` with ``|d^3 Q(jw)/dw^3| <= bound3(w)`` on ``[0, w]``:
+    ``sum_kj |c_kj| |d^3/dw^3 (w^j e^{-j w tau_k})|`` majorized term by term (product
+    rule with ``|e^{-j w tau}| = 1``; increasing in ``w``)."""
+
+    def __init__(self, q: QuasiPolynomial):
+        self.q = q
+        A = np.abs(q.coeffs)
+        tau = q.delays[..., None]
+        j = np.arange(A.shape[-1])
+        c = (A * tau**3).sum(axis=0)  # sum_i C(3, i) |(w^j)^(i)| tau^(3 - i)
+        c[:, :-1] += 3 * ((A * tau**2).sum(axis=0) * j)[:, 1:]
+        c[:, :-2] += 3 * ((A * tau).sum(axis=0) * j * (j - 1))[:, 2:]
+        c[:, :-3] += (A.sum(axis=0) * j * (j - 1) * (j - 2))[:, 3:]
+        self.bound3_coeffs = c
+
+    def at(self, idx: np.ndarray, w: np.ndarray) -> tuple[np.ndarray, ...]:
+        """``Q(jw)``, ``dQ(jw)/dw`` and ``|d^2 Q(jw)/dw^2|``."""
+        q, dq, d2q = self.q.take(idx).with_derivative(1j * w[:, None], second=True)
+        return q[:, 0], 1j * dq[:, 0], np.abs(d2q[:, 0])
+
+    def bound3(self, idx: np.ndarray, w: np.ndarray) -> np.ndarray:
+        c = self.bound3_coeffs[idx]
+        acc = c[:, -1].copy()
+        for j in range(c.shape[-1] - 2, -1, -1):
+            acc = acc * w + c[:, j]
+        return acc
+
+
+def cauchy_bound(q: QuasiPolynomial, majorant: np.ndarray | None = None) -> np.ndarray:
+    """Per design of a flat retarded quasi-polynomial, an ``R`` with
+    ``|a_n| w^n > sum_{j<n} (sum_k |c_kj|) w^j`` for every ``w > R``: beyond it the
+    leading term dominates every other term together, so ``Q`` has no root with
+    ``Re s >= 0`` and ``|s| > R``, and ``Q(jw) / (a_n (jw)^n)`` stays in the disc
+    ``|z - 1| < 1``.  Newton from Fujiwara's bound on the polynomial
+    ``|a_n| x^n - sum_j c_j x^j``, whose only positive root is the tightest such ``R``.
+    ``majorant`` replaces ``c_j`` by larger coefficients (e.g. ``N``'s and ``D``'s apart)."""
+    n = q.degree
+    rows = np.arange(n.size)
+    lead = np.abs(q.coeffs[0, rows, n])
+    c = (q.abs_coeffs if majorant is None else majorant).copy()
+    c[rows, n] = -lead
+    j = np.arange(c.shape[-1])
+    below = j[None, :] < n[:, None]
+    with np.errstate(divide="ignore", invalid="ignore"):
+        fuji = np.where(below, (np.abs(c) / lead[:, None]) ** (1.0 / (n[:, None] - j)), 0.0)
+    x = 2.0 * fuji.max(axis=1) + 1e-300
+    best = x.copy()
+    for _ in range(8):
+        pw = x[:, None] ** j
+        g = -(c * pw).sum(axis=1)
+        dg = -(c[:, 1:] * j[1:] * pw[:, :-1]).sum(axis=1)
+        best = np.where(g > 0, np.minimum(best, x), best)
+        x = np.where(dg > 0, x - g / dg, best)
+    return best
+
+
+def _base_grid(w_ref: np.ndarray, tau_max: np.ndarray, top: np.ndarray
+               ) -> tuple[np.ndarray, np.ndarray]:
+    """Flat ``(design, w)`` points from 0 to ``top``: ``PER_DECADE`` points per decade
+    from ``0.01 w_ref`` on, and never a step longer than ``TURN_FRACTION`` of a turn of
+    the longest delay: the points are ``phi(w) = 0, 1, 2, ...`` of
+    ``phi = a ln(w / w_lo) + b (w - w_lo)``."""
+    w_lo = 0.01 * w_ref
+    top = np.maximum(top, 10.0 * w_lo)
+    a = PER_DECADE / np.log(10.0)
+    b = tau_max / (2 * np.pi * TURN_FRACTION)
+    count = np.ceil(a * np.log(top / w_lo) + b * (top - w_lo)).astype(int) + 1
+    didx = np.repeat(np.arange(w_ref.size), count)
+    start = np.cumsum(count) - count
+    u = (np.arange(didx.size) - start[didx]).astype(float)
+    aa, bb, lo = a, b[didx], w_lo[didx]
+    w = np.minimum(lo * np.exp(u / aa), np.where(bb > 0, lo + u / np.maximum(bb, 1e-300),
+                                                  np.inf))
+    for _ in range(6):  # Newton on the concave phi (any increasing points would do)
+        w = w - (aa * np.log(w / lo) + bb * (w - lo) - u) / (aa / w + bb)
+    last = start + count - 1
+    w[last] = top
+    w = np.where(np.isfinite(w) & (w > 0), w, lo)
+    zero = np.zeros(w_ref.size, int)
+    didx = np.insert(didx, start, zero + np.arange(w_ref.size))
+    w = np.insert(w, start, 0.0)
+    return didx, w
+
+
+_VALUES = ("w", "N", "D", "dN", "dD", "cN", "cD")
+_FIELDS = ("d",) + tuple(f + e for f in _VALUES for e in "ab")
+
+
+@dataclass
+class _Intervals:
+    """Intervals ``[wa, wb]`` of designs ``d`` with ``N``, ``D``, their derivatives and
+    the moduli of their second derivatives (``c``) at both ends."""
+
+    d: np.ndarray
+    wa: np.ndarray
+    wb: np.ndarray
+    Na: np.ndarray
+    Nb: np.ndarray
+    Da: np.ndarray
+    Db: np.ndarray
+    dNa: np.ndarray
+    dNb: np.ndarray
+    dDa: np.ndarray
+    dDb: np.ndarray
+    cNa: np.ndarray
+    cNb: np.ndarray
+    cDa: np.ndarray
+    cDb: np.ndarray
+
+    def select(self, mask: np.ndarray) -> _Intervals:
+        return _Intervals(*(getattr(self, f)[mask] for f in _FIELDS))
+
+
+def _sup(h: np.ndarray, da: np.ndarray, db: np.ndarray, bound: np.ndarray) -> np.ndarray:
+    """Bound on ``|f|`` over an interval of width ``h`` from ``|f|`` at its ends and a
+    bound on ``|f'|``: ``(|f_a| + |f_b| + h bound) / 2``."""
+    return 0.5 * (np.abs(da) + np.abs(db) + h * bound)
+
+
+class _CertifiedScan:
+    """Bisects intervals until each is certified (see :func:`certified_margins`)."""
+
+    def __init__(self, N: QuasiPolynomial, D: QuasiPolynomial, stability_only: bool):
+        self.N, self.D = _Bounded(N), _Bounded(D)
+        self.stability_only = stability_only
+        self.winding = np.zeros(N.shape[0])
+        self.uncertain = np.zeros(N.shape[0], bool)
+        self.brackets: dict[str, list] = {"gain": [], "phase": []}
+
+    def values(self, didx: np.ndarray, w: np.ndarray) -> tuple[np.ndarray, ...]:
+        (N, dN, cN), (D, dD, cD) = self.N.at(didx, w), self.D.at(didx, w)
+        return w, N, D, dN, dD, cN, cD
+
+    def run(self, didx: np.ndarray, w: np.ndarray) -> None:
+        vals = self.values(didx, w)
+        same = didx[1:] == didx[:-1]
+        ends = [x for v in vals for x in (v[:-1][same], v[1:][same])]
+        iv = _Intervals(didx[1:][same], *ends)
+        for _ in range(MAX_BISECTIONS):
+            if iv.d.size == 0:
+                return
+            ok = self.certified(iv)
+            self.collect(iv.select(ok))
+            iv = self.bisect(iv.select(~ok))
+        self.uncertain[iv.d] = True
+        self.collect(iv)
+
+    def certified(self, iv: _Intervals) -> np.ndarray:
+        """The interval's path of ``Delta = N + D`` is shorter than the sum of its
+        endpoints' distances to 0 (so it neither meets 0 nor turns around it unseen), and
+        the path of ``log L`` is shorter than its endpoints' distances to the unit circle
+        (and, where ``0.05 < |L| < 20``, to the negative real axis) plus
+        ``2 HIDDEN_PAIR_TOL``."""
+        h = iv.wb - iv.wa
+        cN = _sup(h, iv.cNa, iv.cNb, self.N.bound3(iv.d, iv.wb))  # sup |N''|, |D''|
+        cD = _sup(h, iv.cDa, iv.cDb, self.D.bound3(iv.d, iv.wb))
+        ok = h * _sup(h, iv.dNa + iv.dDa, iv.dNb + iv.dDb, cN + cD) \
+            < np.abs(iv.Na + iv.Da) + np.abs(iv.Nb + iv.Db)
+        if self.stability_only:
+            return ok
+        sN, sD = _sup(h, iv.dNa, iv.dNb, cN), _sup(h, iv.dDa, iv.dDb, cD)
+        mN = 0.5 * (np.abs(iv.Na) + np.abs(iv.Nb) - h * sN)  # lower bounds of |N|, |D|
+        mD = 0.5 * (np.abs(iv.Da) + np.abs(iv.Db) - h * sD)
+        with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
+            # (log L)' = N'/N - D'/D at the ends; |(log L)''| <= curv2 on the interval
+            ga, gb = iv.dNa / iv.Na - iv.dDa / iv.Da, iv.dNb / iv.Nb - iv.dDb / iv.Db
+            curv2 = cN / mN + (sN / mN) ** 2 + cD / mD + (sD / mD) ** 2
+            length = np.where((mN > 0) & (mD > 0), h * _sup(h, ga, gb, curv2), np.inf)
+            La, Lb = iv.Na / iv.Da, iv.Nb / iv.Db
+            fa, fb = np.log(np.abs(La)), np.log(np.abs(Lb))
+            to_axis = 2 * np.pi - np.abs(np.angle(La)) - np.abs(np.angle(Lb))
+        # next to a crossing the interval is kept (bracketed) once a second pair would
+        # need an excursion beyond CROSSING_PAIR_TOL; elsewhere beyond HIDDEN_PAIR_TOL
+        crosses = (fa >= 0) != (fb >= 0)
+        tol = np.where(crosses, CROSSING_PAIR_TOL, HIDDEN_PAIR_TOL)
+        gain_ok = length < np.abs(fa) + np.abs(fb) + 2 * tol
+        relevant = (np.maximum(fa, fb) + length > np.log(_PHASE_BAND[0])) \
+            & (np.minimum(fa, fb) - length < np.log(_PHASE_BAND[1]))
+        axis = ((La.imag >= 0) != (Lb.imag >= 0)) & (La.real * np.abs(Lb.imag)
+                                                     + Lb.real * np.abs(La.imag) < 0)
+        tol = np.where(axis, CROSSING_PAIR_TOL, HIDDEN_PAIR_TOL)
+        phase_ok = ~relevant | (length < to_axis + 2 * tol)
+        return ok & ((iv.wa == 0) | (gain_ok & phase_ok))
+
+    def collect(self, iv: _Intervals) -> None:
+        """Winding of ``Delta`` and crossing brackets of certified intervals."""
+        with np.errstate(divide="ignore", invalid="ignore"):
+            turn = np.angle((iv.Nb + iv.Db) / (iv.Na + iv.Da))
+        self.winding += np.bincount(iv.d, weights=turn, minlength=self.winding.size)
+        if self.stability_only:
+            return
+        with np.errstate(divide="ignore", invalid="ignore"):
+            La, Lb = iv.Na / iv.Da, iv.Nb / iv.Db
+        pos = iv.wa > 0
+        g = pos & ((np.abs(La) >= 1) != (np.abs(Lb) >= 1))
+        self.brackets["gain"].append((iv.d[g], iv.wa[g], iv.wb[g]))
+        re_cross = La.real * np.abs(Lb.imag) + Lb.real * np.abs(La.imag)
+        p = pos & ((La.imag >= 0) != (Lb.imag >= 0)) & (re_cross < 0)
+        self.brackets["phase"].append((iv.d[p], iv.wa[p], iv.wb[p]))
+
+    def bisect(self, iv: _Intervals) -> _Intervals:
+        mid = self.values(iv.d, 0.5 * (iv.wa + iv.wb))
+        ends = []
+        for f, m in zip(_VALUES, mid):
+            ends += [np.concatenate([getattr(iv, f + "a"), m]),
+                     np.concatenate([m, getattr(iv, f + "b")])]
+        return _Intervals(np.concatenate([iv.d, iv.d]), *ends)
+
+    def loop_at(self, idx: np.ndarray, w: np.ndarray) -> np.ndarray:
+        return self.N.at(idx, w)[0] / self.D.at(idx, w)[0]
+
+    def solve(self, kind: str) -> tuple[np.ndarray, np.ndarray]:
+        parts = self.brackets[kind]
+        b = np.concatenate([p[0] for p in parts]) if parts else np.empty(0, int)
+        if b.size == 0:
+            return b, np.empty(0)
+        lo = np.concatenate([p[1] for p in parts])
+        hi = np.concatenate([p[2] for p in parts])
+        return b, _refine(self.loop_at, b, lo, hi, kind)
+
+
+def certified_margins(loop: Transfer, design: Any, w_ref: np.ndarray | float, *,
+                      stability_only: bool = False) -> Margins:
+    """Margins and stability of a block-diagram loop by a scan that cannot skip.
+
+    The loop ``L = diagram.loop(sensor, cut)`` is ``N / D`` with ``D`` the diagram's
+    characteristic quasi-polynomial with ``sensor`` held and ``N + D = Delta`` the one
+    of the closed loop (:meth:`~seactl.blockdiagram.BlockDiagram.return_difference`):
+    every term is a polynomial ``p_k(s)`` times ``e^{-s tau_k}``, with known
+    coefficients.  Why no root, crossing or encirclement can be skipped:
+
+    1. **Derivative bounds.**  On ``[0, w]``, ``|d^3 Q(jw)/dw^3|`` is at most the sum over
+       terms of ``|c_kj| |d^3/dw^3 (w^j e^{-j w tau_k})|`` majorized with ``|e| = 1``: the
+       delays bound how fast each term turns, the polynomials (whose roots are the
+       resonances of the rational part) how fast it grows.  With ``Q'`` and ``Q''``
+       evaluated exactly at both ends of an interval of width ``h``,
+       ``sup |f| <= (|f_a| + |f_b| + h sup |f'|) / 2`` gives ``sup |Q''|``, then
+       ``sup |Q'|``: the path of ``Q`` is no longer than ``h sup |Q'|``, and that of
+       ``log L = log N - log D`` no longer than ``h`` times a bound on
+       ``|(log L)'|`` built the same way from ``(log L)'`` at the ends and
+       ``|(log L)''| <= |N''|/m_N + (|N'|/m_N)^2 + |D''|/m_D + (|D'|/m_D)^2`` with
+       ``m`` lower bounds of ``|N|``, ``|D|`` on the interval.
+    2. **Base grid.**  From 0 to the Cauchy bound ``R`` (:func:`cauchy_bound`),
+       ``PER_DECADE`` points per decade and steps on which no delay turns by more than
+       ``TURN_FRACTION`` of a turn, so most intervals pass step 3 at once.
+    3. **Certificate, by bisection.**  An interval is accepted when the path of
+       ``Delta`` is shorter than ``|Delta_a| + |Delta_b|``: a path from ``Delta_a`` to
+       ``Delta_b`` that meets 0, or turns by a different multiple of ``2 pi`` than
+       ``arg(Delta_b / Delta_a)``, must reach the opposite ray of ``Delta_a``, which
+       takes at least that length.  Likewise ``log L`` must travel at least
+       ``|log|L_a|| + |log|L_b||`` to cross the unit circle twice unseen (and the
+       distances to ``+-pi`` for the negative real axis); the test allows a hidden
+       excursion of at most :data:`HIDDEN_PAIR_TOL` (:data:`CROSSING_PAIR_TOL` in an
+       interval that brackets a crossing).  Near a lightly damped resonance
+       ``|D|`` is small, so intervals there are bisected until the bound resolves it.
+    4. **Beyond R** the leading term of ``Delta`` outweighs all others (and ``|N| <
+       |D|``: no gain crossover), so ``arg Delta(jw)`` changes from ``R`` to infinity
+       by exactly ``-arg(Delta(jR) / (a_n (jR)^n))``.
+    5. **Count.**  For a retarded quasi-polynomial of degree ``n`` with no imaginary
+       root, ``arg Delta`` increases over ``[0, inf)`` by ``pi (n/2 - Z)``, ``Z`` the
+       number of roots with ``Re s > 0`` (Stepan's formula; the delayed terms have lower
+       degree).  A root on the axis makes bisection fail at ``MAX_BISECTIONS``: the
+       design is then reported not stable.
+
+    Crossings are bracketed on certified intervals above ``0.01 w_ref`` and solved on the
+    exact ``N / D`` with ``scipy.optimize.elementwise.find_root``.
+
+    Parameters
+    ----------
+    loop : Transfer
+        ``diagram.loop(sensor, cut)``.
+    design : object
+        Design batch of that diagram.
+    w_ref : array_like
+        Frequency scale [rad/s] per design (start of the logarithmic part of the grid).
+    stability_only : bool
+        Only count roots (skip crossings).
+
+    Returns
+    -------
+    Margins
+        ``unstable_poles`` is ``Z``, the closed loop's roots in the right half-plane.
+    """
+    shape = tuple(getattr(design, "shape", ()))
+    n = int(np.prod(shape, dtype=int))
+    N, D = (f.evaluate(design).flat() for f in
+            loop.diagram.return_difference(loop.input, loop.cut))
+    delta = N + D
+    if np.any(delta.delayed_degree >= delta.degree):
+        raise ValueError(f"diagram {loop.diagram.name!r}: a delayed term has the degree of "
+                         "the undelayed one (a neutral delay equation), not supported")
+    m = delta.coeffs.shape[-1]
+    top = cauchy_bound(delta, sum(np.pad(x.abs_coeffs, [(0, 0), (0, m - x.coeffs.shape[-1])])
+                                  for x in (N, D)))
+    tau_max = np.concatenate([N.delays, D.delays]).max(axis=0)
+    w_ref = np.broadcast_to(np.asarray(w_ref, float), shape).reshape(n)
+    scan = _CertifiedScan(N, D, stability_only)
+    didx, w = _base_grid(w_ref, tau_max, top)
+    scan.run(didx, w)
+    Z, uncertain = _stepan_count(delta, top, scan.winding)
+    Z = np.maximum(Z, 1 * (uncertain & (Z == 0)))
+    stable = (Z == 0) & ~uncertain & ~scan.uncertain
+    if stability_only:
+        return _stability_only(shape, stable, Z)
+    return _assemble(shape, stable, Z, scan.solve("gain"), scan.solve("phase"), scan.loop_at)
+
+
+def _stepan_count(delta: QuasiPolynomial, top: np.ndarray, winding: np.ndarray
+                  ) -> tuple[np.ndarray, np.ndarray]:
+    """Right-half-plane roots from the winding of ``Delta`` on ``[0, top]`` plus the
+    tail beyond ``top`` (step 5 of :func:`certified_margins`)."""
+    n = delta.degree
+    rows = np.arange(n.size)
+    lead = delta.coeffs[0, rows, n]
+    end = delta(1j * top[:, None])[:, 0]
+    tail = -np.angle(end / (lead * (1j * top) ** n))
+    z = n / 2.0 - (winding + tail) / np.pi
+    Z = np.round(z).astype(int)
+    return Z, np.abs(z - Z) > 0.25
 
 
 class _Scan:
@@ -350,7 +733,7 @@ class _Scan:
             return b, np.empty(0)
         lo = np.concatenate([p[1] for p in parts])
         hi = np.concatenate([p[2] for p in parts])
-        return b, _refine(self.loop, self.design, self.shape, b, lo, hi, kind)
+        return b, _refine(_subset_loop(self.loop, self.design, self.shape), b, lo, hi, kind)
 
     def winding(self, n: int) -> np.ndarray:
         """Total phase change of ``1 + L`` [rad] per design."""
@@ -398,11 +781,19 @@ def sea_margins(design: Any, omega: np.ndarray | None = None) -> Margins:
     >>> round(float(sea_margins(d).phase_margin_deg), 1)
     45.1
     """
-    from .loops import inner_loop, outer_loop
+    from .loops import outer_loop
 
     if omega is None:
         omega = default_grid(sea_reference_frequency(design))
-    cache: dict[str, np.ndarray] = {}  # the inner loop's blocks are shared with the outer's
-    inner = loop_margins(inner_loop(), design, omega, stability_only=True, block_cache=cache)
-    return loop_margins(outer_loop(), design, omega, open_loop_rhp_poles=inner.unstable_poles,
-                        block_cache=cache)
+    return loop_margins(outer_loop(), design, omega)
+
+
+def count_right_roots(q: QuasiPolynomial, w_ref: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Roots of a flat retarded quasi-polynomial with ``Re s > 0`` (multiplicity and
+    conjugates counted), by the certified scan of :func:`certified_margins` (steps 2-5);
+    and whether the count is certain (``False`` when a root lies on the axis)."""
+    zero = QuasiPolynomial(np.zeros_like(q.coeffs[:1]), np.zeros_like(q.delays[:1]))
+    scan = _CertifiedScan(q, zero, stability_only=True)
+    scan.run(*_base_grid(np.asarray(w_ref, float), q.delays.max(axis=0), cauchy_bound(q)))
+    Z, odd = _stepan_count(q, cauchy_bound(q), scan.winding)
+    return Z, ~odd & ~scan.uncertain

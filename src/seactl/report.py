@@ -64,6 +64,13 @@ class Claim:
         return d
 
 
+def pm_cell(pm_deg: float, stable: bool, spec: str = ".1f") -> str:
+    """A phase margin for a report table, marked when the design is unstable (the margin
+    of one crossover says nothing once a closed-loop root is in the right half-plane)."""
+    text = format(float(pm_deg), spec) if np.isfinite(pm_deg) else "none"
+    return text if stable else f"{text} (unstable)"
+
+
 def numeric_claim(id: str, section: str, claim: str, paper: float, ours: float,
                   tol: float, note: str = "") -> Claim:
     """A claim that passes when ``|ours - paper| <= tol``."""

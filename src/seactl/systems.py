@@ -111,6 +111,33 @@ class RigidBatch:
         r = self.rigid
         return MarginsResult(rigid_margins(r), {"fn_hz": self.fn_hz, "K": r.K, "B": r.B})
 
+    def roots(self, count: int = 6) -> Any:
+        """Rightmost roots of the closed loop (exact delays), per design.
+
+        Parameters
+        ----------
+        count : int
+            Roots per design (a conjugate pair counts once).
+
+        Returns
+        -------
+        RootsResult
+            ``roots`` [rad/s], ``spectral_abscissa`` [1/s], labelled by ``fn_hz``.
+
+        Examples
+        --------
+        >>> import seactl as sc
+        >>> r = sc.rigid(8, delays_ms=(1.5, 1.5)).roots(count=1)
+        >>> bool(r.spectral_abscissa < 0)
+        True
+        """
+        from ._results import RootsResult
+        from .rigid import RIGID_DIAGRAM
+        from .roots import characteristic_roots
+
+        return RootsResult(characteristic_roots(RIGID_DIAGRAM, self.rigid, count=count),
+                           {"fn_hz": self.fn_hz})
+
     def delay_margins(self) -> Any:
         """Extra latency the stiffness loop alone, the damping loop alone, and both tolerate.
 

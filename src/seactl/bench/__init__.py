@@ -11,7 +11,7 @@ from __future__ import annotations
 from collections.abc import Callable, Iterable
 from typing import Any
 
-from . import core, impedance, jitter, loopfile, mobile_base, placement, simulate, sweep
+from . import core, impedance, jitter, loopfile, mobile_base, placement, roots, simulate, sweep
 from ._harness import BenchResult, benchmark, median_time
 
 __all__ = ["BENCHMARKS", "BenchResult", "benchmark", "median_time", "registered",
@@ -19,7 +19,7 @@ __all__ = ["BENCHMARKS", "BenchResult", "benchmark", "median_time", "registered"
 
 
 BENCHMARKS: tuple[Callable, ...] = (
-    core.bench_gain_design, core.bench_margins, loopfile.bench_loop_file,
+    core.bench_gain_design, core.bench_margins, roots.bench_roots, loopfile.bench_loop_file,
     impedance.bench_impedance,
     simulate.bench_simulate, placement.bench_latency_map, sweep.bench_sweep,
     mobile_base.bench_circle, mobile_base.bench_tuning, core.bench_cli_startup,

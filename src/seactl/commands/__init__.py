@@ -11,6 +11,7 @@ from . import (
     loops,  # noqa: F401
     mobile_base,  # noqa: F401
     placement,  # noqa: F401
+    roots,  # noqa: F401
     simulate,  # noqa: F401
     sweep,  # noqa: F401
 )

@@ -212,6 +212,13 @@ def finite_or_none(x: Any, digits: int = 10) -> float | None:
     return round(x, digits) if math.isfinite(x) else None
 
 
+def pm_text(pm_deg: float | None, stable: bool, spec: str = ".2f") -> str:
+    """A phase margin for a table: an unstable design's is marked, whatever its sign
+    (the margin of one crossover says nothing once a closed-loop root is unstable)."""
+    text = "none" if pm_deg is None else format(pm_deg, spec)
+    return text if stable else f"[red]{text} (unstable)[/red]"
+
+
 def echo_json(obj: Any) -> None:
     click.echo(json.dumps(obj, indent=2))
 

@@ -10,18 +10,32 @@ import numpy as np
 from rich.markup import escape
 from rich.table import Table
 
-from ._common import DesignSpec, cli, console, design_options, echo_json, err_console, json_option
+from ._common import (
+    DesignSpec,
+    cli,
+    console,
+    design_options,
+    echo_json,
+    err_console,
+    json_option,
+    pm_text,
+)
 
 
 def gains_rows(spec: DesignSpec) -> list[dict[str, Any]]:
     """Table I rows (rotary units) with margins, one per design and valid solution: the
-    public API's :meth:`seactl.MarginsResult.records` of each solution's (f_n x GS) batch."""
+    public API's :meth:`seactl.MarginsResult.records` of each solution's (f_n x GS) batch,
+    plus the closed loop's ``spectral_abscissa`` [1/s] (:meth:`seactl.Design.roots`)."""
     from ..api import Design
 
     rows = []
     for design in spec.all_designs():
         fn, gs = np.broadcast_arrays(spec.fn_hz[:, None], spec.gs[None, :])
-        rows += Design(design, fn, gs).margins().records()
+        d = Design(design, fn, gs)
+        recs = d.margins().records()
+        for rec, root in zip(recs, d.roots(count=1).records()):
+            rec["spectral_abscissa"] = root["spectral_abscissa"]
+        rows += recs
     return rows
 
 
@@ -41,6 +55,9 @@ def gains(spec: DesignSpec, as_json: bool) -> None:
 
     A margin printed as 'none' (null in JSON) means the loop has no such crossing:
     no gain crossover (phase and delay margin), or no phase crossover (gain margin).
+    An unstable design's PM is marked '(unstable)' (JSON keeps the number and
+    "stable": false).  'abscissa' is the largest real part of the closed-loop roots
+    [1/s]: negative when stable, and then the slowest decay rate.
     """
     rows = gains_rows(spec)
     if as_json:
@@ -50,13 +67,14 @@ def gains(spec: DesignSpec, as_json: bool) -> None:
               f"(T_tau={spec.t_tau_ms:g} ms, T_qs={spec.t_qs_ms:g} ms, T_qd={spec.t_qd_ms:g} ms,"
               f" f_qd={spec.f_qd_hz or 'none'} Hz, f_taud={spec.f_taud_hz or 'none'} Hz)")
     for col in ("f_n [Hz]", "GS", "Kq [Nm/rad]", "Bq [Nms/rad]", "Ktau [A/Nm]", "Btau [As/Nm]",
-                "PM [deg]", "crossover [Hz]", "GM [dB]", "DM [ms]", "stable"):
+                "PM [deg]", "crossover [Hz]", "GM [dB]", "DM [ms]", "abscissa [1/s]", "stable"):
         t.add_column(escape(col), justify="right")
     for r in rows:
         t.add_row(f"{r['fn_hz']:g}", f"{r['gs']:g}", f"{r['Kq']:.2f}", f"{r['Bq']:.3f}",
-                  f"{r['Ktau']:.3f}", f"{r['Btau']:.4f}", _fmt(r["phase_margin_deg"], ".2f"),
+                  f"{r['Ktau']:.3f}", f"{r['Btau']:.4f}",
+                  pm_text(r["phase_margin_deg"], r["stable"]),
                   _fmt(r["crossover_hz"], ".2f"), _fmt(r["gain_margin_db"], ".2f"),
-                  _fmt(r["delay_margin_ms"], ".3f"),
+                  _fmt(r["delay_margin_ms"], ".3f"), _fmt(r["spectral_abscissa"], ".2f"),
                   "yes" if r["stable"] else "[red]NO[/red]")
     console.print(t)
 

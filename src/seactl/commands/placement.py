@@ -14,7 +14,16 @@ from rich.table import Table
 from ..axes import AXES
 from ..errors import InputError
 from ..outputs import CSV_SUFFIXES, FIGURE_SUFFIXES, OutputSet
-from ._common import VARIADIC, cli, console, echo_json, finite_or_none, json_option, parse_values
+from ._common import (
+    VARIADIC,
+    cli,
+    console,
+    echo_json,
+    finite_or_none,
+    json_option,
+    parse_values,
+    pm_text,
+)
 from .loops import loop_options, loop_place
 
 VARIADIC.update({"--fn-rigid", "--fn-sea"})
@@ -120,7 +129,7 @@ def _rigid_table(a: Any, rows: list[dict[str, Any]], t_s: float, t_d: float, fv:
         t.add_column(escape(c), justify="right")
     for r in rows:
         cells = [f"{r['fn_hz']:g}", f"{r['K']:.4g}", f"{r['B']:.4g}",
-                 _fmt(r["phase_margin_deg"], ".2f"), _fmt(r["crossover_hz"], ".2f"),
+                 pm_text(r["phase_margin_deg"], r["stable"]), _fmt(r["crossover_hz"], ".2f"),
                  _fmt(r["gain_margin_db"], ".2f"), _fmt(r["delay_margin_ms"], ".2f"),
                  _fmt(r["stiffness_delay_margin_ms"], ".2f"),
                  _fmt(r["damping_delay_margin_ms"], ".2f"),

@@ -24,7 +24,7 @@ from ..impedance import (
 )
 from ..loops import SEADesign, Timing, closed_loop
 from ..margins import sea_margins
-from ..report import Claim, Context, Figure, Section, numeric_claim, section
+from ..report import Claim, Context, Figure, Section, numeric_claim, pm_cell, section
 from .constants import FILTERS, TABLE_I_TIMING
 
 F_HZ = np.logspace(-1, 3, 600)
@@ -208,7 +208,8 @@ def natural_freq(ctx: Context) -> Section:
         ff = [_rms_db(zf[k], zi[k]) for k in range(len(fn))]
         for k, f in enumerate(fn):
             rows.append([model, f"{f:g}", f"{dd[k]:.2f}", f"{ff[k]:.2f}",
-                         "yes" if mb.stable[k] else "NO", f"{mb.phase_margin_deg[k]:.1f}"])
+                         "yes" if mb.stable[k] else "NO",
+                         pm_cell(mb.phase_margin_deg[k], mb.stable[k])])
         holds = all(a > b for a, b in zip(dd, ff))
         sec.claims.append(Claim(
             f"{sec.id}.delay_vs_filter.{model}", "Fig. impedanceNaturalFreq",
@@ -323,7 +324,7 @@ def delay_sets(ctx: Context) -> Section:
             p = passivity(d, (0.1, 1000.0), model=model)
             b = p.bands_hz[()]
             rows.append([lbl, model, "yes" if m.stable else "NO",
-                         f"{float(m.phase_margin_deg):.1f}",
+                         pm_cell(float(m.phase_margin_deg), bool(m.stable)),
                          "yes" if p.passive else "no",
                          ", ".join(f"{x:.3g}-{y:.3g}" for x, y in b[:4])
                          + (" ..." if len(b) > 4 else "") or "none"])
@@ -334,12 +335,44 @@ def delay_sets(ctx: Context) -> Section:
     sec.claims.append(Claim(
         f"{sec.id}.delays_break_passivity", "Impedance analysis",
         "block diagram: the delay-free design is passive over 0.1-1000 Hz, every delayed set "
-        "is not (the stiffness delay makes Re Z < 0 at low frequency: Re(K_q e^{-jwT}/jw) = "
-        "-K_q sin(wT)/w)",
+        "is not",
         "finding", f"ideal passive: {bool(ideal_p)}; delayed passive: "
         + ", ".join(str(bool(passivity(d, (0.1, 1000.0)).passive)) for _, d in ds[1:]),
         "", "info"))
+    _passivity_causes(sec, base, ds[1:])
     return sec
+
+
+def _passivity_causes(sec: Section, base: SEADesign, delayed: list) -> None:
+    """Which cause applies to which delay set: low-frequency non-passivity needs
+    ``K_q T_qs > B_q`` (``Re Z(0) ~ B_q - K_q T_qs`` plus small ``b_m``, ``T_tau`` and
+    ``T_qd`` terms); otherwise the non-passive bands lie at high frequency."""
+    kq, bq = float(base.gains.Kq), float(base.gains.Bq)
+    causes = []
+    for lbl, d in delayed:
+        bands = passivity(d, (0.1, 1000.0)).bands_hz[()]
+        low = any(a < 1.0 for a, _ in bands)
+        span = ", ".join(f"{a:.3g}-{b:.3g}" for a, b in bands)
+        t_qs = float(d.timing.T_qs)
+        causes.append(f"{lbl}: K_q T_qs = {kq * t_qs:.2f} {'>' if kq * t_qs > bq else '<'} "
+                      f"B_q = {bq:.2f}, non-passive at {span} Hz "
+                      f"({'low frequency' if low else 'high frequency only'})")
+    sec.claims.append(Claim(
+        f"{sec.id}.passivity_cause", "Impedance analysis",
+        "the stiffness delay makes the SEA non-passive at low frequency only when "
+        "K_q T_qs > B_q; the other delayed sets are non-passive at high frequency only",
+        "finding", "; ".join(causes), "", "info"))
+    low = {}
+    for t_ms in (8.0, 9.0):
+        d = base.with_timing(Timing.from_ms(0.0, t_ms, 0.0))
+        low[t_ms] = not any(a < 1.0 for a, _ in passivity(d, (0.1, 1000.0)).bands_hz[()])
+    ok = low[8.0] and not low[9.0]
+    sec.claims.append(Claim(
+        f"{sec.id}.low_freq_threshold", "Impedance analysis",
+        f"f_n = 30 Hz, no other delay: passive at low frequency with T_qs = 8 ms, not with "
+        f"9 ms (threshold B_q / K_q = {1e3 * bq / kq:.2f} ms)", "8 ms yes, 9 ms no",
+        f"8 ms {'yes' if low[8.0] else 'no'}, 9 ms {'yes' if low[9.0] else 'no'}", "",
+        "pass" if ok else "fail"))
 
 
 # ------------------------------------------------------------------ k_tau vs beta

@@ -25,8 +25,9 @@ GS_EXP = np.array([1.0, 1.5, 2.0, 2.5])
 STEP_RAD = 0.01   # step size of the sampled (saturating) simulations [rad]
 
 
-def _fmt_pm(pm: float) -> str:
-    return f"{pm:.2f} deg" if np.isfinite(pm) else "no crossover"
+def _fmt_pm(pm: float, stable: bool = True) -> str:
+    text = f"{pm:.2f} deg" if np.isfinite(pm) else "no crossover"
+    return text if stable else f"{text} (unstable)"
 
 
 def _design(fn, gs=1.0, **timing) -> SEADesign:
@@ -117,7 +118,7 @@ def _delay_sweep(sec: Section, key: str, delays_ms: np.ndarray, label: str):
     sec.tables.append((f"({key}) {label} sweep at f_n = {FN_BC:g} Hz",
                        [f"{label} [ms]", "PM", "stable (Nyquist)", "stable (simulation)",
                         "overshoot [%]", "settling 2% [ms]"],
-                       [[f"{T:g}", _fmt_pm(m.phase_margin_deg[i]),
+                       [[f"{T:g}", _fmt_pm(m.phase_margin_deg[i], m.stable[i]),
                          "yes" if m.stable[i] else "NO", "yes" if r.result.stable[i] else "NO",
                          f"{r.metrics.overshoot_pct[i]:.1f}",
                          f"{1e3 * r.metrics.settling_time_s[i]:.0f}"]
