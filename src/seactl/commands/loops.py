@@ -263,6 +263,7 @@ def loop_response(loop: Any, kind: str, mode: str, t_end: float, size: float,
     its rate in sampled mode."""
     from .. import limits
     from ..simulate import impulse_metrics, step_metrics
+    from ..verdict import judge
 
     delays = [float(np.max(v)) for k, v in loop.design._arrays.items() if k.endswith("__T")]
     limits.check_simulation(int(np.prod(loop.shape, dtype=int)), mode,
@@ -298,27 +299,39 @@ def loop_response(loop: Any, kind: str, mode: str, t_end: float, size: float,
                    [[float(t), *map(float, yf[:, k])] for k, t in enumerate(res.t_s)])
     eff = {k: np.asarray(v).reshape(-1).tolist() for k, v in
            res.info.get("effective_delays_s", {}).items()}
-    runs = [{**lab, "stable": bool(res.stable.reshape(-1)[i]),
+    v = judge(res.t_s, yf, target=size if kind == "step" else 0.0,
+              scale=abs(size) if kind == "step" else np.abs(yf).max(-1),
+              band=0.02 if kind == "step" else 0.05, left_bounds_s=res.left_bounds_s,
+              saturated_fraction=res.info.get("saturated_fraction"))
+    runs = [{**lab, "stable": bool(res.stable.reshape(-1)[i])
+             and v.verdict[i] not in ("unstable", "limit cycle"),
+             "verdict": v.verdict[i], "evidence": v.evidence(i), "warnings": v.warnings[i],
              "metrics": {k: finite_or_none(np.asarray(getattr(m, k)).reshape(-1)[i])
                          for k in keys},
              out_name: [round(float(v), 12) for v in yf[i]]} for i, lab in enumerate(labels)]
+    warnings = [(" ".join(f"{k}={x:g}" for k, x in lab.items()) + ": " if lab else "") + w
+                for lab, r in zip(labels, runs) for w in r["warnings"]]
     common = {"loop": loop.name, "mode": mode, "output": out_name, kind == "step" and
               "amplitude" or "area": size, "effective_delays_s": eff,
-              "rates_hz": res.info.get("rates_hz")}
+              "rates_hz": res.info.get("rates_hz"), "warnings": warnings}
     if as_json:
         t = [round(float(v), 9) for v in res.t_s]
-        echo_json({**common, "t_s": t, **runs[0]} if len(runs) == 1 else
+        one = {k: x for k, x in runs[0].items() if k != "warnings"}
+        echo_json({**common, "t_s": t, **one} if len(runs) == 1 else
                   {**common, "t_s": t, "runs": runs})
         return
     tab = Table(title=escape(f"{kind.capitalize()} response of loop '{loop.name}' "
                              f"({mode}), output {out_name}"))
     varied = list(_varied(loop))
-    for c in [*varied, "stable", *keys]:
+    for c in [*varied, "verdict", *keys]:
         tab.add_column(escape(c), justify="right")
     for r in runs:
-        tab.add_row(*[f"{r[k]:g}" for k in varied], "yes" if r["stable"] else "[red]NO[/red]",
+        tab.add_row(*[f"{r[k]:g}" for k in varied],
+                    r["verdict"] if r["verdict"] == "settled" else f"[red]{r['verdict']}[/red]",
                     *[_fmt(r["metrics"][k], ".4g") for k in keys])
     console.print(tab)
+    for w in warnings:
+        console.print(escape(f"warning: {w}"), highlight=False)
 
 
 def loop_place(loop: Any, as_json: bool) -> None:
