@@ -320,6 +320,9 @@ PER_DECADE = 4
 
 MAX_BISECTIONS = 48
 
+MAX_INTERVALS = 4096
+"""Per design: beyond this many pending intervals the scan stops refining that design."""
+
 _PHASE_BAND = (0.05, 20.0)
 
 
@@ -451,6 +454,7 @@ class _CertifiedScan:
         self.stability_only = stability_only
         self.winding = np.zeros(N.shape[0])
         self.uncertain = np.zeros(N.shape[0], bool)
+        self.no_loop = (N.coeffs == 0).all(axis=(0, 2))  # L = 0: no crossing to certify
         self.brackets: dict[str, list] = {"gain": [], "phase": []}
 
     def values(self, didx: np.ndarray, w: np.ndarray) -> tuple[np.ndarray, ...]:
@@ -465,25 +469,30 @@ class _CertifiedScan:
         for _ in range(MAX_BISECTIONS):
             if iv.d.size == 0:
                 return
-            ok = self.certified(iv)
-            self.collect(iv.select(ok))
-            iv = self.bisect(iv.select(~ok))
-        self.uncertain[iv.d] = True
+            ok, char_ok = self.certified(iv)
+            # a design past its interval budget keeps what it has: only a failed
+            # certificate of Delta (a root on or next to the axis) makes its count uncertain
+            over = np.bincount(iv.d, minlength=self.winding.size)[iv.d] > MAX_INTERVALS
+            self.uncertain[iv.d[over & ~char_ok]] = True
+            self.collect(iv.select(ok | over))
+            iv = self.bisect(iv.select(~ok & ~over))
+        ok, char_ok = self.certified(iv)
+        self.uncertain[iv.d[~char_ok]] = True
         self.collect(iv)
 
     def certified(self, iv: _Intervals) -> np.ndarray:
-        """The interval's path of ``Delta = N + D`` is shorter than the sum of its
-        endpoints' distances to 0 (so it neither meets 0 nor turns around it unseen), and
-        the path of ``log L`` is shorter than its endpoints' distances to the unit circle
-        (and, where ``0.05 < |L| < 20``, to the negative real axis) plus
-        ``2 HIDDEN_PAIR_TOL``."""
+        """``(all certified, Delta certified)``: the interval's path of ``Delta = N + D`` is
+        shorter than the sum of its endpoints' distances to 0 (so it neither meets 0 nor
+        turns around it unseen), and the path of ``log L`` is shorter than its endpoints'
+        distances to the unit circle (and, where ``0.05 < |L| < 20``, to the negative real
+        axis) plus ``2 HIDDEN_PAIR_TOL``."""
         h = iv.wb - iv.wa
         cN = _sup(h, iv.cNa, iv.cNb, self.N.bound3(iv.d, iv.wb))  # sup |N''|, |D''|
         cD = _sup(h, iv.cDa, iv.cDb, self.D.bound3(iv.d, iv.wb))
         ok = h * _sup(h, iv.dNa + iv.dDa, iv.dNb + iv.dDb, cN + cD) \
             < np.abs(iv.Na + iv.Da) + np.abs(iv.Nb + iv.Db)
         if self.stability_only:
-            return ok
+            return ok, ok
         sN, sD = _sup(h, iv.dNa, iv.dNb, cN), _sup(h, iv.dDa, iv.dDb, cD)
         mN = 0.5 * (np.abs(iv.Na) + np.abs(iv.Nb) - h * sN)  # lower bounds of |N|, |D|
         mD = 0.5 * (np.abs(iv.Da) + np.abs(iv.Db) - h * sD)
@@ -506,7 +515,8 @@ class _CertifiedScan:
                                                      + Lb.real * np.abs(La.imag) < 0)
         tol = np.where(axis, CROSSING_PAIR_TOL, HIDDEN_PAIR_TOL)
         phase_ok = ~relevant | (length < to_axis + 2 * tol)
-        return ok & ((iv.wa == 0) | (gain_ok & phase_ok))
+        loop_ok = (iv.wa == 0) | self.no_loop[iv.d] | (gain_ok & phase_ok)
+        return ok & loop_ok, ok
 
     def collect(self, iv: _Intervals) -> None:
         """Winding of ``Delta`` and crossing brackets of certified intervals."""
