@@ -157,7 +157,8 @@ class _ProcNet:
 
 
 def _process_net(name: str, ctrl: Sequence[Block], design: Any, signals: Sequence[str],
-                 inject: Sequence[str], Tb: float, ticks: Mapping[str, int]) -> _ProcNet:
+                 inject: Sequence[str], Tb: float, ticks: Mapping[str, int],
+                 shape: tuple[int, ...] = ()) -> _ProcNet:
     """The sampled compiler's stages for one process (batch of one design)."""
     mine = [b for b in ctrl if b.process == name]
     wiring = [b for b in ctrl if b.process is None]
@@ -165,7 +166,7 @@ def _process_net(name: str, ctrl: Sequence[Block], design: Any, signals: Sequenc
     blocks = mine + wiring + others
     period = {b.name: Tb * ticks.get(b.process, 1) for b in blocks}
     delayed = [b for b in mine if b.delay is not None]
-    nbuf, _ = _buffers(delayed, design, (), 1, period, ticks)
+    nbuf, _ = _buffers(delayed, design, shape, 1, period, ticks)
     samples = {b.name: int(nbuf[b.name][0]) // ticks[name] for b in delayed}
     buffered = [b for b in delayed if samples[b.name] > 0]
     inst = {b.name: np.ones(1) for b in blocks}
@@ -174,7 +175,7 @@ def _process_net(name: str, ctrl: Sequence[Block], design: Any, signals: Sequenc
         inst[b.name] = np.zeros(1)
         wcol[b.name] = len(inject) + j
     held = {b.name: len(inject) + len(buffered) + j for j, b in enumerate(others)}
-    reals = [realize_tustin(b, design, (), 1, period[b.name]) for b in blocks]
+    reals = [realize_tustin(b, design, shape, 1, period[b.name]) for b in blocks]
     net = _assemble(1, signals, blocks, reals, inject, inst, wcol, held, identity_hold=False,
                     nv=len(inject) + len(buffered) + len(others))
     hcol = {}
@@ -279,7 +280,8 @@ def compile_processes(diagram: BlockDiagram, design: Any,
     inject = sensed + exo
     signals = sorted({b.dst for b in ctrl} | set(inject))
     idx = {s: i for i, s in enumerate(signals)}
-    nets = {p: _process_net(p, ctrl, design, signals, inject, Tb, ticks) for p in processes}
+    nets = {p: _process_net(p, ctrl, design, signals, inject, Tb, ticks, shape)
+            for p in processes}
     owner = _owner(rates)
     limit = dict(zip(plan.actuation, plan.limit[:, 0]))
     outs = {p: ([("act", a) for a in plan.actuation] if p == owner else []) for p in processes}
@@ -440,10 +442,10 @@ def simulation_signals(diagram: BlockDiagram, design: Any, ctl: Controllers,
     plan = compile_sampled(diagram, design, inputs, t_end_s, outs, rates_hz=rates_hz,
                            saturation=saturation)
     res = run_sampled(plan, bound=1e3 * max(abs(step), 1e-12))
-    base = {s: res.outputs[s][0] for s in ctl.sensed}
+    base = {s: np.ravel(res.outputs[s]) for s in ctl.sensed}
     for r in ctl.references:
         base[r] = np.full(plan.steps + 1, float(step))
-    applied = np.stack([res.outputs[a][0] for a in ctl.actuation], axis=1)
+    applied = np.stack([np.ravel(res.outputs[a]) for a in ctl.actuation], axis=1)
     return base, applied
 
 
@@ -733,8 +735,11 @@ class Verification:
 
 
 def find_compiler(cc: str | None = None) -> str | None:
-    """Path of the C compiler: ``cc``, else ``$CC``, else ``cc``, ``gcc``, ``clang``."""
-    for name in ([cc] if cc else []) + [os.environ.get("CC"), "cc", "gcc", "clang"]:
+    """Path of the C compiler ``cc`` (None if absent), or the first of ``$CC``, ``cc``,
+    ``gcc``, ``clang`` found."""
+    if cc:
+        return shutil.which(cc)
+    for name in (os.environ.get("CC"), "cc", "gcc", "clang"):
         if name and (path := shutil.which(name)):
             return path
     return None
@@ -802,8 +807,8 @@ def verify(diagram: BlockDiagram, design: Any, ctl: Controllers, *,
     signals, against seactl's own sampled controller (:func:`reference_actuation`)."""
     compiler = find_compiler(cc) if "c" in languages else None
     if "c" in languages and compiler is None:
-        raise ResourceError("no C compiler found (looked for $CC, cc, gcc, clang): install "
-                            "one, or leave out --verify")
+        raise ResourceError(f"no C compiler found (looked for {cc or '$CC, cc, gcc, clang'}):"
+                            " install one, or leave out --verify")
     sim, _applied = simulation_signals(diagram, design, ctl, t_end_s, rates_hz, saturation,
                                        step)
     scale = _random_scale(diagram, design, ctl, rates_hz, saturation)
@@ -830,3 +835,44 @@ def verify(diagram: BlockDiagram, design: Any, ctl: Controllers, *,
                 errors[f"{lang}/{case}"] = relative_error(y, refs[case])
     return Verification(max(errors.values(), default=0.0), errors, compiler, compile_s,
                         {k: len(next(iter(b.values()))) for k, b in cases.items()})
+
+
+# ----------------------------------------------------------------------------- one call
+@dataclass(frozen=True)
+class ExportResult:
+    """What an export wrote (``files``, the marker last), the per-process controllers and,
+    with ``verify``, the :class:`Verification`."""
+
+    files: list[Path]
+    controllers: Controllers
+    verification: Verification | None
+
+    def to_dict(self) -> dict[str, Any]:
+        v = self.verification
+        return {"files": [str(p) for p in self.files],
+                "processes": [{"name": p.name, "rate_hz": p.rate_hz, "inputs": list(p.inputs),
+                               "outputs": list(p.outputs)}
+                              for p in self.controllers.processes],
+                "max_error": None if v is None else v.max_error,
+                "errors": None if v is None else v.errors,
+                "compiler": None if v is None else v.compiler,
+                "compile_s": None if v is None or v.compile_s is None else v.compile_s}
+
+
+def export_design(diagram: BlockDiagram, design: Any, out: str | os.PathLike, *,
+                  languages: Sequence[str] | str = LANGUAGES,
+                  rates_hz: Mapping[str, float] | float = 1000.0,
+                  saturation: Mapping[str, float] | None = None, verify_export: bool = False,
+                  cc: str | None = None, step: float = 0.1) -> ExportResult:
+    """Compile, optionally verify (before anything is written), and write an export.
+
+    ``step``: the reference step of the verification's sampled simulation."""
+    langs = check_languages(languages)
+    out = check_export_dir(out)
+    ctl = compile_processes(diagram, design, rates_hz, saturation)
+    ver = None
+    if verify_export:
+        ver = verify(diagram, design, ctl, rates_hz=rates_hz, saturation=saturation,
+                     languages=("c", "python"), cc=cc, step=step)
+    files = write_export(export_files(ctl, langs), out)
+    return ExportResult(files, ctl, ver)

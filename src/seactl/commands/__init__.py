@@ -6,6 +6,7 @@ entry point and the only importer of this package.
 from . import (
     core,  # noqa: F401
     explore,  # noqa: F401
+    export,  # noqa: F401
     impedance,  # noqa: F401
     jitter,  # noqa: F401
     loops,  # noqa: F401
