@@ -270,6 +270,11 @@ def compile_processes(diagram: BlockDiagram, design: Any,
     ctrl = [b for b in diagram.blocks if b.role != "plant"]
     _check_wiring(ctrl, design)
     processes = sorted({b.process for b in ctrl if b.process is not None}) or ["embedded"]
+    if isinstance(rates_hz, Mapping):
+        for name in rates_hz:
+            if name not in processes:
+                raise InputError("rates_hz", name, "a process of the diagram: "
+                                 + ", ".join(processes))
     rates = _rates(rates_hz, processes)
     Tb, ticks = _ticks(rates)
     # the same plant/controller interface as the sampled plan (signals, actuation, limits)

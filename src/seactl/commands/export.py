@@ -29,12 +29,12 @@ def parse_rates(values: tuple[str, ...]) -> float | dict[str, float]:
         try:
             rate = float(hz)
         except ValueError:
-            raise InputError("--rate [Hz]", v, "HZ or PROCESS=HZ, e.g. embedded=2000") from None
+            raise InputError("rates_hz [Hz]", v, "HZ or PROCESS=HZ, e.g. embedded=2000") from None
         if not (math.isfinite(rate) and 0 < rate <= 1e6):
-            raise InputError("--rate [Hz]", v, "a rate in (0, 1e6] Hz")
+            raise InputError("rates_hz [Hz]", v, "a rate in (0, 1e6] Hz")
         if not sep:
             if len(values) > 1:
-                raise InputError("--rate", v, "PROCESS=HZ when --rate is given more than once")
+                raise InputError("rates_hz", v, "PROCESS=HZ when --rate is given more than once")
             return rate
         rates[name.strip()] = rate
     return rates
@@ -81,7 +81,7 @@ def _system(system: str, spec: DesignSpec, zero: bool, sat: str | None, rigid_ac
               help="Comma-separated: c (<process>.h/.c + CSV harness), python, json.")
 @click.option("--system", type=click.Choice(SYSTEMS), default="sea", show_default=True,
               help="SEA (the design options) or rigid actuator (--fn, --t-s, --t-d, --f-v).")
-@click.option("--rate", "rates", multiple=True,
+@click.option("--rate", "rates_hz", multiple=True,
               help="HZ for every process, or PROCESS=HZ (repeat), e.g. --rate embedded=2000 "
                    "--rate high-level=500 [default: 1000].")
 @click.option("--saturation", default=None,
@@ -101,7 +101,7 @@ def _system(system: str, spec: DesignSpec, zero: bool, sat: str | None, rigid_ac
                    "against seactl's sampled controller before writing.")
 @click.option("--cc", default=None, help="C compiler for --verify [default: $CC, cc, gcc].")
 @json_option
-def export(spec: DesignSpec, out: str, lang: str, system: str, rates: tuple[str, ...],
+def export(spec: DesignSpec, out: str, lang: str, system: str, rates_hz: tuple[str, ...],
            saturation: str | None, no_zero: bool, rigid_actuator: str, t_s: float, t_d: float,
            f_v: float | None, verify: bool, cc: str | None, as_json: bool) -> None:
     """Write the discrete controller of each process (C99, Python, JSON).
@@ -119,7 +119,7 @@ def export(spec: DesignSpec, out: str, lang: str, system: str, rates: tuple[str,
     check_export_dir(out)
     diagram, design, sat, step = _system(system, spec, not no_zero, saturation,
                                          rigid_actuator, t_s, t_d, f_v)
-    res = export_design(diagram, design, out, languages=langs, rates_hz=parse_rates(rates),
+    res = export_design(diagram, design, out, languages=langs, rates_hz=parse_rates(rates_hz),
                         saturation=sat, verify_export=verify, cc=cc, step=step)
     if as_json:
         echo_json(res.to_dict())
