@@ -107,6 +107,7 @@ class Controllers:
     references: tuple[str, ...]
     parameters: dict[str, float]
     effective_delays_s: dict[str, float]
+    requested_delays_s: dict[str, float]
 
     def process(self, name: str) -> ProcessController:
         for p in self.processes:
@@ -314,8 +315,9 @@ def _compile(diagram: BlockDiagram, design: Any, ctrl: Sequence[Block], processe
                              "cut-off overflows the Tustin transform)")
     params = {k: float(np.ravel(v)[0]) for k, v in _fields(design).items()}
     eff = {b: float(np.ravel(v)[0]) for b, v in plan.info["effective_delays_s"].items()}
+    req = {b.name: float(np.ravel(getattr(design, b.delay))[0]) for b in ctrl if b.delay}
     return Controllers(diagram.name, 1.0 / Tb, tuple(procs), tuple(plan.actuation),
-                       tuple(sensed), tuple(exo), params, eff)
+                       tuple(sensed), tuple(exo), params, eff, req)
 
 
 def _fields(design: Any) -> dict[str, Any]:
@@ -662,7 +664,8 @@ def to_json(ctl: Controllers) -> dict[str, Any]:
     return {"format": FORMAT, "diagram": ctl.diagram, "base_rate_hz": ctl.base_rate_hz,
             "schedule": list(ctl.names), "actuation": list(ctl.actuation),
             "sensed": list(ctl.sensed), "references": list(ctl.references),
-            "parameters": ctl.parameters, "effective_delays_s": ctl.effective_delays_s,
+            "parameters": ctl.parameters, "requested_delays_s": ctl.requested_delays_s,
+            "effective_delays_s": ctl.effective_delays_s,
             "step": "v = [inputs, buffer values (oldest)]; y = C x + D v; outputs = "
                     "clip(y[:len(outputs)], -limits, limits); buffer j <- y[len(outputs)+j]; "
                     "x <- A x + B v",

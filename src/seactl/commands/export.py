@@ -146,6 +146,13 @@ def _print(res: Any) -> None:
                   escape(", ".join(f"{b}: {n}" for b, n in p.buffers) or "none"))
     console.print(t)
     console.print("files: " + escape(", ".join(str(f) for f in res.files)))
+    ctl = res.controllers
+    moved = [f"{b} {ctl.requested_delays_s[b] * 1e3:g} -> {e * 1e3:g}"
+             for b, e in ctl.effective_delays_s.items()
+             if abs(e - ctl.requested_delays_s[b]) > 1e-12]
+    if moved:
+        console.print(escape("note: at these rates the whole-sample buffers give effective "
+                             "delays T_s/2 + n T_s [ms]: " + ", ".join(moved)))
     v = res.verification
     if v is not None:
         detail = ", ".join(f"{k} {e:.2e}" for k, e in v.errors.items())
