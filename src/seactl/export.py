@@ -704,26 +704,29 @@ MARKER = ".seactl-export"
 """File that marks a directory as an export seactl wrote (its files may be replaced)."""
 
 
-def check_export_dir(out: str | os.PathLike) -> Path:
-    """Refuse ``out`` unless it is absent, an empty directory, or an export seactl wrote."""
+def check_export_dir(out: str | os.PathLike, marker: str = MARKER,
+                     what: str = "an export") -> Path:
+    """Refuse ``out`` unless it is absent, an empty directory, or ``what`` seactl wrote
+    (a directory holding ``marker``)."""
     out = Path(out)
     if not os.fspath(out).strip():
         raise InputError("out", os.fspath(out), "a directory name")
     if out.exists():
         if not out.is_dir():
             raise OutputError(out, "exists and is not a directory")
-        if any(out.iterdir()) and not (out / MARKER).is_file():
-            raise OutputError(out, "the directory is not empty and is not an export seactl "
+        if any(out.iterdir()) and not (out / marker).is_file():
+            raise OutputError(out, f"the directory is not empty and is not {what} seactl "
                               "wrote (choose a new or empty directory)")
     elif not out.parent.is_dir():
         raise OutputError(out, f"the directory {out.parent} does not exist")
     return out
 
 
-def write_export(files: Mapping[str, str], out: str | os.PathLike) -> list[Path]:
+def write_export(files: Mapping[str, str], out: str | os.PathLike, marker: str = MARKER,
+                 what: str = "an export") -> list[Path]:
     """Write ``files`` into ``out`` as a set (temporaries renamed at the end), with the
     marker file; returns the paths written (the marker last)."""
-    out = check_export_dir(out)
+    out = check_export_dir(out, marker, what)
     created = not out.exists()
     try:
         out.mkdir(exist_ok=True)
@@ -731,11 +734,11 @@ def write_export(files: Mapping[str, str], out: str | os.PathLike) -> list[Path]
         raise OutputError(out, exc.strerror or str(exc)) from None
     try:
         with OutputSet() as outs:
-            paths = [outs.add("out", out / name) for name in [*files, MARKER]]
+            paths = [outs.add("out", out / name) for name in [*files, marker]]
             for path, name in zip(paths, files):
                 outs.write(path, files[name])
-            outs.write(paths[-1], "written by seactl export; seactl may replace the files "
-                       "it lists\n" + "".join(f"{n}\n" for n in files))
+            outs.write(paths[-1], "written by seactl; seactl may replace the files it "
+                       "lists\n" + "".join(f"{n}\n" for n in files))
             outs.commit()
     except BaseException:
         if created:

@@ -102,9 +102,18 @@ def run_plant(cfg: dict[str, Any], sock: socket.socket) -> dict[str, np.ndarray]
         # the tick's time; then, the drive's command for the period just ended (the plant
         # and the embedded process are one actuator: a command later than COMMAND_GUARD_S
         # is a deadline miss, counted, and the last command is held)
-        while ((wait := t0 + k * Tb - time.monotonic()) > 0 or
-               (0 < k and act_tick < k - 1 and wait > -COMMAND_GUARD_S)):
-            data = _recv(sock, max(wait, 0.0) if wait > 0 else COMMAND_GUARD_S + wait)
+        give_up = None
+        while True:
+            now = time.monotonic()
+            wait = t0 + k * Tb - now
+            if wait <= 0:
+                if k == 0 or act_tick >= k - 1:
+                    break
+                give_up = now + COMMAND_GUARD_S if give_up is None else give_up
+                wait = give_up - now
+                if wait <= 0:
+                    break
+            data = _recv(sock, wait)
             if data:
                 kind, tick, t_s, vals = unpack(data)
                 recv.append((tick, t_s, time.monotonic()))
@@ -356,6 +365,27 @@ def run_distributed(design: Any, *, duration_s: float = 2.0,
         "final_value": float(q[-1] / step),
     }
     return RunResult(k * Tb, q, q_rep, q_nom, lat_s, summary)
+
+
+RUN_MARKER = ".seactl-run"
+
+
+def link_file(link: str) -> str:
+    """``latency-plant-to-embedded.csv`` for link ``plant->embedded``."""
+    return "latency-" + link.replace("->", "-to-") + ".csv"
+
+
+def run_files(res: RunResult) -> dict[str, str]:
+    """``summary.json``, ``response.csv`` and one ``latency-*.csv`` per link (one column
+    ``latency_ms``: readable by ``seactl step --latency LINK=hist:FILE``)."""
+    files = {"summary.json": json.dumps(res.summary, indent=1) + "\n"}
+    rows = "".join(f"{t!r},{a!r},{b!r},{c!r}\n" for t, a, b, c in
+                   zip(res.t_s.tolist(), res.q_measured.tolist(), res.q_replay.tolist(),
+                       res.q_nominal.tolist()))
+    files["response.csv"] = "t_s,q_measured_rad,q_replay_rad,q_nominal_rad\n" + rows
+    for link, lat in res.latency_s.items():
+        files[link_file(link)] = "latency_ms\n" + "".join(f"{v * 1e3!r}\n" for v in lat.tolist())
+    return files
 
 
 def worker_main(role: str, config: str) -> int:
