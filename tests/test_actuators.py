@@ -1,5 +1,3 @@
-import math
-
 import pytest
 
 from seactl.actuators import UT_SEA, SEAParams, load_sea
@@ -10,18 +8,22 @@ VALID = dict(motor_inertia=0.2, joint_inertia=0.01, motor_damping=1.0, joint_dam
 
 
 def test_ut_sea_matches_table_ii_rotary_and_linear():
-    # Table II (rotary) and docs/theory/units.md (linear, r = 0.025 m)
+    """Oracle: the printed tables only -- Table II (rotary) and docs/theory/units.md (rotary
+    table and linear view, r = 0.025 m); tolerance half a unit of the last printed digit."""
     assert UT_SEA.motor_inertia == pytest.approx(0.225)
     assert UT_SEA.joint_inertia == pytest.approx(0.014)
     assert UT_SEA.motor_damping == pytest.approx(1.375)
     assert UT_SEA.joint_damping == pytest.approx(0.1)
+    assert UT_SEA.spring_stiffness == pytest.approx(218.75)
+    assert UT_SEA.current_to_torque == pytest.approx(5.2025, abs=5e-5)
+    assert UT_SEA.motor_torque_constant == pytest.approx(0.0276)
+    assert UT_SEA.pulley_radius == pytest.approx(0.025)
     lin = UT_SEA.linear()
     assert lin["motor_inertia"] == pytest.approx(360.0)
     assert lin["joint_inertia"] == pytest.approx(22.4)
+    assert lin["motor_damping"] == pytest.approx(2200.0)
+    assert lin["joint_damping"] == pytest.approx(160.0)
     assert lin["spring_stiffness"] == pytest.approx(350000.0)
-    gear = 2 * math.pi * 4 / 0.003
-    assert gear == pytest.approx(8377.6, abs=0.1)
-    assert lin["current_to_force"] == pytest.approx(0.9 * gear * 0.0276)
     assert lin["current_to_force"] == pytest.approx(208.1, abs=0.05)
 
 
@@ -31,6 +33,8 @@ def test_ut_sea_matches_table_ii_rotary_and_linear():
     ("motor_damping", -0.1), ("joint_damping", float("nan")),
 ])
 def test_invalid_fields_name_field_value_and_range(field, value):
+    # Oracle: the documented error contract (InputError naming the field, the value and the
+    # valid range).
     with pytest.raises(InputError) as exc:
         SEAParams(**{**VALID, field: value})
     msg = str(exc.value)
@@ -39,6 +43,8 @@ def test_invalid_fields_name_field_value_and_range(field, value):
 
 
 def test_toml_roundtrip_and_errors(tmp_path):
+    # Oracle: the values written into the TOML files; the error contract names the offending
+    # key, value or file.
     good = tmp_path / "mine.toml"
     good.write_text("\n".join(f"{k} = {v}" for k, v in VALID.items()))
     a = load_sea(good)

@@ -1,8 +1,8 @@
 """The public API (``import seactl as sc``): designs, results, units, python-control export.
 
-Oracles are named per test: the paper's Table I, python-control's own margin routines on
-the exported systems, analytic identities (P_CL(0) = 1, s Z -> K_q), the gain design
-called directly, and the rigid actuator's latency asymmetry stated in the paper.
+Oracles are named per test: the paper's Table I and Fig. GainScale, python-control's own
+margin routines on the exported systems, analytic identities (P_CL(0) = 1, s Z -> K_q),
+and the rigid actuator's latency asymmetry stated in the paper.
 """
 
 from __future__ import annotations
@@ -17,8 +17,6 @@ import numpy as np
 import pytest
 
 import seactl as sc
-from seactl.actuators import UT_SEA
-from seactl.design import critically_damped_gains
 from seactl.loops import Timing
 
 TABLE_I = dict(delays_ms=(0.5, 2, 0.5), filters_hz=(50, 100))
@@ -35,12 +33,13 @@ def test_three_line_example_reproduces_table_i(table1):
     np.testing.assert_allclose(pm, [45.13, 43.26, 40.03], atol=0.005)
 
 
-def test_gains_equal_the_gain_design_called_directly(table1):
-    # Oracle: seactl.design.critically_damped_gains with the same arguments.
-    g = critically_damped_gains(UT_SEA, np.array([12.0, 14.0, 16.0]))
-    for name in ("Kq", "Bq", "Ktau", "Btau"):
-        np.testing.assert_allclose(getattr(table1.gains, name), getattr(g, name), rtol=1e-12)
-    np.testing.assert_allclose(table1.timing.T_qs, 2e-3)
+def test_gains_reproduce_table_i(table1):
+    # Oracle: the gains printed in the paper's Table I, to half a unit of the last digit.
+    printed = {"Kq": ([65, 83, 103], 0.5), "Bq": ([0.46, 0.76, 1.02], 0.005),
+               "Ktau": ([1.18, 1.80, 2.56], 0.005), "Btau": ([0.057, 0.067, 0.077], 0.0005)}
+    for name, (values, half_digit) in printed.items():
+        np.testing.assert_allclose(getattr(table1.gains, name), values, atol=half_digit + 1e-9)
+    np.testing.assert_allclose(table1.timing.T_qs, 2e-3)   # delays_ms -> seconds
 
 
 def test_broadcasting_grid_and_indexing(table1):
@@ -52,12 +51,14 @@ def test_broadcasting_grid_and_indexing(table1):
     np.testing.assert_allclose(d[:, 1].margins().phase_margin_deg, table1[:2].margins()
                                .phase_margin_deg, rtol=1e-9)
     assert d.reshape(6).shape == (6,) and len(d) == 2
-    # gain scale: torque gains x GS, impedance gains / GS
-    np.testing.assert_allclose(d.gains.Ktau[:, 2], 2 * d.gains.Ktau[:, 1])
-    np.testing.assert_allclose(d.gains.Kq[:, 0], 2 * d.gains.Kq[:, 1])
+    # gain scale through the API. Oracle: Fig. GainScale(a), GS = 0.4 at f_n = 14 Hz on the
+    # ideal loop gives a 34 deg phase margin
+    pm = sc.design(14, gs=[0.4, 1.0]).margins().phase_margin_deg
+    assert pm[0] == pytest.approx(34.0, abs=0.1) and pm[1] > pm[0] + 5
 
 
 def test_actuator_from_toml_and_object(tmp_path):
+    # Oracle: the same actuator given as an SEAParams object.
     fields = dict(motor_inertia=0.225, joint_inertia=0.014, motor_damping=1.375,
                   joint_damping=0.1, spring_stiffness=218.75, current_to_torque=5.2025)
     path = tmp_path / "mine.toml"
@@ -69,6 +70,8 @@ def test_actuator_from_toml_and_object(tmp_path):
 
 
 def test_units_are_checked_with_the_unit_in_the_message():
+    # Oracle: the unit contract of the README (delays_ms refuses > 1000 ms and warns below 1
+    # us; Timing takes seconds).
     with pytest.raises(sc.InputError, match=r"T_qs \[ms\] = 2000.0.*milliseconds"):
         sc.design(14, delays_ms=(0.5, 2000, 0.5))
     with pytest.raises(sc.InputError, match="delays_ms"):
@@ -88,6 +91,7 @@ def test_units_are_checked_with_the_unit_in_the_message():
 
 
 def test_infeasible_design_names_the_bound():
+    # Oracle: the feasibility bound of docs/theory/gain-design.md (9.456 Hz).
     with pytest.raises(sc.InfeasibleDesignError, match=r"f_n >= 9.456 Hz"):
         sc.design(8)
 
@@ -123,6 +127,8 @@ def test_pade_export_margins_dc_gain_and_stiffness(table1):
 
 
 def test_results_to_dict_is_json_and_plot_draws(table1):
+    # Oracle: Table I (45.13 deg), P_CL(0) = 1 for the step, json.dumps and matplotlib's
+    # axes.
     import matplotlib
 
     matplotlib.use("Agg")
@@ -159,6 +165,7 @@ def test_rigid_latency_asymmetry_and_placement():
 
 
 def test_import_is_light():
+    # Oracle: sys.modules of a fresh interpreter.
     # `import seactl` must not pull in matplotlib (plots import it lazily) nor dask.
     code = "import sys, seactl; print('matplotlib' in sys.modules, 'dask' in sys.modules)"
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
@@ -221,3 +228,18 @@ def test_rigid_to_control_frd_and_pade_agree_with_margins():
     w = 2 * np.pi * f
     np.testing.assert_allclose(pade(1j * w), exact.frdata[0, 0], rtol=1e-3)
     assert len(sc.rigid([8.0, 12.0]).to_control("frd")) == 2
+
+
+def test_delays_and_filters_of_different_shapes_broadcast_to_a_grid():
+    """Oracle: every element of the grid equals the design built with scalar values."""
+    t_qs = np.array([1.0, 2.0])[:, None]
+    t_qd = np.array([0.5, 1.0, 2.0])
+    f_qd = np.array([50.0, 80.0])[:, None]
+    grid = sc.design(14, delays_ms=(0.5, t_qs, t_qd), filters_hz=(f_qd, 100)).margins()
+    assert grid.phase_margin_deg.shape == (2, 3)
+    for i in range(2):
+        for j in range(3):
+            one = sc.design(14, delays_ms=(0.5, t_qs[i, 0], t_qd[j]),
+                            filters_hz=(f_qd[i, 0], 100)).margins()
+            assert float(grid.phase_margin_deg[i, j]) == pytest.approx(
+                float(one.phase_margin_deg), rel=1e-9)

@@ -79,14 +79,17 @@ def cycles(graph: dict[str, set[str]]) -> list[list[str]]:
 
 
 def test_cycle_finder_finds_a_planted_cycle():
+    # Oracle: a hand-built graph with one known cycle.
     assert cycles({"a": {"b"}, "b": {"c"}, "c": {"a"}, "d": {"a"}}) == [["a", "b", "c"]]
 
 
 def test_no_import_circles():
+    # Oracle: the import statements read with ast (module docstring).
     assert cycles(import_graph()) == []
 
 
 def test_command_line_and_import_do_not_load_matplotlib():
+    # Oracle: sys.modules of a fresh interpreter.
     # The command line starts fast (seactl bench cli-startup): heavy libraries load only
     # inside the commands that use them (bokeh: seactl explore, the app extra).
     heavy = ("matplotlib", "dask", "distributed", "scipy", "pydantic", "sympy", "control",

@@ -20,6 +20,7 @@ def feedback_diagram():
 
 
 def test_transfer_and_loop_against_closed_form():
+    # Oracle: the feedback loop solved by hand, y/r = G/(1 + G H) and loop G H.
     d = feedback_diagram()
     p = SimpleNamespace(k=np.array([2.0, 3.0]), a=np.array([1.0, 5.0]), h=np.array(0.5),
                         T=np.array([0.0, 0.01]))
@@ -32,6 +33,8 @@ def test_transfer_and_loop_against_closed_form():
 
 
 def test_expression_cache_roundtrip_and_damage(tmp_path, monkeypatch):
+    # Oracle: the freshly derived expression (sympy.simplify of the difference is 0) and the
+    # cache directory's listing.
     monkeypatch.setenv("SEACTL_CACHE_DIR", str(tmp_path))
     d = feedback_diagram()
     bd._symbolic.cache_clear()
@@ -52,6 +55,7 @@ def test_expression_cache_roundtrip_and_damage(tmp_path, monkeypatch):
 
 
 def test_cache_off(tmp_path, monkeypatch):
+    # Oracle: the cache directory's listing (nothing written).
     monkeypatch.setenv("SEACTL_CACHE_DIR", "off")
     bd._symbolic.cache_clear()
     bd._symbolic(feedback_diagram(), "y", "r", (), None)

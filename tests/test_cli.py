@@ -20,14 +20,31 @@ def run(args, capsys):
     return code, out, err
 
 
+# The paper's Table I: f_n -> K_q, B_q, K_tau, B_tau, PM, and half a unit of each printed digit
+PRINTED = {12: (65, 0.46, 1.18, 0.057, 45.1), 14: (83, 0.76, 1.80, 0.067, 43.2),
+           16: (103, 1.02, 2.56, 0.077, 40.0), 18: (124, 1.26, 3.45, 0.087, 36.5),
+           20: (148, 1.49, 4.48, 0.097, 33.2)}
+HALF_DIGIT = (0.5, 0.005, 0.005, 0.0005, 0.1)   # PM: the paper truncates (43.26 -> 43.2)
+
+
 def test_gains_prints_table_i(capsys):
+    """Oracle: the paper's Table I, read back from the printed table's cells."""
     code, out, _ = run("gains " + TABLE_I, capsys)
     assert code == 0
-    for text in ("65.17", "0.458", "1.180", "45.13", "83.17", "43.26", "33.19"):
-        assert text in out
+    header = next(line for line in out.splitlines() if "Kq" in line and "PM" in line)
+    names = [c.split("[")[0].strip() for c in header.strip().strip("┃").split("┃")]
+    rows = [dict(zip(names, (c.strip() for c in line.strip().strip("│").split("│"))))
+            for line in out.splitlines() if line.startswith("│")]
+    assert [float(r["f_n"]) for r in rows] == sorted(PRINTED)
+    for r in rows:
+        shown = [r[k] for k in ("Kq", "Bq", "Ktau", "Btau", "PM")]
+        for text, paper, half in zip(shown, PRINTED[int(float(r["f_n"]))], HALF_DIGIT):
+            display = 0.5 * 10.0 ** -len(text.partition(".")[2])   # rounding of the cell
+            assert float(text) == pytest.approx(paper, abs=half + display + 1e-9), (r, text)
 
 
 def test_gains_json_has_exactly_the_keys(capsys):
+    # Oracle: the documented JSON keys and the paper's Table I phase margins.
     code, out, _ = run("gains --json " + TABLE_I, capsys)
     assert code == 0
     rows = json.loads(out)
@@ -39,6 +56,7 @@ def test_gains_json_has_exactly_the_keys(capsys):
 
 
 def test_ranges_and_gs_grid(capsys):
+    # Oracle: the START:STOP:STEP grid expanded by hand, (10, 15, 20) x (0.5, 2).
     code, out, _ = run("gains --json --fn 10:20:5 --gs 0.5 2", capsys)
     rows = json.loads(out)
     assert code == 0 and len(rows) == 6
@@ -59,6 +77,8 @@ def test_ranges_and_gs_grid(capsys):
     ("gains --zeta1 -1", "--zeta1 = -1.0"),
 ])
 def test_bad_input_exits_2_with_a_clear_message(args, needle, capsys):
+    # Oracle: the CLI error contract (exit 2, one message naming the flag, value and valid
+    # range, no traceback).
     code, out, err = run(args, capsys)
     assert code == 2
     assert needle in err.replace("\n", " ")
@@ -66,6 +86,7 @@ def test_bad_input_exits_2_with_a_clear_message(args, needle, capsys):
 
 
 def test_bad_toml_actuator(tmp_path, capsys):
+    # Oracle: the CLI error contract, naming the bad field of the file.
     f = tmp_path / "a.toml"
     f.write_text("motor_inertia = 0.2\njoint_inertia = 0.01\nmotor_damping = 1\n"
                  "joint_damping = 0.1\nspring_stiffness = 0\ncurrent_to_torque = 5\n")
@@ -74,6 +95,7 @@ def test_bad_toml_actuator(tmp_path, capsys):
 
 
 def test_console_script_exit_code_and_no_traceback():
+    # Oracle: the exit status and stderr of a real subprocess.
     res = subprocess.run([sys.executable, "-c", "from seactl.cli import run; run()",
                           "gains", "--fn", "8"], capture_output=True, text=True)
     assert res.returncode == 2
@@ -81,6 +103,7 @@ def test_console_script_exit_code_and_no_traceback():
 
 
 def test_value_parsing():
+    # Oracle: the ranges expanded by hand.
     assert list(parse_values("--fn", ["10:12:1", "15"])) == [10, 11, 12, 15]
     assert parse_values("--freq", ["1:100:3"], log=True) == pytest.approx([1, 10, 100])
     with pytest.raises(InputError):

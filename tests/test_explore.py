@@ -62,6 +62,17 @@ def test_results_match_the_command_line_the_app_offers(table_i_views, capsys):
     assert round(r["phase_margin_deg"], 2) == 43.26  # Table I, f_n = 14 Hz
 
 
+def test_jitter_margins_are_the_library_ones_and_below_the_delay_margin(table_i_views):
+    """Oracle: ``d.jitter_margins()``; a constant delay is one of the variations a jitter
+    margin admits, so it cannot exceed the constant-delay margin (Kao & Lincoln 2004)."""
+    r = table_i_views["results"]
+    j = TABLE_I.design().jitter_margins()
+    for loop in ("overall", "stiffness", "damping", "torque"):
+        assert r[f"{loop}_jitter_margin_ms"] == pytest.approx(float(j.ms(loop)), rel=1e-9)
+    assert r["overall_jitter_margin_ms"] <= r["delay_margin_ms"]
+    assert "jitter margins" in r["verdict"]
+
+
 def test_bode_view_agrees_with_python_control_margin(table_i_views):
     """Oracle: python-control's ``margin`` on the exact-delay FRD (its own search)."""
     import control as ct

@@ -39,12 +39,14 @@ def paper_terms(d, s):
 
 
 def test_force_plant_equals_paper_pf():
+    # Oracle: P_F as printed (paper_terms).
     d = design()
     PF = paper_terms(d, S)[0]
     np.testing.assert_allclose(force_plant()(d, S), PF, rtol=1e-9)
 
 
 def test_torque_loop_and_outer_loop_equal_paper_composition():
+    # Oracle: the paper's composition of P_F, C, P_L and the delays (paper_terms).
     d = design()
     PF, PC, PL, C, Qt, Qv, et, eqs, eqd = paper_terms(d, S)
     np.testing.assert_allclose(torque_closed_loop()(d, S), PC, rtol=1e-9)
@@ -73,6 +75,7 @@ def test_closed_loop_equals_printed_coefficient_form():
 
 
 def test_batches_broadcast_like_single_designs():
+    # Oracle: each design of the batch evaluated alone.
     fn = np.array([12.0, 18.0, 25.0])
     tq = np.array([[0.0], [4.0]])
     batch = SEADesign(A, critically_damped_gains(A, fn), Timing.from_ms(0.5, tq, 1.0, 50, 100))
@@ -85,6 +88,7 @@ def test_batches_broadcast_like_single_designs():
 
 
 def test_no_filter_means_unit_filter():
+    # Oracle: the documented equivalence: f = inf and None both mean no filter.
     d_inf = design(timing=Timing(0.001, 0.002, 0.001, np.inf, np.inf))
     d_none = design(timing=Timing(0.001, 0.002, 0.001, None, None))
     np.testing.assert_allclose(outer_loop()(d_inf, S), outer_loop()(d_none, S), rtol=1e-12)
@@ -95,5 +99,6 @@ def test_no_filter_means_unit_filter():
     (dict(f_qd=0.0), "f_qd"), (dict(f_taud=-5.0), "f_taud"), (dict(T_qd=np.inf), "T_qd"),
 ])
 def test_bad_timing(kw, field):
+    # Oracle: the error contract (InputError naming the parameter).
     with pytest.raises(InputError, match=field):
         Timing(**kw)

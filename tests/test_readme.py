@@ -1,4 +1,7 @@
-"""The README's two commands are the project's contract; CI runs the second one verbatim."""
+"""The README's two commands are the project's contract; CI runs the second one verbatim.
+
+Oracle: README.md and .ci/run as committed (the tests compare their lines).
+"""
 
 from pathlib import Path
 

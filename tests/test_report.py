@@ -7,16 +7,31 @@ import pytest
 from seactl import paper, report
 from seactl.cli import main
 
+# The paper's Table I typed here (f_n -> K_q, B_q, K_tau, B_tau, PM) and half a unit of each
+# printed digit (the PM column is truncated: 43.26 is printed 43.2)
+TABLE_I = {12: (65, 0.46, 1.18, 0.057, 45.1), 14: (83, 0.76, 1.80, 0.067, 43.2),
+           16: (103, 1.02, 2.56, 0.077, 40.0), 18: (124, 1.26, 3.45, 0.087, 36.5),
+           20: (148, 1.49, 4.48, 0.097, 33.2)}
+HALF_DIGIT = (0.5, 0.005, 0.005, 0.0005, 0.1)
+
 
 def test_table_i_and_gain_scale_sections(tmp_path, capsys):
+    """Oracle: the paper's Table I and Fig. GainScale(a) typed in this file, against both
+    the claims' paper values (the transcription in seactl.paper) and our values."""
     out = tmp_path / "rep"
     assert main(["reproduce", "--out", str(out), "--only", "table-i", "--only",
                  "gain-scale"]) == 0
     claims = json.loads((out / "claims.json").read_text())
     by_id = {c["id"]: c for c in claims}
-    assert all(by_id[f"table1.fn{f}.{k}"]["status"] == "pass"
-               for f in (12, 14, 16, 18, 20) for k in ("Kq", "Bq", "Ktau", "Btau", "PM"))
-    assert by_id["gainscale.gs0.4_fn14"]["status"] == "pass"
+    for f, printed in TABLE_I.items():
+        for k, paper_value, half in zip(("Kq", "Bq", "Ktau", "Btau", "PM"), printed, HALF_DIGIT):
+            c = by_id[f"table1.fn{f}.{k}"]
+            assert c["paper_value"] == pytest.approx(paper_value), c
+            assert c["our_value"] == pytest.approx(paper_value, abs=half + 1e-9), c
+            assert c["status"] == "pass", c
+    gs04 = by_id["gainscale.gs0.4_fn14"]
+    assert gs04["paper_value"] == pytest.approx(34.0)
+    assert gs04["our_value"] == pytest.approx(34.0, abs=0.1) and gs04["status"] == "pass"
     # GS = 1 is not the exact optimum at f_n = 14 Hz: reported, not hidden
     c14 = by_id["gainscale.gs1_max.fn14"]
     assert c14["status"] == "fail" and "GS = 0.78" in c14["note"]
@@ -29,6 +44,7 @@ def test_table_i_and_gain_scale_sections(tmp_path, capsys):
 
 
 def test_claims_json_is_byte_identical(tmp_path, capsys):
+    # Oracle: a second run's bytes.
     a, b = tmp_path / "a", tmp_path / "b"
     for d in (a, b):
         assert main(["reproduce", "--out", str(d), "--only", "table-i"]) == 0
@@ -36,6 +52,7 @@ def test_claims_json_is_byte_identical(tmp_path, capsys):
 
 
 def test_interrupted_run_leaves_previous_report_intact(tmp_path, monkeypatch, capsys):
+    # Oracle: the previous report's bytes and the directory listing.
     out = tmp_path / "rep"
     assert main(["reproduce", "--out", str(out), "--only", "table-i"]) == 0
     before = (out / "claims.json").read_bytes()
@@ -52,6 +69,7 @@ def test_interrupted_run_leaves_previous_report_intact(tmp_path, monkeypatch, ca
 
 
 def test_unknown_section_is_an_input_error(tmp_path, capsys):
+    # Oracle: the CLI error contract (exit 2).
     assert main(["reproduce", "--out", str(tmp_path / "x"), "--only", "nope"]) == 2
 
 
@@ -64,6 +82,7 @@ def test_unknown_section_is_an_input_error(tmp_path, capsys):
     (float("nan"), 1.0, "", "nan"),
 ])
 def test_claim_values_are_formatted_for_people(value, tol, unit, text):
+    # Oracle: the strings typed by hand in the table above.
     assert report.format_value(value, tol, unit) == text
 
 

@@ -69,7 +69,8 @@ def delays_from_ms(delays_ms: Sequence[Any], names: Sequence[str]) -> list[np.nd
     >>> [float(x) for x in delays_from_ms((0.5, 2), ("T_s", "T_d"))]
     [0.0005, 0.002]
     """
-    if isinstance(delays_ms, (str, bytes)) or np.ndim(delays_ms) == 0 \
+    # not np.ndim(delays_ms): the delays may have different shapes (a batch grid)
+    if isinstance(delays_ms, (str, bytes)) or not isinstance(delays_ms, (Sequence, np.ndarray)) \
             or len(delays_ms) != len(names):
         raise InputError("delays_ms", delays_ms,
                          f"a sequence of {len(names)} delays ({', '.join(names)}) [ms]")
@@ -88,7 +89,7 @@ def delays_from_ms(delays_ms: Sequence[Any], names: Sequence[str]) -> list[np.nd
 
 
 def _filters(filters_hz: Sequence[Any], names: Sequence[str]) -> list[Any]:
-    if isinstance(filters_hz, (str, bytes)) or np.ndim(filters_hz) == 0 \
+    if isinstance(filters_hz, (str, bytes)) or not isinstance(filters_hz, (Sequence, np.ndarray)) \
             or len(filters_hz) != len(names):
         raise InputError("filters_hz", filters_hz,
                          f"a sequence of {len(names)} cut-offs ({', '.join(names)}) [Hz], "

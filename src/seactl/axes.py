@@ -21,15 +21,13 @@ from dataclasses import dataclass
 import numpy as np
 
 from .errors import InputError
-from .limits import RANGES, check_range
 
 
 @dataclass(frozen=True)
 class AxisInfo:
     """A design quantity: parameter name, CLI flag, unit, default (``None``: from the
-    actuator), smallest valid value (exclusive when ``strict``), whether ``inf`` is
-    allowed (filters: no filter), and its documented range (``kind`` in
-    :data:`seactl.limits.RANGES`)."""
+    actuator), smallest valid value (exclusive when ``strict``), and whether ``inf`` is
+    allowed (filters: no filter)."""
 
     name: str
     option: str
@@ -39,7 +37,7 @@ class AxisInfo:
     strict: bool = True
     description: str = ""
     allow_inf: bool = False
-    kind: str | None = None
+    maximum: float = math.inf
 
     @property
     def label(self) -> str:
@@ -61,17 +59,23 @@ class AxisInfo:
             raise InputError(label, float(vals[low][0]),
                              f"{'>' if self.strict else '>='} {self.minimum:g}"
                              + (" (inf: no filter)" if self.allow_inf else ""))
-        finite = vals[np.isfinite(vals)]
-        if self.kind is not None and finite.size:
-            for v in (finite.min(), finite.max()):   # the documented physical range
-                check_range(label, float(v), self.kind)
+        high = np.isfinite(vals) & (vals > self.maximum)
+        if high.any():
+            raise InputError(label, float(vals[high][0]), f"<= {self.maximum:g} {self.unit}")
         return vals
 
 
-MAX_DELAY_MS = RANGES["delay_ms"][1]
+MAX_DELAY_MS = 1000.0
 """Largest delay accepted anywhere [ms]; larger values are almost surely a unit slip."""
 
-_DELAY = dict(strict=False, kind="delay_ms")
+_DELAY = dict(strict=False, maximum=MAX_DELAY_MS)
+_FILTER = dict(allow_inf=True, minimum=1e-3, maximum=1e6)
+_FN = dict(minimum=1e-3, strict=False, maximum=1000.0)
+_GS = dict(minimum=1e-3, strict=False, maximum=1000.0)
+_FACTOR = dict(minimum=1e-2, strict=False, maximum=100.0)
+"""Ranges of f_n [Hz], GS and the damping/pole ratios: values outside overflow the gains
+(1e-308 divides to inf) and describe no physical joint controller."""
+"""Filter cut-offs: above 1 mHz (lower ones overflow the filter's state), up to 1 MHz."""
 
 
 def _axis(name, option, unit, default, description, **kw) -> AxisInfo:
@@ -79,20 +83,19 @@ def _axis(name, option, unit, default, description, **kw) -> AxisInfo:
 
 
 AXES: dict[str, AxisInfo] = {a.name: a for a in (
-    _axis("fn_hz", "--fn", "Hz", 14.0, "natural frequency f_n", kind="fn_hz"),
+    _axis("fn_hz", "--fn", "Hz", 14.0, "natural frequency f_n", **_FN),
     _axis("gs", "--gs", "", 1.0, "gain scale GS (torque gains x GS, impedance gains / GS)",
-          kind="gs"),
-    _axis("zeta1", "--zeta1", "", 1.0, "damping ratio of the first pole pair", kind="factor"),
-    _axis("zeta2", "--zeta2", "", 1.0, "damping ratio of the second pole pair",
-          kind="factor"),
-    _axis("ratio", "--ratio", "", 1.0, "ratio w2 / w1 of the two pole pairs", kind="factor"),
+          **_GS),
+    _axis("zeta1", "--zeta1", "", 1.0, "damping ratio of the first pole pair", **_FACTOR),
+    _axis("zeta2", "--zeta2", "", 1.0, "damping ratio of the second pole pair", **_FACTOR),
+    _axis("ratio", "--ratio", "", 1.0, "ratio w2 / w1 of the two pole pairs", **_FACTOR),
     _axis("t_tau_ms", "--t-tau", "ms", 0.0, "torque-feedback delay T_tau", **_DELAY),
     _axis("t_qs_ms", "--t-qs", "ms", 0.0, "stiffness-feedback delay T_qs", **_DELAY),
     _axis("t_qd_ms", "--t-qd", "ms", 0.0, "damping-feedback delay T_qd", **_DELAY),
     _axis("f_qd_hz", "--f-qd", "Hz", math.inf, "velocity filter cut-off f_qd",
-          allow_inf=True, kind="filter_hz"),
+          **_FILTER),
     _axis("f_taud_hz", "--f-taud", "Hz", math.inf, "torque-derivative filter cut-off f_taud",
-          allow_inf=True, kind="filter_hz"),
+          **_FILTER),
     _axis("Im", "--im", "kg m^2", None, "motor inertia (plant)"),
     _axis("Ij", "--ij", "kg m^2", None, "joint inertia (plant)"),
     _axis("bm", "--bm", "N m s/rad", None, "motor damping (plant)", strict=False),

@@ -42,8 +42,10 @@ def main(argv: Sequence[str] | None = None) -> int:
     except click.exceptions.Exit as exc:
         return exc.exit_code
     except OSError as exc:  # a last net: the commands turn their own into OutputError
+        from .outputs import reason
+
         where = f"cannot write {exc.filename}: " if exc.filename else ""
-        _error(where + (exc.strerror or str(exc)).lower())
+        _error(where + reason(exc))
         return 2
     except MemoryError:
         _error("out of memory; ask for fewer designs, frequencies or time steps")

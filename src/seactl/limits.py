@@ -5,7 +5,8 @@ command estimates the memory and time of what it is asked before allocating, and
 :func:`check_budget` refuses with the estimate when the memory exceeds what this machine
 has available, or the time exceeds :func:`time_budget_s`.
 
-This module sits at the bottom of the layering (it imports only :mod:`seactl.errors`).
+This module sits at the bottom of the layering (it imports :mod:`seactl.errors` and
+:mod:`seactl.axes`).
 """
 
 from __future__ import annotations
@@ -13,6 +14,7 @@ from __future__ import annotations
 import math
 import os
 
+from .axes import AXES
 from .errors import ResourceError
 
 
@@ -81,18 +83,26 @@ def check_budget(what: str, *, n_bytes: float = 0.0, seconds: float = 0.0,
 
 
 # ------------------------------------------------------------------ physical ranges
+def _axis_range(name: str, what: str) -> tuple[float, float, str]:
+    info = AXES[name]
+    return info.minimum, info.maximum, what
+
+
 RANGES: dict[str, tuple[float, float, str]] = {
-    "delay_ms": (0.0, 1000.0, "a feedback delay of a servo loop: 0 to 1 s"),
-    "fn_hz": (0.0, 1000.0, "a closed-loop natural frequency of a joint: above 0, up to 1 kHz"),
-    "gs": (0.0, 1000.0, "a gain scale: above 0, up to 1000"),
-    "factor": (0.0, 100.0, "a damping ratio or pole ratio: above 0, up to 100"),
-    "filter_hz": (0.0, 1e6, "a filter cut-off: above 0, up to 1 MHz"),
+    "delay_ms": _axis_range("t_qs_ms", "a feedback delay of a servo loop: 0 to 1 s"),
+    "fn_hz": _axis_range("fn_hz", "a closed-loop natural frequency of a joint: 1 mHz to "
+                         "1 kHz"),
+    "filter_hz": _axis_range("f_qd_hz", "a filter cut-off: above 1 mHz, up to 1 MHz"),
+    "amplitude_rad": (0.0, 100.0, "a step size: its magnitude above 0, up to 100 rad"),
+    "impulse_nms": (0.0, 1e3, "an angular impulse: its magnitude above 0, up to 1000 N m s"),
     "rate_hz": (10.0, 1e6, "a servo rate: 10 Hz to 1 MHz"),
     "t_end_s": (0.0, 60.0, "a simulated time: above 0, up to 60 s"),
     "freq_hz": (0.0, 1e7, "an analysis frequency: above 0, up to 10 MHz"),
 }
-"""Documented input ranges: (low, high, what) with ``low`` exclusive for frequencies and
-times and inclusive for delays."""
+"""Documented input ranges of the quantities that are not design axes, and of the delays,
+natural frequencies and filters of the rigid-actuator and placement commands (taken from
+:data:`seactl.axes.AXES`, where the design axes keep theirs): (low, high, what) with ``low``
+exclusive for frequencies and times and inclusive for delays."""
 
 MIN_SAMPLES = 20
 """A simulation records at least this many samples (``t_end`` x rate)."""
@@ -107,10 +117,10 @@ def check_range(name: str, value: float, kind: str) -> float:
 
     lo, hi, what = RANGES[kind]
     v = float(value)
-    inclusive = kind in ("delay_ms", "rate_hz")
+    inclusive = kind in ("delay_ms", "rate_hz", "fn_hz")
     ok = (lo <= v <= hi) if inclusive else (lo < v <= hi)
     if math.isnan(v) or not ok:
-        raise InputError(name, value, f"{'>=' if inclusive else '>'} {lo:g} and <= {hi:g} "
+        raise InputError(name, v, f"{'>=' if inclusive else '>'} {lo:g} and <= {hi:g} "
                          f"({what})")
     return v
 
@@ -128,7 +138,8 @@ FREQ_BYTES_PER_POINT = 640.0
 """Memory per design and frequency of an impedance evaluation (complex temporaries)."""
 
 
-def simulation_estimate(n_designs: int, steps: float, recorded: float) -> tuple[float, float]:
+def simulation_estimate(n_designs: float, steps: float, recorded: float
+                        ) -> tuple[float, float]:
     """(bytes, seconds) of a time-domain simulation of ``n_designs`` over ``steps``."""
     seconds = steps * (SIM_SECONDS_PER_STEP + SIM_SECONDS_PER_DESIGN_STEP * n_designs)
     return n_designs * recorded * SIM_BYTES_PER_SAMPLE, seconds
@@ -175,9 +186,8 @@ def check_simulation(n_designs: int, mode: str, rate_hz: float, t_end_s: float,
     if recorded < MIN_SAMPLES:
         raise InputError(t_end_name, t_end_s, f"long enough to record {MIN_SAMPLES} samples "
                          f"({need})")
-    # floats: a tiny positive delay makes the step count overflow an int (then refused)
-    n_bytes, seconds = simulation_estimate(n_designs, float(steps), float(recorded))
-    check_budget(f"simulating {n_designs:,} design(s) over {steps:,.0f} steps",
+    n_bytes, seconds = simulation_estimate(n_designs, steps, recorded)
+    check_budget(f"simulating {n_designs:,} design(s) over {steps:,.4g} steps",
                  n_bytes=n_bytes, seconds=seconds,
                  hint=hint + ("" if mode == "sampled" else " (the continuous mode steps at "
                               "min(0.1 ms, the smallest positive delay))"))

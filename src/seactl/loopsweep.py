@@ -18,7 +18,7 @@ from typing import Any
 import numpy as np
 
 from .errors import InputError
-from .sweep import part_path, write_chunk
+from .sweep import write_chunk
 
 FORMAT = "seactl-loop-sweep-1"
 
@@ -40,6 +40,17 @@ def _prepare(out: Path, overwrite: bool) -> None:
                              "this loop sweep")
         shutil.rmtree(out)
     out.mkdir(parents=True, exist_ok=True)
+
+
+def _remove_partial(out: Path, created: bool) -> None:
+    """After a failure: remove what this run wrote (the directory, if it created it)."""
+    import shutil
+
+    if created:
+        shutil.rmtree(out, ignore_errors=True)
+        return
+    for p in out.glob("part-*.parquet"):
+        p.unlink(missing_ok=True)
 
 
 def _columns(loop: Any, a: Any, values: dict[str, np.ndarray], start: int) -> dict[str, Any]:
@@ -71,20 +82,28 @@ def sweep_loop(loop: Any, values: dict[str, Any], out: str | Path, *, chunk_size
     flat = {k: v.ravel() for k, v in arrays.items()}
     n = next(iter(flat.values())).size if flat else 1
     out = Path(out)
+    if not loop.breaks:
+        loop.analyze()  # raises: nothing to sweep
+    loop.compiled.arrays(flat)  # every value checked before anything is written
+    last = list(loop.breaks)[-1]
+    created = not out.exists()
     _prepare(out, overwrite)
     t0 = time.perf_counter()
     stable, best = 0, (-np.inf, None)
-    last = list(loop.breaks)[-1] if loop.breaks else None
-    for i, start in enumerate(range(0, n, chunk_size)):
-        chunk = {k: v[start:start + chunk_size] for k, v in flat.items()}
-        a = loop.with_values(**chunk).analyze(jitter=False)
-        cols = _columns(loop, a, chunk, start)
-        write_chunk(out, i, pa.table(cols))
-        stable += int(cols["stable"].sum())
-        pm = np.where(cols["stable"], cols[f"{last}_phase_margin_deg"], -np.inf)
-        k = int(np.argmax(pm))
-        if pm[k] > best[0]:
-            best = (float(pm[k]), {c: float(cols[c][k]) for c in flat})
+    try:
+        for i, start in enumerate(range(0, n, chunk_size)):
+            chunk = {k: v[start:start + chunk_size] for k, v in flat.items()}
+            a = loop.with_values(**chunk).analyze(jitter=False)
+            cols = _columns(loop, a, chunk, start)
+            write_chunk(out, i, pa.table(cols))
+            stable += int(cols["stable"].sum())
+            pm = np.where(cols["stable"], cols[f"{last}_phase_margin_deg"], -np.inf)
+            k = int(np.argmax(pm))
+            if pm[k] > best[0]:
+                best = (float(pm[k]), {c: float(cols[c][k]) for c in flat})
+    except BaseException:
+        _remove_partial(out, created)
+        raise
     seconds = time.perf_counter() - t0
     summary = {"format": FORMAT, "loop": loop.name, "file": loop.file, "n_points": n,
                "n_chunks": len(range(0, n, chunk_size)), "swept": list(flat),
@@ -94,5 +113,4 @@ def sweep_loop(loop: Any, values: dict[str, Any], out: str | Path, *, chunk_size
                {**best[1], f"{last}_phase_margin_deg": best[0]}}
     write_atomic(out / "_summary.json", json.dumps(summary, indent=2) + "\n")
     write_atomic(out / "_manifest.json", json.dumps(summary, indent=2) + "\n")
-    assert part_path(out, 0).is_file()
     return summary

@@ -80,6 +80,40 @@ def impedance_bode_figure(columns, *, suptitle: str | None = None, unit: str = "
     return fig
 
 
+def loop_bode_figure(f_hz, columns, *, suptitle: str | None = None):
+    """Bode plot of loop transfers broken at named points, one column per break.
+
+    ``columns``: list of ``(title, curves, crossings)``; each curve is ``(label, L)`` with
+    ``L`` complex on ``f_hz``; ``crossings`` lists gain-crossover frequencies [Hz] to mark.
+    """
+    plt = _pyplot()
+    n = len(columns)
+    fig, axes = plt.subplots(2, n, figsize=(4.6 * n, 6.2), sharex="col", squeeze=False,
+                             gridspec_kw={"height_ratios": [1.4, 1]})
+    for j, (title, curves, crossings) in enumerate(columns):
+        am, ap = axes[0, j], axes[1, j]
+        for label, L in curves:
+            am.semilogx(f_hz, 20 * np.log10(np.abs(L)), lw=1.4, label=label)
+            ap.semilogx(f_hz, np.degrees(np.unwrap(np.angle(L))), lw=1.4)
+        am.axhline(0.0, color="k", lw=0.7)
+        for fc in crossings:
+            am.axvline(fc, color="0.5", ls="--", lw=0.7)
+            ap.axvline(fc, color="0.5", ls="--", lw=0.7)
+        am.set_title(title, fontsize=10)
+        am.grid(True, which="both", alpha=0.3)
+        ap.grid(True, which="both", alpha=0.3)
+        ap.set_xlabel("frequency [Hz]")
+        if j == 0:
+            am.set_ylabel("|L| [dB]")
+            ap.set_ylabel("phase of L [deg]")
+        if any(label for label, _ in curves):
+            am.legend(fontsize=7)
+    if suptitle:
+        fig.suptitle(suptitle, fontsize=11)
+    fig.tight_layout()
+    return fig
+
+
 def zregion_figure(region, fn_hz, gs, *, spring=None, unit: str = "N m s/rad"):
     """Z-region: admissible |Z| envelope, Z-width with the Z-depth, admissible design map."""
     plt = _pyplot()

@@ -25,7 +25,10 @@ from typing import Any
 import numpy as np
 
 from .errors import OutputError
-from .outputs import write_atomic  # noqa: F401  (re-exported; it lives in seactl.outputs)
+from .outputs import (
+    reason,
+    write_atomic,  # noqa: F401  (re-exported; it lives in seactl.outputs)
+)
 
 STATUSES = ("pass", "fail", "info")
 
@@ -188,7 +191,7 @@ def build(out: Path, sections: Iterable[SectionFn], console: Any = None
         out.parent.mkdir(parents=True, exist_ok=True)
         tmp = Path(tempfile.mkdtemp(prefix=f".{out.name}.tmp-", dir=out.parent))
     except OSError as exc:
-        raise OutputError(out, exc.strerror or str(exc)) from None
+        raise OutputError(out, reason(exc)) from None
     try:
         os.chmod(tmp, 0o777 & ~_umask())
         (tmp / MARKER).write_text("written by seactl reproduce; seactl may replace this "
@@ -209,7 +212,7 @@ def build(out: Path, sections: Iterable[SectionFn], console: Any = None
     except BaseException as exc:
         shutil.rmtree(tmp, ignore_errors=True)
         if isinstance(exc, OSError) and not isinstance(exc, OutputError):
-            raise OutputError(out, exc.strerror or str(exc)) from None
+            raise OutputError(out, reason(exc)) from None
         raise
     return claims
 

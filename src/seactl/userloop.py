@@ -687,7 +687,8 @@ class UserLoop:
         for name, sig in items:
             others = [s for n, s in items if n != name]
             m = break_margins(self.compiled, design, omega, sig, others)
-            jit = jitter_margin(self.diagram.loop(sig), design, omega) if jitter \
+            jit = jitter_margin(self.diagram.loop(sig), design,
+                                jitter_grid(self.compiled, design, omega)) if jitter \
                 else np.full(m.stable.shape, np.nan)
             out.append(BreakMargins(name, sig, m, np.where(m.stable, jit, 0.0)))
         env = {k[5:]: np.broadcast_to(v, design.shape) for k, v in design._arrays.items()
@@ -929,10 +930,9 @@ def _roots_magnitudes(coeffs: Sequence[Any], shape: tuple[int, ...]) -> np.ndarr
     return mags[np.isfinite(mags) & (mags > 1e-12)]
 
 
-def characteristic_range(compiled: CompiledLoop, design: Any) -> tuple[float, float]:
-    """Slowest and fastest block pole or zero, and spring resonance estimates
-    ``sqrt(k / J_max)``, ``sqrt(2 k / J_min)`` [rad/s] over the batch (1 to 1000 rad/s when
-    there are none: a loop of gains and integrators)."""
+def characteristic_frequencies(compiled: CompiledLoop, design: Any) -> np.ndarray:
+    """Every block pole and zero magnitude, and spring resonance estimates
+    ``sqrt(k / J_max)``, ``sqrt(2 k / J_min)`` [rad/s], over the batch (finite, > 0)."""
     shape = tuple(design.shape)
     arr = design._arrays
     mags = []
@@ -953,10 +953,31 @@ def characteristic_range(compiled: CompiledLoop, design: Any) -> tuple[float, fl
         j_all = np.concatenate([np.ravel(np.abs(j)) for j in masses])
         mags.append(np.sqrt([k_all.min() / j_all.max(), 2 * k_all.max() / j_all.min()]))
     allm = np.concatenate(mags) if mags else np.empty(0)
-    allm = allm[np.isfinite(allm) & (allm > 0)]
+    return allm[np.isfinite(allm) & (allm > 0)]
+
+
+def characteristic_range(compiled: CompiledLoop, design: Any) -> tuple[float, float]:
+    """Slowest and fastest :func:`characteristic_frequencies` [rad/s] (1 to 1000 rad/s when
+    there are none: a loop of gains and integrators)."""
+    allm = characteristic_frequencies(compiled, design)
     if allm.size == 0:
         return 1.0, 1e3
     return float(allm.min()), float(allm.max())
+
+
+def jitter_grid(compiled: CompiledLoop, design: Any, omega: np.ndarray,
+                per_decade: int = 48, max_marks: int = 4000) -> np.ndarray:
+    """The jitter scan's grid: ``omega``'s range at ``per_decade`` points, plus every
+    characteristic frequency (and 0.2 % either side) when the batch has at most
+    ``max_marks`` of them, so that a lightly damped resonance (a narrow peak of
+    ``w |T|``) is not stepped over."""
+    n = int(np.ceil(per_decade * np.log10(omega[-1] / omega[0]))) + 1
+    w = np.logspace(np.log10(omega[0]), np.log10(omega[-1]), n)
+    marks = np.unique(characteristic_frequencies(compiled, design))
+    if 0 < marks.size <= max_marks:
+        marks = marks[(marks > omega[0]) & (marks < omega[-1])]
+        w = np.unique(np.concatenate([w, marks, marks * 0.998, marks * 1.002]))
+    return w
 
 
 def _extend_down(loop: Any, design: Any, omega: np.ndarray, max_decades: int = 6
@@ -974,21 +995,11 @@ def _extend_down(loop: Any, design: Any, omega: np.ndarray, max_decades: int = 6
 
 
 def jitter_margin(loop: Any, design: Any, omega: np.ndarray) -> np.ndarray:
-    """Kao-Lincoln jitter margin ``1 / max_w (w |L/(1+L)|)`` [s] per design: a dense
-    log grid (64 points per decade) over ``omega``'s range, zoomed twice around the peak."""
-    shape = tuple(design.shape)
-    w = np.logspace(np.log10(omega[0]), np.log10(omega[-1]),
-                    int(64 * np.log10(omega[-1] / omega[0])) + 1)
-    w = np.broadcast_to(w, shape + w.shape)
-    for _ in range(3):
-        L = loop(design, 1j * w)
-        with np.errstate(divide="ignore", invalid="ignore"):
-            g = w * np.abs(L / (1 + L))
-        g = np.where(np.isfinite(g), g, np.inf)
-        k = np.argmax(g, axis=-1)[..., None]
-        lo = np.take_along_axis(w, np.maximum(k - 1, 0), -1)
-        hi = np.take_along_axis(w, np.minimum(k + 1, w.shape[-1] - 1), -1)
-        peak = np.take_along_axis(g, k, -1)[..., 0]
-        w = lo * (hi / lo) ** np.linspace(0.0, 1.0, 33)
+    """Kao-Lincoln jitter margin ``1 / max_w (w |L/(1+L)|)`` [s] per design, with the
+    peak search of :func:`seactl.jitter.peak_omega_t` (the built-in loops' own)."""
+    from .jitter import peak_omega_t
+
+    with np.errstate(all="ignore"):
+        peak, _ = peak_omega_t(loop, design, omega)
     with np.errstate(divide="ignore"):
-        return 1.0 / peak
+        return np.where(peak > 0, 1.0 / peak, np.inf)

@@ -41,9 +41,14 @@ def parse_sets(tokens: tuple[str, ...]) -> dict[str, Any]:
 
 
 def load(path: str, sets: tuple[str, ...]):
+    from ..limits import BYTES_PER_DESIGN, check_budget
     from ..userloop import load_loop
 
-    return load_loop(path, **parse_sets(sets))
+    values = parse_sets(sets)
+    n = int(np.prod([np.size(v) for v in values.values()], dtype=float)) if values else 1
+    check_budget(f"{n:,} designs of the loop", n_bytes=n * BYTES_PER_DESIGN,
+                 hint="give fewer --set values (or use seactl sweep --loop, in chunks)")
+    return load_loop(path, **values)
 
 
 def loop_options(func: Callable) -> Callable:
@@ -69,7 +74,9 @@ def loop_options(func: Callable) -> Callable:
 
 SEA_ONLY = ("fn", "gs", "zeta1", "zeta2", "ratio", "t_tau", "t_qs", "t_qd", "f_qd", "f_taud",
             "actuator", "model", "load", "units", "rate_hz", "saturation", "no_zero",
-            "high_latency", "low_latency", "min_pm", "f_v", "stiffness_embeddable")
+            "high_latency", "low_latency", "min_pm", "f_v", "stiffness_embeddable",
+            "high_timing", "low_timing", "high_loss", "low_loss", "latency", "loss", "runs",
+            "seed")
 """Options of the built-in loops that a loop file defines itself."""
 
 
@@ -112,8 +119,11 @@ def _fmt(x: Any, spec: str) -> str:
               help="Override a variable or parameter (VALUE: number, a,b,c or "
                    "START:STOP:STEP; ranges make a sweep).")
 @click.option("--no-jitter", is_flag=True, help="Skip the jitter margins.")
+@click.option("--plot", "plot", default=None, metavar="FILE.png|.svg|.pdf",
+              help="Write a Bode plot of the loop at every break.")
 @click.option("--json", "as_json", is_flag=True, help="Print JSON instead of a table.")
-def analyze(loop_file: str, sets: tuple[str, ...], no_jitter: bool, as_json: bool) -> None:
+def analyze(loop_file: str, sets: tuple[str, ...], no_jitter: bool, plot: str | None,
+            as_json: bool) -> None:
     """Margins at every named break of a loop file, delay and jitter margins per loop,
     stability of the whole loop.
 
@@ -122,8 +132,15 @@ def analyze(loop_file: str, sets: tuple[str, ...], no_jitter: bool, as_json: boo
       seactl analyze --loop examples/loops/paper-sea.toml
       seactl analyze --loop examples/loops/rigid.toml --set fn=4:16:2
     """
-    loop = load(loop_file, sets)
-    a = loop.analyze(jitter=not no_jitter)
+    from ..outputs import FIGURE_SUFFIXES, OutputSet
+
+    with OutputSet() as outs:
+        plot_p = outs.add("--plot", plot, FIGURE_SUFFIXES)
+        loop = load(loop_file, sets)
+        a = loop.analyze(jitter=not no_jitter)
+        if plot_p:
+            outs.figure(plot_p, _bode(loop, a))
+        outs.commit()
     labels = _labels(loop)
     rows = []
     for i, lab in enumerate(labels):
@@ -163,15 +180,33 @@ def analyze(loop_file: str, sets: tuple[str, ...], no_jitter: bool, as_json: boo
 
 def _write_outputs(outs: Any, plot: Any, csv_path: Any, fig_fn: Callable[[], Any],
                    header: list[str], rows: list[list[Any]]) -> None:
-    """Plot and CSV files of a loop view, written as one set (``outs``: an OutputSet)."""
+    """Plot and CSV files of a loop view, through the command's output set."""
     if csv_path:
-        text = ",".join(header) + "\n" + "".join(
-            ",".join(f"{x:.10g}" if isinstance(x, float) else str(x) for x in r) + "\n"
-            for r in rows)
-        outs.write(csv_path, text)
+        lines = [",".join(header)]
+        lines += [",".join(f"{x:.10g}" if isinstance(x, float) else str(x) for x in r)
+                  for r in rows]
+        outs.write(csv_path, "\n".join(lines) + "\n")
     if plot:
         outs.figure(plot, fig_fn())
     outs.commit()
+
+
+def _bode(loop: Any, a: Any):
+    """Bode figure of every break's loop transfer (one curve per design, up to 12)."""
+    from ..plots import loop_bode_figure
+
+    om = loop.grid()
+    f = np.logspace(np.log10(om[0] / (2 * np.pi)), np.log10(om[-1] / (2 * np.pi)), 600)
+    labels = _labels(loop)[:12]
+    names = [" ".join(f"{k}={v:g}" for k, v in lab.items()) for lab in labels]
+    cols = []
+    for b in a.breaks:
+        L = loop.loop_transfer(b.name)(loop.design, 2j * np.pi * f).reshape(-1, f.size)
+        fc = np.asarray(b.margins.crossover_hz).reshape(-1)[:12]
+        cols.append((f"break '{b.name}' ({b.signal})", list(zip(names, L[:12])),
+                     [float(x) for x in fc if np.isfinite(x)]))
+    return loop_bode_figure(f, cols, suptitle=f"loop '{loop.name}': L at each break, other "
+                            "loops closed")
 
 
 def loop_impedance(loop: Any, f: np.ndarray, port: str | None, as_json: bool, outs: Any,
@@ -226,8 +261,15 @@ def loop_response(loop: Any, kind: str, mode: str, t_end: float, size: float,
                   as_json: bool, outs: Any, plot: Any = None, csv_path: Any = None) -> None:
     """``seactl step|impulse --loop``: responses of the file's signals, each process at
     its rate in sampled mode."""
+    from .. import limits
     from ..simulate import impulse_metrics, step_metrics
 
+    delays = [float(np.max(v)) for k, v in loop.design._arrays.items() if k.endswith("__T")]
+    limits.check_simulation(int(np.prod(loop.shape, dtype=int)), mode,
+                            max(p.rate_hz for p in loop.processes.values()), t_end, delays,
+                            record_dt_s=5e-4, t_end_name="--t-end [s]",
+                            rate_name="rate_hz (the loop file's fastest process)",
+                            hint="shorten --t-end or give fewer --set values")
     if kind == "step":
         res = loop.step(t_end, mode=mode, amplitude=size,
                         record_dt=5e-4 if mode == "continuous" else None)

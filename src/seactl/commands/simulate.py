@@ -356,8 +356,7 @@ def step(spec: DesignSpec, amplitude: float, mode: str, rate_hz: float, zero: bo
     """
     from ..simulate import sea_step
 
-    if not (math.isfinite(amplitude) and amplitude != 0):
-        raise InputError("--amplitude [rad]", amplitude, "a finite non-zero number")
+    check_range("--amplitude [rad]", abs(amplitude), "amplitude_rad")
     check_simulation(spec, mode, rate_hz, t_end or 0.5)
     if loop is not None:
         return loop_response(loop, "step", mode, t_end or 0.5, amplitude, as_json, outs, plot,
@@ -402,8 +401,7 @@ def impulse(spec: DesignSpec, impulse_nms: float, band: float, mode: str, rate_h
 
     if not (0 < band < 1):
         raise InputError("--band", band, "a fraction in (0, 1)")
-    if not (math.isfinite(impulse_nms) and impulse_nms != 0):
-        raise InputError("--impulse [N m s]", impulse_nms, "a finite non-zero number")
+    check_range("--impulse [N m s]", abs(impulse_nms), "impulse_nms")
     check_simulation(spec, mode, rate_hz, t_end or 1.0)
     if loop is not None:
         return loop_response(loop, "impulse", mode, t_end or 1.0, impulse_nms, as_json, outs,

@@ -178,6 +178,8 @@ def sweep(actuator, sampling, n_samples, seed, chunk_size, unc_points, z_freq, o
                                                                        else []))
     if sampling != "grid" and n_samples is None:
         raise InputError("--n", None, f"given with --sample {sampling} (number of points)")
+    if not out.strip():
+        raise InputError("--out", out, "a directory path")
     if resume and overwrite:
         raise InputError("--overwrite", "with --resume", "used alone (--resume completes a "
                          "sweep, --overwrite restarts it: choose one)")

@@ -108,6 +108,10 @@ def results_html(r: dict[str, Any], unit: str) -> str:
          _fmt(r["stiffness_delay_margin_ms"]) if "stiffness_delay_margin_ms" in r else "..."),
         ("delay margin, damping loop [ms]", "dmd-value",
          _fmt(r["damping_delay_margin_ms"]) if "damping_delay_margin_ms" in r else "..."),
+        *((f"jitter margin, {name} [ms]", f"jm-{loop}-value",
+           _fmt(r[f"{loop}_jitter_margin_ms"]) if f"{loop}_jitter_margin_ms" in r else "...")
+          for loop, name in (("overall", "whole loop"), ("stiffness", "stiffness loop"),
+                             ("damping", "damping loop"), ("torque", "torque loop"))),
         ("closed loop", "stable-value", "stable" if r["stable"] else "UNSTABLE"),
         (f"Z(jw) [{unit}]", "passive-value", "passive" if r["passive"] else "not passive"),
     ]
@@ -187,8 +191,9 @@ class Explorer:
         for i, key in enumerate(("f_qd_hz", "f_taud_hz")):
             if i not in self.filters.active:
                 v[key] = None
-        return Controls(actuator=self.actuators[self.actuator.value],
-                        mode=MODES[self.mode.active], **v)
+        actuator = self.actuators.get(self.actuator.value, next(iter(SEA_PRESETS.values())))
+        mode = MODES[self.mode.active] if self.mode.active in (0, 1) else MODES[0]
+        return Controls(actuator=actuator, mode=mode, **v)
 
     # ------------------------------------------------------------ callbacks
     def on_change(self, attr: str, old: Any, new: Any) -> None:
@@ -238,7 +243,8 @@ class Explorer:
         self.last_ms.append(tuple(marks_ms))
         self.status.text = (f"<span id='status-value'>margins and loop views in "
                             f"{marks_ms[0]:.0f} ms, responses in {marks_ms[1]:.0f} ms, "
-                            f"maps in {marks_ms[2]:.0f} ms</span>")
+                            f"maps in {marks_ms[2]:.0f} ms, delay and jitter margins in "
+                            f"{marks_ms[3]:.0f} ms</span>")
 
     def _ranges(self, c: Controls) -> None:
         lo, hi = fn_range_hz(c)

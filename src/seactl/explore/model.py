@@ -355,14 +355,18 @@ def response_results(resp: dict[str, Any]) -> dict[str, Any]:
     }
 
 
-def loop_delay_results(d: sc.Design) -> dict[str, Any]:
+def robustness_results(d: sc.Design) -> dict[str, Any]:
     """Delay margins of the stiffness and damping loops alone (:func:`seactl.loop_model`,
-    the diagram with one tap per loop)."""
+    the diagram with one tap per loop) and the jitter margins (``d.jitter_margins()``)."""
     from .._results import json_value
 
     dm = sc.loop_model("sea", d.actuator).delay_margins(d.sea)
-    return {"stiffness_delay_margin_ms": json_value(dm.stiffness_s * 1e3),
-            "damping_delay_margin_ms": json_value(dm.damping_s * 1e3)}
+    jm = d.jitter_margins()
+    out = {"stiffness_delay_margin_ms": json_value(dm.stiffness_s * 1e3),
+           "damping_delay_margin_ms": json_value(dm.damping_s * 1e3)}
+    for loop in ("overall", "stiffness", "damping", "torque"):
+        out[f"{loop}_jitter_margin_ms"] = json_value(jm.ms(loop))
+    return out
 
 
 def _f(x: Any, fmt: str = ".3g", unit: str = "") -> str:
@@ -387,6 +391,11 @@ def verdict(r: dict[str, Any], bands: np.ndarray) -> str:
         if ds is not None and dd is not None and dd < ds:
             words.append("The damping loop is the latency-critical one: run it on the "
                          "low-latency processor.")
+    if "overall_jitter_margin_ms" in r:
+        words.append(f"Latency that varies in time is tolerated up to "
+                     f"{_f(r['overall_jitter_margin_ms'], '.3g', ' ms')} on the joint "
+                     f"measurement and {_f(r['torque_jitter_margin_ms'], '.3g', ' ms')} in "
+                     "the torque loop (jitter margins, a sufficient bound).")
     if bands.shape[0] == 0:
         words.append("Z(jw) is passive from 0.01 Hz to 10 kHz.")
     else:
@@ -430,12 +439,17 @@ def response_stage(c: Controls, acc: dict[str, Any]) -> dict[str, Any]:
 
 
 def map_stage(c: Controls, acc: dict[str, Any]) -> dict[str, Any]:
-    """Stage 3: per-loop delay margins and the two maps (cached)."""
+    """Stage 3: the two maps (cached: only the one the change moved is computed)."""
     return {"pm_map": pm_map(c.loop_key()), "latency_map": latency_map(_latency_key(c)),
-            **_with_results(c, acc, loop_delay_results(acc["design"]))}
+            **_with_results(c, acc, {})}
 
 
-STAGES = (fast_views, response_stage, map_stage)
+def robustness_stage(c: Controls, acc: dict[str, Any]) -> dict[str, Any]:
+    """Stage 4: per-loop delay margins and jitter margins."""
+    return _with_results(c, acc, robustness_results(acc["design"]))
+
+
+STAGES = (fast_views, response_stage, map_stage, robustness_stage)
 """The page updates in these steps, each pushed as soon as it is computed."""
 
 
