@@ -4,9 +4,12 @@ Three processes, each a ``python -m seactl.runtime ROLE CONFIG`` child:
 
 ``plant``
     The clock.  Every base period it integrates the SEA over the period that just ended
-    (exactly, zero-order hold, the sampled simulation's plant matrices) with the newest
-    current command received, samples ``q_j`` and ``tau_k`` and sends them to the other
-    two processes.
+    (exactly, zero-order hold, the sampled simulation's plant matrices) with the current
+    command computed for it, samples ``q_j`` and ``tau_k`` and sends them to the other
+    two processes.  The plant and the embedded process are one actuator and its drive:
+    when the command is not there at the tick, the plant waits for it (a late command,
+    counted; the simulated physics does not move meanwhile) rather than apply a stale
+    one, so the run stays comparable with the simulation.
 ``embedded``
     The exported ``embedded.py``: on each sample, one ``step`` with the newest stiffness
     message, and the current command back to the plant.
@@ -47,8 +50,6 @@ import numpy as np
 SENSE, CENTRAL, ACT, STOP = 0, 1, 2, 3
 HEADER = struct.Struct("<Bqd")
 PEER_TIMEOUT_S = 2.0
-COMMAND_GUARD_S = 0.01
-"""How long the plant waits for the command of the period that just ended."""
 ROLES = ("plant", "embedded", "high-level")
 
 
@@ -97,11 +98,11 @@ def run_plant(cfg: dict[str, Any], sock: socket.socket) -> dict[str, np.ndarray]
     q = np.full(K + 1, np.nan)
     used = np.full(K + 1, -2)
     recv = []
+    late = 0
     t0 = cfg["t0"]
     for k in range(K + 1):
-        # the tick's time; then, the drive's command for the period just ended (the plant
-        # and the embedded process are one actuator: a command later than COMMAND_GUARD_S
-        # is a deadline miss, counted, and the last command is held)
+        # the tick's time; then, the drive's command for the period just ended (a command
+        # not there at the tick is late: counted, and waited for up to PEER_TIMEOUT_S)
         give_up = None
         while True:
             now = time.monotonic()
@@ -109,10 +110,12 @@ def run_plant(cfg: dict[str, Any], sock: socket.socket) -> dict[str, np.ndarray]
             if wait <= 0:
                 if k == 0 or act_tick >= k - 1:
                     break
-                give_up = now + COMMAND_GUARD_S if give_up is None else give_up
+                if give_up is None:
+                    give_up = now + PEER_TIMEOUT_S
+                    late += 1
                 wait = give_up - now
                 if wait <= 0:
-                    break
+                    raise LostPeer("plant: no command from the embedded process for 2 s")
             data = _recv(sock, wait)
             if data:
                 kind, tick, t_s, vals = unpack(data)
@@ -129,7 +132,8 @@ def run_plant(cfg: dict[str, Any], sock: socket.socket) -> dict[str, np.ndarray]
             sock.sendto(msg, p)
     for p in peers:
         sock.sendto(pack(STOP, K), p)
-    return {"q": q, "act_used": used, "recv": np.array(recv).reshape(-1, 3)}
+    return {"q": q, "act_used": used, "recv": np.array(recv).reshape(-1, 3),
+            "late": np.array(late)}
 
 
 # ----------------------------------------------------------------------------- controllers
@@ -292,7 +296,7 @@ def run_distributed(design: Any, *, duration_s: float = 2.0,
     from .errors import InputError
     from .export import compile_processes, export_files
     from .loops import sea_diagram
-    from .simulate import Step, compile_sampled, simulate
+    from .simulate import compile_sampled
 
     for name, v, lo, hi in (("duration_s", duration_s, 0.1, 60.0),
                             ("extra_latency_s", extra_latency_s, 0.0, 1.0),
@@ -330,6 +334,17 @@ def run_distributed(design: Any, *, duration_s: float = 2.0,
             for s in socks.values():
                 s.close()
         logs = {r: dict(np.load(run_dir / f"log-{r}.npz")) for r in ROLES}
+    return _analyse(diagram, design, ctl, logs, K, step, sat, rates_hz,
+                    {"extra_latency_ms": extra_latency_s * 1e3, "loss": loss})
+
+
+def _analyse(diagram: Any, design: Any, ctl: Any, logs: dict[str, dict[str, np.ndarray]],
+             K: int, step: float, sat: dict[str, float], rates_hz: Any,
+             injected: dict[str, float]) -> RunResult:
+    """Latency per link, tracking error, and the replayed and nominal simulations."""
+    from .simulate import Step, simulate
+
+    Tb = 1.0 / ctl.base_rate_hz
     hl = ctl.process("high-level")
     n_c = dict(hl.buffers).get("Kq_fb", 0) * hl.period_ticks
     used = logs["embedded"]["central_used"]
@@ -354,11 +369,11 @@ def run_distributed(design: Any, *, duration_s: float = 2.0,
     act_used = logs["plant"]["act_used"][:K]
     summary = {
         "transport": "udp", "duration_s": K * Tb, "ticks": K + 1,
-        "rates_hz": {p.name: p.rate_hz for p in ctl.processes},
-        "extra_latency_ms": extra_latency_s * 1e3, "loss": loss,
+        "rates_hz": {p.name: p.rate_hz for p in ctl.processes}, **injected,
         "dropped": int(logs["high-level"]["dropped"]),
         "links": {name: _stats_ms(v) for name, v in lat_s.items()},
-        "late_commands": int(np.sum(act_used != k[:K])),
+        "late_commands": int(logs["plant"]["late"]),
+        "stale_commands": int(np.sum(act_used != k[:K])),
         "tracking_rms": float(np.sqrt(np.mean((q - step) ** 2))),
         "replay_max_diff": float(np.max(np.abs(q - q_rep)) / abs(step)),
         "nominal_max_diff": float(np.max(np.abs(q - q_nom)) / abs(step)),
