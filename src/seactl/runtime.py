@@ -53,9 +53,11 @@ PEER_TIMEOUT_S = 2.0
 ROLES = ("plant", "embedded", "high-level")
 
 
-def pack(kind: int, tick: int, values: Any = ()) -> bytes:
+def pack(kind: int, tick: int, values: Any = (), sent: float | None = None) -> bytes:
+    """A message: kind, tick, send time (now unless given), values."""
     vals = [float(v) for v in values]
-    return HEADER.pack(kind, tick, time.monotonic()) + struct.pack(f"<{len(vals)}d", *vals)
+    t = time.monotonic() if sent is None else sent
+    return HEADER.pack(kind, tick, t) + struct.pack(f"<{len(vals)}d", *vals)
 
 
 def unpack(data: bytes) -> tuple[int, int, float, tuple[float, ...]]:
@@ -174,15 +176,15 @@ def run_high_level(cfg: dict[str, Any], sock: socket.socket) -> dict[str, np.nda
     every = int(cfg["period_ticks"]["high-level"])
     extra, loss = float(cfg["extra_latency_s"]), float(cfg["loss"])
     rng = random.Random(cfg["seed"])
-    queue: list[tuple[float, int, float]] = []
+    queue: list[tuple[float, int, float, float]] = []
     sense_lat, dropped = [], 0
     while True:
         limit = _timeout(cfg)
         due = queue[0][0] - time.monotonic() if queue else limit
         data = _recv(sock, min(due, limit))
         while queue and queue[0][0] <= time.monotonic():
-            _t, tick, value = heapq.heappop(queue)
-            sock.sendto(pack(CENTRAL, tick, [value]), emb)
+            _t, tick, value, made = heapq.heappop(queue)
+            sock.sendto(pack(CENTRAL, tick, [value], sent=made), emb)   # injected: counted
         if data is None:
             if due < limit:
                 continue
@@ -196,7 +198,8 @@ def run_high_level(cfg: dict[str, Any], sock: socket.socket) -> dict[str, np.nda
             if rng.random() < loss:
                 dropped += 1
                 continue
-            heapq.heappush(queue, (time.monotonic() + extra, tick, out[ctl.OUTPUTS[0]]))
+            now = time.monotonic()
+            heapq.heappush(queue, (now + extra, tick, out[ctl.OUTPUTS[0]], now))
     return {"sense": np.array(sense_lat).reshape(-1, 3), "dropped": np.array(dropped)}
 
 
