@@ -514,6 +514,61 @@ class Design:
         flat = self.reshape(n)
         return [to_control(flat[i].sea, kind, transfer, f_hz, order) for i in range(n)]
 
+    def export(self, out: Any, *, lang: Any = ("c", "python", "json"),
+               rates_hz: Any = 1000.0, saturation_a: float | None = None, zero: bool = True,
+               verify: bool = False) -> Any:
+        """Write the discrete controller of each process as C99, Python and JSON.
+
+        The sampled controller (Tustin derivatives and filters, whole-sample delay buffers,
+        current saturation) split by process: the stiffness loop on ``high-level``, torque
+        and damping on ``embedded`` (docs/export.md).
+
+        Parameters
+        ----------
+        out : str or path
+            A new or empty directory (or one an earlier export wrote).
+        lang : sequence of str or str
+            Any of ``"c"`` (``<process>.h/.c`` and a CSV harness ``<process>_main.c``),
+            ``"python"`` (``<process>.py``) and ``"json"`` (``controller.json``).
+        rates_hz : float or mapping
+            Rate of every process [Hz], or ``{"embedded": 2000, "high-level": 500}``
+            (each an integer divisor of the fastest).
+        saturation_a : float, optional
+            Current limit [A] (default: the actuator's; ``inf``: none).
+        zero : bool
+            Torque derivative on the whole error (default) or on feedback only.
+        verify : bool
+            Compile the C (``cc -std=c99 -Wall -Werror``) and run it and the Python on a
+            sampled step response and on random signals against seactl's own sampled
+            controller, before writing.
+
+        Returns
+        -------
+        seactl.export.ExportResult
+            ``files`` written, the per-process ``controllers`` and the ``verification``
+            (``max_error``: largest relative difference; ``compiler``; ``compile_s``).
+
+        Examples
+        --------
+        >>> import tempfile
+        >>> import seactl as sc
+        >>> d = sc.design(14, delays_ms=(1, 2, 1), filters_hz=(50, 100))
+        >>> res = d.export(tempfile.mkdtemp(), lang="python,json")
+        >>> sorted(p.name for p in res.files)
+        ['.seactl-export', 'controller.json', 'embedded.py', 'high_level.py']
+        >>> res.controllers.process("high-level").outputs
+        ('tau_fb_from_high_level',)
+        """
+        from .export import export_design
+        from .loops import sea_diagram
+
+        sat = self.actuator.max_current if saturation_a is None else float(saturation_a)
+        if not sat > 0:
+            raise InputError("saturation_a [A]", sat, "> 0 (inf: no limit)")
+        return export_design(sea_diagram(zero), self.sea, out, languages=lang,
+                             rates_hz=rates_hz, saturation={"i_m": sat},
+                             verify_export=verify, step=0.1)
+
     def reshape(self, *shape: int) -> Design:
         """The same designs with another batch shape.
 

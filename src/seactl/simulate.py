@@ -1274,6 +1274,23 @@ def run_sampled(plan: SampledPlan, bound: float,
     return _sampled_result(plan, st)
 
 
+def run_controller(plan: SampledPlan, sensed: np.ndarray) -> np.ndarray:
+    """Drive the plan's controller alone (open loop) with given sampled plant signals.
+
+    ``sensed`` has shape ``(T, len(sensed signals), n)`` (``plan.steps + 1`` ticks, the
+    signals in the order of ``plan.prow["sensed"]``); the exogenous controller inputs are
+    those the plan was compiled with.  Returns the actuation each tick computes (after
+    saturation), shape ``(T, len(plan.actuation), n)``: what :func:`run_sampled` applies
+    from that tick on.  This is the reference of :mod:`seactl.export`."""
+    sensed = np.asarray(sensed, float)
+    ring_len = int(plan.nbuf.max(initial=0)) + 2
+    st = _SampledState.start(plan, ring_len)
+    out = np.empty((plan.steps + 1, len(plan.actuation), plan.x0.shape[1]))
+    for k in range(plan.steps + 1):
+        out[k] = _control(plan, st, k, sensed[k], None)[1]
+    return out
+
+
 def _sampled_result(plan: SampledPlan, st: _SampledState) -> RunResult:
     rec = {o: st.rec[plan.order.index(o)] for o in plan.outputs}
     peak_act = st.peak_act.T

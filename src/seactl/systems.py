@@ -257,6 +257,50 @@ class RigidBatch:
         return ImpedanceResult(ImpedanceResponse("block-diagram", f, z, "linear", True),
                                self.labels())
 
+    def export(self, out: Any, *, lang: Any = ("c", "python", "json"),
+               rates_hz: Any = 1000.0, saturate: bool = True, verify: bool = False) -> Any:
+        """Write the discrete controller of each process as C99, Python and JSON.
+
+        Stiffness (``K``, with the reference) on ``high-level``, damping (filtered velocity)
+        on ``embedded``, which sums them into the force command (docs/export.md).
+
+        Parameters
+        ----------
+        out : str or path
+            A new or empty directory (or one an earlier export wrote).
+        lang : sequence of str or str
+            Any of ``"c"``, ``"python"``, ``"json"``.
+        rates_hz : float or mapping
+            Rate of every process [Hz], or per process (integer divisors of the fastest).
+        saturate : bool
+            Clip the force command at ``actuator.max_force``.
+        verify : bool
+            Compile and run the C and the Python against seactl's own sampled controller
+            (a 4 mm step response and random signals) before writing.
+
+        Returns
+        -------
+        seactl.export.ExportResult
+            ``files``, ``controllers`` and ``verification`` (``max_error``, ``compiler``).
+
+        Examples
+        --------
+        >>> import tempfile
+        >>> import seactl as sc
+        >>> res = sc.rigid(8, delays_ms=(1.5, 1.5)).export(tempfile.mkdtemp(), lang="json")
+        >>> [p.name for p in res.controllers.processes]
+        ['high-level', 'embedded']
+        """
+        import math
+
+        from .export import export_design
+        from .rigid import RIGID_DIAGRAM
+
+        sat = self.rigid.actuator.max_force if saturate else math.inf
+        return export_design(RIGID_DIAGRAM, self.rigid, out, languages=lang,
+                             rates_hz=rates_hz, saturation={"F_des": sat},
+                             verify_export=verify, step=0.004)
+
     def to_control(self, kind: str = "frd", *, transfer: str = "loop", f_hz: Any = None,
                    order: int = 3) -> Any:
         """Export to python-control: exact-delay frequency response or a Padé model.

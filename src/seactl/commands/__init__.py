@@ -6,12 +6,14 @@ entry point and the only importer of this package.
 from . import (
     core,  # noqa: F401
     explore,  # noqa: F401
+    export,  # noqa: F401
     impedance,  # noqa: F401
     jitter,  # noqa: F401
     loops,  # noqa: F401
     mobile_base,  # noqa: F401
     placement,  # noqa: F401
     roots,  # noqa: F401
+    run,  # noqa: F401
     simulate,  # noqa: F401
     sweep,  # noqa: F401
 )

@@ -1,0 +1,182 @@
+"""``seactl export``: the per-process controllers in C99 and Python equal seactl's own
+sampled controller.
+
+Oracles: (1) the controller of the sampled plan, stepped by
+:func:`seactl.simulate.run_controller` -- itself checked against the actuation
+:func:`seactl.simulate.run_sampled` applied in a closed-loop simulation; (2) for the
+high-level process, the hand-derived law ``-Kq q_j[k - n]`` with ``n`` the whole-sample
+buffer of the module docstring of :mod:`seactl.simulate`; (3) the compiled C is run as a
+separate program through its CSV harness.
+"""
+
+from __future__ import annotations
+
+import importlib.util
+import json
+import subprocess
+
+import numpy as np
+import pytest
+
+import seactl as sc
+from seactl import export as ex
+from seactl.cli import main
+from seactl.loops import sea_diagram
+from seactl.rigid import RIGID_DIAGRAM
+
+TARGET = 1e-9
+CC = ex.find_compiler()
+NO_CC = "no C compiler (cc, gcc or clang) on PATH: the C part of the export is not checked"
+SPLIT = {"embedded": 2000.0, "high-level": 500.0}
+
+
+def _sea(delays_ms, filters_hz, zero=True):
+    return sea_diagram(zero), sc.design(14, delays_ms=delays_ms, filters_hz=filters_hz).sea, \
+        {"i_m": 30.0}, 0.1
+
+
+def _rigid(delays_ms):
+    d = sc.rigid(8, delays_ms=delays_ms).rigid
+    return RIGID_DIAGRAM, d, {"F_des": d.actuator.max_force}, 0.004
+
+
+CASES = {
+    "sea-filters-delays-split-rates": (_sea((1, 2, 1), (50, 100)), SPLIT),
+    "sea-no-filters-delays": (_sea((0.5, 2, 0.5), (None, None)), 1000.0),
+    "sea-no-zero-odd-delays": (_sea((1.3, 3.7, 2.2), (80, 150), zero=False), SPLIT),
+    "rigid-delays": (_rigid((1.5, 15.5)), 1000.0),
+    "rigid-split-rates": (_rigid((2, 1)), SPLIT),
+}
+
+
+@pytest.mark.parametrize("case", sorted(CASES))
+def test_exported_python_and_c_equal_the_sampled_controller(case):
+    (diagram, design, sat, step), rates = CASES[case]
+    ctl = ex.compile_processes(diagram, design, rates, sat)
+    langs = ("c", "python") if CC else ("python",)
+    v = ex.verify(diagram, design, ctl, rates_hz=rates, saturation=sat, languages=langs,
+                  step=step, t_end_s=0.3, random_ticks=1000)
+    assert set(v.errors) == {f"{lang}/{sig}" for lang in langs
+                             for sig in ("simulation", "random")}
+    assert v.max_error <= TARGET, v.errors
+    if not CC:
+        pytest.skip(NO_CC)
+    assert v.compiler and v.compile_s > 0
+
+
+def test_reference_is_the_closed_loop_simulation():
+    """run_controller on the recorded plant signals gives the actuation run_sampled
+    applied (one tick later: zero-order hold), saturation included."""
+    diagram, design, sat, _ = _sea((1, 2, 1), (50, 100))[0:4]
+    ctl = ex.compile_processes(diagram, design, SPLIT, sat)
+    base, applied = ex.simulation_signals(diagram, design, ctl, 0.3, SPLIT, sat, 0.1)
+    ref = ex.reference_actuation(diagram, design, ctl, base, SPLIT, sat)
+    assert np.max(np.abs(ref)) == pytest.approx(30.0)          # the step saturates at first
+    np.testing.assert_allclose(ref[:-1], applied[1:], rtol=0, atol=1e-12)
+    np.testing.assert_allclose(ex.run_schedule(ctl, base), ref, rtol=0, atol=1e-11)
+
+
+def test_high_level_is_the_delayed_stiffness():
+    """T_qs = 2.5 ms at 1 kHz: n = (2.5 - 0.5) / 1 = 2 samples, output -Kq q_j[k - 2]."""
+    d = sc.design(14, delays_ms=(0.5, 2.5, 0.5), filters_hz=(50, 100))
+    ctl = ex.compile_processes(sea_diagram(), d.sea, 1000.0, {"i_m": 30.0})
+    hl = ctl.process("high-level")
+    assert hl.inputs == ("q_j",) and hl.buffers == (("Kq_fb", 2),) and hl.A.size == 0
+    q = np.random.default_rng(3).standard_normal(50)
+    y = ex.run_process(hl, q[:, None])[:, 0]
+    kq = float(d.gains.Kq)
+    np.testing.assert_allclose(y, -kq * np.concatenate([[0.0, 0.0], q[:-2]]), rtol=1e-14)
+    assert ctl.effective_delays_s["Kq_fb"] == pytest.approx(2.5e-3)
+
+
+def test_processes_and_schedule():
+    """The diagram's split: stiffness on high-level (sent to embedded), the actuation from
+    the fastest process; senders run first."""
+    d = sc.design(14, delays_ms=(1, 2, 1), filters_hz=(50, 100))
+    ctl = ex.compile_processes(sea_diagram(), d.sea, SPLIT, {"i_m": 30.0})
+    assert ctl.names == ("high-level", "embedded")
+    emb = ctl.process("embedded")
+    assert emb.outputs == ("i_m",) and "tau_fb_from_high_level" in emb.inputs
+    assert (emb.rate_hz, emb.period_ticks, ctl.process("high-level").period_ticks) == \
+        (2000.0, 1, 4)
+    with pytest.raises(sc.InputError, match="single design"):
+        ex.compile_processes(sea_diagram(), sc.design([12, 14]).sea)
+
+
+def _load(path, cls):
+    spec = importlib.util.spec_from_file_location("exported_" + path.stem, path)
+    mod = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(mod)
+    return getattr(mod, cls)()
+
+
+def test_cli_end_to_end(tmp_path, capsys):
+    out = tmp_path / "ctl"
+    args = ["export", "--fn", "14", "--t-tau", "1", "--t-qs", "2", "--t-qd", "1", "--f-qd",
+            "50", "--f-taud", "100", "--rate", "embedded=2000", "--rate", "high-level=500",
+            "--out", str(out), "--json"] + (["--verify"] if CC else [])
+    assert main(args) == 0
+    res = json.loads(capsys.readouterr().out)
+    names = {p.split("/")[-1] for p in res["files"]}
+    assert names == {"high_level.h", "high_level.c", "high_level_main.c", "high_level.py",
+                     "embedded.h", "embedded.c", "embedded_main.c", "embedded.py",
+                     "controller.json", ".seactl-export"}
+    assert {p.name for p in out.iterdir()} == names
+    if CC:
+        assert res["max_error"] <= TARGET and res["compiler"]
+    # the written files, not only the verification's copies: Python and C on random input
+    doc = json.loads((out / "controller.json").read_text())
+    emb = next(p for p in doc["processes"] if p["name"] == "embedded")
+    u = np.random.default_rng(5).standard_normal((300, len(emb["inputs"]))) * 0.05
+    ctl = ex.compile_processes(sea_diagram(), sc.design(14, delays_ms=(1, 2, 1),
+                                                        filters_hz=(50, 100)).sea,
+                               SPLIT, {"i_m": 30.0})
+    ref = ex.run_process(ctl.process("embedded"), u)
+    obj = _load(out / "embedded.py", "Embedded")
+    y = np.array([[obj.step(dict(zip(obj.INPUTS, row)))["i_m"]] for row in u])
+    assert ex.relative_error(y, ref) <= TARGET
+    if not CC:
+        pytest.skip(NO_CC)
+    subprocess.run([CC, *ex.CFLAGS, "embedded.c", "embedded_main.c", "-o", "emb"], cwd=out,
+                   check=True)
+    csv = ",".join(emb["inputs"]) + "\n" + "".join(",".join(repr(float(v)) for v in r) + "\n"
+                                                    for r in u)
+    text = subprocess.run([str(out / "emb")], input=csv, capture_output=True, text=True,
+                          check=True).stdout
+    y_c = np.loadtxt(text.splitlines()[1:], delimiter=",").reshape(-1, 1)
+    assert ex.relative_error(y_c, ref) <= TARGET
+
+
+def test_cli_never_touches_other_files(tmp_path, capsys):
+    mine = tmp_path / "mine"
+    mine.mkdir()
+    (mine / "notes.txt").write_text("keep")
+    assert main(["export", "--fn", "14", "--out", str(mine)]) == 2
+    err = capsys.readouterr().err
+    assert err.startswith("error: ") and err.count("\n") == 1 and "not empty" in err
+    assert [p.name for p in mine.iterdir()] == ["notes.txt"]
+    # an export may be replaced by another; --lang json writes only the JSON (+ marker)
+    out = tmp_path / "ctl"
+    assert main(["export", "--system", "rigid", "--fn", "8", "--out", str(out),
+                 "--lang", "json"]) == 0
+    assert main(["export", "--system", "rigid", "--fn", "8", "--t-s", "2", "--out", str(out),
+                 "--lang", "json"]) == 0
+    assert sorted(p.name for p in out.iterdir()) == [".seactl-export", "controller.json"]
+    doc = json.loads((out / "controller.json").read_text())
+    assert doc["parameters"]["T_s"] == pytest.approx(2e-3)
+
+
+@pytest.mark.parametrize("args, needle", [
+    (["--lang", "rust"], "--lang"),
+    (["--rate", "embedded=abc"], "--rate"),
+    (["--rate", "embedded=3000", "--rate", "high-level=1000", "--rate", "x=1"], "rate"),
+    (["--fn", "12", "14"], "one --fn"),
+    (["--verify", "--cc", "no-such-compiler-xyz"], "no C compiler"),
+])
+def test_cli_bad_input_one_line_exit_2(tmp_path, capsys, args, needle):
+    out = tmp_path / "ctl"
+    full = ["export", "--out", str(out)] + (["--fn", "14"] if "--fn" not in args else []) + args
+    assert main(full) == 2
+    err = capsys.readouterr().err
+    assert err.startswith("error: ") and err.count("\n") == 1 and needle in err, err
+    assert not out.exists()
