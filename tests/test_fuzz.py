@@ -74,13 +74,6 @@ SIM = {**TIMING, "--mode": ["continuous", "sampled", "x"], "--rate": NUM, "--no-
        "--json": FLAG}
 UNC = ["20%", "0%", "-5%", "nan%", "1,2", "2,1", "x", "0.01,0.02", "100%", "1e308%", "%"]
 BAD_NUM = ["nan", "-1", "x", "2ms", "inf", "-inf", "1e308", ""]
-_LOOPS = Path(__file__).resolve().parents[1] / "examples" / "loops"
-LOOP = [str(_LOOPS / f"{n}.toml") for n in ("rigid", "paper-sea", "two-mass-notch")] + [
-    "bad.toml", "empty.toml", "bin.toml", "nosuch.toml", "adir", "", "afile.csv"]
-SETS = ["fn=4", "fn=2:20:6", "fn=20:2:1", "nope=1", "fn=x", "=1", "fn", "fn=-1", "fn=0",
-        "fn=1e308", "fn=nan", "m=0", "b=-1e9", "K=inf", "f_v=1e-308", "Kq=1e308",
-        "T_high=5000", "zeta_num=0.3", "fn=1:1e6:1e-6", "fc=0,10"]
-LOOP_OPTS = {"--loop": LOOP, "--set": SETS}
 
 COMMANDS: dict[str, tuple[list[str], dict[str, list]]] = {
     "gains": ([], {**DESIGN, "--json": FLAG}),
@@ -88,11 +81,11 @@ COMMANDS: dict[str, tuple[list[str], dict[str, list]]] = {
     "explore": (["--host", "0.0.0.0"], {"--port": ["-1", "0", "70000", "x", "5006"]}),
     "impedance": ([], {**DESIGN, "--freq": FREQ, "--model": ["paper", "block-diagram", "x"],
                        "--load": FLAG, "--units": ["rotary", "linear", "x"], "--plot": PLOT,
-                       "--csv": CSV, "--json": FLAG, **LOOP_OPTS, "--port": ["joint", "x"]}),
+                       "--csv": CSV, "--json": FLAG}),
     "zregion": ([], {**DESIGN, "--freq": FREQ, "--min-pm": NUM, "--passive": FLAG,
                      "--threshold-db": NUM, "--plot": PLOT, "--csv": CSV, "--json": FLAG}),
-    "step": ([], {**DESIGN, **SIM, **LOOP_OPTS, "--amplitude": NUM}),
-    "impulse": ([], {**DESIGN, **SIM, **LOOP_OPTS, "--impulse": NUM, "--band": NUM}),
+    "step": ([], {**DESIGN, **SIM, "--amplitude": NUM}),
+    "impulse": ([], {**DESIGN, **SIM, "--impulse": NUM, "--band": NUM}),
     "rigid": ([], {"--fn": FN, "--t-s": NUM, "--t-d": NUM, "--f-v": NUM + ["none"],
                    "--actuator": ACT, "--no-passive-damping": FLAG, "--no-step": FLAG,
                    "--json": FLAG}),
@@ -101,7 +94,7 @@ COMMANDS: dict[str, tuple[list[str], dict[str, list]]] = {
                                    "--n": ["2", "4", "0", "401", "-1", "x"],
                                    "--max-fn": FLAG, "--f-v": NUM + ["none"], "--plot": PLOT,
                                    "--csv": CSV, "--json": FLAG}),
-    "place": ([], {**LOOP_OPTS, "--high-latency": NUM, "--low-latency": NUM, "--actuator": ACT,
+    "place": ([], {"--high-latency": NUM, "--low-latency": NUM, "--actuator": ACT,
                    "--min-pm": NUM, "--f-v": NUM + ["none"], "--stiffness-embeddable": FLAG,
                    "--json": FLAG}),
     "robust": (["--n", "50"], {"--fn": NUM, "--gs": NUM, "--t-qs": NUM, "--f-qd": NUM,
@@ -117,10 +110,9 @@ COMMANDS: dict[str, tuple[list[str], dict[str, list]]] = {
                "--scheduler": ["foo", "tcp//x", "", "inproc"], "--plot": ["fn_hz,gs",
                                                                          "fn_hz", "x,y", ""],
                "--plot-file": PLOT, "--yes": FLAG, "--json": FLAG, "--actuator": ACT,
-               "--workers": ["-1", "x"], **LOOP_OPTS}),
+               "--workers": ["-1", "x"]}),
     "reproduce": (["--only", "feasibility"], {"--out": DIRS, "--only": ["nosuch", ""]}),
     "bench": (["--only", "nosuch"], {"--repeat": ["0", "1", "51", "x"], "--json": FLAG}),
-    "analyze": ([], {**LOOP_OPTS, "--no-jitter": FLAG, "--json": FLAG, "--plot": PLOT}),
     "base": ([], {"--arch": ["dosc", "cosc", "both", "x"], "--extra-delay": NUM,
                   "--circle-radius": NUM, "--circle-period": NUM, "--plot": PLOT + ["p.gif"],
                   "--json": FLAG}),
@@ -136,8 +128,7 @@ GOOD = {"--fn": ["14", "20", "12,16"], "--gs": ["1", "0.5", "2"], "--zeta1": ["1
         "--t-max": ["20", "5"], "--t-min": ["0.5"], "--threshold-db": ["6"],
         "--ij": ["20%"], "--k": ["10%"], "--bm": ["0.5,1.5"], "--fn-rigid": ["8"],
         "--fn-sea": ["14"], "--actuator": ["ut-sea", "ut-linear"], "--mode": ["sampled"],
-        "--out": ["out", "sub/out"], "--plot": ["p.png", "p.svg"], "--csv": ["p.csv"],
-        "--loop": LOOP[:3], "--set": ["fn=4", "fn=2:20:6", "zeta_num=0.3"]}
+        "--out": ["out", "sub/out"], "--plot": ["p.png", "p.svg"], "--csv": ["p.csv"]}
 """Valid values, drawn half of the time so that vectors also reach the computations."""
 SLOW = {"base"}
 """Commands whose valid runs take 10 s or more (a minute on a loaded machine): drawn with an

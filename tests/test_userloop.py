@@ -490,3 +490,60 @@ def test_jitter_margin_finds_a_narrow_resonance_peak():
     w = np.logspace(-1, 6, 700_000)
     L = loop.loop_transfer("position")(loop.design, 1j * w)
     assert jm == pytest.approx(1 / np.max(w * np.abs(L / (1 + L))), rel=1e-5)
+
+
+# ------------------------------------------------------------------ command-line fuzz
+_LOOP_FILES = [str(EXAMPLES / f"{n}.toml") for n in ("rigid", "paper-sea", "two-mass-notch")]
+_LOOP_ARGS = {
+    "--loop": _LOOP_FILES + ["bad.toml", "empty.toml", "bin.toml", "nosuch.toml", "adir", "",
+                             "afile.csv"],
+    "--set": ["fn=4", "fn=2:20:6", "fn=20:2:1", "nope=1", "fn=x", "=1", "fn", "fn=-1", "fn=0",
+              "fn=1e308", "fn=nan", "m=0", "b=-1e9", "K=inf", "f_v=1e-308", "Kq=1e308",
+              "T_high=5000", "zeta_num=0.3", "fn=1:1e6:1e-6", "fc=0,10"],
+}
+_LOOP_CMDS = {
+    "analyze": {"--no-jitter": None, "--json": None, "--plot": ["p.png", "adir", "p.txt"]},
+    "impedance": {"--freq": ["1 10", "0", "1:10:1e10"], "--port": ["joint", "output", "x"],
+                  "--json": None, "--csv": ["p.csv", "afile.csv"], "--fn": ["14"]},
+    "step": {"--mode": ["sampled", "continuous"], "--t-end": ["0.2", "0.001", "nan"],
+             "--json": None, "--plot": ["p.png"], "--rate": ["500"]},
+    "impulse": {"--mode": ["sampled"], "--impulse": ["0.01", "0"], "--csv": ["p.csv"]},
+    "place": {"--json": None, "--high-latency": ["5"]},
+    "sweep": {"--out": ["out", "adir", "afile.csv", "mydocs"], "--overwrite": None,
+              "--chunk-size": ["1", "0"], "--json": None, "--fn": ["14"]},
+}
+
+
+def _loop_argv():
+    from hypothesis import strategies as st
+
+    @st.composite
+    def draw_argv(draw):
+        cmd = draw(st.sampled_from(sorted(_LOOP_CMDS)))
+        out = [cmd, "--loop", draw(st.sampled_from(_LOOP_ARGS["--loop"]))]
+        for _ in range(draw(st.integers(0, 2))):
+            out += ["--set", draw(st.sampled_from(_LOOP_ARGS["--set"]))]
+        opts = _LOOP_CMDS[cmd]
+        for name in draw(st.lists(st.sampled_from(sorted(opts)), max_size=3, unique=True)):
+            out += [name] if opts[name] is None else [name, draw(st.sampled_from(opts[name]))]
+        if cmd == "sweep" and "--out" not in out:
+            out += ["--out", "out"]
+        return out
+
+    return draw_argv()
+
+
+def test_fuzz_loop_commands():
+    """The README's error contract for the loop commands, checked as tests/test_fuzz.py
+    checks every command (exit 0 or 2, one-line errors, no traceback, no numpy warning,
+    the user's files untouched): 120 deterministic vectors of --loop/--set and options."""
+    hypothesis = pytest.importorskip("hypothesis")
+    from test_fuzz import check_vector
+
+    @hypothesis.settings(max_examples=120, deadline=None, derandomize=True, database=None,
+                         suppress_health_check=list(hypothesis.HealthCheck))
+    @hypothesis.given(_loop_argv())
+    def run(args):
+        check_vector(args)
+
+    run()

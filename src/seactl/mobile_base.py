@@ -110,7 +110,8 @@ class MobileBaseParams:
     grid_points: Annotated[int, Field(description="coarse search candidates", ge=3, le=400)]
     refine_points: Annotated[int, Field(description="refining search candidates", ge=0, le=400)]
     safety_factor: Annotated[float, positive("fraction of each limit used [-]", le=1)]
-    circle_radius: Annotated[float, positive("[m]")]
+    circle_radius: Annotated[float, Field(description="[m]", ge=1e-3, le=20.0,
+                                          allow_inf_nan=False)]
     circle_period: Annotated[float, positive("[s]")]
     circle_duration: Annotated[float, positive("[s]")]
     circle_ramp: Annotated[float, nonnegative("[s]")]
@@ -780,7 +781,7 @@ class MobileBaseComparison:
     def _reduction(self, key: str) -> float:
         c = getattr(self.results["cosc"], key)
         d = getattr(self.results["dosc"], key)
-        return 100.0 * (1.0 - d / c)
+        return 100.0 * (1.0 - d / c) if c > 0 else math.nan   # nan: COSC tracks exactly
 
     @property
     def position_rms_reduction_pct(self) -> float:

@@ -129,7 +129,6 @@ def _impedance(spec: DesignSpec, f: np.ndarray, model: str, load: bool, units: s
         UNITS,
         asymptote_case,
         asymptotes,
-        excess_over_asymptotes_db,
         low_frequency_stiffness,
         passivity,
         scan_range,
@@ -169,22 +168,34 @@ def _impedance(spec: DesignSpec, f: np.ndarray, model: str, load: bool, units: s
                 "passivity_range_hz": list(pas.f_range_hz),
             })
     if csv:
-        rows = []
-        zf = resp.z.reshape(len(out), f.size)
-        for n, r in enumerate(out):
-            for k, fk in enumerate(f):
-                zk = zf[n, k]
-                rows.append([r["fn_hz"], r["gs"], float(fk), float(abs(zk)),
-                             float(20 * np.log10(abs(zk))), float(r["phase_deg"][k]),
-                             float(zk.real), float(zk.imag)])
-        outs.write(csv, _csv_text(["fn_hz", "gs", "f_hz", f"magnitude [{unit}]", "magnitude_db",
-                         "phase_deg", f"re [{unit}]", f"im [{unit}]"], rows))
+        outs.write(csv, _impedance_csv(out, f, resp.z.reshape(len(out), f.size), unit))
     if plot:
         outs.figure(plot, _impedance_plot(spec, designs, resp, asym, model, load, unit))
     outs.commit()
     if as_json:
         echo_json(out[0] if len(out) == 1 else out)
         return
+    _print_impedance(spec, out, f, resp, asym, pas, model, load, unit)
+
+
+def _impedance_csv(out: list[dict[str, Any]], f: np.ndarray, zf: np.ndarray, unit: str) -> str:
+    """One row per design and frequency: |Z|, dB, phase, real and imaginary parts."""
+    rows = []
+    for n, r in enumerate(out):
+        for k, fk in enumerate(f):
+            zk = zf[n, k]
+            rows.append([r["fn_hz"], r["gs"], float(fk), float(abs(zk)),
+                         float(20 * np.log10(abs(zk))), float(r["phase_deg"][k]),
+                         float(zk.real), float(zk.imag)])
+    return _csv_text(["fn_hz", "gs", "f_hz", f"magnitude [{unit}]", "magnitude_db",
+                      "phase_deg", f"re [{unit}]", f"im [{unit}]"], rows)
+
+
+def _print_impedance(spec: DesignSpec, out: list[dict[str, Any]], f: np.ndarray, resp: Any,
+                     asym: Any, pas: Any, model: str, load: bool, unit: str) -> None:
+    """The summary table (one row per design) and, for one design, Z at each frequency."""
+    from ..impedance import excess_over_asymptotes_db
+
     t = Table(title=f"SEA impedance, model '{model}'{' with load' if load else ''}, actuator "
               f"'{spec.actuator.name}' ({_timing_text(spec)}); passivity scanned over "
               f"{pas.f_range_hz[0]:g}-{pas.f_range_hz[1]:g} Hz")

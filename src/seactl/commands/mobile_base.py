@@ -95,8 +95,8 @@ def _base(arch: str, extra_delay: float | None, circle_radius: float | None,
         changes["extra_delay"] = extra_delay * 1e-3
     if circle_radius is not None:
         finite_array("--circle-radius [m]", circle_radius, minimum=0.0, strict=True)
-        if circle_radius > 20:
-            raise InputError("--circle-radius", circle_radius, "> 0 and <= 20 [m]")
+        if not 1e-3 <= circle_radius <= 20:
+            raise InputError("--circle-radius", circle_radius, ">= 0.001 and <= 20 [m]")
         changes["circle_radius"] = circle_radius
     if circle_period is not None:
         finite_array("--circle-period [s]", circle_period, minimum=0.0, strict=True)

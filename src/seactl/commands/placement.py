@@ -67,6 +67,73 @@ def _fmt(x: float | None, spec: str) -> str:
 
 
 # ---------------------------------------------------------------------------- seactl rigid
+def _rigid_fn(fn: tuple[str, ...], step: bool) -> np.ndarray:
+    """The ``--fn`` values, checked, and the work they ask for estimated first."""
+    from .._validate import finite_array
+    from ..limits import BYTES_PER_DESIGN, check_budget, check_range, simulation_estimate
+
+    fn_hz = parse_values("--fn", fn)
+    if fn_hz.size == 0:
+        raise InputError("--fn", "", "at least one frequency")
+    finite_array("--fn [Hz]", fn_hz, minimum=0.0, strict=True)
+    for f in (fn_hz.min(), fn_hz.max()):
+        check_range("--fn [Hz]", f, "fn_hz")
+    sim_bytes, sim_s = simulation_estimate(fn_hz.size, 1000, 1000) if step else (0.0, 0.0)
+    check_budget(f"{fn_hz.size:,} rigid design(s)" + (" and their 1 s steps" if step else ""),
+                 n_bytes=fn_hz.size * BYTES_PER_DESIGN + sim_bytes, seconds=sim_s,
+                 hint="give fewer --fn values" + (" or --no-step" if step else ""))
+    return fn_hz
+
+
+def _rigid_rows(fn_hz: np.ndarray, d: Any, m: Any, dm: Any, exp: Any) -> list[dict[str, Any]]:
+    """One JSON record per f_n: gains, margins, per-loop delay margins, step metrics."""
+    rows = []
+    for i, f in enumerate(fn_hz):
+        r = {"fn_hz": float(f), "K": float(d.K[i]), "B": float(d.B[i]),
+             "phase_margin_deg": finite_or_none(m.phase_margin_deg[i]),
+             "crossover_hz": finite_or_none(m.crossover_hz[i]),
+             "gain_margin_db": finite_or_none(m.gain_margin_db[i]),
+             "delay_margin_ms": finite_or_none(m.delay_margin_ms[i]),
+             "stiffness_delay_margin_ms": finite_or_none(dm.stiffness_s[i] * 1e3),
+             "damping_delay_margin_ms": finite_or_none(dm.damping_s[i] * 1e3),
+             "stable": bool(m.stable[i])}
+        if exp is not None:
+            r["step"] = {"out_of_control": bool(exp.out_of_control[0, i]),
+                         "overshoot_pct": finite_or_none(exp.overshoot_pct[0, i]),
+                         "settling_time_s": finite_or_none(exp.settling_time_s[0, i]),
+                         "peak_force_n": float(np.max(np.abs(exp.force[0, i]))),
+                         "saturated_fraction": float(exp.saturated_fraction[0, i]),
+                         "buffer_ms": list(exp.delays_ms[0])}
+        rows.append(r)
+    return rows
+
+
+def _rigid_table(a: Any, rows: list[dict[str, Any]], t_s: float, t_d: float, fv: Any,
+                 with_step: bool) -> Table:
+    t = Table(title=f"Rigid actuator '{escape(a.name)}' (m = {a.m:g} kg, b = {a.b:g} Ns/m), "
+              f"T_s = {t_s:g} ms, T_d = {t_d:g} ms, f_v = {fv or 'none'} Hz")
+    cols = ["f_n [Hz]", "K [N/m]", "B [Ns/m]", "PM [deg]", "crossover [Hz]", "GM [dB]",
+            "DM [ms]", "DM stiffness [ms]", "DM damping [ms]", "stable"]
+    if with_step:
+        cols += ["step", "overshoot [%]", "settling [s]", "peak force [N]"]
+    for c in cols:
+        t.add_column(escape(c), justify="right")
+    for r in rows:
+        cells = [f"{r['fn_hz']:g}", f"{r['K']:.4g}", f"{r['B']:.4g}",
+                 _fmt(r["phase_margin_deg"], ".2f"), _fmt(r["crossover_hz"], ".2f"),
+                 _fmt(r["gain_margin_db"], ".2f"), _fmt(r["delay_margin_ms"], ".2f"),
+                 _fmt(r["stiffness_delay_margin_ms"], ".2f"),
+                 _fmt(r["damping_delay_margin_ms"], ".2f"),
+                 "yes" if r["stable"] else "[red]NO[/red]"]
+        if with_step:
+            s = r["step"]
+            cells += ["[red]OUT OF CONTROL[/red]" if s["out_of_control"] else "ok",
+                      _fmt(s["overshoot_pct"], ".1f"), _fmt(s["settling_time_s"], ".3f"),
+                      f"{s['peak_force_n']:.0f}"]
+        t.add_row(*cells)
+    return t
+
+
 @cli.command()
 @click.option("--fn", "fn", multiple=True, default=("4", "8", "12"), show_default=True,
               help="Natural frequency f_n [Hz]: values, or START:STOP:STEP.")
@@ -100,77 +167,22 @@ def rigid(fn, t_s, t_d, f_v, actuator, no_passive_damping, step, as_json) -> Non
 
     a = load_rigid(actuator)
     fv = _f_v(f_v)
-    fn_hz = parse_values("--fn", fn)
-    if fn_hz.size == 0:
-        raise InputError("--fn", "", "at least one frequency")
-    from .._validate import finite_array
-
-    finite_array("--fn [Hz]", fn_hz, minimum=0.0, strict=True)
-    from ..limits import check_range
-
-    for f in (fn_hz.min(), fn_hz.max()):
-        check_range("--fn [Hz]", f, "fn_hz")
-    from ..limits import BYTES_PER_DESIGN, check_budget, simulation_estimate
-
-    sim_bytes, sim_s = simulation_estimate(fn_hz.size, 1000, 1000) if step else (0.0, 0.0)
-    check_budget(f"{fn_hz.size:,} rigid design(s)" + (" and their 1 s steps" if step else ""),
-                 n_bytes=fn_hz.size * BYTES_PER_DESIGN + sim_bytes, seconds=sim_s,
-                 hint="give fewer --fn values" + (" or --no-step" if step else ""))
+    fn_hz = _rigid_fn(fn, step)
     ts, td = _ms("--t-s", t_s), _ms("--t-d", t_d)
     model = rigid_model(a, f_v=fv, passive_damping=not no_passive_damping)
     d = model.design(fn_hz, ts, td)
-    m = model.margins(d)
-    dm = model.delay_margins(d)
     exp = None
     if step:
         buf = (max(t_s - 0.5, 0.0), max(t_d - 0.5, 0.0))
         exp = step_experiment(a, fn_hz, delays_ms=(buf,), f_v=fv,
                               passive_damping=not no_passive_damping)
-    rows = []
-    for i, f in enumerate(fn_hz):
-        r = {"fn_hz": float(f), "K": float(d.K[i]), "B": float(d.B[i]),
-             "phase_margin_deg": finite_or_none(m.phase_margin_deg[i]),
-             "crossover_hz": finite_or_none(m.crossover_hz[i]),
-             "gain_margin_db": finite_or_none(m.gain_margin_db[i]),
-             "delay_margin_ms": finite_or_none(m.delay_margin_ms[i]),
-             "stiffness_delay_margin_ms": finite_or_none(dm.stiffness_s[i] * 1e3),
-             "damping_delay_margin_ms": finite_or_none(dm.damping_s[i] * 1e3),
-             "stable": bool(m.stable[i])}
-        if exp is not None:
-            r["step"] = {"out_of_control": bool(exp.out_of_control[0, i]),
-                         "overshoot_pct": finite_or_none(exp.overshoot_pct[0, i]),
-                         "settling_time_s": finite_or_none(exp.settling_time_s[0, i]),
-                         "peak_force_n": float(np.max(np.abs(exp.force[0, i]))),
-                         "saturated_fraction": float(exp.saturated_fraction[0, i]),
-                         "buffer_ms": list(exp.delays_ms[0])}
-        rows.append(r)
+    rows = _rigid_rows(fn_hz, d, model.margins(d), model.delay_margins(d), exp)
     if as_json:
         echo_json({"actuator": a.name, "T_s_ms": t_s, "T_d_ms": t_d, "f_v_hz": fv,
                    "passive_damping": not no_passive_damping,
                    "force_limit_n": a.max_force, "designs": rows})
         return
-    t = Table(title=f"Rigid actuator '{escape(a.name)}' (m = {a.m:g} kg, b = {a.b:g} Ns/m), "
-              f"T_s = {t_s:g} ms, T_d = {t_d:g} ms, f_v = {fv or 'none'} Hz")
-    cols = ["f_n [Hz]", "K [N/m]", "B [Ns/m]", "PM [deg]", "crossover [Hz]", "GM [dB]",
-            "DM [ms]", "DM stiffness [ms]", "DM damping [ms]", "stable"]
-    if exp is not None:
-        cols += ["step", "overshoot [%]", "settling [s]", "peak force [N]"]
-    for c in cols:
-        t.add_column(escape(c), justify="right")
-    for r in rows:
-        cells = [f"{r['fn_hz']:g}", f"{r['K']:.4g}", f"{r['B']:.4g}",
-                 _fmt(r["phase_margin_deg"], ".2f"), _fmt(r["crossover_hz"], ".2f"),
-                 _fmt(r["gain_margin_db"], ".2f"), _fmt(r["delay_margin_ms"], ".2f"),
-                 _fmt(r["stiffness_delay_margin_ms"], ".2f"),
-                 _fmt(r["damping_delay_margin_ms"], ".2f"),
-                 "yes" if r["stable"] else "[red]NO[/red]"]
-        if exp is not None:
-            s = r["step"]
-            cells += ["[red]OUT OF CONTROL[/red]" if s["out_of_control"] else "ok",
-                      _fmt(s["overshoot_pct"], ".1f"), _fmt(s["settling_time_s"], ".3f"),
-                      f"{s['peak_force_n']:.0f}"]
-        t.add_row(*cells)
-    console.print(t)
+    console.print(_rigid_table(a, rows, t_s, t_d, fv, exp is not None))
     if exp is not None:
         console.print(f"step: sampled at 1 kHz, delay buffers {exp.delays_ms[0][0]:g} / "
                       f"{exp.delays_ms[0][1]:g} ms, force limit {a.max_force:.0f} N; "
@@ -217,6 +229,70 @@ def latency_map_cmd(actuators, fn_rigid, fn_sea, t_max, t_min, n, max_fn, f_v, p
                      csv_p, as_json)
 
 
+def _map_summary(model: Any, f: float, mp: Any, sens: Any, dm: Any, n: int, t_min: float,
+                 t_max: float) -> dict[str, Any]:
+    """The JSON record of one latency map: corners, sensitivities, per-loop delay margins."""
+    return {
+        "actuator": model.name, "kind": model.kind, "fn_hz": f,
+        "n": n, "t_min_ms": t_min, "t_max_ms": t_max,
+        "stable_fraction": float(mp.stable.mean()),
+        "pm_at_min_delays_deg": finite_or_none(mp.phase_margin_deg[0, 0]),
+        "pm_stiffness_max_deg": finite_or_none(mp.phase_margin_deg[-1, 0]),
+        "pm_damping_max_deg": finite_or_none(mp.phase_margin_deg[0, -1]),
+        "stable_stiffness_max": bool(mp.stable[-1, 0]),
+        "stable_damping_max": bool(mp.stable[0, -1]),
+        "dpm_dts_deg_per_ms": finite_or_none(sens.dpm_dTs_deg_per_ms),
+        "dpm_dtd_deg_per_ms": finite_or_none(sens.dpm_dTd_deg_per_ms),
+        "sensitivity_ratio": finite_or_none(sens.ratio),
+        "stiffness_delay_margin_ms": finite_or_none(dm.stiffness_s * 1e3),
+        "damping_delay_margin_ms": finite_or_none(dm.damping_s * 1e3),
+    }
+
+
+def _map_rows(name: str, f: float, grid: np.ndarray, mp: Any, mf: Any) -> list[list[Any]]:
+    rows = []
+    for i, ts in enumerate(grid):
+        for j, td in enumerate(grid):
+            row = [name, f, ts * 1e3, td * 1e3, finite_or_none(mp.phase_margin_deg[i, j]),
+                   bool(mp.stable[i, j])]
+            if mf is not None:
+                row += [finite_or_none(mf.fn_hz[i, j]), str(mf.status[i, j])]
+            rows.append(row)
+    return rows
+
+
+def _map_csv(rows: list[list[Any]], max_fn: bool) -> str:
+    head = ["actuator", "fn_hz", "T_s_ms", "T_d_ms", "phase_margin_deg", "stable"]
+    if max_fn:
+        head += ["max_stable_fn_hz", "max_fn_status"]
+    buf = io.StringIO()
+    buf.write(",".join(head) + "\n")
+    for r in rows:
+        buf.write(",".join("none" if x is None else
+                           (f"{x:.10g}" if isinstance(x, float) else str(x)) for x in r) + "\n")
+    return buf.getvalue()
+
+
+def _map_table(summary: list[dict[str, Any]], n: int, t_min: float, t_max: float) -> Table:
+    t = Table(title=f"Latency maps: {n} x {n} grid, delays {t_min:g}..{t_max:g} ms on each loop")
+    for c in ("actuator", "f_n [Hz]", "stable [%]", "PM min delays", "PM max T_s",
+              "PM max T_d", "dPM/dT_s [deg/ms]", "dPM/dT_d [deg/ms]", "ratio",
+              "DM stiffness [ms]", "DM damping [ms]"):
+        t.add_column(escape(c), justify="right" if c != "actuator" else "left")
+    for s in summary:
+        t.add_row(s["actuator"], f"{s['fn_hz']:g}", f"{100 * s['stable_fraction']:.1f}",
+                  _fmt(s["pm_at_min_delays_deg"], ".1f"),
+                  _fmt(s["pm_stiffness_max_deg"], ".1f")
+                  + ("" if s["stable_stiffness_max"] else " (unstable)"),
+                  _fmt(s["pm_damping_max_deg"], ".1f")
+                  + ("" if s["stable_damping_max"] else " (unstable)"),
+                  _fmt(s["dpm_dts_deg_per_ms"], ".3f"), _fmt(s["dpm_dtd_deg_per_ms"], ".3f"),
+                  _fmt(s["sensitivity_ratio"], ".3g"),
+                  _fmt(s["stiffness_delay_margin_ms"], ".2f"),
+                  _fmt(s["damping_delay_margin_ms"], ".2f"))
+    return t
+
+
 def _latency_map(actuators, fn_rigid, fn_sea, t_max, t_min, n, max_fn, f_v, outs, plot, csv,
                  as_json) -> None:
     from ..latency import latency_map, max_stable_fn, pm_sensitivity
@@ -245,40 +321,10 @@ def _latency_map(actuators, fn_rigid, fn_sea, t_max, t_min, n, max_fn, f_v, outs
             maps.append(mp)
             if mf is not None:
                 maxfns.append((grid, grid, mf))
-            summary.append({
-                "actuator": model.name, "kind": model.kind, "fn_hz": float(f),
-                "n": n, "t_min_ms": t_min, "t_max_ms": t_max,
-                "stable_fraction": float(mp.stable.mean()),
-                "pm_at_min_delays_deg": finite_or_none(mp.phase_margin_deg[0, 0]),
-                "pm_stiffness_max_deg": finite_or_none(mp.phase_margin_deg[-1, 0]),
-                "pm_damping_max_deg": finite_or_none(mp.phase_margin_deg[0, -1]),
-                "stable_stiffness_max": bool(mp.stable[-1, 0]),
-                "stable_damping_max": bool(mp.stable[0, -1]),
-                "dpm_dts_deg_per_ms": finite_or_none(sens.dpm_dTs_deg_per_ms),
-                "dpm_dtd_deg_per_ms": finite_or_none(sens.dpm_dTd_deg_per_ms),
-                "sensitivity_ratio": finite_or_none(sens.ratio),
-                "stiffness_delay_margin_ms": finite_or_none(dm.stiffness_s * 1e3),
-                "damping_delay_margin_ms": finite_or_none(dm.damping_s * 1e3),
-            })
-            for i, ts in enumerate(grid):
-                for j, td in enumerate(grid):
-                    row = [model.name, float(f), ts * 1e3, td * 1e3,
-                           finite_or_none(mp.phase_margin_deg[i, j]), bool(mp.stable[i, j])]
-                    if mf is not None:
-                        row.append(finite_or_none(mf.fn_hz[i, j]))
-                        row.append(str(mf.status[i, j]))
-                    csv_rows.append(row)
+            summary.append(_map_summary(model, float(f), mp, sens, dm, n, t_min, t_max))
+            csv_rows += _map_rows(model.name, float(f), grid, mp, mf)
     if csv:
-        head = ["actuator", "fn_hz", "T_s_ms", "T_d_ms", "phase_margin_deg", "stable"]
-        if max_fn:
-            head += ["max_stable_fn_hz", "max_fn_status"]
-        buf = io.StringIO()
-        buf.write(",".join(head) + "\n")
-        for r in csv_rows:
-            buf.write(",".join("none" if x is None else
-                               (f"{x:.10g}" if isinstance(x, float) else str(x)) for x in r)
-                      + "\n")
-        outs.write(csv, buf.getvalue())
+        outs.write(csv, _map_csv(csv_rows, max_fn))
     if plot:
         from ..plots import latency_map_figure
 
@@ -287,23 +333,7 @@ def _latency_map(actuators, fn_rigid, fn_sea, t_max, t_min, n, max_fn, f_v, outs
     if as_json:
         echo_json({"maps": summary, "csv": csv and str(csv), "plot": plot and str(plot)})
         return
-    t = Table(title=f"Latency maps: {n} x {n} grid, delays {t_min:g}..{t_max:g} ms on each loop")
-    for c in ("actuator", "f_n [Hz]", "stable [%]", "PM min delays", "PM max T_s",
-              "PM max T_d", "dPM/dT_s [deg/ms]", "dPM/dT_d [deg/ms]", "ratio",
-              "DM stiffness [ms]", "DM damping [ms]"):
-        t.add_column(escape(c), justify="right" if c != "actuator" else "left")
-    for s in summary:
-        t.add_row(s["actuator"], f"{s['fn_hz']:g}", f"{100 * s['stable_fraction']:.1f}",
-                  _fmt(s["pm_at_min_delays_deg"], ".1f"),
-                  _fmt(s["pm_stiffness_max_deg"], ".1f")
-                  + ("" if s["stable_stiffness_max"] else " (unstable)"),
-                  _fmt(s["pm_damping_max_deg"], ".1f")
-                  + ("" if s["stable_damping_max"] else " (unstable)"),
-                  _fmt(s["dpm_dts_deg_per_ms"], ".3f"), _fmt(s["dpm_dtd_deg_per_ms"], ".3f"),
-                  _fmt(s["sensitivity_ratio"], ".3g"),
-                  _fmt(s["stiffness_delay_margin_ms"], ".2f"),
-                  _fmt(s["damping_delay_margin_ms"], ".2f"))
-    console.print(t)
+    console.print(_map_table(summary, n, t_min, t_max))
     console.print("PM max T_s: stiffness delay at --t-max, damping at --t-min (and vice versa). "
                   "DM: extra latency each loop alone tolerates at the smallest delays.")
     for what, path in (("plot", plot), ("csv", csv)):
