@@ -454,6 +454,10 @@ def _base_animation_figure(comparison):
 
 
 # --- time-domain responses (seactl.simulate) -------------------------------------------------
+MAX_LEGEND = 12
+"""Most curves a response figure labels in a legend."""
+
+
 def response_figure(t, y, labels, *, title="", ylabel="", current=None, unstable=None):
     """Responses ``y[k, T]`` versus time, one curve per label; with ``current`` (same
     shape, [A]) a second panel shows the motor current. Unstable curves are dashed."""
@@ -471,7 +475,11 @@ def response_figure(t, y, labels, *, title="", ylabel="", current=None, unstable
             axes[1, 0].plot(t, current[k], color=c, ls=ls)
     axes[0, 0].set_ylabel(ylabel)
     axes[0, 0].set_title(title, fontsize=10)
-    axes[0, 0].legend(fontsize=8)
+    if len(labels) <= MAX_LEGEND:
+        axes[0, 0].legend(fontsize=8)
+    else:   # a legend this long would not fit the figure (and tight_layout gives up)
+        axes[0, 0].text(0.99, 0.02, f"{len(labels)} curves", transform=axes[0, 0].transAxes,
+                        ha="right", va="bottom", fontsize=8)
     if current is not None:
         axes[1, 0].set_ylabel("motor current [A]")
     axes[-1, 0].set_xlabel("time [s]")
