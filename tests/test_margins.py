@@ -10,7 +10,8 @@ from seactl.actuators import UT_SEA
 from seactl.blockdiagram import DesignSubset
 from seactl.design import critically_damped_gains
 from seactl.loops import SEADesign, Timing, outer_loop
-from seactl.margins import default_grid, loop_margins, sea_margins
+from seactl.margins import default_grid, loop_margins
+from seactl.sea import sea_margins
 
 A = UT_SEA
 TABLE_I_PM = {12: 45.1, 14: 43.2, 16: 40.0, 18: 36.5, 20: 33.2}
@@ -199,7 +200,7 @@ def test_close_pair_of_crossings_is_found_on_any_grid(per_decade):
     mag = np.abs(outer_loop()(d, 1j * w))
     idx = np.nonzero((mag[:-1] >= 1) != (mag[1:] >= 1))[0]
     assert idx.size == 3
-    from seactl.margins import sea_reference_frequency
+    from seactl.sea import sea_reference_frequency
     grid = default_grid(sea_reference_frequency(d), per_decade=per_decade)
     from seactl.loops import inner_loop
     inner = loop_margins(inner_loop(), d, grid, stability_only=True)

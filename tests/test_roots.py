@@ -18,9 +18,9 @@ from seactl.actuators import UT_SEA
 from seactl.cli import main
 from seactl.design import critically_damped_gains
 from seactl.loops import SEA_DIAGRAM, SEADesign, Timing, closed_loop, outer_loop
-from seactl.margins import sea_margins
 from seactl.rigid import RIGID_DIAGRAM, UT_LINEAR, RigidDesign
 from seactl.roots import characteristic_roots
+from seactl.sea import sea_margins
 
 # The issue's counterexample: a PM of 18 degrees was reported "stable".
 COUNTER = dict(fn=15.93, gs=1.867, ms=(1.99, 1.96, 18.54))
@@ -141,7 +141,7 @@ def test_roots_match_a_high_order_pade_cascade(case):
 
 def test_growth_rate_matches_a_simulation():
     """Delays on the simulator's 50 us grid (no rounding of the delay buffers)."""
-    from seactl.simulate import sea_step
+    from seactl.sea import sea_step
 
     d = sc.design(COUNTER["fn"], gs=COUNTER["gs"], delays_ms=(2.0, 2.0, 18.5))
     sigma = float(d.roots(count=1).spectral_abscissa)

@@ -18,15 +18,13 @@ from seactl.cli import main
 from seactl.design import critically_damped_gains
 from seactl.errors import InputError
 from seactl.loops import SEA_DIAGRAM, SEA_DIAGRAM_NO_ZERO, SEADesign, Timing, closed_loop
-from seactl.margins import sea_margins
+from seactl.sea import sea_impulse, sea_margins, sea_step
 from seactl.simulate import (
     Friction,
     Sine,
     Step,
     impulse_metrics,
     realize_tustin,
-    sea_impulse,
-    sea_step,
     simulate,
     step_metrics,
 )

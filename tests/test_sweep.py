@@ -13,7 +13,7 @@ from seactl.cli import main
 from seactl.design import critically_damped_gains
 from seactl.errors import InfeasibleDesignError, InputError
 from seactl.loops import SEADesign, Timing
-from seactl.margins import sea_margins
+from seactl.sea import sea_margins
 from seactl.sweep import (
     RobustResult,
     SweepInterrupted,

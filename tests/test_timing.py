@@ -16,7 +16,8 @@ import seactl as sc
 from seactl.blockdiagram import Block, BlockDiagram
 from seactl.cli import main
 from seactl.errors import InputError
-from seactl.simulate import Step, sea_step, simulate
+from seactl.sea import sea_step
+from seactl.simulate import Step, simulate
 from seactl.timing import (
     Bernoulli,
     Constant,

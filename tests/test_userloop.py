@@ -74,7 +74,7 @@ def test_paper_sea_file_gives_table_i_margins_exactly(paper, builtin, capsys):
 
 def test_paper_sea_file_equals_builtin_impedance_and_responses(paper, builtin):
     from seactl.impedance import impedance
-    from seactl.simulate import sea_impulse, sea_step
+    from seactl.sea import sea_impulse, sea_step
 
     f = np.logspace(-1, 3, 40)
     z_ref = impedance(builtin.sea, f).z
@@ -95,7 +95,7 @@ def test_paper_sea_file_equals_builtin_impedance_and_responses(paper, builtin):
 def test_set_overrides_and_ranges_make_a_batch(paper):
     """--set Kq=...: the same loop with other gains equals the built-in with those gains."""
     from seactl.loops import Gains, SEADesign, Timing
-    from seactl.margins import sea_margins
+    from seactl.sea import sea_margins
 
     kq = np.array([60.0, 83.17208068860442, 100.0])
     m = paper.with_values(Kq=kq).analyze(jitter=False)["outer"].margins

@@ -16,7 +16,7 @@ import pytest
 
 import seactl as sc
 from seactl.cli import main
-from seactl.simulate import sea_impulse, sea_step
+from seactl.sea import sea_impulse, sea_step
 from seactl.verdict import judge, judge_response
 
 # (f_n [Hz], T_tau, T_qs, T_qd [ms]): hard designs near and past the stability boundary.

@@ -223,7 +223,7 @@ class Design:
 
         The loop is the outer impedance loop with the inner torque loop closed and exact
         delays; stability is the Nyquist criterion of the whole cascade
-        (:func:`seactl.margins.sea_margins`).
+        (:func:`seactl.sea.sea_margins`).
 
         Returns
         -------
@@ -238,7 +238,7 @@ class Design:
         >>> d.margins().phase_margin_deg.round(2)
         array([45.13, 43.26, 40.03])
         """
-        from .margins import sea_margins
+        from .sea import sea_margins
 
         return MarginsResult(sea_margins(self.sea), self._label_columns())
 
@@ -366,7 +366,7 @@ class Design:
         >>> bool(r.metrics.stable), round(float(r.metrics.final_value), 3)
         (True, 1.0)
         """
-        from .simulate import sea_step
+        from .sea import sea_step
 
         self._check_simulation(mode, rate_hz, t_end_s)
         return ResponseResult(sea_step(self.sea, zero=zero, mode=mode, rate_hz=rate_hz,
@@ -414,7 +414,7 @@ class Design:
         >>> bool(r.metrics.stable), bool(r.metrics.recovery_time_s < 0.2)
         (True, True)
         """
-        from .simulate import sea_impulse
+        from .sea import sea_impulse
 
         self._check_simulation(mode, rate_hz, t_end_s)
         return ResponseResult(sea_impulse(self.sea, impulse_nms=impulse_nms, mode=mode,

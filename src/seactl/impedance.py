@@ -546,7 +546,7 @@ def zregion(designs: Any, f_hz: Any, *, min_pm_deg: float = 30.0,
     ``Re Z >= 0`` over the whole frequency grid's range.  Raises
     :class:`~seactl.errors.InfeasibleDesignError` when no design is admissible.
     """
-    from .margins import sea_margins
+    from .sea import sea_margins
 
     _check_model(model)
     f = _check_freq(f_hz)

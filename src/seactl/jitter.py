@@ -53,7 +53,8 @@ import numpy as np
 
 from .blockdiagram import DesignSubset, Transfer
 from .latency import LoopModel, sea_split_diagram
-from .margins import default_grid, sea_margins, sea_reference_frequency
+from .margins import default_grid
+from .sea import sea_margins, sea_reference_frequency
 
 LoopFn = Callable[[Any, np.ndarray], np.ndarray]
 
@@ -257,7 +258,7 @@ def sea_jitter_margins(design: Any, omega: np.ndarray | None = None) -> JitterMa
     -------
     JitterMargins
         With the nominal stability and the outer loop's delay margin of
-        :func:`seactl.margins.sea_margins`.
+        :func:`seactl.sea.sea_margins`.
 
     Examples
     --------

@@ -198,7 +198,7 @@ class LoopModel:
     def grid(self, design: Any) -> np.ndarray:
         if self.kind == "rigid":
             return default_grid(design.wn)
-        from .margins import sea_reference_frequency
+        from .sea import sea_reference_frequency
 
         return default_grid(sea_reference_frequency(design))
 

@@ -761,41 +761,6 @@ def first_per_design(groups: np.ndarray, key: np.ndarray) -> np.ndarray:
 
 
 # --------------------------------------------------------------------------- SEA
-def sea_reference_frequency(design: Any) -> np.ndarray:
-    """A frequency scale [rad/s] for the SEA's bracketing grid: the fourth root of the
-    delay-free closed-loop constant term (= w_n for critically-damped designs), or the
-    spring resonance when there is no stiffness feedback."""
-    u = 1 + design.beta * design.Ktau
-    c0 = u * design.k * design.Kq / (design.Im * design.Ij)
-    spring = np.sqrt(design.k * (design.Im + design.Ij) / (design.Im * design.Ij))
-    return np.where(c0 > 0, np.sqrt(np.sqrt(np.abs(c0))), spring)
-
-
-def sea_margins(design: Any, omega: np.ndarray | None = None) -> Margins:
-    """Margins of the SEA outer impedance loop (inner torque loop closed).
-
-    The open loop's right-half-plane poles are those of the closed inner torque
-    loop, counted by the Nyquist criterion on the inner loop (whose own open
-    loop ``P_F C e^{-s T_tau}`` is stable), so ``stable`` is the stability of
-    the whole cascaded system.
-
-    Examples
-    --------
-    Table I, f_n = 12 Hz:
-
-    >>> from seactl.actuators import UT_SEA
-    >>> from seactl.design import critically_damped_gains
-    >>> from seactl.loops import SEADesign, Timing
-    >>> d = SEADesign(UT_SEA, critically_damped_gains(UT_SEA, 12.0),
-    ...               Timing.from_ms(0.5, 2.0, 0.5, 50.0, 100.0))
-    >>> round(float(sea_margins(d).phase_margin_deg), 1)
-    45.1
-    """
-    from .loops import outer_loop
-
-    if omega is None:
-        omega = default_grid(sea_reference_frequency(design))
-    return loop_margins(outer_loop(), design, omega)
 
 
 def count_right_roots(q: QuasiPolynomial, w_ref: np.ndarray) -> tuple[np.ndarray, np.ndarray]:

@@ -273,7 +273,7 @@ def evaluate_points(spec: SweepSpec, values: dict[str, np.ndarray], n: int
     and the ``feasible`` mask says so (converted to nulls by :func:`to_table`)."""
     from .design import critically_damped_gains, solve_gains
     from .loops import SEADesign, Timing
-    from .margins import sea_margins
+    from .sea import sea_margins
 
     fixed = spec.fixed()
 

@@ -112,7 +112,7 @@ def bench_margins(repeat: int) -> BenchResult:
 
     from ..blockdiagram import DesignSubset
     from ..loops import outer_loop
-    from ..margins import sea_margins
+    from ..sea import sea_margins
 
     fn, d = random_designs(10_000)
     sea_margins(d)  # compile once (symbolic derivation is cached)

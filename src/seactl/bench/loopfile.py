@@ -38,7 +38,7 @@ def _paper_loop():
 
 @benchmark("loop-file")
 def bench_loop_file(repeat: int) -> BenchResult:
-    from ..margins import sea_margins
+    from ..sea import sea_margins
     from ..userloop import break_margins
 
     builtin, values, latency = _designs(10_000)

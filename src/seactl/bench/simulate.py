@@ -48,7 +48,7 @@ def bench_simulate(repeat: int) -> list[BenchResult]:
     from ..actuators import UT_SEA
     from ..design import critically_damped_gains
     from ..loops import SEADesign, Timing
-    from ..simulate import sea_step
+    from ..sea import sea_step
 
     timing = Timing.from_ms(1.0, 1.0, 1.0, 50.0, 100.0)
     one = SEADesign(UT_SEA, critically_damped_gains(UT_SEA, 14.0), timing)

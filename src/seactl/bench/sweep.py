@@ -69,7 +69,7 @@ def _one_by_one(spec, points: np.ndarray) -> tuple[float, np.ndarray]:
     """Seconds per point and phase margins of ``points`` computed one at a time."""
     from ..design import critically_damped_gains
     from ..loops import SEADesign, Timing
-    from ..margins import sea_margins
+    from ..sea import sea_margins
 
     fixed = spec.fixed()
     vals = {n: np.asarray(v) for n, v in spec.swept}

@@ -134,7 +134,7 @@ def _impedance(spec: DesignSpec, f: np.ndarray, model: str, load: bool, units: s
         scan_range,
     )
     from ..impedance import impedance as compute
-    from ..margins import sea_margins
+    from ..sea import sea_margins
 
     designs = spec.designs()
     resp = compute(designs, f, model=model, load=load, units=units)

@@ -354,7 +354,7 @@ def step(spec: DesignSpec, amplitude: float, mode: str, rate_hz: float, zero: bo
       seactl step --fn 14 --t-tau 1 --t-qs 1 --t-qd 1 --f-qd 50 --f-taud 100 --gs 2 \\
           --mode sampled --plot s.png
     """
-    from ..simulate import sea_step
+    from ..sea import sea_step
 
     check_range("--amplitude [rad]", abs(amplitude), "amplitude_rad")
     check_simulation(spec, mode, rate_hz, t_end or 0.5)
@@ -397,7 +397,7 @@ def impulse(spec: DesignSpec, impulse_nms: float, band: float, mode: str, rate_h
       seactl impulse --fn 14 --t-tau 0.5 --t-qs 2 --t-qd 0.5 --f-qd 50 --f-taud 100 \\
           --mode sampled --plot i.png
     """
-    from ..simulate import sea_impulse
+    from ..sea import sea_impulse
 
     if not (0 < band < 1):
         raise InputError("--band", band, "a fraction in (0, 1)")

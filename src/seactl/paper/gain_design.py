@@ -9,8 +9,8 @@ from ..actuators import UT_SEA
 from ..api import Design, design
 from ..design import critically_damped_gains, feasible_fn_range
 from ..loops import SEADesign, Timing
-from ..margins import sea_margins
 from ..report import Claim, Context, Figure, Section, numeric_claim, section
+from ..sea import sea_margins
 from .constants import TABLE_I, TABLE_I_DECIMALS, TABLE_I_TIMING
 
 

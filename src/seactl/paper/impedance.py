@@ -23,8 +23,8 @@ from ..impedance import (
     zregion,
 )
 from ..loops import SEADesign, Timing, closed_loop
-from ..margins import sea_margins
 from ..report import Claim, Context, Figure, Section, numeric_claim, pm_cell, section
+from ..sea import sea_margins
 from .constants import FILTERS, TABLE_I_TIMING
 
 F_HZ = np.logspace(-1, 3, 600)

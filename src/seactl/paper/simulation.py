@@ -9,9 +9,9 @@ import numpy as np
 from ..actuators import UT_SEA
 from ..design import critically_damped_gains
 from ..loops import SEADesign, Timing
-from ..margins import sea_margins
 from ..report import Claim, Context, Figure, Section, numeric_claim, section
-from ..simulate import impulse_metrics, sea_impulse, sea_step
+from ..sea import sea_impulse, sea_margins, sea_step
+from ..simulate import impulse_metrics
 from .constants import TABLE_I_TIMING
 
 FN_A = np.array([14.0, 16.0, 18.0, 20.0])
