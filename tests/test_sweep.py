@@ -118,7 +118,9 @@ def test_resume_after_interruption_gives_the_same_dataset(reference, tmp_path):
     assert missing_chunks(SPEC, out) == [3, 4]
     assert json.loads((out / "_manifest.json").read_text())["status"] == "running"
     # a writer killed mid-file leaves only a dot-named temporary, never a part
-    (out / ".part-00003.parquet.tmp-999").write_bytes(b"partial")
+    from seactl.outputs import TEMP_TAG
+
+    (out / f".part-00003.parquet{TEMP_TAG}999.parquet").write_bytes(b"partial")
     with pytest.raises(InputError, match="--resume"):
         run_sweep(SPEC, out, workers=0)
     res = run_sweep(SPEC, out, workers=0, resume=True)

@@ -340,26 +340,42 @@ def _symbolic(diagram: BlockDiagram, output: str, input: str, cut: tuple[str, ..
               kind: str | None) -> Any:
     """The transfer as a sympy expression of block names, derived once and kept on disk
     (the derivation takes seconds for larger diagrams; loading it, milliseconds)."""
+
+    key = _structure_key(diagram, output, input, cut, kind)
+    expr = _cache_load(key)
+    if expr is None:
+        expr = _derive(diagram, output, input, cut, kind)
+        _cache_store(key, expr)
+    return expr
+
+
+def _cache_load(key: str) -> Any:
+    """A derived expression from the disk cache, or None (absent, disabled or damaged)."""
     import sympy as sp
 
     folder = _cache_dir()
-    path = folder / f"{_structure_key(diagram, output, input, cut, kind)}.srepr" \
-        if folder else None
+    path = folder / f"{key}.srepr" if folder else None
     if path is not None and path.is_file():
         try:
             return sp.sympify(path.read_text())
         except (SyntaxError, TypeError, ValueError):  # a damaged entry: derive again
             pass
-    expr = _derive(diagram, output, input, cut, kind)
-    if path is not None:
+    return None
+
+
+def _cache_store(key: str, expr: Any) -> None:
+    """Keep ``expr`` on disk (atomically); a read-only home or a full disk only costs speed."""
+    import sympy as sp
+
+    from .errors import OutputError
+    from .outputs import write_atomic
+
+    folder = _cache_dir()
+    if folder is not None:
         try:
-            folder.mkdir(parents=True, exist_ok=True)
-            tmp = path.with_suffix(f".{os.getpid()}.tmp")
-            tmp.write_text(sp.srepr(expr))
-            os.replace(tmp, path)
-        except OSError:  # read-only home, full disk: the cache is only an optimization
+            write_atomic(folder / f"{key}.srepr", sp.srepr(expr))
+        except OutputError:
             pass
-    return expr
 
 
 def _derive(diagram: BlockDiagram, output: str, input: str, cut: tuple[str, ...],
@@ -607,14 +623,10 @@ def _determinant(diagram: BlockDiagram, held: tuple[str, ...]) -> Any:
     (constant blocks substituted), expanded; cached on disk like :func:`_symbolic`."""
     import sympy as sp
 
-    folder = _cache_dir()
     key = _structure_key(diagram, "", "", held, "det")
-    path = folder / f"{key}.srepr" if folder else None
-    if path is not None and path.is_file():
-        try:
-            return sp.sympify(path.read_text())
-        except (SyntaxError, TypeError, ValueError):
-            pass
+    cached = _cache_load(key)
+    if cached is not None:
+        return cached
     exogenous = set(diagram.inputs) | set(held)
     unknowns = sorted(set(diagram.signals) - exogenous)
     index = {n: i for i, n in enumerate(unknowns)}
@@ -625,14 +637,7 @@ def _determinant(diagram: BlockDiagram, held: tuple[str, ...]) -> Any:
             A[index[b.dst], index[b.src]] -= sp.Symbol(b.name) if const is None \
                 else sp.nsimplify(const)
     expr = sp.expand(A.det(method="berkowitz"))
-    if path is not None:
-        try:
-            folder.mkdir(parents=True, exist_ok=True)
-            tmp = path.with_suffix(f".{os.getpid()}.tmp")
-            tmp.write_text(sp.srepr(expr))
-            os.replace(tmp, path)
-        except OSError:
-            pass
+    _cache_store(key, expr)
     return expr
 
 

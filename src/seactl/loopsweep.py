@@ -73,7 +73,7 @@ def sweep_loop(loop: Any, values: dict[str, Any], out: str | Path, *, chunk_size
     write the dataset; returns the summary (also written to ``_summary.json``)."""
     import pyarrow as pa
 
-    from .report import write_atomic
+    from .outputs import write_atomic
 
     if chunk_size < 1:
         raise InputError("--chunk-size", chunk_size, ">= 1")

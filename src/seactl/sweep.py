@@ -56,6 +56,7 @@ import numpy as np
 from .actuators import SEAParams
 from .axes import ACTUATOR_AXES, ACTUATOR_FIELDS, AXES, SAMPLINGS
 from .errors import InputError, OutputError
+from .outputs import TEMP_TAG
 
 FORMAT = "seactl-sweep/1"
 
@@ -384,17 +385,12 @@ def part_path(out: Path, i: int) -> Path:
 
 
 def write_chunk(out: Path, i: int, table: Any) -> None:
-    """Write chunk ``i`` atomically (temporary dot-name, then ``os.replace``)."""
+    """Write chunk ``i`` atomically (:func:`seactl.outputs.write_atomic_with`)."""
     import pyarrow.parquet as pq
 
-    final = part_path(out, i)
-    tmp = final.with_name(f".{final.name}.tmp-{os.getpid()}")
-    try:
-        pq.write_table(table, tmp)
-        os.replace(tmp, final)
-    except BaseException:
-        tmp.unlink(missing_ok=True)
-        raise
+    from .outputs import write_atomic_with
+
+    write_atomic_with(part_path(out, i), lambda tmp: pq.write_table(table, tmp))
 
 
 def _chunk_done(spec: SweepSpec, out: Path, i: int) -> bool:
@@ -509,7 +505,7 @@ def prepare_output(spec: SweepSpec, out: Path, *, resume: bool, overwrite: bool)
         if overwrite and (out / MANIFEST).is_file():
             shutil.rmtree(out)
         out.mkdir(parents=True, exist_ok=True)
-        for stale in out.glob(".part-*.tmp-*"):   # left by a killed writer
+        for stale in out.glob(f".part-*{TEMP_TAG}*"):   # left by a killed writer
             stale.unlink(missing_ok=True)
     except OSError as exc:
         from .outputs import reason
@@ -520,7 +516,7 @@ def prepare_output(spec: SweepSpec, out: Path, *, resume: bool, overwrite: bool)
 
 def _remove_new_sweep(out: Path) -> None:
     """Undo :func:`prepare_output` on a directory it created (no chunk was written)."""
-    for p in [out / MANIFEST, *out.glob(".part-*.tmp-*"), *out.glob(f".{MANIFEST}*")]:
+    for p in [out / MANIFEST, *out.glob(f".part-*{TEMP_TAG}*"), *out.glob(f".{MANIFEST}*")]:
         p.unlink(missing_ok=True)
     try:
         out.rmdir()
