@@ -57,7 +57,27 @@ MARGIN_COLUMNS = ("phase_margin_deg", "crossover_hz", "gain_margin_db", "delay_m
                   "stable")
 
 
-class MarginsResult(_Wrapped):
+class _Columns(_Wrapped):
+    """A result whose ``_columns()`` are arrays of the batch shape (labels, then values)."""
+
+    def _columns(self) -> dict[str, np.ndarray]:  # pragma: no cover - abstract
+        raise NotImplementedError
+
+    def records(self) -> list[dict[str, Any]]:
+        """One JSON-ready dict per design, in C order of the batch (the CLI's rows).
+
+        Returns
+        -------
+        list of dict
+            Keys as in :meth:`to_dict`; a value that is not finite (a margin that does
+            not exist, or is infinite) is ``None``.
+        """
+        cols = {k: np.ravel(v) for k, v in self._columns().items()}
+        n = len(next(iter(cols.values())))
+        return [{k: json_value(v[i]) for k, v in cols.items()} for i in range(n)]
+
+
+class MarginsResult(_Columns):
     """Stability margins of a design batch (arrays of the batch shape).
 
     Every attribute of :class:`seactl.margins.Margins` is available
@@ -106,18 +126,6 @@ class MarginsResult(_Wrapped):
             ``gain_margin_db``, ``delay_margin_ms``, ``stable``.
         """
         return {k: json_array(v) for k, v in self._columns().items()}
-
-    def records(self) -> list[dict[str, Any]]:
-        """One JSON-ready dict per design, in C order of the batch (the CLI's rows).
-
-        Returns
-        -------
-        list of dict
-            Keys as in :meth:`to_dict`; a margin that does not exist is ``None``.
-        """
-        cols = {k: np.ravel(v) for k, v in self._columns().items()}
-        n = len(next(iter(cols.values())))
-        return [{k: json_value(v[i]) for k, v in cols.items()} for i in range(n)]
 
     def plot(self, ax: Any = None, x: str = "fn_hz") -> Any:
         """Phase margin against a label column (default ``fn_hz``); unstable designs in red.
@@ -294,7 +302,7 @@ JITTER_COLUMNS = {"jitter_margin_ms": "overall", "stiffness_jitter_margin_ms": "
                   "damping_jitter_margin_ms": "damping", "torque_jitter_margin_ms": "torque"}
 
 
-class JitterResult(_Wrapped):
+class JitterResult(_Columns):
     """Jitter margins of a design batch (arrays of the batch shape).
 
     Every attribute of :class:`seactl.jitter.JitterMargins` is available (``overall_s``,
@@ -348,18 +356,6 @@ class JitterResult(_Wrapped):
             ``torque_jitter_margin_ms``, ``delay_margin_ms``, ``stable``.
         """
         return {k: json_array(v) for k, v in self._columns().items()}
-
-    def records(self) -> list[dict[str, Any]]:
-        """One JSON-ready dict per design, in C order (the rows of ``seactl jitter``).
-
-        Returns
-        -------
-        list of dict
-            Keys as in :meth:`to_dict`; an infinite margin is ``None``.
-        """
-        cols = {k: np.ravel(v) for k, v in self._columns().items()}
-        n = len(next(iter(cols.values())))
-        return [{k: json_value(v[i]) for k, v in cols.items()} for i in range(n)]
 
     def plot(self, ax: Any = None, x: str = "fn_hz") -> Any:
         """Jitter margins of every loop and the delay margin against a label column.

@@ -440,6 +440,18 @@ class _Intervals:
         return _Intervals(*(getattr(self, f)[mask] for f in _FIELDS))
 
 
+def _solve_brackets(parts: list, loop_at: Callable[[np.ndarray, np.ndarray], np.ndarray],
+                    kind: str) -> tuple[np.ndarray, np.ndarray]:
+    """Designs and refined frequencies of the crossings bracketed in ``parts`` (lists of
+    ``(design, w_lo, w_hi)`` arrays)."""
+    b = np.concatenate([p[0] for p in parts]) if parts else np.empty(0, int)
+    if b.size == 0:
+        return b, np.empty(0)
+    lo = np.concatenate([p[1] for p in parts])
+    hi = np.concatenate([p[2] for p in parts])
+    return b, _refine(loop_at, b, lo, hi, kind)
+
+
 def _sup(h: np.ndarray, da: np.ndarray, db: np.ndarray, bound: np.ndarray) -> np.ndarray:
     """Bound on ``|f|`` over an interval of width ``h`` from ``|f|`` at its ends and a
     bound on ``|f'|``: ``(|f_a| + |f_b| + h bound) / 2``."""
@@ -546,13 +558,7 @@ class _CertifiedScan:
         return self.N.at(idx, w)[0] / self.D.at(idx, w)[0]
 
     def solve(self, kind: str) -> tuple[np.ndarray, np.ndarray]:
-        parts = self.brackets[kind]
-        b = np.concatenate([p[0] for p in parts]) if parts else np.empty(0, int)
-        if b.size == 0:
-            return b, np.empty(0)
-        lo = np.concatenate([p[1] for p in parts])
-        hi = np.concatenate([p[2] for p in parts])
-        return b, _refine(self.loop_at, b, lo, hi, kind)
+        return _solve_brackets(self.brackets[kind], self.loop_at, kind)
 
 
 def certified_margins(loop: Transfer, design: Any, w_ref: np.ndarray | float, *,
@@ -737,13 +743,8 @@ class _Scan:
         return L
 
     def solve(self, kind: str) -> tuple[np.ndarray, np.ndarray]:
-        parts = self.brackets[kind]
-        b = np.concatenate([p[0] for p in parts]) if parts else np.empty(0, int)
-        if b.size == 0:
-            return b, np.empty(0)
-        lo = np.concatenate([p[1] for p in parts])
-        hi = np.concatenate([p[2] for p in parts])
-        return b, _refine(_subset_loop(self.loop, self.design, self.shape), b, lo, hi, kind)
+        return _solve_brackets(self.brackets[kind],
+                               _subset_loop(self.loop, self.design, self.shape), kind)
 
     def winding(self, n: int) -> np.ndarray:
         """Total phase change of ``1 + L`` [rad] per design."""
