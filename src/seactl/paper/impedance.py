@@ -348,20 +348,20 @@ def _passivity_causes(sec: Section, base: SEADesign, delayed: list) -> None:
     ``K_q T_qs > B_q`` (``Re Z(0) ~ B_q - K_q T_qs`` plus small ``b_m``, ``T_tau`` and
     ``T_qd`` terms); otherwise the non-passive bands lie at high frequency."""
     kq, bq = float(base.gains.Kq), float(base.gains.Bq)
-    causes = []
+    causes, where = [], {}
     for lbl, d in delayed:
         bands = passivity(d, (0.1, 1000.0)).bands_hz[()]
         low = any(a < 1.0 for a, _ in bands)
         span = ", ".join(f"{a:.3g}-{b:.3g}" for a, b in bands)
         t_qs = float(d.timing.T_qs)
+        where[lbl] = "low frequency" if low else "high frequency only"
         causes.append(f"{lbl}: K_q T_qs = {kq * t_qs:.2f} {'>' if kq * t_qs > bq else '<'} "
-                      f"B_q = {bq:.2f}, non-passive at {span} Hz "
-                      f"({'low frequency' if low else 'high frequency only'})")
+                      f"B_q = {bq:.2f}, non-passive at {span} Hz")
     sec.claims.append(Claim(
         f"{sec.id}.passivity_cause", "Impedance analysis",
         "the stiffness delay makes the SEA non-passive at low frequency only when "
         "K_q T_qs > B_q; the other delayed sets are non-passive at high frequency only",
-        "finding", "; ".join(causes), "", "info"))
+        "finding", where, "", "info", "Per delay set: " + "; ".join(causes) + "."))
     low = {}
     for t_ms in (8.0, 9.0):
         d = base.with_timing(Timing.from_ms(0.0, t_ms, 0.0))
