@@ -324,7 +324,9 @@ def browser(tmp_path):
     for arg in ("--headless=new", "--no-sandbox", "--disable-dev-shm-usage",
                 "--window-size=1400,1100"):
         opts.add_argument(arg)
-    opts.add_experimental_option("prefs", {"download.default_directory": str(tmp_path)})
+    opts.add_experimental_option("prefs", {  # several downloads without a prompt
+        "download.default_directory": str(tmp_path),
+        "profile.default_content_setting_values.automatic_downloads": 1})
     service = Service(CHROMEDRIVER)
     driver = webdriver.Chrome(service=service, options=opts)
     try:
