@@ -97,6 +97,32 @@ def test_latency_map_is_the_library_latency_map_at_gs_1():
     np.testing.assert_allclose(pm, expect, atol=1e-6)
 
 
+@pytest.mark.parametrize("delays_ms", [(0.5, 2.0, 0.5), (0.5, 15.0, 10.0), (0.5, 2.0, 10.0)])
+def test_roots_view_is_the_library_roots_and_agrees_with_the_stability_word(delays_ms):
+    """Oracle: ``d.roots()`` on the same design (the public API, called here), and the
+    Nyquist count of ``d.margins()`` behind the word 'stable' / 'UNSTABLE' (a different
+    method: the argument principle on the frequency response, not the roots)."""
+    from seactl.explore.app import results_html
+
+    c = replace(TABLE_I, t_tau_ms=delays_ms[0], t_qs_ms=delays_ms[1], t_qd_ms=delays_ms[2])
+    v = model.views(c)
+    lib = c.design().roots(count=model.ROOTS_COUNT)
+    z = np.reshape(lib.roots, -1)
+    z = z[np.isfinite(z)]
+    shown = np.sort_complex(v["roots"]["re"] + 1j * v["roots"]["im"])
+    expect = np.sort_complex(np.concatenate([z, np.conj(z[z.imag > 0])]))
+    np.testing.assert_allclose(shown, expect, rtol=1e-12)
+    sa = float(np.reshape(lib.spectral_abscissa, -1)[0])
+    r = v["results"]
+    assert r["spectral_abscissa_per_s"] == pytest.approx(sa, rel=1e-12)
+    assert r["stable"] == (sa < 0)
+    word = "stable" if sa < 0 else "UNSTABLE"
+    assert f"<td id='stable-value' style='text-align:right'><b>{word}</b>" in \
+        results_html(r, "N m s/rad")
+    x0, x1 = v["roots_range"]["x"]
+    assert x0 < min(0.0, shown.real.min()) and x1 > max(0.0, shown.real.max())  # jw axis
+
+
 def test_maps_are_cached_and_reused_across_updates():
     a = model.views(replace(TABLE_I, gs=1.5))
     b = model.views(replace(TABLE_I, gs=2.0))  # GS moves the marker, not the PM map
@@ -150,6 +176,9 @@ def test_callbacks_update_the_page_and_survive_a_bad_upload():
 
     ex = Explorer()  # no document: requests update synchronously
     assert ">43.26<" in ex.results.text
+    assert ex.titles["roots"].text == ("rightmost roots: spectral abscissa -39.85 1/s "
+                                       "(stable)")  # the RootsResult docstring's value
+    assert len(ex.sources["roots"].data["re"]) >= 3
     ex.sliders["fn_hz"].value = 16.0
     expect = sc.design(16.0, delays_ms=(0.5, 2, 0.5), filters_hz=(50, 100)).margins()
     assert f">{float(expect.phase_margin_deg):.2f}<" in ex.results.text
@@ -164,6 +193,7 @@ def test_callbacks_update_the_page_and_survive_a_bad_upload():
     ex.load_upload("my-sea.toml", base64.b64encode(README_TOML).decode())
     assert ex.actuator.value == "my-sea" and "my-sea.toml" in ex.command.text
     assert len(ex.last_ms) >= 4 and max(m[-1] for m in ex.last_ms) < 5000  # see README
+    assert all(len(m) == len(model.STAGES) for m in ex.last_ms)
 
 
 class _QueueDoc:
@@ -294,7 +324,9 @@ def browser(tmp_path):
     for arg in ("--headless=new", "--no-sandbox", "--disable-dev-shm-usage",
                 "--window-size=1400,1100"):
         opts.add_argument(arg)
-    opts.add_experimental_option("prefs", {"download.default_directory": str(tmp_path)})
+    opts.add_experimental_option("prefs", {  # several downloads without a prompt
+        "download.default_directory": str(tmp_path),
+        "profile.default_content_setting_values.automatic_downloads": 1})
     service = Service(CHROMEDRIVER)
     driver = webdriver.Chrome(service=service, options=opts)
     try:
@@ -386,6 +418,16 @@ def test_browser_upload_export_and_copy(server, browser, tmp_path):
     doc = json.loads(path.read_text())
     assert f"{doc['results']['phase_margin_deg']:.2f}" == shown
     assert doc["design"]["fn_hz"] == 14.0 and doc["actuator"]["name"] == "my-sea"
+    for fmt, header in (("svg", b"<?xml"), ("png", b"\x89PNG\r\n\x1a\n")):
+        _click(browser, f"figures {fmt.upper()}")
+        fig = tmp_path / f"seactl-explore.{fmt}"
+        _wait(lambda fig=fig: fig.is_file() and fig.stat().st_size > 1000)
+        assert fig.read_bytes().startswith(header), fmt
+    svg = (tmp_path / "seactl-explore.svg").read_text()
+    assert svg.count("<svg") == 1 + 9 and "rightmost roots" in svg and "<text" in svg
+    import xml.etree.ElementTree as ET
+
+    ET.fromstring(svg.encode())  # well-formed XML
     browser.execute_script("window.__copied = null; navigator.clipboard.writeText = "
                            "t => { window.__copied = t; return Promise.resolve(); };")
     _click(browser, "copy command line")

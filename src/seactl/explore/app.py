@@ -31,6 +31,7 @@ from bokeh.models import (
     LinearColorMapper,
     PreText,
     RadioButtonGroup,
+    Range1d,
     Select,
     Slider,
     Span,
@@ -68,6 +69,51 @@ a.download = filename;
 document.body.appendChild(a);
 a.click();
 a.remove();
+"""
+
+FIGURES_JS = """
+// Each figure's own export (BokehJS PlotView.export: an SVG context, canvas2svg, for
+// 'svg'; a canvas for 'png'), placed where the page shows it, in one file.
+const views = figs.map(f => Bokeh.index.find_one(f)).filter(v => v != null);
+const boxes = views.map(v => v.el.getBoundingClientRect());
+const x0 = Math.min(...boxes.map(b => b.left)), y0 = Math.min(...boxes.map(b => b.top));
+const W = Math.ceil(Math.max(...boxes.map(b => b.right)) - x0);
+const H = Math.ceil(Math.max(...boxes.map(b => b.bottom)) - y0);
+function save(blob) {
+  const a = document.createElement('a');
+  a.href = URL.createObjectURL(blob);
+  a.download = filename;
+  document.body.appendChild(a);
+  a.click();
+  a.remove();
+}
+if (fmt === 'svg') {
+  const parts = views.map((v, i) => {
+    const svg = v.export('svg', false).ctx.get_serialized_svg(true)
+      .replace(/^<\\?xml[^>]*>/, '');
+    const x = Math.round(boxes[i].left - x0), y = Math.round(boxes[i].top - y0);
+    return `<g transform="translate(${x},${y})">${svg}</g>`;
+  });
+  const text = `<?xml version="1.0" encoding="UTF-8"?>\n<svg xmlns="http://www.w3.org/2000/svg"`
+    + ` xmlns:xlink="http://www.w3.org/1999/xlink" width="${W}" height="${H}"`
+    + ` viewBox="0 0 ${W} ${H}"><rect width="${W}" height="${H}" fill="white"/>`
+    + parts.join('') + '</svg>';
+  save(new Blob([text], {type: 'image/svg+xml'}));
+} else {
+  const r = window.devicePixelRatio || 1;
+  const canvas = document.createElement('canvas');
+  canvas.width = Math.ceil(W * r);
+  canvas.height = Math.ceil(H * r);
+  const ctx = canvas.getContext('2d');
+  ctx.fillStyle = 'white';
+  ctx.fillRect(0, 0, canvas.width, canvas.height);
+  views.forEach((v, i) => {
+    const layer = v.export('png', true);
+    ctx.drawImage(layer.canvas, Math.round((boxes[i].left - x0) * r),
+                  Math.round((boxes[i].top - y0) * r));
+  });
+  canvas.toBlob(save, 'image/png');
+}
 """
 
 COPY_JS = """
@@ -112,6 +158,8 @@ def results_html(r: dict[str, Any], unit: str) -> str:
            _fmt(r[f"{loop}_jitter_margin_ms"]) if f"{loop}_jitter_margin_ms" in r else "...")
           for loop, name in (("overall", "whole loop"), ("stiffness", "stiffness loop"),
                              ("damping", "damping loop"), ("torque", "torque loop"))),
+        ("spectral abscissa [1/s]", "sa-value",
+         _fmt(r["spectral_abscissa_per_s"]) if "spectral_abscissa_per_s" in r else "..."),
         ("closed loop", "stable-value", "stable" if r["stable"] else "UNSTABLE"),
         (f"Z(jw) [{unit}]", "passive-value", "passive" if r["passive"] else "not passive"),
     ]
@@ -134,11 +182,12 @@ class Explorer:
         c = controls or Controls()
         self.sources = {k: ColumnDataSource() for k in (
             "bode", "nyquist", "impedance", "bands", "step", "impulse", "pm_map",
-            "latency_map", "pm_marker", "latency_marker")}
+            "latency_map", "pm_marker", "latency_marker", "roots")}
         self.sources["exports"] = ColumnDataSource({"toml": [""], "json": [""],
                                                     "command": [""]})
         self._widgets(c)
         self._figures()
+        self.buttons[2:2] = self.figure_buttons()
         self.update(sync=True)  # the first page has every view (no empty data sources)
 
     # ------------------------------------------------------------ widgets
@@ -163,7 +212,7 @@ class Explorer:
         self.status = Div(text="", width=330, name="status")
         self.command = PreText(text="", width=330, styles={"font-size": "11px",
                                                            "white-space": "pre-wrap"})
-        self.buttons = self._buttons()
+        self.buttons = self._buttons() + [self.copy_button()]
         for w in self.sliders.values():
             w.on_change("value", self.on_change)
         self.filters.on_change("active", self.on_change)
@@ -180,10 +229,27 @@ class Explorer:
             b.js_on_event("button_click", CustomJS(args={"src": src, "key": key, "mime": mime,
                                                          "filename": name}, code=DOWNLOAD_JS))
             out.append(b)
+        return out
+
+    def figure_buttons(self) -> list[Button]:
+        """``figures SVG`` and ``figures PNG``: every view in one file, laid out as on
+        the page (client-side: the browser renders the figures it shows)."""
+        out = []
+        for fmt in ("svg", "png"):
+            b = Button(label=f"figures {fmt.upper()}", width=100)
+            b.js_on_event("button_click", CustomJS(args={
+                "figs": self.figures, "fmt": fmt, "filename": f"seactl-explore.{fmt}"},
+                code=FIGURES_JS))
+            out.append(b)
+        return out
+
+    def copy_button(self) -> Button:
+        """Copy the equivalent command lines to the clipboard."""
+        src = self.sources["exports"]
         copy = Button(label="copy command line", width=130)
         copy.js_on_event("button_click", CustomJS(args={"src": src, "btn": copy,
                                                         "label": copy.label}, code=COPY_JS))
-        return out + [copy]
+        return copy
 
     def controls(self) -> Controls:
         """The controls as the widgets show them."""
@@ -242,9 +308,9 @@ class Explorer:
             return
         self.last_ms.append(tuple(marks_ms))
         self.status.text = (f"<span id='status-value'>margins and loop views in "
-                            f"{marks_ms[0]:.0f} ms, responses in {marks_ms[1]:.0f} ms, "
-                            f"maps in {marks_ms[2]:.0f} ms, delay and jitter margins in "
-                            f"{marks_ms[3]:.0f} ms</span>")
+                            f"{marks_ms[0]:.0f} ms, roots in {marks_ms[1]:.0f} ms, "
+                            f"responses in {marks_ms[2]:.0f} ms, maps in {marks_ms[3]:.0f} ms,"
+                            f" delay and jitter margins in {marks_ms[4]:.0f} ms</span>")
 
     def _ranges(self, c: Controls) -> None:
         lo, hi = fn_range_hz(c)
@@ -322,13 +388,25 @@ class Explorer:
         self.titles["bode"].text = (f"outer loop L(jw): PM {_fmt(r['phase_margin_deg'], '.1f')}"
                                     f" deg at {_fmt(r['crossover_hz'], '.3g')} Hz, GM "
                                     f"{_fmt(r['gain_margin_db'], '.1f')} dB")
+        if "roots" in v:
+            self._show_roots(v, r)
         for key in ("bode", "nyquist", "impedance", "bands", "step", "impulse", "pm_map",
-                    "latency_map"):
+                    "latency_map", "roots"):
             if key in v:
                 self.sources[key].data = dict(v[key])
         if "pm_map" in v:
             self.sources["pm_marker"].data = {"x": [c.fn_hz], "y": [c.gs]}
             self.sources["latency_marker"].data = {"x": [c.t_qd_ms], "y": [c.t_qs_ms]}
+
+    def _show_roots(self, v: dict[str, Any], r: dict[str, Any]) -> None:
+        """The roots view's ranges and title (the spectral abscissa and the verdict's
+        stability word, which the margins' Nyquist count gives)."""
+        (x0, x1), (y0, y1) = v["roots_range"]["x"], v["roots_range"]["y"]
+        self.roots_fig.x_range.update(start=x0, end=x1)
+        self.roots_fig.y_range.update(start=y0, end=y1)
+        word = "stable" if r["stable"] else "UNSTABLE"
+        self.titles["roots"].text = (f"rightmost roots: spectral abscissa "
+                                     f"{r['spectral_abscissa_per_s']:.4g} 1/s ({word})")
 
     # ------------------------------------------------------------ figures
     def _figures(self) -> None:
@@ -350,8 +428,10 @@ class Explorer:
         phase.add_layout(self.spans["fc_phase"])
         phase.add_layout(self.spans["f180"])
         self.titles = {"bode": mag.title}
-        self.figures = [mag, phase, self._nyquist(), self._impedance(), *self._responses(),
-                        self._pm_map(), self._latency_map()]
+        self.roots_fig = self._roots()
+        self.titles["roots"] = self.roots_fig.title
+        self.figures = [mag, phase, self._nyquist(), self.roots_fig, self._impedance(),
+                        *self._responses(), self._pm_map(), self._latency_map()]
 
     def _nyquist(self) -> Any:
         f = figure(title="Nyquist of L (|L| <= 20), -1 point", x_range=(-3, 1.5),
@@ -360,6 +440,20 @@ class Explorer:
         f.line(np.cos(th), np.sin(th), line_color="lightgray", line_dash="dotted")
         f.line("re", "im", source=self.sources["nyquist"], line_width=2)
         f.scatter([-1], [0], marker="x", size=14, line_width=3, color="firebrick")
+        return f
+
+    def _roots(self) -> Any:
+        f = figure(title="rightmost roots", x_range=Range1d(-300, 30),
+                   y_range=Range1d(-400, 400), x_axis_label="Re s [1/s]",
+                   y_axis_label="Im s [rad/s]", **FIG)
+        f.add_layout(Span(location=0, dimension="height", line_color="firebrick",
+                          line_width=2))  # the imaginary axis: stability boundary
+        f.add_layout(Span(location=0, dimension="width", line_color="gray"))
+        pts = f.scatter("re", "im", source=self.sources["roots"], marker="x", size=12,
+                        line_width=3)
+        f.add_tools(HoverTool(renderers=[pts], tooltips=[
+            ("s", "@re{0.00} + j @im{0.00} rad/s"), ("f [Hz]", "@f_hz{0.00}"),
+            ("damping ratio", "@zeta{0.000}")]))
         return f
 
     def _impedance(self) -> Any:
@@ -415,7 +509,7 @@ class Explorer:
 
     # ------------------------------------------------------------ layout
     def layout(self) -> Any:
-        """The whole page: controls and results on the left, the eight views right."""
+        """The whole page: controls and results on the left, the nine views right."""
         s = self.sliders
         head = Div(text="<h3 style='margin:0'>seactl explore</h3>", width=320)
         controls = column(
@@ -423,7 +517,8 @@ class Explorer:
             *(s[k] for k in ("fn_hz", "gs", "zeta1", "zeta2", "ratio", "t_tau_ms", "t_qs_ms",
                              "t_qd_ms")),
             self.filters, s["f_qd_hz"], s["f_taud_hz"], self.mode, s["rate_hz"],
-            self.status, self.results, row(*self.buttons), self.command)
+            self.status, self.results, row(*self.buttons[:2], self.buttons[-1]),
+            row(*self.buttons[2:-1]), self.command)
         grid = gridplot(self.figures, ncols=2, toolbar_location="right")
         return row(controls, grid)
 
