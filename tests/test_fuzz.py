@@ -259,6 +259,8 @@ def test_fuzz_cli_full(args):
     ["sweep", "--fn", "14", "--out", "oldsweep", "--resume", "--overwrite"],
     ["sweep", "--fn", "10:40:0.001", "--gs", "0.1:3:0.001", "--t-qs", "0:20:0.5", "--out", "b"],
     ["gains", "--actuator", "bin.toml"],
+    ["impedance", "--csv", "p.csv", "--freq", "1e-308"],   # found by the 10,000 run: Z = 0/0
+    ["sweep", "--workers", "0", "--out", "out", "--z-freq", "1e308"],   # found: overflow
     ["step", "--csv", "/dev/null"],
 ])
 def test_issue_vectors_keep_the_contract(args):

@@ -97,7 +97,8 @@ RANGES: dict[str, tuple[float, float, str]] = {
     "impulse_nms": (0.0, 1e3, "an angular impulse: its magnitude above 0, up to 1000 N m s"),
     "rate_hz": (10.0, 1e6, "a servo rate: 10 Hz to 1 MHz"),
     "t_end_s": (0.0, 60.0, "a simulated time: above 0, up to 60 s"),
-    "freq_hz": (0.0, 1e7, "an analysis frequency: above 0, up to 10 MHz"),
+    "freq_hz": (1e-6, 1e7, "an analysis frequency: 1 uHz to 10 MHz (at lower ones Z(jw) "
+                "of the integrating loop is 0/0 in floating point)"),
 }
 """Documented input ranges of the quantities that are not design axes, and of the delays,
 natural frequencies and filters of the rigid-actuator and placement commands (taken from
@@ -117,7 +118,7 @@ def check_range(name: str, value: float, kind: str) -> float:
 
     lo, hi, what = RANGES[kind]
     v = float(value)
-    inclusive = kind in ("delay_ms", "rate_hz", "fn_hz")
+    inclusive = kind in ("delay_ms", "rate_hz", "fn_hz", "freq_hz")
     ok = (lo <= v <= hi) if inclusive else (lo < v <= hi)
     if math.isnan(v) or not ok:
         raise InputError(name, v, f"{'>=' if inclusive else '>'} {lo:g} and <= {hi:g} "

@@ -138,9 +138,10 @@ class SweepSpec:
                 raise InputError(AXES[name].option, "", "at least one value")
             _check_axis(name, np.asarray(vals))
             norm[name] = vals
+        from .limits import check_range
+
         for f in self.z_freqs_hz:
-            if not (math.isfinite(f) and f > 0):
-                raise InputError("--z-freq", f, "a finite frequency > 0 [Hz]")
+            check_range("--z-freq [Hz]", f, "freq_hz")
         # canonical order (AXES order) so that equal sweeps hash equally
         object.__setattr__(self, "axes", tuple((n, norm[n]) for n in AXES if n in norm))
         object.__setattr__(self, "z_freqs_hz", tuple(float(f) for f in self.z_freqs_hz))
