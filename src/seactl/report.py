@@ -25,10 +25,7 @@ from typing import Any
 import numpy as np
 
 from .errors import OutputError
-from .outputs import (
-    reason,
-    write_atomic,  # noqa: F401  (re-exported; it lives in seactl.outputs)
-)
+from .outputs import reason
 
 STATUSES = ("pass", "fail", "info")
 

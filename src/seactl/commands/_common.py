@@ -7,12 +7,11 @@ Options listed in :data:`VARIADIC` take several values after one flag
 
 from __future__ import annotations
 
-import contextlib
 import functools
 import json
 import math
 import sys
-from collections.abc import Callable, Iterator, Mapping, Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from typing import Any
 
@@ -67,19 +66,6 @@ def _range(name: str, part: str, log: bool) -> np.ndarray:
     steps = (b - a) / c
     n = check_count(name, part, math.floor(steps + 1e-9) + 1 if math.isfinite(steps) else steps)
     return a + c * np.arange(n)
-
-
-@contextlib.contextmanager
-def flag_names(names: Mapping[str, str]) -> Iterator[None]:
-    """Library errors name parameters (``t_end``); inside this block they are re-raised
-    naming the command-line flag instead (``{"t_end": "--t-end"}``)."""
-    try:
-        yield
-    except InputError as exc:
-        head, sep, tail = exc.field.partition(" ")
-        if head not in names:
-            raise
-        raise InputError(names[head] + sep + tail, exc.value, exc.valid) from None
 
 
 def expand_variadic(argv: Sequence[str]) -> list[str]:

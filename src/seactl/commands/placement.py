@@ -78,15 +78,12 @@ def _fmt(x: float | None, spec: str) -> str:
 # ---------------------------------------------------------------------------- seactl rigid
 def _rigid_fn(fn: tuple[str, ...], step: bool) -> np.ndarray:
     """The ``--fn`` values, checked, and the work they ask for estimated first."""
-    from .._validate import finite_array
-    from ..limits import BYTES_PER_DESIGN, check_budget, check_range, simulation_estimate
+    from ..limits import BYTES_PER_DESIGN, check_budget, simulation_estimate
 
     fn_hz = parse_values("--fn", fn)
     if fn_hz.size == 0:
         raise InputError("--fn", "", "at least one frequency")
-    finite_array("--fn [Hz]", fn_hz, minimum=0.0, strict=True)
-    for f in (fn_hz.min(), fn_hz.max()):
-        check_range("--fn [Hz]", f, "fn_hz")
+    AXES["fn_hz"].check(fn_hz, "--fn [Hz]")
     sim_bytes, sim_s = simulation_estimate(fn_hz.size, 1000, 1000) if step else (0.0, 0.0)
     check_budget(f"{fn_hz.size:,} rigid design(s)" + (" and their 1 s steps" if step else ""),
                  n_bytes=fn_hz.size * BYTES_PER_DESIGN + sim_bytes, seconds=sim_s,

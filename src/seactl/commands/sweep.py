@@ -24,7 +24,6 @@ from ._common import (
     echo_json,
     err_console,
     finite_or_none,
-    flag_names,
     parse_values,
 )
 
@@ -241,18 +240,12 @@ def _check_size(spec, yes: bool) -> None:
                         "--yes to run it")
 
 
-_SWEEP_FLAGS = {"out": "--out", "scheduler": "--scheduler", "workers": "--workers",
-                "seed": "--seed", "overwrite": "--overwrite", "resume": "--resume"}
-
-
 def _run(spec, out: str, resume: bool, overwrite: bool, workers, scheduler, quiet: bool):
     from ..sweep import SweepInterrupted, run_sweep
 
-    try:
-        with flag_names(_SWEEP_FLAGS):
-            return run_sweep(spec, Path(out), resume=resume, overwrite=overwrite,
-                             workers=workers, scheduler=scheduler,
-                             console=None if quiet else err_console)
+    try:  # errors naming out, scheduler, ... read as flags (commands._common._Command)
+        return run_sweep(spec, Path(out), resume=resume, overwrite=overwrite, workers=workers,
+                         scheduler=scheduler, console=None if quiet else err_console)
     except SweepInterrupted as exc:
         err_console.print(f"[yellow]{escape(str(exc))}[/yellow]", highlight=False,
                           soft_wrap=True)
