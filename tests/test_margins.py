@@ -207,3 +207,44 @@ def test_close_pair_of_crossings_is_found_on_any_grid(per_decade):
     m = loop_margins(outer_loop(), d, grid, open_loop_rhp_poles=inner.unstable_poles)
     # the brute-force grid spacing is 0.003 rad/s (2e-5 relative at the first crossing)
     np.testing.assert_allclose(np.sort(m.gain_crossovers.omega), w[idx], rtol=3e-5)
+
+
+def test_compiled_scan_evaluates_the_quasi_polynomial_like_numpy():
+    """The certified scan's compiled kernel (seactl._certify) against the numpy Horner
+    pass of QuasiPolynomial.with_derivative (oracle) on random designs and frequencies:
+    Q(jw), dQ/dw = j dQ/ds and |d2Q/dw2| = |d2Q/ds2|, and L = N / D."""
+    from seactl import _certify
+
+    d = sea(np.linspace(10, 40, 7), ms=(np.linspace(0.5, 3, 7), 8.0, 1.5, 50.0, 100.0))
+    N, D = (f.evaluate(d).flat() for f in
+            outer_loop().diagram.return_difference(outer_loop().input, outer_loop().cut))
+    w = np.geomspace(0.3, 3e4, 7)
+    for q in (N, D):
+        ref = q.with_derivative(1j * w[:, None], second=True)
+        for i in range(7):
+            got = _certify._eval(q.coeffs, q.delays, i, w[i])
+            np.testing.assert_allclose(got[0], ref[0][i, 0], rtol=1e-12)
+            np.testing.assert_allclose(got[1], 1j * ref[1][i, 0], rtol=1e-12)
+            np.testing.assert_allclose(got[2], abs(ref[2][i, 0]), rtol=1e-12)
+    L = _certify.loop_values(N.coeffs, N.delays, D.coeffs, D.delays, np.arange(7), w)
+    np.testing.assert_allclose(L, N(1j * w[:, None])[:, 0] / D(1j * w[:, None])[:, 0],
+                               rtol=1e-12)
+
+
+@pytest.mark.parametrize("delay_s", [0.0, 0.01])
+def test_a_root_on_the_axis_is_never_counted_certain(delay_s):
+    """Oracle: by construction Q(s) = (s^2 + 100)(s + 1) + 0 * e^{-s tau} has roots
+    +-10j on the imaginary axis; bisection cannot certify the interval around w = 10,
+    so the count is reported uncertain (a design with it is never called stable), while
+    Q(s) = (s + 1)^3 + 0.5 e^{-s tau} (roots in the left half-plane) is certain, Z = 0."""
+    from seactl.blockdiagram import QuasiPolynomial
+    from seactl.margins import count_right_roots
+
+    def q(undelayed, delayed):
+        c = np.array([undelayed, delayed], float)[:, None, :]
+        return QuasiPolynomial(c, np.array([[0.0], [delay_s]]))
+
+    Z, certain = count_right_roots(q([100, 100, 1, 1], [0, 0, 0, 0]), np.array([10.0]))
+    assert not certain[0]
+    Z, certain = count_right_roots(q([1, 3, 3, 1], [0.5, 0, 0, 0]), np.array([1.0]))
+    assert certain[0] and Z[0] == 0

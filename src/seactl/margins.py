@@ -32,6 +32,7 @@ from typing import Any
 import numpy as np
 from scipy.optimize import elementwise
 
+from . import _certify
 from .blockdiagram import DesignSubset, QuasiPolynomial, Transfer
 
 LoopFn = Callable[[Any, np.ndarray], np.ndarray]
@@ -305,11 +306,11 @@ def _best(n: int, groups: np.ndarray, value: np.ndarray, omega: np.ndarray,
 
 
 # ----------------------------------------------------------------- the certified scan
-HIDDEN_PAIR_TOL = 0.05
+HIDDEN_PAIR_TOL = _certify.HIDDEN_PAIR_TOL
 """A pair of crossings hidden inside one certified interval can only exist if ``log L``
 leaves the unit circle (or the negative real axis) by less than this (0.43 dB, 2.9 deg)."""
 
-CROSSING_PAIR_TOL = 0.1
+CROSSING_PAIR_TOL = _certify.CROSSING_PAIR_TOL
 """The same, for a pair hidden in the interval of another crossing (0.9 dB, 6 deg)."""
 
 TURN_FRACTION = 1.0 / 2.0
@@ -318,13 +319,11 @@ TURN_FRACTION = 1.0 / 2.0
 PER_DECADE = 4
 """Base grid: points per decade at low frequency."""
 
-MAX_BISECTIONS = 48
+MAX_BISECTIONS = _certify.MAX_BISECTIONS
 
-MAX_INTERVALS = 4096
-"""Per design: beyond this many pending intervals the scan stops refining that design."""
-
-_PHASE_BAND = (0.05, 20.0)
-
+MAX_EVALUATIONS = _certify.MAX_EVALUATIONS
+"""Per design: beyond this many bisections the scan stops refining that design (what it
+has is kept; a design whose count is then not certified is uncertain, never stable)."""
 
 class _Bounded:
     """A flat quasi-polynomial ``Q`` with ``|d^3 Q(jw)/dw^3| <= bound3(w)`` on ``[0, w]``:
@@ -341,18 +340,6 @@ class _Bounded:
         c[:, :-2] += 3 * ((A * tau).sum(axis=0) * j * (j - 1))[:, 2:]
         c[:, :-3] += (A.sum(axis=0) * j * (j - 1) * (j - 2))[:, 3:]
         self.bound3_coeffs = c
-
-    def at(self, idx: np.ndarray, w: np.ndarray) -> tuple[np.ndarray, ...]:
-        """``Q(jw)``, ``dQ(jw)/dw`` and ``|d^2 Q(jw)/dw^2|``."""
-        q, dq, d2q = self.q.take(idx).with_derivative(1j * w[:, None], second=True)
-        return q[:, 0], 1j * dq[:, 0], np.abs(d2q[:, 0])
-
-    def bound3(self, idx: np.ndarray, w: np.ndarray) -> np.ndarray:
-        c = self.bound3_coeffs[idx]
-        acc = c[:, -1].copy()
-        for j in range(c.shape[-1] - 2, -1, -1):
-            acc = acc * w + c[:, j]
-        return acc
 
 
 def cauchy_bound(q: QuasiPolynomial, majorant: np.ndarray | None = None) -> np.ndarray:
@@ -380,7 +367,9 @@ def cauchy_bound(q: QuasiPolynomial, majorant: np.ndarray | None = None) -> np.n
         dg = -(c[:, 1:] * j[1:] * pw[:, :-1]).sum(axis=1)
         best = np.where(g > 0, np.minimum(best, x), best)
         x = np.where(dg > 0, x - g / dg, best)
-    return best
+    # At R itself the dominance holds only by rounding (a root with |s| = R on the axis,
+    # e.g. (s^2 + 100)(s + 1), sits there): 1 % beyond it the margin is solid.
+    return 1.01 * best
 
 
 def _base_grid(w_ref: np.ndarray, tau_max: np.ndarray, top: np.ndarray
@@ -411,33 +400,11 @@ def _base_grid(w_ref: np.ndarray, tau_max: np.ndarray, top: np.ndarray
     return didx, w
 
 
-_VALUES = ("w", "N", "D", "dN", "dD", "cN", "cD")
-_FIELDS = ("d",) + tuple(f + e for f in _VALUES for e in "ab")
-
-
-@dataclass
-class _Intervals:
-    """Intervals ``[wa, wb]`` of designs ``d`` with ``N``, ``D``, their derivatives and
-    the moduli of their second derivatives (``c``) at both ends."""
-
-    d: np.ndarray
-    wa: np.ndarray
-    wb: np.ndarray
-    Na: np.ndarray
-    Nb: np.ndarray
-    Da: np.ndarray
-    Db: np.ndarray
-    dNa: np.ndarray
-    dNb: np.ndarray
-    dDa: np.ndarray
-    dDb: np.ndarray
-    cNa: np.ndarray
-    cNb: np.ndarray
-    cDa: np.ndarray
-    cDb: np.ndarray
-
-    def select(self, mask: np.ndarray) -> _Intervals:
-        return _Intervals(*(getattr(self, f)[mask] for f in _FIELDS))
+def _padded_sum(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """Sum of two coefficient arrays (last axis: powers) of different lengths."""
+    m = max(a.shape[-1], b.shape[-1])
+    pad = [(0, 0)] * (a.ndim - 1)
+    return np.pad(a, pad + [(0, m - a.shape[-1])]) + np.pad(b, pad + [(0, m - b.shape[-1])])
 
 
 def _solve_brackets(parts: list, loop_at: Callable[[np.ndarray, np.ndarray], np.ndarray],
@@ -452,14 +419,9 @@ def _solve_brackets(parts: list, loop_at: Callable[[np.ndarray, np.ndarray], np.
     return b, _refine(loop_at, b, lo, hi, kind)
 
 
-def _sup(h: np.ndarray, da: np.ndarray, db: np.ndarray, bound: np.ndarray) -> np.ndarray:
-    """Bound on ``|f|`` over an interval of width ``h`` from ``|f|`` at its ends and a
-    bound on ``|f'|``: ``(|f_a| + |f_b| + h bound) / 2``."""
-    return 0.5 * (np.abs(da) + np.abs(db) + h * bound)
-
-
 class _CertifiedScan:
-    """Bisects intervals until each is certified (see :func:`certified_margins`)."""
+    """Certifies every base-grid interval by bisection (compiled: :mod:`seactl._certify`;
+    see :func:`certified_margins`); keeps the winding of ``Delta`` and the brackets."""
 
     def __init__(self, N: QuasiPolynomial, D: QuasiPolynomial, stability_only: bool):
         self.N, self.D = _Bounded(N), _Bounded(D)
@@ -468,94 +430,31 @@ class _CertifiedScan:
         self.uncertain = np.zeros(N.shape[0], bool)
         self.no_loop = (N.coeffs == 0).all(axis=(0, 2))  # L = 0: no crossing to certify
         self.brackets: dict[str, list] = {"gain": [], "phase": []}
-
-    def values(self, didx: np.ndarray, w: np.ndarray) -> tuple[np.ndarray, ...]:
-        (N, dN, cN), (D, dD, cD) = self.N.at(didx, w), self.D.at(didx, w)
-        return w, N, D, dN, dD, cN, cD
+        self.arrays = tuple(np.ascontiguousarray(a, float)
+                            for a in (N.coeffs, N.delays, D.coeffs, D.delays))
 
     def run(self, didx: np.ndarray, w: np.ndarray) -> None:
-        vals = self.values(didx, w)
-        same = didx[1:] == didx[:-1]
-        ends = [x for v in vals for x in (v[:-1][same], v[1:][same])]
-        iv = _Intervals(didx[1:][same], *ends)
-        for _ in range(MAX_BISECTIONS):
-            if iv.d.size == 0:
-                return
-            ok, char_ok = self.certified(iv)
-            # a design past its interval budget keeps what it has: only a failed
-            # certificate of Delta (a root on or next to the axis) makes its count uncertain
-            over = np.bincount(iv.d, minlength=self.winding.size)[iv.d] > MAX_INTERVALS
-            self.uncertain[iv.d[over & ~char_ok]] = True
-            self.collect(iv.select(ok | over))
-            iv = self.bisect(iv.select(~ok & ~over))
-        ok, char_ok = self.certified(iv)
-        self.uncertain[iv.d[~char_ok]] = True
-        self.collect(iv)
-
-    def certified(self, iv: _Intervals) -> np.ndarray:
-        """``(all certified, Delta certified)``: the interval's path of ``Delta = N + D`` is
-        shorter than the sum of its endpoints' distances to 0 (so it neither meets 0 nor
-        turns around it unseen), and the path of ``log L`` is shorter than its endpoints'
-        distances to the unit circle (and, where ``0.05 < |L| < 20``, to the negative real
-        axis) plus ``2 HIDDEN_PAIR_TOL``."""
-        h = iv.wb - iv.wa
-        cN = _sup(h, iv.cNa, iv.cNb, self.N.bound3(iv.d, iv.wb))  # sup |N''|, |D''|
-        cD = _sup(h, iv.cDa, iv.cDb, self.D.bound3(iv.d, iv.wb))
-        ok = h * _sup(h, iv.dNa + iv.dDa, iv.dNb + iv.dDb, cN + cD) \
-            < np.abs(iv.Na + iv.Da) + np.abs(iv.Nb + iv.Db)
-        if self.stability_only:
-            return ok, ok
-        sN, sD = _sup(h, iv.dNa, iv.dNb, cN), _sup(h, iv.dDa, iv.dDb, cD)
-        mN = 0.5 * (np.abs(iv.Na) + np.abs(iv.Nb) - h * sN)  # lower bounds of |N|, |D|
-        mD = 0.5 * (np.abs(iv.Da) + np.abs(iv.Db) - h * sD)
-        with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
-            # (log L)' = N'/N - D'/D at the ends; |(log L)''| <= curv2 on the interval
-            ga, gb = iv.dNa / iv.Na - iv.dDa / iv.Da, iv.dNb / iv.Nb - iv.dDb / iv.Db
-            curv2 = cN / mN + (sN / mN) ** 2 + cD / mD + (sD / mD) ** 2
-            length = np.where((mN > 0) & (mD > 0), h * _sup(h, ga, gb, curv2), np.inf)
-            La, Lb = iv.Na / iv.Da, iv.Nb / iv.Db
-            fa, fb = np.log(np.abs(La)), np.log(np.abs(Lb))
-            to_axis = 2 * np.pi - np.abs(np.angle(La)) - np.abs(np.angle(Lb))
-        # next to a crossing the interval is kept (bracketed) once a second pair would
-        # need an excursion beyond CROSSING_PAIR_TOL; elsewhere beyond HIDDEN_PAIR_TOL
-        crosses = (fa >= 0) != (fb >= 0)
-        tol = np.where(crosses, CROSSING_PAIR_TOL, HIDDEN_PAIR_TOL)
-        gain_ok = length < np.abs(fa) + np.abs(fb) + 2 * tol
-        relevant = (np.maximum(fa, fb) + length > np.log(_PHASE_BAND[0])) \
-            & (np.minimum(fa, fb) - length < np.log(_PHASE_BAND[1]))
-        axis = ((La.imag >= 0) != (Lb.imag >= 0)) & (La.real * np.abs(Lb.imag)
-                                                     + Lb.real * np.abs(La.imag) < 0)
-        tol = np.where(axis, CROSSING_PAIR_TOL, HIDDEN_PAIR_TOL)
-        phase_ok = ~relevant | (length < to_axis + 2 * tol)
-        loop_ok = (iv.wa == 0) | self.no_loop[iv.d] | (gain_ok & phase_ok)
-        return ok & loop_ok, ok
-
-    def collect(self, iv: _Intervals) -> None:
-        """Winding of ``Delta`` and crossing brackets of certified intervals."""
-        with np.errstate(divide="ignore", invalid="ignore"):
-            turn = np.angle((iv.Nb + iv.Db) / (iv.Na + iv.Da))
-        self.winding += np.bincount(iv.d, weights=turn, minlength=self.winding.size)
-        if self.stability_only:
-            return
-        with np.errstate(divide="ignore", invalid="ignore"):
-            La, Lb = iv.Na / iv.Da, iv.Nb / iv.Db
-        pos = iv.wa > 0
-        g = pos & ((np.abs(La) >= 1) != (np.abs(Lb) >= 1))
-        self.brackets["gain"].append((iv.d[g], iv.wa[g], iv.wb[g]))
-        re_cross = La.real * np.abs(Lb.imag) + Lb.real * np.abs(La.imag)
-        p = pos & ((La.imag >= 0) != (Lb.imag >= 0)) & (re_cross < 0)
-        self.brackets["phase"].append((iv.d[p], iv.wa[p], iv.wb[p]))
-
-    def bisect(self, iv: _Intervals) -> _Intervals:
-        mid = self.values(iv.d, 0.5 * (iv.wa + iv.wb))
-        ends = []
-        for f, m in zip(_VALUES, mid):
-            ends += [np.concatenate([getattr(iv, f + "a"), m]),
-                     np.concatenate([m, getattr(iv, f + "b")])]
-        return _Intervals(np.concatenate([iv.d, iv.d]), *ends)
+        """Scan the base grid ``w`` (flat, designs ``didx`` in order)."""
+        n = self.winding.size
+        start = np.searchsorted(didx, np.arange(n + 1))
+        out = np.empty((max(64, 4 * n), 4))
+        major = _padded_sum(self.N.q.abs_coeffs, self.D.q.abs_coeffs)
+        args = (*self.arrays, major, self.N.bound3_coeffs, self.D.bound3_coeffs,
+                start, w.astype(float), self.stability_only, self.no_loop)
+        while True:
+            self.winding[:], self.uncertain[:] = 0.0, False
+            count = _certify.scan(*args, self.winding, self.uncertain, out)
+            if count <= out.shape[0]:
+                break
+            out = np.empty((count, 4))  # more brackets than room: once more with room
+        out = out[:count]
+        for kind, code in (("gain", _certify.GAIN), ("phase", _certify.PHASE)):
+            rows = out[out[:, 1] == code]
+            self.brackets[kind].append((rows[:, 0].astype(int), rows[:, 2], rows[:, 3]))
 
     def loop_at(self, idx: np.ndarray, w: np.ndarray) -> np.ndarray:
-        return self.N.at(idx, w)[0] / self.D.at(idx, w)[0]
+        return _certify.loop_values(*self.arrays, np.asarray(idx, np.intp),
+                                    np.asarray(w, float))
 
     def solve(self, kind: str) -> tuple[np.ndarray, np.ndarray]:
         return _solve_brackets(self.brackets[kind], self.loop_at, kind)
@@ -631,9 +530,7 @@ def certified_margins(loop: Transfer, design: Any, w_ref: np.ndarray | float, *,
     if np.any(delta.delayed_degree >= delta.degree):
         raise ValueError(f"diagram {loop.diagram.name!r}: a delayed term has the degree of "
                          "the undelayed one (a neutral delay equation), not supported")
-    m = delta.coeffs.shape[-1]
-    top = cauchy_bound(delta, sum(np.pad(x.abs_coeffs, [(0, 0), (0, m - x.coeffs.shape[-1])])
-                                  for x in (N, D)))
+    top = cauchy_bound(delta, _padded_sum(N.abs_coeffs, D.abs_coeffs))
     tau_max = np.concatenate([N.delays, D.delays]).max(axis=0)
     w_ref = np.broadcast_to(np.asarray(w_ref, float), shape).reshape(n)
     scan = _CertifiedScan(N, D, stability_only)

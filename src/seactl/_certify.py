@@ -1,0 +1,225 @@
+"""Compiled kernel of the certified scan (:func:`seactl.margins.certified_margins`).
+
+The scan is a per-design bisection of a few dozen intervals, each a handful of scalar
+operations on two small quasi-polynomials: in numpy the temporaries of every pass cost more
+than the arithmetic, so the per-design loop is compiled (numba, cached on disk).  Each
+design's intervals are refined depth-first from its base grid; the soundness argument and
+the tolerances are those of :func:`seactl.margins.certified_margins`.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from numba import njit
+
+# Tolerances and limits (documented in seactl.margins, which re-exports them).
+HIDDEN_PAIR_TOL = 0.05
+CROSSING_PAIR_TOL = 0.1
+MAX_BISECTIONS = 48
+MAX_EVALUATIONS = 1 << 16
+ROUNDING = 1e-13
+"""Evaluation error of ``Q(jw)``, relative to ``sum_kj |c_kj| w^j`` (Horner and the
+exponential in double precision: a few dozen ulps, with room)."""
+LOG_BAND_LO, LOG_BAND_HI = math.log(0.05), math.log(20.0)
+
+GAIN, PHASE = 0, 1
+
+
+@njit(cache=True)
+def _eval(coeffs, delays, d, w):  # pragma: no cover - compiled
+    """``Q(jw)``, ``dQ(jw)/dw`` and ``|d^2 Q(jw)/dw^2|`` of design ``d``: one Horner pass
+    per delay term for ``p``, ``p'`` and ``p''`` at ``s = jw`` (as
+    :meth:`QuasiPolynomial.with_derivative`; real arithmetic, ``s`` being imaginary)."""
+    qr = qi = d1r = d1i = d2r = d2i = 0.0
+    n1 = coeffs.shape[2]
+    for k in range(coeffs.shape[0]):
+        pr, pi_ = coeffs[k, d, n1 - 1], 0.0
+        dpr = dpi = d2pr = d2pi = 0.0
+        for j in range(n1 - 2, -1, -1):   # x <- x s + y with s = jw: (-Im x w, Re x w) + y
+            d2pr, d2pi = -d2pi * w + 2 * dpr, d2pr * w + 2 * dpi
+            dpr, dpi = -dpi * w + pr, dpr * w + pi_
+            pr, pi_ = -pi_ * w + coeffs[k, d, j], pr * w
+        tau = delays[k, d]
+        er, ei = math.cos(w * tau), -math.sin(w * tau)   # e^{-jw tau}
+        # Q += p e;  dQ/ds += (p' - tau p) e;  d2Q/ds2 += (p'' - 2 tau p' + tau^2 p) e
+        qr += pr * er - pi_ * ei
+        qi += pr * ei + pi_ * er
+        ar, ai = dpr - tau * pr, dpi - tau * pi_
+        d1r += ar * er - ai * ei
+        d1i += ar * ei + ai * er
+        br = d2pr - 2 * tau * dpr + tau * tau * pr
+        bi = d2pi - 2 * tau * dpi + tau * tau * pi_
+        d2r += br * er - bi * ei
+        d2i += br * ei + bi * er
+    # d/dw = j d/ds
+    return complex(qr, qi), complex(-d1i, d1r), math.hypot(d2r, d2i)
+
+
+@njit(cache=True)
+def _bound3(c, d, w):  # pragma: no cover - compiled
+    """``sum_j c[d, j] w^j`` (Horner)."""
+    acc = c[d, c.shape[1] - 1]
+    for j in range(c.shape[1] - 2, -1, -1):
+        acc = acc * w + c[d, j]
+    return acc
+
+
+# Per point, what the certificates of its two intervals need (computed once):
+W, CN, CD, A_DELTA, A_DDELTA, A_N, A_D, A_DN, A_DD, A_G, LOG_L, A_ARG_L, RE_L, IM_L, \
+    ARG_DELTA = range(15)
+_F = 15
+
+
+@njit(cache=True, error_model="numpy")
+def _point(P, i, w, Nc, Nt, Dc, Dt, major, d):  # pragma: no cover - compiled
+    """Evaluate ``N`` and ``D`` of design ``d`` at ``w`` into row ``i`` of ``P``;
+    ``|Delta|`` is stored less its rounding bound (``major``: ``sum_k |c_kj|`` of ``N``
+    and ``D`` together), so that rounding noise next to a root never certifies."""
+    N, dN, cN = _eval(Nc, Nt, d, w)
+    D, dD, cD = _eval(Dc, Dt, d, w)
+    L, delta = _div(N, D), N + D
+    p = P[i]
+    p[W], p[CN], p[CD] = w, cN, cD
+    p[A_DELTA] = max(abs(delta) - ROUNDING * _bound3(major, d, w), 0.0)
+    p[A_DDELTA], p[ARG_DELTA] = abs(dN + dD), _angle(delta)
+    p[A_N], p[A_D], p[A_DN], p[A_DD] = abs(N), abs(D), abs(dN), abs(dD)
+    p[A_G] = abs(_div(dN, N) - _div(dD, D))  # |(log L)'|
+    p[LOG_L], p[A_ARG_L], p[RE_L], p[IM_L] = np.log(abs(L)), abs(_angle(L)), L.real, L.imag
+
+
+@njit(cache=True)
+def _sup(h, fa, fb, bound):  # pragma: no cover - compiled
+    return 0.5 * (fa + fb + h * bound)
+
+
+@njit(cache=True, error_model="numpy")
+def _div(a, b):  # pragma: no cover - compiled
+    """``a / b``, with numpy's inf/nan instead of an exception when ``b == 0``."""
+    if b == 0:
+        return complex(a.real / 0.0, a.imag / 0.0)
+    return a / b
+
+
+@njit(cache=True)
+def _angle(z):  # pragma: no cover - compiled
+    return math.atan2(z.imag, z.real)
+
+
+@njit(cache=True, error_model="numpy")
+def _certified(a, b, bN, bD, stability_only, no_loop):  # pragma: no cover - compiled
+    """``(all certified, Delta certified)`` for the interval between points ``a`` and ``b``
+    (step 3 of :func:`seactl.margins.certified_margins`)."""
+    h = b[W] - a[W]
+    cN = _sup(h, a[CN], b[CN], bN)  # sup |N''|, |D''|
+    cD = _sup(h, a[CD], b[CD], bD)
+    ok = h * _sup(h, a[A_DDELTA], b[A_DDELTA], cN + cD) < a[A_DELTA] + b[A_DELTA]
+    if stability_only:
+        return ok, ok
+    sN, sD = _sup(h, a[A_DN], b[A_DN], cN), _sup(h, a[A_DD], b[A_DD], cD)
+    mN = 0.5 * (a[A_N] + b[A_N] - h * sN)  # lower bounds of |N|, |D|
+    mD = 0.5 * (a[A_D] + b[A_D] - h * sD)
+    length = np.inf
+    if mN > 0 and mD > 0:
+        # |(log L)'| at the ends; |(log L)''| <= curv2 on the interval
+        curv2 = cN / mN + (sN / mN) ** 2 + cD / mD + (sD / mD) ** 2
+        length = h * _sup(h, a[A_G], b[A_G], curv2)
+    fa, fb = a[LOG_L], b[LOG_L]
+    to_axis = 2 * np.pi - a[A_ARG_L] - b[A_ARG_L]
+    tol = CROSSING_PAIR_TOL if (fa >= 0) != (fb >= 0) else HIDDEN_PAIR_TOL
+    gain_ok = length < abs(fa) + abs(fb) + 2 * tol
+    # (NaN compares false, as in numpy: a NaN end is never "relevant")
+    relevant = (fa + length > LOG_BAND_LO or fb + length > LOG_BAND_LO) and \
+        (fa - length < LOG_BAND_HI or fb - length < LOG_BAND_HI) and fa == fa and fb == fb
+    tol = CROSSING_PAIR_TOL if _on_axis(a, b) else HIDDEN_PAIR_TOL
+    phase_ok = (not relevant) or (length < to_axis + 2 * tol)
+    loop_ok = a[W] == 0 or no_loop or (gain_ok and phase_ok)
+    return ok and loop_ok, ok
+
+
+@njit(cache=True)
+def _on_axis(a, b):  # pragma: no cover - compiled
+    """``L`` crosses the negative real axis between the points."""
+    return ((a[IM_L] >= 0) != (b[IM_L] >= 0)) and \
+        (a[RE_L] * abs(b[IM_L]) + b[RE_L] * abs(a[IM_L]) < 0)
+
+
+@njit(cache=True)
+def _collect(a, b):  # pragma: no cover - compiled
+    """Turn of ``Delta`` over the interval between points ``a`` and ``b``, and whether
+    it brackets a gain crossing and a phase crossing (above ``w = 0``)."""
+    turn = b[ARG_DELTA] - a[ARG_DELTA]
+    turn -= 2 * np.pi * np.round(turn / (2 * np.pi))   # wrapped to [-pi, pi]
+    if a[W] <= 0:
+        return turn, False, False
+    return turn, (a[LOG_L] >= 0) != (b[LOG_L] >= 0), _on_axis(a, b)
+
+
+@njit(cache=True)
+def _append(out, nout, d, kind, wa, wb):  # pragma: no cover - compiled
+    if nout < out.shape[0]:
+        out[nout, 0], out[nout, 1], out[nout, 2], out[nout, 3] = d, kind, wa, wb
+    return nout + 1
+
+
+@njit(cache=True)
+def scan(Nc, Nt, Dc, Dt, major, bN, bD, start, grid, stability_only, no_loop,
+         winding, uncertain, out):  # pragma: no cover - compiled
+    """Certify every design's base-grid intervals (design ``d``'s points are
+    ``grid[start[d]:start[d + 1]]``), bisecting depth-first.  Writes ``winding`` and
+    ``uncertain`` per design and the brackets into ``out`` (rows: design, kind, w_lo,
+    w_hi); returns the number of brackets (more than ``len(out)``: call again with room).
+    """
+    n = start.size - 1
+    cap = MAX_EVALUATIONS + 2 * MAX_BISECTIONS + 2
+    P = np.empty((cap, _F))          # points of the current interval stack
+    stack = np.empty((MAX_BISECTIONS + 2, 3), np.int64)  # (left, right, depth)
+    nout = 0
+    for d in range(n):
+        g0, g1 = start[d], start[d + 1]
+        evals = 0
+        _point(P, 0, grid[g0], Nc, Nt, Dc, Dt, major, d)
+        for g in range(g0 + 1, g1):
+            # the stack holds points 0..top; the base interval is [point 0, point 1]
+            _point(P, 1, grid[g], Nc, Nt, Dc, Dt, major, d)
+            stack[0, 0], stack[0, 1], stack[0, 2] = 0, 1, 0
+            top, free = 1, 2
+            while top > 0:
+                top -= 1
+                ia, ib, depth = stack[top, 0], stack[top, 1], stack[top, 2]
+                wa, wb = P[ia, W], P[ib, W]
+                ok, char_ok = _certified(P[ia], P[ib], _bound3(bN, d, wb), _bound3(bD, d, wb),
+                                         stability_only, no_loop[d])
+                if not ok and depth < MAX_BISECTIONS and evals < MAX_EVALUATIONS:
+                    _point(P, free, 0.5 * (wa + wb), Nc, Nt, Dc, Dt, major, d)
+                    evals += 1
+                    # right half below the left one: the left is certified first
+                    stack[top, 0], stack[top, 1], stack[top, 2] = free, ib, depth + 1
+                    stack[top + 1, 0], stack[top + 1, 1], stack[top + 1, 2] = ia, free, depth + 1
+                    top += 2
+                    free += 1
+                    continue
+                if not char_ok:
+                    uncertain[d] = True
+                turn, gain, phase = _collect(P[ia], P[ib])
+                winding[d] += turn
+                if not stability_only:
+                    if gain:
+                        nout = _append(out, nout, d, GAIN, wa, wb)
+                    if phase:
+                        nout = _append(out, nout, d, PHASE, wa, wb)
+            P[0] = P[1]
+            free = 2
+    return nout
+
+
+@njit(cache=True)
+def loop_values(Nc, Nt, Dc, Dt, idx, w):  # pragma: no cover - compiled
+    """``L(jw) = N(jw) / D(jw)`` of designs ``idx`` at frequencies ``w`` (pairwise)."""
+    out = np.empty(w.size, np.complex128)
+    for i in range(w.size):
+        N = _eval(Nc, Nt, idx[i], w[i])[0]
+        D = _eval(Dc, Dt, idx[i], w[i])[0]
+        out[i] = _div(N, D)
+    return out
