@@ -437,7 +437,7 @@ class _CertifiedScan:
         """Scan the base grid ``w`` (flat, designs ``didx`` in order)."""
         n = self.winding.size
         start = np.searchsorted(didx, np.arange(n + 1))
-        out = np.empty((max(64, 4 * n), 4))
+        out = np.empty((16 * n + 64, 4))  # brackets: a few per design; rarely more
         major = _padded_sum(self.N.q.abs_coeffs, self.D.q.abs_coeffs)
         args = (*self.arrays, major, self.N.bound3_coeffs, self.D.bound3_coeffs,
                 start, w.astype(float), self.stability_only, self.no_loop)

@@ -371,6 +371,14 @@ def evaluate_chunk(spec: SweepSpec, i: int) -> tuple[Any, dict[str, float]]:
                    "peak_rss_mb": _peak_rss_mb(), "pid": os.getpid()}
 
 
+def evaluate_and_write(spec: SweepSpec, i: int, out: Path) -> tuple[int, dict[str, float]]:
+    """Compute chunk ``i`` and write its part file where it was computed (local workers:
+    the parent then only counts, instead of receiving and writing every table)."""
+    table, stats = evaluate_chunk(spec, i)
+    write_chunk(out, i, table)
+    return table.num_rows, stats
+
+
 def _peak_rss_mb() -> float:
     try:
         import resource
@@ -694,10 +702,12 @@ def _run(spec: SweepSpec, out: Path, workers: int | None, client: Any, own_clien
             task = progress.add_task("sweep", total=spec.n_chunks, completed=done)
 
             def finish(i: int, table: Any, stats: dict[str, float]) -> None:
+                """``table``: the chunk's Arrow table, or its row count once written."""
                 nonlocal peak, computed, points, cpu
-                write_chunk(out, i, table)
+                if not isinstance(table, int):
+                    write_chunk(out, i, table)
                 cpu += stats["cpu_seconds"]
-                points += table.num_rows
+                points += table if isinstance(table, int) else table.num_rows
                 peak = max(peak, stats["peak_rss_mb"])
                 computed += 1
                 progress.advance(task)
@@ -714,9 +724,12 @@ def _run(spec: SweepSpec, out: Path, workers: int | None, client: Any, own_clien
                     own_cluster = _local_cluster(workers or os.cpu_count() or 1)
                     own_client = client = Client(own_cluster)
                 n_workers = len(client.scheduler_info(n_workers=-1)["workers"])
+                # local workers share this filesystem: they write their own chunks
+                task_fn, extra = ((evaluate_and_write, (out,)) if own_cluster is not None
+                                  else (evaluate_chunk, ()))
                 futures = {}
                 for i in todo:
-                    fut = client.submit(evaluate_chunk, spec, i, retries=2, pure=False,
+                    fut = client.submit(task_fn, spec, i, *extra, retries=2, pure=False,
                                         key=f"seactl-sweep-{spec.hash[:12]}-{i:06d}")
                     futures[fut.key] = (i, fut)
                 try:
