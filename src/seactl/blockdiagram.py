@@ -42,6 +42,7 @@ True
 from __future__ import annotations
 
 import hashlib
+import json
 import os
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
@@ -327,9 +328,9 @@ def _structure_key(diagram: BlockDiagram, output: str, input: str, cut: tuple[st
                    kind: str | None) -> str:
     """Hash of everything the symbolic solution depends on: the wiring, which blocks
     are constants (and their values), the query, and the sympy version."""
-    import sympy as sp
+    from importlib.metadata import version  # not sympy itself: a cache hit needs no sympy
 
-    parts = [f"v1|{sp.__version__}|{output}|{input}|{','.join(cut)}|{kind}"]
+    parts = [f"v1|{version('sympy')}|{output}|{input}|{','.join(cut)}|{kind}"]
     for b in diagram.blocks:
         parts.append(f"{b.name}|{b.src}|{b.dst}|{_constant_gain(b)!r}")
     return hashlib.sha256("\n".join(parts).encode()).hexdigest()[:32]
@@ -530,7 +531,29 @@ _DELAY_SEP = "+"
 
 def _structure(diagram: BlockDiagram, cut: tuple[str, ...], minus: tuple[str, ...] | None):
     """Terms of ``det(I - A)`` (held: ``cut``), minus the one with ``minus`` held if given,
-    expanded in block symbols: ``[(coef, blocks), ...]``."""
+    expanded in block symbols: ``[(coef, blocks), ...]``; kept on disk as JSON (a cache
+    hit needs no sympy: worker processes and the command line start faster)."""
+    from .errors import OutputError
+    from .outputs import write_atomic
+
+    key = _structure_key(diagram, "", "", cut, f"terms|{minus and ','.join(minus)}")
+    folder = _cache_dir()
+    path = folder / f"{key}.json" if folder else None
+    if path is not None and path.is_file():
+        try:
+            return [(float(c), tuple(b)) for c, b in json.loads(path.read_text())]
+        except (ValueError, TypeError):  # a damaged entry: derive again
+            pass
+    terms = _expand_terms(diagram, cut, minus)
+    if path is not None:
+        try:
+            write_atomic(path, json.dumps(terms))
+        except OutputError:
+            pass
+    return terms
+
+
+def _expand_terms(diagram: BlockDiagram, cut: tuple[str, ...], minus: tuple[str, ...] | None):
     import sympy as sp
 
     expr = _determinant(diagram, cut)

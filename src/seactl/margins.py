@@ -30,7 +30,6 @@ from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
-from scipy.optimize import elementwise
 
 from . import _certify
 from .blockdiagram import DesignSubset, QuasiPolynomial, Transfer
@@ -129,6 +128,7 @@ def _refine(loop_at: Callable[[np.ndarray, np.ndarray], np.ndarray], b: np.ndarr
     ``loop_at(idx, w)`` is ``L(j w)`` of the flat designs ``idx``."""
     if b.size == 0:
         return np.empty(0)
+    from scipy.optimize import elementwise  # (lazily: a quarter second to import)
 
     def f(x, idx):
         val = loop_at(idx.astype(np.intp), np.exp(x))
