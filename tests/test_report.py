@@ -63,9 +63,34 @@ def test_interrupted_run_leaves_previous_report_intact(tmp_path, monkeypatch, ca
     boom.section_id = "boom"
     monkeypatch.setattr(paper, "SECTIONS", paper.SECTIONS + (boom,))
     with pytest.raises(KeyboardInterrupt):
-        paper.reproduce(out, only=["table-i", "boom"])
+        paper.reproduce(out, only=["table-i", "boom"], jobs=1)
     assert (out / "claims.json").read_bytes() == before
     assert sorted(p.name for p in tmp_path.iterdir()) == ["rep"]  # no temp leftovers
+
+
+def test_sections_in_worker_processes_equal_the_serial_run(tmp_path):
+    # Oracle: the same sections run one after the other in this process.
+    only = ["table-i", "feasibility", "gain-scale"]
+    a = paper.reproduce(tmp_path / "a", only=only, jobs=1)
+    b = paper.reproduce(tmp_path / "b", only=only, jobs=2)
+    assert a == b
+    assert (tmp_path / "a" / "claims.json").read_bytes() == \
+        (tmp_path / "b" / "claims.json").read_bytes()
+
+
+def test_a_section_failing_in_a_worker_stops_the_run_cleanly(tmp_path, monkeypatch):
+    # Oracle: the exception raised in the worker, the directory listing, and no child left.
+    import functools
+    import multiprocessing
+    import operator
+
+    boom = functools.partial(operator.truediv, 1, 0)  # picklable; any call raises
+    boom.section_id = "boom"
+    monkeypatch.setattr(paper, "SECTIONS", paper.SECTIONS + (boom,))
+    with pytest.raises(TypeError):
+        paper.reproduce(tmp_path / "rep", only=["table-i", "boom"], jobs=2)
+    assert list(tmp_path.iterdir()) == []
+    assert multiprocessing.active_children() == []
 
 
 def test_unknown_section_is_an_input_error(tmp_path, capsys):

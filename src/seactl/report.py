@@ -180,9 +180,11 @@ def section(order: int, id: str) -> Callable[[SectionFn], SectionFn]:
     return deco
 
 
-def build(out: Path, sections: Iterable[SectionFn], console: Any = None
+def build(out: Path, sections: Iterable[SectionFn], console: Any = None, jobs: int = 1
           ) -> list[dict[str, Any]]:
-    """Run ``sections`` and write the report into ``out`` (atomically); return the claims."""
+    """Run ``sections`` and write the report into ``out`` (atomically); return the claims.
+    ``jobs > 1`` runs the sections in that many worker processes (they are independent;
+    the report keeps their order)."""
     import matplotlib
 
     matplotlib.use("Agg")
@@ -205,10 +207,14 @@ def build(out: Path, sections: Iterable[SectionFn], console: Any = None
         built: list[Section] = []
         with Progress(console=console, transient=True, disable=console is None) as progress:
             task = progress.add_task("reproducing the paper", total=len(sections))
-            for func in sections:
-                progress.update(task, description=f"section {func.section_id}")
-                built.append(func(ctx))
-                progress.advance(task)
+            if jobs > 1 and len(sections) > 1:
+                built = _run_parallel(sections, ctx, min(jobs, len(sections)),
+                                      lambda: progress.advance(task))
+            else:
+                for func in sections:
+                    progress.update(task, description=f"section {func.section_id}")
+                    built.append(func(ctx))
+                    progress.advance(task)
         claims = [c.as_json() for s in built for c in s.claims]
         (tmp / "claims.json").write_text(json.dumps(claims, indent=2, sort_keys=True) + "\n")
         (tmp / "index.html").write_text(_render(built, claims))
@@ -219,6 +225,42 @@ def build(out: Path, sections: Iterable[SectionFn], console: Any = None
             raise OutputError(out, reason(exc)) from None
         raise
     return claims
+
+
+def _quiet_worker() -> None:
+    """Report workers leave Ctrl-C to the parent (which stops them): no tracebacks."""
+    import signal
+
+    import matplotlib
+
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
+    matplotlib.use("Agg")
+
+
+def _run_parallel(sections: list[SectionFn], ctx: Context, jobs: int,
+                  advance: Callable[[], None]) -> list[Section]:
+    """The sections in ``jobs`` fresh ("spawn") processes, results in report order; any
+    failure or Ctrl-C stops every worker."""
+    import multiprocessing
+    from concurrent.futures import FIRST_EXCEPTION, ProcessPoolExecutor, wait
+
+    pool = ProcessPoolExecutor(jobs, multiprocessing.get_context("spawn"),
+                               initializer=_quiet_worker)
+    try:
+        futures = [pool.submit(func, ctx) for func in sections]
+        pending = set(futures)
+        while pending:
+            done, pending = wait(pending, return_when=FIRST_EXCEPTION)
+            for f in done:
+                f.result()  # raises the section's error here
+                advance()
+        return [f.result() for f in futures]
+    except BaseException:
+        for proc in list(getattr(pool, "_processes", {}).values()):
+            proc.terminate()
+        raise
+    finally:
+        pool.shutdown(wait=True, cancel_futures=True)
 
 
 def _umask() -> int:

@@ -83,11 +83,13 @@ def gains(spec: DesignSpec, as_json: bool) -> None:
 @click.option("--out", "out", default="seactl-report", show_default=True,
               type=click.Path(file_okay=False), help="Report directory.")
 @click.option("--only", multiple=True, help="Only the named section(s) (ids).")
-def reproduce(out: str, only: tuple[str, ...]) -> None:
+@click.option("--jobs", type=click.IntRange(1, 64), default=None,
+              help="Worker processes for the sections [default: one per core].")
+def reproduce(out: str, only: tuple[str, ...], jobs: int | None) -> None:
     """Regenerate every table, figure and numeric claim of the paper into a report."""
     from ..paper import reproduce as run
 
-    summary = run(Path(out), only=only or None, console=err_console)
+    summary = run(Path(out), only=only or None, console=err_console, jobs=jobs)
     counts = {s: sum(1 for c in summary if c["status"] == s) for s in ("pass", "fail", "info")}
     console.print(f"report: {Path(out) / 'index.html'}  claims: {counts['pass']} pass, "
                   f"{counts['fail']} fail, {counts['info']} info")

@@ -5,6 +5,7 @@
 
 from __future__ import annotations
 
+import os
 from collections.abc import Iterable
 from pathlib import Path
 from typing import Any
@@ -42,10 +43,10 @@ def section_ids() -> list[str]:
     return [f.section_id for f in SECTIONS]
 
 
-def reproduce(out: Path, only: Iterable[str] | None = None, console: Any = None
-              ) -> list[dict[str, Any]]:
+def reproduce(out: Path, only: Iterable[str] | None = None, console: Any = None,
+              jobs: int | None = None) -> list[dict[str, Any]]:
     """Build the paper's report into ``out`` (all sections, or those in ``only``) and return
-    the claims as JSON dicts."""
+    the claims as JSON dicts; ``jobs`` worker processes (default: one per core)."""
     sections = list(SECTIONS)
     if only:
         wanted = set(only)
@@ -54,4 +55,8 @@ def reproduce(out: Path, only: Iterable[str] | None = None, console: Any = None
             raise InputError("only", ", ".join(sorted(unknown)),
                              "one of " + ", ".join(section_ids()))
         sections = [f for f in sections if f.section_id in wanted]
-    return build(Path(out), sections, console=console)
+    if jobs is None:
+        jobs = os.cpu_count() or 1
+    if not (isinstance(jobs, int) and 1 <= jobs <= 64):
+        raise InputError("jobs", jobs, "an integer from 1 to 64")
+    return build(Path(out), sections, console=console, jobs=jobs)
