@@ -60,26 +60,8 @@ SLIDERS = {  # control -> label
 }
 FIG = {"width": 430, "height": 250, "tools": "pan,wheel_zoom,box_zoom,reset,save"}
 
-DOWNLOAD_JS = """
-const text = src.data[key][0];
-const blob = new Blob([text], {type: mime});
-const a = document.createElement('a');
-a.href = URL.createObjectURL(blob);
-a.download = filename;
-document.body.appendChild(a);
-a.click();
-a.remove();
-"""
-
-FIGURES_JS = """
-// Each figure's own export (BokehJS PlotView.export: an SVG context, canvas2svg, for
-// 'svg'; a canvas for 'png'), placed where the page shows it, in one file.
-const views = figs.map(f => Bokeh.index.find_one(f)).filter(v => v != null);
-const boxes = views.map(v => v.el.getBoundingClientRect());
-const x0 = Math.min(...boxes.map(b => b.left)), y0 = Math.min(...boxes.map(b => b.top));
-const W = Math.ceil(Math.max(...boxes.map(b => b.right)) - x0);
-const H = Math.ceil(Math.max(...boxes.map(b => b.bottom)) - y0);
-function save(blob) {
+SAVE_JS = """
+function save(blob) {  // the browser's download of blob as `filename`
   const a = document.createElement('a');
   a.href = URL.createObjectURL(blob);
   a.download = filename;
@@ -87,6 +69,20 @@ function save(blob) {
   a.click();
   a.remove();
 }
+"""
+
+DOWNLOAD_JS = SAVE_JS + """
+save(new Blob([src.data[key][0]], {type: mime}));
+"""
+
+FIGURES_JS = SAVE_JS + """
+// Each figure's own export (BokehJS PlotView.export: an SVG context, canvas2svg, for
+// 'svg'; a canvas for 'png'), placed where the page shows it, in one file.
+const views = figs.map(f => Bokeh.index.find_one(f)).filter(v => v != null);
+const boxes = views.map(v => v.el.getBoundingClientRect());
+const x0 = Math.min(...boxes.map(b => b.left)), y0 = Math.min(...boxes.map(b => b.top));
+const W = Math.ceil(Math.max(...boxes.map(b => b.right)) - x0);
+const H = Math.ceil(Math.max(...boxes.map(b => b.bottom)) - y0);
 if (fmt === 'svg') {
   const parts = views.map((v, i) => {
     const svg = v.export('svg', false).ctx.get_serialized_svg(true)
