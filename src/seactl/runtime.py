@@ -1,30 +1,37 @@
-"""``seactl run``: the exported controllers as real OS processes over UDP on loopback.
+"""``seactl run``: the exported controllers as real OS processes on loopback.
 
-Three processes, each a ``python -m seactl.runtime ROLE CONFIG`` child:
+Three processes, each a ``python -m seactl.runtime ROLE CONFIG`` child, for an SEA or a
+rigid actuator (any diagram :func:`seactl.export.compile_processes` splits into a
+``high-level`` and an ``embedded`` process):
 
 ``plant``
-    The clock.  Every base period it integrates the SEA over the period that just ended
-    (exactly, zero-order hold, the sampled simulation's plant matrices) with the current
-    command computed for it, samples ``q_j`` and ``tau_k`` and sends them to the other
-    two processes.  The plant and the embedded process are one actuator and its drive:
-    when the command is not there at the tick, the plant waits for it (a late command,
+    The clock.  Every base period it integrates the actuator over the period that just
+    ended (exactly, zero-order hold, the sampled simulation's plant matrices) with the
+    command computed for it, samples the sensed signals and sends them to the other two
+    processes.  The plant and the embedded process are one actuator and its drive: when
+    the command is not there at the tick, the plant waits for it (a late command,
     counted; the simulated physics does not move meanwhile) rather than apply a stale
     one, so the run stays comparable with the simulation.
 ``embedded``
-    The exported ``embedded.py``: on each sample, one ``step`` with the newest stiffness
-    message, and the current command back to the plant.
+    The exported ``embedded.py``: on each sample, one ``step`` with the newest message of
+    the high-level process, and the actuation back to the plant.  Until the first
+    message arrives it holds the message the high-level process computes at rest (its
+    output for the initial state and the reference), as a drive would be initialized.
 ``high-level``
     The exported ``high_level.py`` at its rate; its message goes to ``embedded`` through
     an optional injected latency and loss.
 
-Every message carries its tick and send time (``time.monotonic``, one clock for all
-processes on a machine); every receiver logs its receive time.  The parent creates the
-sockets (bound to 127.0.0.1 only) and hands them to the children, bounds the run time,
-and terminates every child on exit, on Ctrl-C and when any child fails; a child that
-hears nothing for ``PEER_TIMEOUT_S`` ends with an error (lost peer).
+Transports (loopback only): **Zenoh** (the default; the middleware of ROS 2's rmw_zenoh),
+each process a peer listening on ``tcp/127.0.0.1:PORT`` with scouting off, connected to
+the others' explicit endpoints; or plain **UDP** datagrams between sockets the parent
+binds to 127.0.0.1.  Every message carries its tick and send time (``time.monotonic``,
+one clock for all processes on a machine); every receiver logs its receive time.  The
+parent bounds the run time and terminates every child on exit, on Ctrl-C and when any
+child fails; a child that hears nothing for ``PEER_TIMEOUT_S`` ends with an error (lost
+peer).
 
-The prediction replays the run in the sampled simulation: the stiffness link is driven
-by the measured arrival schedule (which central message the embedded process used at
+The prediction replays the run in the sampled simulation: the high-level link is driven
+by the measured arrival schedule (which high-level message the embedded process used at
 each tick), so measured and simulated responses differ only if the model is wrong.
 """
 
@@ -51,6 +58,10 @@ SENSE, CENTRAL, ACT, STOP = 0, 1, 2, 3
 HEADER = struct.Struct("<Bqd")
 PEER_TIMEOUT_S = 2.0
 ROLES = ("plant", "embedded", "high-level")
+TRANSPORTS = ("zenoh", "udp")
+PEERS = {"plant": (), "embedded": ("plant",), "high-level": ("plant", "embedded")}
+"""Zenoh: whom each process connects to (the others listen): no cycle, so no process
+waits for one that waits for it."""
 
 
 def pack(kind: int, tick: int, values: Any = (), sent: float | None = None) -> bytes:
@@ -70,9 +81,70 @@ class LostPeer(RuntimeError):
     pass
 
 
-def _recv(sock: socket.socket, timeout_s: float) -> bytes | None:
-    ready, _, _ = select.select([sock], [], [], max(timeout_s, 0.0))
-    return sock.recv(4096) if ready else None
+# ----------------------------------------------------------------------------- transports
+class UdpLink:
+    """Datagrams between sockets bound to 127.0.0.1 (the parent binds them)."""
+
+    def __init__(self, cfg: dict[str, Any], role: str):
+        self.sock = socket.socket(fileno=cfg["fds"][role])
+        self.peers = {r: ("127.0.0.1", port) for r, port in cfg["ports"].items()}
+
+    def send(self, to: str, data: bytes) -> None:
+        self.sock.sendto(data, self.peers[to])
+
+    def recv(self, timeout_s: float) -> tuple[bytes, float] | None:
+        """A message and its receive time, or None after ``timeout_s``."""
+        ready, _, _ = select.select([self.sock], [], [], max(timeout_s, 0.0))
+        return (self.sock.recv(4096), time.monotonic()) if ready else None
+
+    def close(self) -> None:
+        self.sock.close()
+
+
+def zenoh_config(cfg: dict[str, Any], role: str) -> Any:
+    """A peer listening on its loopback port only, connected to ``PEERS[role]``, with
+    multicast and gossip scouting off (nothing is discovered or announced)."""
+    import zenoh
+
+    conf = zenoh.Config()
+    ep = {r: f"tcp/127.0.0.1:{port}" for r, port in cfg["ports"].items()}
+    for key, value in (("mode", "peer"), ("listen/endpoints", [ep[role]]),
+                       ("connect/endpoints", [ep[r] for r in PEERS[role]]),
+                       ("scouting/multicast/enabled", False),
+                       ("scouting/gossip/enabled", False)):
+        conf.insert_json5(key, json.dumps(value))
+    return conf
+
+
+class ZenohLink:
+    """A Zenoh session: one key per receiving process (``seactl/run/<run>/<role>``)."""
+
+    def __init__(self, cfg: dict[str, Any], role: str):
+        import queue
+
+        import zenoh
+
+        self.queue: Any = queue.SimpleQueue()
+        self.session = zenoh.open(zenoh_config(cfg, role))
+        key = f"seactl/run/{cfg['run_id']}/"
+        # the receive time is taken in Zenoh's callback, as the message arrives
+        self.sub = self.session.declare_subscriber(
+            key + role, lambda s: self.queue.put((s.payload.to_bytes(), time.monotonic())))
+        self.pubs = {r: self.session.declare_publisher(key + r) for r in ROLES if r != role}
+
+    def send(self, to: str, data: bytes) -> None:
+        self.pubs[to].put(data)
+
+    def recv(self, timeout_s: float) -> tuple[bytes, float] | None:
+        import queue
+
+        try:
+            return self.queue.get(timeout=max(timeout_s, 0.0))
+        except queue.Empty:
+            return None
+
+    def close(self) -> None:
+        self.session.close()
 
 
 def _timeout(cfg: dict[str, Any]) -> float:
@@ -90,11 +162,10 @@ def _load_class(path: Path, name: str) -> Any:
 
 
 # ----------------------------------------------------------------------------- plant
-def run_plant(cfg: dict[str, Any], sock: socket.socket) -> dict[str, np.ndarray]:
+def run_plant(cfg: dict[str, Any], link: Any) -> dict[str, np.ndarray]:
     m = np.load(cfg["plant_npz"])
     Hx, Ha, Cx, Ca = m["Hx"], m["Ha"], m["Cx"], m["Ca"]
     Tb, K = 1.0 / cfg["base_rate_hz"], int(cfg["ticks"])
-    peers = [("127.0.0.1", cfg["ports"][r]) for r in ("embedded", "high-level")]
     x = np.zeros(Hx.shape[0])
     act, act_tick = np.zeros(Ha.shape[1]), -1
     q = np.full(K + 1, np.nan)
@@ -118,10 +189,10 @@ def run_plant(cfg: dict[str, Any], sock: socket.socket) -> dict[str, np.ndarray]
                 wait = give_up - now
                 if wait <= 0:
                     raise LostPeer("plant: no command from the embedded process for 2 s")
-            data = _recv(sock, wait)
-            if data:
-                kind, tick, t_s, vals = unpack(data)
-                recv.append((tick, t_s, time.monotonic()))
+            got = link.recv(wait)
+            if got:
+                kind, tick, t_s, vals = unpack(got[0])
+                recv.append((tick, t_s, got[1]))
                 if kind == ACT and tick > act_tick:
                     act, act_tick = np.array(vals), tick
         if k > 0:
@@ -129,77 +200,80 @@ def run_plant(cfg: dict[str, Any], sock: socket.socket) -> dict[str, np.ndarray]
             x = Hx @ x + Ha @ act
         y = Cx @ x + Ca @ act
         q[k] = y[cfg["q_row"]]
-        msg = pack(SENSE, k, y[:cfg["n_sensed"]])
-        for p in peers:
-            sock.sendto(msg, p)
-    for p in peers:
-        sock.sendto(pack(STOP, K), p)
+        msg = pack(SENSE, k, y[:len(cfg["sensed"])])
+        for r in ("embedded", "high-level"):
+            link.send(r, msg)
+    for r in ("embedded", "high-level"):
+        link.send(r, pack(STOP, K))
     return {"q": q, "act_used": used, "recv": np.array(recv).reshape(-1, 3),
             "late": np.array(late)}
 
 
 # ----------------------------------------------------------------------------- controllers
-def run_embedded(cfg: dict[str, Any], sock: socket.socket) -> dict[str, np.ndarray]:
+def _inputs(cfg: dict[str, Any], ctl: Any, sensed: tuple[float, ...],
+            held: dict[str, float]) -> dict[str, float]:
+    """A controller's inputs by name: sensed signals, references (the step), messages."""
+    u = dict(zip(cfg["sensed"], sensed)) | {r: cfg["step"] for r in cfg["references"]}
+    return {n: u[n] if n in u else held[n] for n in ctl.INPUTS}
+
+
+def run_embedded(cfg: dict[str, Any], link: Any) -> dict[str, np.ndarray]:
     ctl = _load_class(Path(cfg["export_dir"]) / "embedded.py", "Embedded")
-    plant = ("127.0.0.1", cfg["ports"]["plant"])
     K, every = int(cfg["ticks"]), int(cfg["period_ticks"]["embedded"])
-    hl, hl_tick = 0.0, -1
+    names = list(cfg["message"])
+    held, hl_tick = dict(cfg["message"]), -1   # the high-level's message at rest
     used = np.full(K + 1, -1)
     sense_lat, central = [], []
     while True:
-        data = _recv(sock, _timeout(cfg))
-        if data is None:
+        got = link.recv(_timeout(cfg))
+        if got is None:
             raise LostPeer("embedded: no message for 2 s (a peer is gone)")
-        now = time.monotonic()
-        kind, tick, t_s, vals = unpack(data)
+        kind, tick, t_s, vals = unpack(got[0])
         if kind == STOP:
             break
         if kind == CENTRAL:
-            central.append((tick, t_s, now))
+            central.append((tick, t_s, got[1]))
             if tick > hl_tick:
-                hl, hl_tick = vals[0], tick
+                held, hl_tick = dict(zip(names, vals)), tick
         elif kind == SENSE:
-            sense_lat.append((tick, t_s, now))
+            sense_lat.append((tick, t_s, got[1]))
             if tick % every == 0:
-                u = {"q_j": vals[0], "tau_k": vals[1], "q_des": cfg["step"],
-                     "tau_fb_from_high_level": hl}
-                out = ctl.step({n: u[n] for n in ctl.INPUTS})
-                sock.sendto(pack(ACT, tick, [out[n] for n in ctl.OUTPUTS]), plant)
+                out = ctl.step(_inputs(cfg, ctl, vals, held))
+                link.send("plant", pack(ACT, tick, [out[n] for n in cfg["actuation"]]))
                 used[tick] = hl_tick
     return {"central_used": used, "sense": np.array(sense_lat).reshape(-1, 3),
             "central": np.array(central).reshape(-1, 3)}
 
 
-def run_high_level(cfg: dict[str, Any], sock: socket.socket) -> dict[str, np.ndarray]:
+def run_high_level(cfg: dict[str, Any], link: Any) -> dict[str, np.ndarray]:
     ctl = _load_class(Path(cfg["export_dir"]) / "high_level.py", "HighLevel")
-    emb = ("127.0.0.1", cfg["ports"]["embedded"])
     every = int(cfg["period_ticks"]["high-level"])
     extra, loss = float(cfg["extra_latency_s"]), float(cfg["loss"])
     rng = random.Random(cfg["seed"])
-    queue: list[tuple[float, int, float, float]] = []
+    queue: list[tuple[float, int, list[float], float]] = []
     sense_lat, dropped = [], 0
     while True:
         limit = _timeout(cfg)
         due = queue[0][0] - time.monotonic() if queue else limit
-        data = _recv(sock, min(due, limit))
+        got = link.recv(min(due, limit))
         while queue and queue[0][0] <= time.monotonic():
-            _t, tick, value, made = heapq.heappop(queue)
-            sock.sendto(pack(CENTRAL, tick, [value], sent=made), emb)   # injected: counted
-        if data is None:
+            _t, tick, values, made = heapq.heappop(queue)
+            link.send("embedded", pack(CENTRAL, tick, values, sent=made))   # injected
+        if got is None:
             if due < limit:
                 continue
             raise LostPeer("high-level: no message for 2 s (a peer is gone)")
-        kind, tick, t_s, vals = unpack(data)
+        kind, tick, t_s, vals = unpack(got[0])
         if kind == STOP:
             break
-        sense_lat.append((tick, t_s, time.monotonic()))
+        sense_lat.append((tick, t_s, got[1]))
         if kind == SENSE and tick % every == 0:
-            out = ctl.step({"q_j": vals[0]})
+            out = ctl.step(_inputs(cfg, ctl, vals, {}))
             if rng.random() < loss:
                 dropped += 1
                 continue
             now = time.monotonic()
-            heapq.heappush(queue, (now + extra, tick, out[ctl.OUTPUTS[0]], now))
+            heapq.heappush(queue, (now + extra, tick, [out[n] for n in cfg["message"]], now))
     return {"sense": np.array(sense_lat).reshape(-1, 3), "dropped": np.array(dropped)}
 
 
@@ -229,18 +303,29 @@ def _plant_matrices(plan: Any) -> dict[str, np.ndarray]:
 
 
 class _Replay:
-    """Timing for :func:`seactl.simulate.simulate`: the stiffness link as measured."""
+    """Timing for :func:`seactl.simulate.simulate`: the high-level links as measured."""
 
-    blocks = ("Kq_fb",)
-
-    def __init__(self, sched: np.ndarray):
-        self.sched = sched
+    def __init__(self, scheds: dict[str, np.ndarray]):
+        self.blocks = tuple(scheds)
+        self.scheds = scheds
 
     def schedules(self, plan: Any) -> dict[str, np.ndarray]:
-        return {"Kq_fb": self.sched[:, None]}
+        return {b: s[:, None] for b, s in self.scheds.items()}
 
 
-def _spawn(cfg: dict[str, Any], run_dir: Path, socks: dict[str, socket.socket]) -> None:
+def _free_tcp_ports(n: int) -> list[int]:
+    """Ports the kernel just had free on 127.0.0.1 (Zenoh binds them itself)."""
+    socks = [socket.socket(socket.AF_INET, socket.SOCK_STREAM) for _ in range(n)]
+    try:
+        for s in socks:
+            s.bind(("127.0.0.1", 0))
+        return [s.getsockname()[1] for s in socks]
+    finally:
+        for s in socks:
+            s.close()
+
+
+def _spawn(cfg: dict[str, Any], run_dir: Path, fds: tuple[int, ...], on_start: Any) -> None:
     """Start the three children; wait; on any failure, stop them all and raise."""
     from .errors import SeactlError
 
@@ -248,24 +333,28 @@ def _spawn(cfg: dict[str, Any], run_dir: Path, socks: dict[str, socket.socket]) 
     path.write_text(json.dumps(cfg))
     procs: dict[str, subprocess.Popen] = {}
     deadline = cfg["t0"] + cfg["ticks"] / cfg["base_rate_hz"] + 20.0
+
+    def failure(role: str) -> SeactlError:
+        err = (procs[role].stderr.read().strip().splitlines() or ["no message"])[-1]
+        return SeactlError(f"run: process {role!r} failed ({cfg['transport']}): {err}")
+
     try:
         for role in ROLES:
-            fd = socks[role].fileno()
             procs[role] = subprocess.Popen([sys.executable, "-m", "seactl.runtime", role,
-                                            str(path)], pass_fds=(fd,), stdout=subprocess.DEVNULL,
+                                            str(path)], pass_fds=fds, stdout=subprocess.DEVNULL,
                                            stderr=subprocess.PIPE, text=True)
+        if on_start is not None:
+            on_start({r: p.pid for r, p in procs.items()})
         while any(p.poll() is None for p in procs.values()):
             bad = [r for r, p in procs.items() if p.poll() not in (None, 0)]
             if bad:
-                err = (procs[bad[0]].stderr.read().strip().splitlines() or ["no message"])[-1]
-                raise SeactlError(f"run: process {bad[0]!r} failed: {err}")
+                raise failure(bad[0])
             if time.monotonic() > deadline:
                 raise SeactlError("run: the processes did not finish in time")
             time.sleep(0.05)
         bad = [r for r, p in procs.items() if p.returncode != 0]
         if bad:
-            err = (procs[bad[0]].stderr.read().strip().splitlines() or ["no message"])[-1]
-            raise SeactlError(f"run: process {bad[0]!r} failed: {err}")
+            raise failure(bad[0])
     finally:
         for p in procs.values():
             if p.poll() is None:
@@ -280,99 +369,152 @@ def _spawn(cfg: dict[str, Any], run_dir: Path, socks: dict[str, socket.socket]) 
                 p.stderr.close()
 
 
-def _stats_ms(lat_s: np.ndarray) -> dict[str, float | int]:
+def _stats_ms(lat_s: np.ndarray) -> dict[str, Any]:
+    """Summary of a link's latencies, with a histogram (``edges_ms``, ``counts``)."""
     ms = np.asarray(lat_s) * 1e3
     if ms.size == 0:
         return {"count": 0}
+    counts, edges = np.histogram(ms, bins=20 if ms.max() > ms.min() else 1)
     return {"count": int(ms.size), "mean_ms": float(ms.mean()),
             "p50_ms": float(np.percentile(ms, 50)), "p99_ms": float(np.percentile(ms, 99)),
-            "max_ms": float(ms.max()), "jitter_ms": float(ms.std())}
+            "max_ms": float(ms.max()), "jitter_ms": float(ms.std()),
+            "histogram": {"edges_ms": [float(e) for e in edges],
+                          "counts": [int(c) for c in counts]}}
 
 
-def run_distributed(design: Any, *, duration_s: float = 2.0,
-                    rates_hz: dict[str, float] | float = 1000.0, step: float = 0.01,
-                    saturation_a: float | None = None, extra_latency_s: float = 0.0,
-                    loss: float = 0.0, seed: int = 0, zero: bool = True,
-                    startup_s: float = 3.0) -> RunResult:
-    """Run the SEA design's exported controllers as three OS processes over UDP on
-    loopback for ``duration_s`` and compare with the sampled simulation (module doc)."""
+def _check_run(duration_s: float, extra_latency_s: float, loss: float, step: float,
+               transport: str) -> None:
     from .errors import InputError
-    from .export import compile_processes, export_files
-    from .loops import sea_diagram
-    from .simulate import compile_sampled
 
     for name, v, lo, hi in (("duration_s", duration_s, 0.1, 60.0),
                             ("extra_latency_s", extra_latency_s, 0.0, 1.0),
                             ("loss", loss, 0.0, 0.99), ("step", abs(step), 1e-6, 1.0)):
         if not (math.isfinite(v) and lo <= v <= hi):
             raise InputError(name, v, f"in [{lo:g}, {hi:g}]")
-    diagram = sea_diagram(zero)
-    sat = {"i_m": design.actuator.max_current if saturation_a is None else saturation_a}
-    ctl = compile_processes(diagram, design, rates_hz, sat)
-    Tb = 1.0 / ctl.base_rate_hz
+    if transport not in TRANSPORTS:
+        raise InputError("transport", transport, " or ".join(TRANSPORTS))
+    if transport == "zenoh":
+        try:
+            import zenoh  # noqa: F401
+        except ImportError as exc:
+            raise InputError("transport", transport, f"udp (Zenoh is not importable: {exc})"
+                             ) from None
+
+
+def run_distributed(diagram: Any, design: Any, *, saturation: dict[str, float],
+                    step: float, duration_s: float = 2.0,
+                    rates_hz: dict[str, float] | float = 1000.0, extra_latency_s: float = 0.0,
+                    loss: float = 0.0, seed: int = 0, transport: str = "zenoh",
+                    startup_s: float = 3.0, on_start: Any = None) -> RunResult:
+    """Run a design's exported controllers as three OS processes on loopback for
+    ``duration_s`` and compare with the sampled simulation (module doc).
+
+    ``diagram``/``design``/``saturation``: as for :func:`seactl.export.compile_processes`;
+    ``step``: the reference step (rad or m); ``on_start(pids)`` is called with the
+    children's process ids once they are started."""
+    from .errors import InputError
+    from .export import compile_processes, export_files
+    from .simulate import compile_sampled
+
+    _check_run(duration_s, extra_latency_s, loss, step, transport)
+    ctl = compile_processes(diagram, design, rates_hz, saturation)
+    if set(ctl.names) != {"embedded", "high-level"}:
+        raise InputError("diagram", ", ".join(ctl.names), "processes embedded and high-level")
     if ctl.base_rate_hz > 5000:
         raise InputError("rates_hz", ctl.base_rate_hz, "<= 5000 Hz for a run (Python processes)")
+    Tb = 1.0 / ctl.base_rate_hz
     K = int(round(duration_s / Tb))
-    plan = compile_sampled(diagram, design, {}, Tb, (), rates_hz=rates_hz, saturation=sat)
+    plan = compile_sampled(diagram, design, {}, Tb, (), rates_hz=rates_hz, saturation=saturation)
     with tempfile.TemporaryDirectory(prefix="seactl-run-") as tmp:
         run_dir = Path(tmp)
         (run_dir / "export").mkdir()
         for name, text in export_files(ctl, ("python",)).items():
             (run_dir / "export" / name).write_text(text)
         np.savez(run_dir / "plant.npz", **_plant_matrices(plan))
-        socks = {r: socket.socket(socket.AF_INET, socket.SOCK_DGRAM) for r in ROLES}
-        try:
-            for s in socks.values():
-                s.bind(("127.0.0.1", 0))
-            cfg = {"base_rate_hz": ctl.base_rate_hz, "ticks": K, "step": float(step),
-                   "period_ticks": {p.name: p.period_ticks for p in ctl.processes},
-                   "ports": {r: s.getsockname()[1] for r, s in socks.items()},
-                   "fds": {r: s.fileno() for r, s in socks.items()},
-                   "plant_npz": str(run_dir / "plant.npz"), "export_dir": str(run_dir / "export"),
-                   "run_dir": str(run_dir), "q_row": list(ctl.sensed).index("q_j"),
-                   "n_sensed": len(ctl.sensed), "extra_latency_s": float(extra_latency_s),
-                   "loss": float(loss), "seed": int(seed), "t0": time.monotonic() + startup_s}
-            _spawn(cfg, run_dir, socks)
-        finally:
-            for s in socks.values():
-                s.close()
+        cfg = {"base_rate_hz": ctl.base_rate_hz, "ticks": K, "step": float(step),
+               "period_ticks": {p.name: p.period_ticks for p in ctl.processes},
+               "plant_npz": str(run_dir / "plant.npz"), "export_dir": str(run_dir / "export"),
+               "run_dir": str(run_dir), "q_row": 0, "sensed": list(ctl.sensed),
+               "references": list(ctl.references), "actuation": list(ctl.actuation),
+               "message": _message_at_rest(run_dir / "export", ctl, step),
+               "extra_latency_s": float(extra_latency_s), "loss": float(loss),
+               "seed": int(seed), "transport": transport, "run_id": run_dir.name[-8:]}
+        _start(cfg, run_dir, startup_s, on_start)
         logs = {r: dict(np.load(run_dir / f"log-{r}.npz")) for r in ROLES}
-    return _analyse(diagram, design, ctl, logs, K, step, sat, rates_hz,
-                    {"extra_latency_ms": extra_latency_s * 1e3, "loss": loss})
+    return _analyse(diagram, design, ctl, logs, K, step, saturation, rates_hz,
+                    {"transport": transport, "extra_latency_ms": extra_latency_s * 1e3,
+                     "loss": loss})
+
+
+def _message_at_rest(export_dir: Path, ctl: Any, step: float) -> dict[str, float]:
+    """The high-level's first message with the plant at rest (sensed signals zero), which
+    the embedded process holds until a real message arrives."""
+    hl = _load_class(export_dir / "high_level.py", "HighLevel")
+    refs = set(ctl.references)
+    out = hl.step({n: float(step) if n in refs else 0.0 for n in hl.INPUTS})
+    return {n: float(out[n]) for n in hl.OUTPUTS}
+
+
+def _start(cfg: dict[str, Any], run_dir: Path, startup_s: float, on_start: Any) -> None:
+    """Bind the transport's endpoints on 127.0.0.1, start the clock, run the children."""
+    socks: list[socket.socket] = []
+    try:
+        if cfg["transport"] == "udp":
+            socks = [socket.socket(socket.AF_INET, socket.SOCK_DGRAM) for _ in ROLES]
+            for s in socks:
+                s.bind(("127.0.0.1", 0))
+            cfg["ports"] = {r: s.getsockname()[1] for r, s in zip(ROLES, socks)}
+            cfg["fds"] = {r: s.fileno() for r, s in zip(ROLES, socks)}
+        else:
+            cfg["ports"] = dict(zip(ROLES, _free_tcp_ports(len(ROLES))))
+        cfg["t0"] = time.monotonic() + startup_s
+        _spawn(cfg, run_dir, tuple(s.fileno() for s in socks), on_start)
+    finally:
+        for s in socks:
+            s.close()
 
 
 def _analyse(diagram: Any, design: Any, ctl: Any, logs: dict[str, dict[str, np.ndarray]],
              K: int, step: float, sat: dict[str, float], rates_hz: Any,
-             injected: dict[str, float]) -> RunResult:
+             injected: dict[str, Any]) -> RunResult:
     """Latency per link, tracking error, and the replayed and nominal simulations."""
     from .simulate import Step, simulate
 
     Tb = 1.0 / ctl.base_rate_hz
     hl = ctl.process("high-level")
-    n_c = dict(hl.buffers).get("Kq_fb", 0) * hl.period_ticks
+    # the high-level's delayed blocks carry the link: their source tick is the message's
+    # tick less their own buffer
+    links = [b.name for b in diagram.blocks if b.process == "high-level" and b.delay]
     used = logs["embedded"]["central_used"]
-    sched = np.where(used >= 0, np.maximum(used - n_c, -1), -1)
-    sched = np.maximum.accumulate(sched)
+    scheds = {}
+    for b in links:
+        n_c = dict(hl.buffers).get(b, 0) * hl.period_ticks
+        scheds[b] = np.maximum.accumulate(np.where(used >= 0, np.maximum(used - n_c, -1), -1))
     t_end = K * Tb
+    ref = ctl.references[0]
     base = {p: ctl.base_rate_hz for p in ctl.names}
-    rep = simulate(diagram, design, {"q_des": Step(step)}, t_end, mode="sampled",
-                   outputs=("q_j",), rates_hz=base, saturation=sat, timing=_Replay(sched))
-    nom = simulate(diagram, design, {"q_des": Step(step)}, t_end, mode="sampled",
-                   outputs=("q_j",), rates_hz=rates_hz, saturation=sat)
+    out = ctl.sensed[0]
+    rep = simulate(diagram, design, {ref: Step(step)}, t_end, mode="sampled", outputs=(out,),
+                   rates_hz=base, saturation=sat, timing=_Replay(scheds))
+    nom = simulate(diagram, design, {ref: Step(step)}, t_end, mode="sampled", outputs=(out,),
+                   rates_hz=rates_hz, saturation=sat)
     q = logs["plant"]["q"]
-    q_rep, q_nom = np.ravel(rep.outputs["q_j"]), np.ravel(nom.outputs["q_j"])
+    q_rep, q_nom = np.ravel(rep.outputs[out]), np.ravel(nom.outputs[out])
     lat = {"plant->embedded": logs["embedded"]["sense"],
            "plant->high-level": logs["high-level"]["sense"],
            "high-level->embedded": logs["embedded"]["central"],
            "embedded->plant": logs["plant"]["recv"]}
     lat_s = {k: (v[:, 2] - v[:, 1]) for k, v in lat.items()}
     k = np.arange(K + 1)
+    sched = scheds[links[0]] if links else np.where(used >= 0, used, -1)
     age = np.where(sched >= 0, k - sched, np.nan)
     lat_s["stiffness"] = (Tb / 2 + age[np.isfinite(age)] * Tb)
     act_used = logs["plant"]["act_used"][:K]
     summary = {
-        "transport": "udp", "duration_s": K * Tb, "ticks": K + 1,
-        "rates_hz": {p.name: p.rate_hz for p in ctl.processes}, **injected,
+        "transport": injected["transport"], "system": diagram.name, "duration_s": K * Tb,
+        "ticks": K + 1, "rates_hz": {p.name: p.rate_hz for p in ctl.processes},
+        "output": out, "step": float(step),
+        "extra_latency_ms": injected["extra_latency_ms"], "loss": injected["loss"],
         "dropped": int(logs["high-level"]["dropped"]),
         "links": {name: _stats_ms(v) for name, v in lat_s.items()},
         "late_commands": int(logs["plant"]["late"]),
@@ -408,15 +550,19 @@ def run_files(res: RunResult) -> dict[str, str]:
 
 def worker_main(role: str, config: str) -> int:
     cfg = json.loads(Path(config).read_text())
-    sock = socket.socket(fileno=cfg["fds"][role])
     run = {"plant": run_plant, "embedded": run_embedded, "high-level": run_high_level}[role]
     try:
-        logs = run(cfg, sock)
+        link = (UdpLink if cfg["transport"] == "udp" else ZenohLink)(cfg, role)
+    except Exception as exc:  # e.g. a Zenoh endpoint taken meanwhile
+        print(f"error: cannot open the {cfg['transport']} link: {exc}", file=sys.stderr)
+        return 3
+    try:
+        logs = run(cfg, link)
     except LostPeer as exc:
         print(f"error: {exc}", file=sys.stderr)
         return 3
     finally:
-        sock.close()
+        link.close()
     np.savez(Path(cfg["run_dir"]) / f"log-{role}.npz", **logs)
     return 0
 

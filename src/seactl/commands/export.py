@@ -6,7 +6,10 @@ JSON: ``{"files": [...], "processes": [{"name", "rate_hz", "inputs", "outputs"}]
 
 from __future__ import annotations
 
+import functools
 import math
+from collections.abc import Callable
+from dataclasses import dataclass
 from typing import Any
 
 import click
@@ -60,26 +63,77 @@ def _number(name: str, text: str) -> float:
         raise InputError(name, text, "a number, or 'none'") from None
 
 
-def _system(system: str, spec: DesignSpec, zero: bool, sat: str | None, rigid_actuator: str,
-            t_s: float, t_d: float, f_v: str) -> tuple[Any, ...]:
-    """(diagram, design, saturation, verification step) of the chosen system."""
-    if spec.fn_hz.size != 1 or spec.gs.size != 1:
-        raise InputError("--fn", f"{spec.fn_hz.size} x {spec.gs.size} designs",
-                         "one --fn and one --gs (one design per export)")
-    if system == "sea":
-        from ..loops import sea_diagram
+@dataclass(frozen=True)
+class SystemChoice:
+    """The options of :func:`system_options`: which system, its rates and limits."""
 
-        lim = _saturation(sat, spec.actuator.max_current, "A")
-        with np.errstate(over="ignore"):   # extreme --gs: infinite gains, refused later
-            design = spec.designs()
-        return sea_diagram(zero), design, {"i_m": lim}, 0.1
-    from ..rigid import RIGID_DIAGRAM
-    from ..systems import rigid
+    system: str
+    rates_hz: float | dict[str, float]
+    saturation: str | None
+    zero: bool
+    rigid_actuator: str
+    t_s: float
+    t_d: float
+    f_v: str
 
-    fv = None if f_v.strip().lower() == "none" else _number("--f-v [Hz]", f_v)
-    d = rigid(float(spec.fn_hz.reshape(-1)[0]), actuator=rigid_actuator, delays_ms=(t_s, t_d),
-              velocity_filter_hz=fv).rigid
-    return RIGID_DIAGRAM, d, {"F_des": _saturation(sat, d.actuator.max_force, "N")}, 0.004
+    def build(self, spec: DesignSpec) -> tuple[Any, ...]:
+        """(diagram, design, saturation, verification step) of the chosen system."""
+        if spec.fn_hz.size != 1 or spec.gs.size != 1:
+            raise InputError("--fn", f"{spec.fn_hz.size} x {spec.gs.size} designs",
+                             "one --fn and one --gs (one design per export)")
+        if self.system == "sea":
+            from ..loops import sea_diagram
+
+            lim = _saturation(self.saturation, spec.actuator.max_current, "A")
+            with np.errstate(over="ignore"):   # extreme --gs: infinite gains, refused later
+                design = spec.designs()
+            return sea_diagram(self.zero), design, {"i_m": lim}, 0.1
+        from ..rigid import RIGID_DIAGRAM
+        from ..systems import rigid
+
+        fv = None if self.f_v.strip().lower() == "none" else _number("--f-v [Hz]", self.f_v)
+        d = rigid(float(spec.fn_hz.reshape(-1)[0]), actuator=self.rigid_actuator,
+                  delays_ms=(self.t_s, self.t_d), velocity_filter_hz=fv).rigid
+        sat = _saturation(self.saturation, d.actuator.max_force, "N")
+        return RIGID_DIAGRAM, d, {"F_des": sat}, 0.004
+
+
+def system_options(func: Callable[..., Any]) -> Callable[..., Any]:
+    """``--system``, ``--rate``, ``--saturation``, ``--no-zero`` and the rigid actuator's
+    options (``export`` and ``run``), passed to the command as one ``system``."""
+    options = [
+        click.option("--system", type=click.Choice(SYSTEMS), default="sea", show_default=True,
+                     help="SEA (the design options) or rigid actuator (--fn, --t-s, --t-d, "
+                          "--f-v)."),
+        click.option("--rate", "rates_hz", multiple=True,
+                     help="HZ for every process, or PROCESS=HZ (repeat), e.g. --rate "
+                          "embedded=2000 --rate high-level=500 [default: 1000]."),
+        click.option("--saturation", default=None,
+                     help="Actuation limit: A (SEA current) or N (rigid force); 'none' for no "
+                          "limit [default: the actuator's]."),
+        click.option("--no-zero", is_flag=True,
+                     help="SEA: torque derivative on the feedback only."),
+        click.option("--rigid-actuator", default="ut-linear", show_default=True,
+                     help="Rigid actuator preset or TOML file."),
+        click.option("--t-s", "t_s", type=float, default=0.0, show_default=True,
+                     help="Rigid: stiffness-loop delay [ms]."),
+        click.option("--t-d", "t_d", type=float, default=0.0, show_default=True,
+                     help="Rigid: damping-loop delay [ms]."),
+        click.option("--f-v", "f_v", default="50", show_default=True,
+                     help="Rigid: velocity filter cut-off [Hz], or 'none'."),
+    ]
+
+    @functools.wraps(func)
+    def wrapper(*args: Any, system: str, rates_hz: tuple[str, ...], saturation: str | None,
+                no_zero: bool, rigid_actuator: str, t_s: float, t_d: float, f_v: str,
+                **kwargs: Any) -> Any:
+        choice = SystemChoice(system, parse_rates(rates_hz), saturation, not no_zero,
+                              rigid_actuator, t_s, t_d, f_v)
+        return func(*args, system=choice, **kwargs)
+
+    for option in reversed(options):
+        wrapper = option(wrapper)
+    return wrapper
 
 
 @cli.command("export")
@@ -88,31 +142,14 @@ def _system(system: str, spec: DesignSpec, zero: bool, sat: str | None, rigid_ac
               help="New or empty directory (or an earlier export) for the files.")
 @click.option("--lang", default="c,python,json", show_default=True,
               help="Comma-separated: c (<process>.h/.c + CSV harness), python, json.")
-@click.option("--system", type=click.Choice(SYSTEMS), default="sea", show_default=True,
-              help="SEA (the design options) or rigid actuator (--fn, --t-s, --t-d, --f-v).")
-@click.option("--rate", "rates_hz", multiple=True,
-              help="HZ for every process, or PROCESS=HZ (repeat), e.g. --rate embedded=2000 "
-                   "--rate high-level=500 [default: 1000].")
-@click.option("--saturation", default=None,
-              help="Actuation limit: A (SEA current) or N (rigid force); 'none' for no limit "
-                   "[default: the actuator's].")
-@click.option("--no-zero", is_flag=True, help="SEA: torque derivative on the feedback only.")
-@click.option("--rigid-actuator", default="ut-linear", show_default=True,
-              help="Rigid actuator preset or TOML file.")
-@click.option("--t-s", "t_s", type=float, default=0.0, show_default=True,
-              help="Rigid: stiffness-loop delay [ms].")
-@click.option("--t-d", "t_d", type=float, default=0.0, show_default=True,
-              help="Rigid: damping-loop delay [ms].")
-@click.option("--f-v", "f_v", default="50", show_default=True,
-              help="Rigid: velocity filter cut-off [Hz], or 'none'.")
+@system_options
 @click.option("--verify", is_flag=True,
               help="Compile the C (cc -std=c99 -Wall -Werror) and run it and the Python "
                    "against seactl's sampled controller before writing.")
 @click.option("--cc", default=None, help="C compiler for --verify [default: $CC, cc, gcc].")
 @json_option
-def export(spec: DesignSpec, out: str, lang: str, system: str, rates_hz: tuple[str, ...],
-           saturation: str | None, no_zero: bool, rigid_actuator: str, t_s: float, t_d: float,
-           f_v: str, verify: bool, cc: str | None, as_json: bool) -> None:
+def export(spec: DesignSpec, out: str, lang: str, system: SystemChoice, verify: bool,
+           cc: str | None, as_json: bool) -> None:
     """Write the discrete controller of each process (C99, Python, JSON).
 
     \b
@@ -126,9 +163,8 @@ def export(spec: DesignSpec, out: str, lang: str, system: str, rates_hz: tuple[s
 
     langs = check_languages(lang)
     check_export_dir(out)
-    diagram, design, sat, step = _system(system, spec, not no_zero, saturation,
-                                         rigid_actuator, t_s, t_d, f_v)
-    res = export_design(diagram, design, out, languages=langs, rates_hz=parse_rates(rates_hz),
+    diagram, design, sat, step = system.build(spec)
+    res = export_design(diagram, design, out, languages=langs, rates_hz=system.rates_hz,
                         saturation=sat, verify_export=verify, cc=cc, step=step)
     if as_json:
         echo_json(res.to_dict())

@@ -16,7 +16,7 @@ from rich.table import Table
 
 from ..errors import InputError
 from ._common import DesignSpec, cli, console, design_options, echo_json, json_option
-from .export import parse_rates
+from .export import SystemChoice, system_options
 
 
 def _float(name: str, text: str, lo: float, hi: float) -> float:
@@ -31,53 +31,54 @@ def _float(name: str, text: str, lo: float, hi: float) -> float:
 
 @cli.command("run")
 @design_options
+@system_options
 @click.option("--duration", default="2", show_default=True, help="Run time [s] (0.1 to 60).")
-@click.option("--rate", "rates_hz", multiple=True,
-              help="HZ for every process, or PROCESS=HZ (repeat) [default: 1000; at most "
-                   "5000 Hz].")
-@click.option("--step", "step_rad", default="0.01", show_default=True,
-              help="Step of q_des [rad].")
+@click.option("--step", "step", default=None,
+              help="Step of the reference: q_des [rad] (SEA, default 0.01) or x_des [m] "
+                   "(rigid, default 0.004).")
 @click.option("--extra-latency", default="0", show_default=True,
               help="Latency added to the high-level -> embedded link [ms].")
 @click.option("--loss", default="0", show_default=True,
               help="Probability of losing a high-level -> embedded message.")
 @click.option("--seed", default=0, show_default=True, type=int, help="Seed of the loss.")
-@click.option("--transport", type=click.Choice(["udp"]), default="udp", show_default=True,
-              help="Message transport (loopback only).")
+@click.option("--transport", type=click.Choice(["zenoh", "udp"]), default="zenoh",
+              show_default=True, help="Message transport (loopback only).")
 @click.option("--out", default=None, type=click.Path(file_okay=False),
               help="New or empty directory for summary.json, response.csv, latency-*.csv.")
 @json_option
-def run(spec: DesignSpec, duration: str, rates_hz: tuple[str, ...], step_rad: str,
+def run(spec: DesignSpec, system: SystemChoice, duration: str, step: str | None,
         extra_latency: str, loss: str, seed: int, transport: str, out: str | None,
         as_json: bool) -> None:
     """Run the design's controllers as three processes (plant, embedded, high-level).
 
     \b
-    The plant integrates the SEA at the fastest rate; the embedded and high-level
-    processes run the exported Python controllers; messages go over UDP on 127.0.0.1.
-    Reports each link's measured latency, the tracking error, and the response against
-    the sampled simulation replaying the measured stiffness-link timing.
+    The plant integrates the actuator at the fastest rate; the embedded and high-level
+    processes run the exported Python controllers; messages go over Zenoh (or UDP) on
+    127.0.0.1.  Reports each link's measured latency, the tracking error, and the
+    response against the sampled simulation replaying the measured link timing.
       seactl run --fn 14 --t-tau 1 --t-qs 2 --t-qd 1 --f-qd 50 --f-taud 100 --duration 2
+      seactl run --system rigid --fn 8 --t-s 1.5 --t-d 1.5 --transport udp
     """
     from ..export import check_export_dir, write_export
     from ..runtime import RUN_MARKER, run_distributed, run_files
 
-    if spec.fn_hz.size != 1 or spec.gs.size != 1:
-        raise InputError("--fn", f"{spec.fn_hz.size} x {spec.gs.size} designs", "one design")
+    diagram, design, sat, _ = system.build(spec)
+    default_step = 0.01 if system.system == "sea" else 0.004
+    unit = "rad" if system.system == "sea" else "m"
     if out is not None:
         check_export_dir(out, RUN_MARKER, "a run")
-    res = run_distributed(spec.designs(), duration_s=_float("--duration [s]", duration, 0.1, 60),
-                          rates_hz=parse_rates(rates_hz),
-                          step=_float("--step [rad]", step_rad, 1e-6, 1.0),
-                          extra_latency_s=_float("--extra-latency [ms]", extra_latency, 0,
-                                                 1000) / 1e3,
-                          loss=_float("--loss", loss, 0.0, 0.99), seed=seed)
+    res = run_distributed(
+        diagram, design, saturation=sat, rates_hz=system.rates_hz, transport=transport,
+        step=default_step if step is None else _float(f"--step [{unit}]", step, 1e-6, 1.0),
+        duration_s=_float("--duration [s]", duration, 0.1, 60),
+        extra_latency_s=_float("--extra-latency [ms]", extra_latency, 0, 1000) / 1e3,
+        loss=_float("--loss", loss, 0.0, 0.99), seed=seed)
     files = write_export(run_files(res), out, RUN_MARKER, "a run") if out else []
     if as_json:
         echo_json(res.summary | {"files": [str(f) for f in files]})
         return
     s = res.summary
-    t = Table(title=f"seactl run: {s['duration_s']:g} s over {transport}, rates "
+    t = Table(title=f"seactl run ({s['system']}): {s['duration_s']:g} s over {transport}, rates "
               + ", ".join(f"{k} {v:g} Hz" for k, v in s["rates_hz"].items()))
     for col in ("link", "messages", "mean [ms]", "p50 [ms]", "p99 [ms]", "max [ms]"):
         t.add_column(escape(col))
@@ -86,10 +87,10 @@ def run(spec: DesignSpec, duration: str, rates_hz: tuple[str, ...], step_rad: st
             t.add_row(escape(link), str(st["count"]), f"{st['mean_ms']:.3f}",
                       f"{st['p50_ms']:.3f}", f"{st['p99_ms']:.3f}", f"{st['max_ms']:.3f}")
     console.print(t)
-    console.print(f"tracking RMS error {s['tracking_rms']:.3g} rad; final value "
+    console.print(f"tracking RMS error {s['tracking_rms']:.3g} {unit}; final value "
                   f"{s['final_value']:.4f} of the step; dropped {s['dropped']}, late commands "
                   f"{s['late_commands']}")
-    console.print(f"measured vs sampled simulation replaying the measured stiffness timing: "
+    console.print(f"measured vs sampled simulation replaying the measured link timing: "
                   f"max diff {s['replay_max_diff']:.2e} of the step; vs the nominal "
                   f"simulation (design delays): {s['nominal_max_diff']:.2e}")
     if files:
