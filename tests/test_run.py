@@ -1,4 +1,4 @@
-"""``seactl run``: the exported controllers as three OS processes over UDP on loopback.
+"""``seactl run``: the exported controllers as three OS processes on loopback (Zenoh, UDP).
 
 Oracles: the sampled simulation replaying the measured stiffness-link schedule (the same
 model the export is verified against; it must reproduce the measured response to
@@ -42,15 +42,17 @@ def _children() -> list[int]:
 
 
 @pytest.mark.skipif(not Path("/proc").is_dir(), reason="needs /proc to list processes")
-def test_run_end_to_end(tmp_path, capsys):
+@pytest.mark.parametrize("transport", ["zenoh", "udp"])
+def test_run_end_to_end(tmp_path, capsys, transport):
     before = set(_children())
     out = tmp_path / "run"
     t0 = time.monotonic()
     code = main(["run", *FLAGS, "--duration", "1", "--rate", "embedded=2000", "--rate",
-                 "high-level=500", "--out", str(out), "--json"])
+                 "high-level=500", "--out", str(out), "--json", "--transport", transport])
     wall = time.monotonic() - t0
     assert code == 0
     s = json.loads(capsys.readouterr().out)
+    assert s["transport"] == transport
     assert set(_children()) <= before                  # every child has exited
     assert wall < 30
     links = s["links"]
@@ -82,17 +84,97 @@ def test_lost_peer_ends_the_worker(monkeypatch, tmp_path):
     sock = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
     sock.bind(("127.0.0.1", 0))
     cfg = {"export_dir": str(tmp_path / "export"), "ports": {"plant": 9}, "ticks": 10,
-           "period_ticks": {"embedded": 1}, "step": 0.01, "t0": time.monotonic()}
+           "period_ticks": {"embedded": 1}, "step": 0.01, "t0": time.monotonic(),
+           "fds": {"embedded": sock.fileno()}, "message": {"tau_fb_from_high_level": 0.0}}
+    link = runtime.UdpLink(cfg, "embedded")
     with pytest.raises(runtime.LostPeer, match="peer"):
-        runtime.run_embedded(cfg, sock)
-    sock.close()
+        runtime.run_embedded(cfg, link)
+    link.close()
+
+
+def _sockets(pid: int) -> list[tuple[str, str, str]]:
+    """(protocol, local address, state) of the sockets process ``pid`` holds, from /proc."""
+    inodes = set()
+    for fd in Path(f"/proc/{pid}/fd").iterdir():
+        try:
+            target = os.readlink(fd)
+        except OSError:
+            continue
+        if target.startswith("socket:["):
+            inodes.add(target[8:-1])
+    found = []
+    for proto in ("tcp", "tcp6", "udp", "udp6"):
+        for line in Path(f"/proc/{pid}/net/{proto}").read_text().splitlines()[1:]:
+            f = line.split()
+            if f[9] in inodes:
+                found.append((proto, f[1], f[3]))
+    return found
+
+
+def _is_loopback(addr: str) -> bool:
+    ip = addr.split(":")[0]
+    if len(ip) == 8:                                   # IPv4, little-endian hex
+        return ip == "0100007F"
+    return ip in ("00000000000000000000000001000000",)  # ::1
+
+
+@pytest.mark.skipif(not Path("/proc").is_dir(), reason="needs /proc to read sockets")
+@pytest.mark.parametrize("transport", ["zenoh", "udp"])
+def test_rigid_run_listens_on_loopback_only(transport):
+    """The rigid actuator's run from the Python API; while it runs, every socket the three
+    processes hold (TCP listening or connected, UDP bound) is on 127.0.0.1 (oracle: the
+    kernel's socket tables in /proc); the replay reproduces the measured response."""
+    import threading
+
+    seen: list[tuple[str, str, str]] = []
+
+    def watch(pids):
+        def poll():
+            end = time.monotonic() + 3.5
+            while time.monotonic() < end:
+                for pid in pids.values():
+                    try:
+                        seen.extend(_sockets(pid))
+                    except OSError:
+                        pass
+                time.sleep(0.2)
+        threading.Thread(target=poll, daemon=True).start()
+
+    from seactl.rigid import RIGID_DIAGRAM
+
+    rig = sc.rigid(8, delays_ms=(1.5, 1.5)).rigid
+    res = runtime.run_distributed(RIGID_DIAGRAM, rig, saturation={"F_des": rig.actuator.max_force},
+                                  step=0.004, duration_s=1.0, transport=transport,
+                                  on_start=watch)
+    s = res.summary
+    assert s["system"] == "rigid" and s["output"] == "x"
+    assert s["links"]["high-level->embedded"]["count"] >= 990
+    assert s["replay_max_diff"] <= 1e-9 and s["final_value"] == pytest.approx(1.0, abs=0.02)
+    assert seen, "no socket seen"
+    listening = [x for x in seen if x[0].startswith("udp") or x[2] == "0A"]
+    assert listening and all(_is_loopback(a) for _, a, _ in seen), sorted(set(seen))
+
+
+def test_python_api_runs_both_systems():
+    """Design.run and RigidBatch.run (public API): message counts known from the rate and
+    the duration; the replay reproduces the measured response."""
+    sea = sc.design(14, delays_ms=(1, 2, 1), filters_hz=(50, 100)).run(duration_s=0.3,
+                                                                        transport="udp")
+    rig = sc.rigid(8, delays_ms=(1.5, 1.5)).run(duration_s=0.3, transport="udp")
+    for res, out in ((sea, "q_j"), (rig, "x")):
+        s = res.summary
+        assert s["output"] == out and s["links"]["plant->embedded"]["count"] == 301
+        assert s["replay_max_diff"] <= 1e-9
+        hist = s["links"]["plant->embedded"]["histogram"]
+        assert sum(hist["counts"]) == 301 and len(hist["edges_ms"]) == len(hist["counts"]) + 1
 
 
 @pytest.mark.parametrize("args, needle", [
     (["--duration", "100"], "--duration"),
     (["--loss", "1.5"], "--loss"),
     (["--rate", "20000"], "5000"),
-    (["--transport", "zenoh"], "transport"),
+    (["--transport", "bogus"], "transport"),
+    (["--system", "rigid", "--step", "2"], "--step"),
 ])
 def test_run_bad_input(args, needle, capsys):
     assert main(["run", *FLAGS, *args]) == 2

@@ -301,6 +301,46 @@ class RigidBatch:
                              rates_hz=rates_hz, saturation={"F_des": sat},
                              verify_export=verify, step=0.004)
 
+    def run(self, *, duration_s: float = 2.0, rates_hz: Any = 1000.0, step_m: float = 0.004,
+            transport: str = "zenoh", extra_latency_s: float = 0.0, loss: float = 0.0,
+            seed: int = 0, saturate: bool = True) -> Any:
+        """Run the exported controllers as three OS processes on loopback.
+
+        As :meth:`seactl.Design.run`: a plant process (the mass integrated exactly), the
+        exported ``embedded`` (damping) and ``high-level`` (stiffness) controllers over
+        Zenoh or UDP on 127.0.0.1, and the comparison with the sampled simulation.
+
+        Parameters
+        ----------
+        duration_s, rates_hz, transport, extra_latency_s, loss, seed
+            As :meth:`seactl.Design.run`.
+        step_m : float
+            Step of ``x_des`` [m].
+        saturate : bool
+            Clip the force command at ``actuator.max_force``.
+
+        Returns
+        -------
+        seactl.runtime.RunResult
+
+        Examples
+        --------
+        >>> import seactl as sc
+        >>> res = sc.rigid(8, delays_ms=(1.5, 1.5)).run(duration_s=0.2)  # doctest: +SKIP
+        >>> res.summary["links"]["high-level->embedded"]["count"]         # doctest: +SKIP
+        200
+        """
+        import math
+
+        from .rigid import RIGID_DIAGRAM
+        from .runtime import run_distributed
+
+        sat = self.rigid.actuator.max_force if saturate else math.inf
+        return run_distributed(RIGID_DIAGRAM, self.rigid, saturation={"F_des": sat},
+                               step=step_m, duration_s=duration_s, rates_hz=rates_hz,
+                               transport=transport, extra_latency_s=extra_latency_s,
+                               loss=loss, seed=seed)
+
     def to_control(self, kind: str = "frd", *, transfer: str = "loop", f_hz: Any = None,
                    order: int = 3) -> Any:
         """Export to python-control: exact-delay frequency response or a Padé model.
