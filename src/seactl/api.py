@@ -589,8 +589,12 @@ class Design:
             Step of ``q_des`` [rad].
         transport : {"zenoh", "udp"}
             Message transport (loopback only).
-        extra_latency_s, loss, seed
-            Latency [s] and loss probability injected on the high-level -> embedded link.
+        extra_latency_s : float
+            Latency [s] injected on the high-level -> embedded link (0 to 1).
+        loss : float
+            Probability of losing a high-level -> embedded message (0 to 0.99).
+        seed : int
+            Seed of the losses.
         saturation_a : float, optional
             Current limit [A] (default: the actuator's).
         zero : bool

@@ -312,8 +312,18 @@ class RigidBatch:
 
         Parameters
         ----------
-        duration_s, rates_hz, transport, extra_latency_s, loss, seed
-            As :meth:`seactl.Design.run`.
+        duration_s : float
+            Run time [s], 0.1 to 60.
+        rates_hz : float or mapping
+            As :meth:`export` (at most 5000 Hz).
+        transport : {"zenoh", "udp"}
+            Message transport (loopback only).
+        extra_latency_s : float
+            Latency [s] injected on the high-level -> embedded link (0 to 1).
+        loss : float
+            Probability of losing a high-level -> embedded message (0 to 0.99).
+        seed : int
+            Seed of the losses.
         step_m : float
             Step of ``x_des`` [m].
         saturate : bool
