@@ -316,6 +316,8 @@ class RigidBatch:
             Run time [s], 0.1 to 60.
         rates_hz : float or mapping
             As :meth:`export` (at most 5000 Hz).
+        step_m : float
+            Step of ``x_des`` [m].
         transport : {"zenoh", "udp"}
             Message transport (loopback only).
         extra_latency_s : float
@@ -324,8 +326,6 @@ class RigidBatch:
             Probability of losing a high-level -> embedded message (0 to 0.99).
         seed : int
             Seed of the losses.
-        step_m : float
-            Step of ``x_des`` [m].
         saturate : bool
             Clip the force command at ``actuator.max_force``.
 
