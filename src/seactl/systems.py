@@ -332,6 +332,8 @@ class RigidBatch:
         Returns
         -------
         seactl.runtime.RunResult
+            ``summary`` (latency per link with histograms, ``replay_max_diff``, ...), the
+            responses and the latency samples.
 
         Examples
         --------
