@@ -54,9 +54,11 @@ from typing import Any
 
 import numpy as np
 
-SENSE, CENTRAL, ACT, STOP = 0, 1, 2, 3
+SENSE, CENTRAL, ACT, STOP, HELLO, START = 0, 1, 2, 3, 4, 5
 HEADER = struct.Struct("<Bqd")
 PEER_TIMEOUT_S = 2.0
+STARTUP_TIMEOUT_S = 30.0
+"""Longest start-up (imports, sessions, every link proven by a message) before the run."""
 ROLES = ("plant", "embedded", "high-level")
 TRANSPORTS = ("zenoh", "udp")
 PEERS = {"plant": (), "embedded": ("plant",), "high-level": ("plant", "embedded")}
@@ -161,6 +163,43 @@ def _load_class(path: Path, name: str) -> Any:
     return getattr(mod, name)()
 
 
+def handshake(cfg: dict[str, Any], role: str, link: Any) -> None:
+    """Prove every link before the clock starts: each process says HELLO to the others
+    every 20 ms (flagged *ready* once it has heard all of them); when the plant has heard
+    both controllers ready it sends START with the common start time ``t0`` (set in
+    ``cfg``).  A message that arrives proves its path works (for Zenoh, that the sender
+    knows the receiver's subscription), so no sample of the run is lost to start-up."""
+    index = ROLES.index(role)
+    others = [r for r in ROLES if r != role]
+    heard: dict[int, float] = {}
+    give_up = time.monotonic() + STARTUP_TIMEOUT_S
+    next_hello = 0.0
+    while True:
+        now = time.monotonic()
+        if now > give_up:
+            raise LostPeer(f"{role}: the other processes did not all answer during start-up")
+        if role == "plant" and len(heard) == 2 and all(heard.values()):
+            t0 = now + 0.1
+            for r in others:
+                link.send(r, pack(START, 0, [t0]))
+            cfg["t0"] = t0
+            return
+        if now >= next_hello:
+            ready = float(len(heard) == len(others))
+            for r in others:
+                link.send(r, pack(HELLO, 0, [index, ready]))
+            next_hello = now + 0.02
+        got = link.recv(min(next_hello - now, 0.02))
+        if got is None:
+            continue
+        kind, _tick, _sent, vals = unpack(got[0])
+        if kind == START:
+            cfg["t0"] = vals[0]
+            return
+        if kind == HELLO:
+            heard[int(vals[0])] = bool(vals[1])
+
+
 # ----------------------------------------------------------------------------- plant
 def run_plant(cfg: dict[str, Any], link: Any) -> dict[str, np.ndarray]:
     m = np.load(cfg["plant_npz"])
@@ -192,8 +231,10 @@ def run_plant(cfg: dict[str, Any], link: Any) -> dict[str, np.ndarray]:
             got = link.recv(wait)
             if got:
                 kind, tick, t_s, vals = unpack(got[0])
+                if kind != ACT:
+                    continue  # a late start-up HELLO
                 recv.append((tick, t_s, got[1]))
-                if kind == ACT and tick > act_tick:
+                if tick > act_tick:
                     act, act_tick = np.array(vals), tick
         if k > 0:
             used[k - 1] = act_tick   # the command applied over [k-1, k]
@@ -266,8 +307,10 @@ def run_high_level(cfg: dict[str, Any], link: Any) -> dict[str, np.ndarray]:
         kind, tick, t_s, vals = unpack(got[0])
         if kind == STOP:
             break
+        if kind != SENSE:
+            continue  # a late start-up HELLO
         sense_lat.append((tick, t_s, got[1]))
-        if kind == SENSE and tick % every == 0:
+        if tick % every == 0:
             out = ctl.step(_inputs(cfg, ctl, vals, {}))
             if rng.random() < loss:
                 dropped += 1
@@ -332,7 +375,7 @@ def _spawn(cfg: dict[str, Any], run_dir: Path, fds: tuple[int, ...], on_start: A
     path = run_dir / "config.json"
     path.write_text(json.dumps(cfg))
     procs: dict[str, subprocess.Popen] = {}
-    deadline = cfg["t0"] + cfg["ticks"] / cfg["base_rate_hz"] + 20.0
+    deadline = time.monotonic() + STARTUP_TIMEOUT_S + cfg["ticks"] / cfg["base_rate_hz"] + 20.0
 
     def failure(role: str) -> SeactlError:
         err = (procs[role].stderr.read().strip().splitlines() or ["no message"])[-1]
@@ -405,7 +448,7 @@ def run_distributed(diagram: Any, design: Any, *, saturation: dict[str, float],
                     step: float, duration_s: float = 2.0,
                     rates_hz: dict[str, float] | float = 1000.0, extra_latency_s: float = 0.0,
                     loss: float = 0.0, seed: int = 0, transport: str = "zenoh",
-                    startup_s: float = 3.0, on_start: Any = None) -> RunResult:
+                    on_start: Any = None) -> RunResult:
     """Run a design's exported controllers as three OS processes on loopback for
     ``duration_s`` and compare with the sampled simulation (module doc).
 
@@ -439,7 +482,7 @@ def run_distributed(diagram: Any, design: Any, *, saturation: dict[str, float],
                "message": _message_at_rest(run_dir / "export", ctl, step),
                "extra_latency_s": float(extra_latency_s), "loss": float(loss),
                "seed": int(seed), "transport": transport, "run_id": run_dir.name[-8:]}
-        _start(cfg, run_dir, startup_s, on_start)
+        _start(cfg, run_dir, on_start)
         logs = {r: dict(np.load(run_dir / f"log-{r}.npz")) for r in ROLES}
     return _analyse(diagram, design, ctl, logs, K, step, saturation, rates_hz,
                     {"transport": transport, "extra_latency_ms": extra_latency_s * 1e3,
@@ -455,7 +498,7 @@ def _message_at_rest(export_dir: Path, ctl: Any, step: float) -> dict[str, float
     return {n: float(out[n]) for n in hl.OUTPUTS}
 
 
-def _start(cfg: dict[str, Any], run_dir: Path, startup_s: float, on_start: Any) -> None:
+def _start(cfg: dict[str, Any], run_dir: Path, on_start: Any) -> None:
     """Bind the transport's endpoints on 127.0.0.1, start the clock, run the children."""
     socks: list[socket.socket] = []
     try:
@@ -467,7 +510,6 @@ def _start(cfg: dict[str, Any], run_dir: Path, startup_s: float, on_start: Any) 
             cfg["fds"] = {r: s.fileno() for r, s in zip(ROLES, socks)}
         else:
             cfg["ports"] = dict(zip(ROLES, _free_tcp_ports(len(ROLES))))
-        cfg["t0"] = time.monotonic() + startup_s
         _spawn(cfg, run_dir, tuple(s.fileno() for s in socks), on_start)
     finally:
         for s in socks:
@@ -557,6 +599,7 @@ def worker_main(role: str, config: str) -> int:
         print(f"error: cannot open the {cfg['transport']} link: {exc}", file=sys.stderr)
         return 3
     try:
+        handshake(cfg, role, link)
         logs = run(cfg, link)
     except LostPeer as exc:
         print(f"error: {exc}", file=sys.stderr)

@@ -12,7 +12,7 @@ from typing import Any
 
 from ..errors import InputError
 from ..report import SectionFn, build
-from . import gain_design, impedance, jitter, mobile_base, placement, simulation, sweep
+from . import gain_design, impedance, jitter, mobile_base, placement, running, simulation, sweep
 
 SECTIONS: tuple[SectionFn, ...] = (
     gain_design.table_i,
@@ -34,6 +34,7 @@ SECTIONS: tuple[SectionFn, ...] = (
     sweep.robustness_mc,
     placement.placement_advisor,
     jitter.jitter_section,
+    running.running,
     mobile_base.mobile_base,
 )
 
