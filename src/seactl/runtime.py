@@ -57,6 +57,8 @@ import numpy as np
 SENSE, CENTRAL, ACT, STOP, HELLO, START = 0, 1, 2, 3, 4, 5
 HEADER = struct.Struct("<Bqd")
 PEER_TIMEOUT_S = 2.0
+POLL_S = 50e-6
+"""Zenoh: how often a process looks for a new message while none is waiting."""
 STARTUP_TIMEOUT_S = 30.0
 """Longest start-up (imports, sessions, every link proven by a message) before the run."""
 ROLES = ("plant", "embedded", "high-level")
@@ -122,28 +124,35 @@ class ZenohLink:
     """A Zenoh session: one key per receiving process (``seactl/run/<run>/<role>``)."""
 
     def __init__(self, cfg: dict[str, Any], role: str):
-        import queue
-
         import zenoh
 
-        self.queue: Any = queue.SimpleQueue()
         self.session = zenoh.open(zenoh_config(cfg, role))
         key = f"seactl/run/{cfg['run_id']}/"
-        # the receive time is taken in Zenoh's callback, as the message arrives
-        self.sub = self.session.declare_subscriber(
-            key + role, lambda s: self.queue.put((s.payload.to_bytes(), time.monotonic())))
-        self.pubs = {r: self.session.declare_publisher(key + r) for r in ROLES if r != role}
+        # Samples wait in Zenoh's own channel and are polled (``try_recv`` never blocks):
+        # blocking calls into Zenoh hold the GIL, and a Python callback on Zenoh's thread
+        # or a blocking ``recv`` in a thread hung a process that also publishes (measured:
+        # about one 2 s run in four).
+        self.sub = self.session.declare_subscriber(key + role)
+        # reliable, never dropped when the queue is full (a lost sample would stall the
+        # plant), and sent at once rather than batched (latency is what is measured)
+        self.pubs = {r: self.session.declare_publisher(
+            key + r, congestion_control=zenoh.CongestionControl.BLOCK,
+            reliability=zenoh.Reliability.RELIABLE, express=True)
+            for r in ROLES if r != role}
 
     def send(self, to: str, data: bytes) -> None:
         self.pubs[to].put(data)
 
     def recv(self, timeout_s: float) -> tuple[bytes, float] | None:
-        import queue
-
-        try:
-            return self.queue.get(timeout=max(timeout_s, 0.0))
-        except queue.Empty:
-            return None
+        end = time.monotonic() + max(timeout_s, 0.0)
+        while True:
+            sample = self.sub.try_recv()
+            now = time.monotonic()
+            if sample is not None:
+                return sample.payload.to_bytes(), now
+            if now >= end:
+                return None
+            time.sleep(min(POLL_S, end - now))
 
     def close(self) -> None:
         self.session.close()
@@ -227,7 +236,8 @@ def run_plant(cfg: dict[str, Any], link: Any) -> dict[str, np.ndarray]:
                     late += 1
                 wait = give_up - now
                 if wait <= 0:
-                    raise LostPeer("plant: no command from the embedded process for 2 s")
+                    raise LostPeer(f"plant: no command from the embedded process for 2 s "
+                                   f"(tick {k}, last command for tick {act_tick})")
             got = link.recv(wait)
             if got:
                 kind, tick, t_s, vals = unpack(got[0])
@@ -268,7 +278,8 @@ def run_embedded(cfg: dict[str, Any], link: Any) -> dict[str, np.ndarray]:
     while True:
         got = link.recv(_timeout(cfg))
         if got is None:
-            raise LostPeer("embedded: no message for 2 s (a peer is gone)")
+            raise LostPeer(f"embedded: no message for 2 s (a peer is gone; last sample "
+                           f"{sense_lat[-1][0] if sense_lat else None})")
         kind, tick, t_s, vals = unpack(got[0])
         if kind == STOP:
             break
