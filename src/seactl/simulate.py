@@ -98,6 +98,7 @@ from functools import cached_property
 from typing import Any
 
 import numpy as np
+from numba import njit
 
 from .blockdiagram import Block, BlockDiagram
 from .errors import InputError
@@ -729,53 +730,113 @@ def compile_continuous(diagram: BlockDiagram, design: Any, inputs: Mapping[str, 
 
 
 def run_continuous(plan: ContinuousPlan, bound: float) -> RunResult:
-    """Step a :class:`ContinuousPlan` in time (one contraction per step over the batch)."""
+    """Step a :class:`ContinuousPlan` in time (compiled: :func:`_continuous_kernel`)."""
     p, z, v = plan, plan.z, plan.v
     n = p.H.shape[-1]
     nd = v["delayed"].stop - v["delayed"].start
-    stride = nd * n
-    base = np.arange(stride).reshape(nd, n)
-    ring = np.zeros((p.ring_len, nd, n))
-    ring_flat = ring.reshape(-1)  # unwritten slots hold zeros
-    zb = np.zeros((z.size, n))
-    zb[z["x"]] = p.x0
-
-    def fill_v(part: str, i: int) -> None:
-        vv = zb[z[part]]
-        vv[v["exo"]] = p.inputs[i]
-        if nd:
-            a = ring_flat[((i - p.whole) % p.ring_len) * stride + base]
-            b = ring_flat[((i - 1 - p.whole) % p.ring_len) * stride + base]
-            vv[v["delayed"]] = a + p.frac * (b - a)
-
-    rec = np.zeros((len(p.outputs), n, p.steps // p.every + 1))
+    rec_t = np.full((p.steps // p.every + 1, len(p.outputs), n), np.nan)  # time first
     left = np.full(n, np.inf)
-    alive = np.ones(n, bool)
-    fill_v("v0", 0)
-    for i in range(p.steps + 1):
-        S = np.einsum("rkn,kn->rn", p.CD, zb[z.upto("v0")])
-        if nd:
-            ring[i % p.ring_len] = S[p.rows["src"]]
-        y = S[p.rows["out"]]
-        bad = alive & ~(np.abs(y[0]) <= bound)
-        if bad.any():
-            left[bad] = p.t_s[i]
-            alive &= ~bad
-            zb[:, bad] = 0.0
-            ring[:, :, bad] = 0.0
-        if i % p.every == 0:
-            rec[:, :, i // p.every] = np.where(alive[None, :], y, np.nan)
-        if i == p.steps:
-            break
-        fill_v("v1", i + 1)
-        zb[z["x"]] = np.einsum("ijn,jn->in", p.H, zb)
-        zb[z["v0"]] = zb[z["v1"]]
-        if not alive.all():
-            zb[:, ~alive] = 0.0
-    rec = _fill_diverged(rec, left)
+    _continuous_kernel(p.H, p.CD, np.ascontiguousarray(p.inputs), np.ascontiguousarray(p.x0),
+                       p.whole.astype(np.int64), p.frac.astype(float), p.ring_len,
+                       z["x"].stop, v["exo"].stop, nd, p.steps, p.every, p.t_s, float(bound),
+                       rec_t, left)
+    rec = _fill_diverged(np.ascontiguousarray(rec_t.transpose(1, 2, 0)), left)
     info = {"dt_s": p.dt_s, "record_dt_s": p.dt_s * p.every,
             "effective_delays_s": {k: d.reshape(p.shape) for k, d in p.delays_s.items()}}
     return RunResult(p.t_s[::p.every], {o: rec[j] for j, o in enumerate(p.outputs)}, left, info)
+
+
+@njit(cache=True)
+def _continuous_kernel(H, CD, inputs, x0, whole, frac, ring_len, nx, ne, nd, steps, every,
+                       t, bound, rec_t, left):  # pragma: no cover - compiled
+    """Every step: ``S = CD [x; v_i]`` gives the delayed blocks' sources (into the ring
+    buffer) and the outputs; ``v`` holds the exogenous inputs and the buffers read
+    ``whole`` steps back, interpolated by ``frac``; ``x <- H [x; v_i; v_{i+1}]``.  The
+    batch is the innermost (contiguous) axis, so the products vectorize over designs.  A
+    design whose first output leaves ``bound`` is recorded no further (``left``) and
+    restarted from zero (its numbers no longer matter; zeros keep them finite).
+    Compiled: thousands of steps of small products, where numpy's per-call overhead and
+    temporaries dominated."""
+    n, nv = H.shape[2], ne + nd
+    nrow = CD.shape[0]
+    zb = np.zeros((nx + 2 * nv, n))
+    zb[:nx] = x0
+    ring = np.zeros((ring_len, max(nd, 1), n))
+    S = np.zeros((nrow, n))
+    xn = np.zeros((nx, n))
+    alive = np.ones(n, np.bool_)
+    _fill_inputs(zb, nx, inputs, 0, ne, nd, ring, whole, frac)
+    cd_cols = _nonzero_columns(CD, nx + nv)
+    h_cols = _nonzero_columns(H, nx + 2 * nv)
+    for i in range(steps + 1):
+        _product(CD, zb, cd_cols, S)
+        for d in range(nd):
+            ring[i % ring_len, d] = S[d]
+        for k in range(n):
+            if alive[k] and not abs(S[nd, k]) <= bound:
+                alive[k] = False
+                left[k] = t[i]
+                zb[:, k] = 0.0
+                ring[:, :, k] = 0.0
+        if i % every == 0:
+            for o in range(nrow - nd):
+                for k in range(n):
+                    if alive[k]:
+                        rec_t[i // every, o, k] = S[nd + o, k]
+        if i == steps:
+            break
+        _fill_inputs(zb, nx + nv, inputs, i + 1, ne, nd, ring, whole, frac)
+        _product(H, zb, h_cols, xn)
+        zb[:nx] = xn
+        zb[nx:nx + nv] = zb[nx + nv:]
+
+
+@njit(cache=True)
+def _nonzero_columns(M, ncol):  # pragma: no cover - compiled
+    """Per row of ``M`` (rows, cols, batch), the columns non-zero for some design, padded
+    with -1: the products skip the structural zeros of the block diagram."""
+    cols = np.full((M.shape[0], ncol), -1, np.int64)
+    for r in range(M.shape[0]):
+        m = 0
+        for j in range(ncol):
+            for k in range(M.shape[2]):
+                if M[r, j, k] != 0.0:
+                    cols[r, m] = j
+                    m += 1
+                    break
+    return cols
+
+
+@njit(cache=True)
+def _product(M, zb, cols, out):  # pragma: no cover - compiled
+    """``out[r, k] = sum_j M[r, j, k] zb[j, k]`` over the non-zero columns ``cols[r]``
+    (one matrix per design, batch last)."""
+    out[:] = 0.0
+    for r in range(M.shape[0]):
+        for j in cols[r]:
+            if j < 0:
+                break
+            for k in range(M.shape[2]):
+                out[r, k] += M[r, j, k] * zb[j, k]
+
+
+@njit(cache=True)
+def _fill_inputs(zb, at, inputs, i, ne, nd, ring, whole, frac):  # pragma: no cover
+    """``v`` of step ``i`` into ``zb[at:]``: exogenous inputs, then the delayed blocks'
+    inputs read from the ring buffer (linear interpolation between whole steps)."""
+    n, L = zb.shape[1], ring.shape[0]
+    for e in range(ne):
+        if inputs.shape[2] == 1:
+            zb[at + e] = inputs[i, e, 0]
+        else:
+            zb[at + e] = inputs[i, e]
+    now, before = i % L, (i - 1) % L
+    for d in range(nd):
+        for k in range(n):
+            ia, ib = now - whole[d, k], before - whole[d, k]   # whole < L: one wrap at most
+            a = ring[ia + L if ia < 0 else ia, d, k]
+            b = ring[ib + L if ib < 0 else ib, d, k]
+            zb[at + ne + d, k] = a + frac[d, k] * (b - a)
 
 
 def _fill_diverged(rec: np.ndarray, left: np.ndarray) -> np.ndarray:

@@ -56,7 +56,7 @@ def bench_simulate(repeat: int) -> list[BenchResult]:
     batch = SEADesign(UT_SEA, critically_damped_gains(UT_SEA, fn), timing)
 
     t_one = median_time(lambda: sea_step(one, t_end_s=T_END), repeat)
-    t_batch = median_time(lambda: sea_step(batch, t_end_s=T_END), max(1, repeat // 2), warmup=0)
+    t_batch = median_time(lambda: sea_step(batch, t_end_s=T_END), repeat)
 
     ours = sea_step(one, t_end_s=T_END)
     sys = pade_loop(UT_SEA, one.gains, DELAY)
