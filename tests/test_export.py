@@ -180,3 +180,25 @@ def test_cli_bad_input_one_line_exit_2(tmp_path, capsys, args, needle):
     err = capsys.readouterr().err
     assert err.startswith("error: ") and err.count("\n") == 1 and needle in err, err
     assert not out.exists()
+
+
+@pytest.mark.parametrize("name", ["sea-velocity", "two-mass-notch"])
+def test_loop_file_export_equals_its_sampled_controller(tmp_path, capsys, name):
+    """``seactl export --loop FILE --verify``: a user loop with three processes at their own
+    rates (sea-velocity: 500 Hz / 1 kHz / 10 kHz) and a one-process drive loop; the
+    exported C and Python against seactl's sampled controller of the file (oracle (1))."""
+    from pathlib import Path
+
+    path = Path(__file__).resolve().parents[1] / "examples" / "loops" / f"{name}.toml"
+    args = ["export", "--loop", str(path), "--out", str(tmp_path / "x"), "--json"]
+    assert main(args + (["--verify"] if CC else ["--lang", "python,json"])) == 0
+    res = json.loads(capsys.readouterr().out)
+    loop = sc.load_loop(path)
+    assert [p["name"] for p in res["processes"]] and \
+        {p["name"] for p in res["processes"]} == set(loop.processes)
+    rates = {p["name"]: p["rate_hz"] for p in res["processes"]}
+    assert rates == {n: p.rate_hz for n, p in loop.processes.items()}
+    if CC:
+        assert res["max_error"] <= TARGET
+    api = loop.export(tmp_path / "api", lang="python")   # the Python API, same split
+    assert [p.name for p in api.controllers.processes] == [p["name"] for p in res["processes"]]

@@ -195,3 +195,18 @@ def test_injected_latency_and_loss_are_measured_and_replayed(capsys):
     # 501 messages at 1 kHz over 0.5 s; those still delayed when the run stops are not sent
     assert 0 < s["dropped"] < 501 and 490 <= link["count"] + s["dropped"] <= 501
     assert s["replay_max_diff"] <= 1e-9 and s["nominal_max_diff"] > 1e-3
+
+
+def test_loop_file_runs_and_three_process_loop_is_refused(capsys):
+    """A loop file (examples/loops/paper-sea.toml) runs like the built-in SEA: message
+    counts known from the file's 1 kHz processes, replay to rounding; a file with a third
+    process (sea-velocity.toml: a 10 kHz drive) is refused with a one-line error."""
+    root = Path(__file__).resolve().parents[1] / "examples" / "loops"
+    code = main(["run", "--loop", str(root / "paper-sea.toml"), "--duration", "0.3",
+                 "--transport", "udp", "--json"])
+    assert code == 0
+    s = json.loads(capsys.readouterr().out)
+    assert s["links"]["plant->embedded"]["count"] == 301 and s["replay_max_diff"] <= 1e-9
+    assert main(["run", "--loop", str(root / "sea-velocity.toml")]) == 2
+    err = capsys.readouterr().err
+    assert err.startswith("error: ") and "processes" in err and err.count("\n") == 1

@@ -455,7 +455,7 @@ def _check_run(duration_s: float, extra_latency_s: float, loss: float, step: flo
                              ) from None
 
 
-def run_distributed(diagram: Any, design: Any, *, saturation: dict[str, float],
+def run_distributed(diagram: Any, design: Any, *, saturation: dict[str, float] | None,
                     step: float, duration_s: float = 2.0,
                     rates_hz: dict[str, float] | float = 1000.0, extra_latency_s: float = 0.0,
                     loss: float = 0.0, seed: int = 0, transport: str = "zenoh",
@@ -473,7 +473,8 @@ def run_distributed(diagram: Any, design: Any, *, saturation: dict[str, float],
     _check_run(duration_s, extra_latency_s, loss, step, transport)
     ctl = compile_processes(diagram, design, rates_hz, saturation)
     if set(ctl.names) != {"embedded", "high-level"}:
-        raise InputError("diagram", ", ".join(ctl.names), "processes embedded and high-level")
+        raise InputError("processes", ", ".join(ctl.names), "exactly embedded and high-level "
+                         "(seactl run's layout: plant, embedded, high-level)")
     if ctl.base_rate_hz > 5000:
         raise InputError("rates_hz", ctl.base_rate_hz, "<= 5000 Hz for a run (Python processes)")
     Tb = 1.0 / ctl.base_rate_hz

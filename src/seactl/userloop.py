@@ -555,6 +555,92 @@ class UserLoop:
         return {k[5:]: np.broadcast_to(v, self.shape) for k, v in self.design._arrays.items()
                 if k.startswith("var__")}
 
+    # ------------------------------------------------------------ code and processes
+    def _rates(self, rates_hz: Any) -> Any:
+        return rates_hz if rates_hz is not None else {
+            name: float(p.rate_hz) for name, p in self.processes.items()}
+
+    def export(self, out: Any, *, lang: Any = ("c", "python", "json"), rates_hz: Any = None,
+               verify: bool = False) -> Any:
+        """Write the discrete controller of each process of the file (C99, Python, JSON).
+
+        As :meth:`seactl.Design.export`, for one design of the loop (every ``--set``
+        variable single-valued); each process at the file's rate unless ``rates_hz``.
+
+        Parameters
+        ----------
+        out : str or path
+            A new or empty directory (or one an earlier export wrote).
+        lang : sequence of str or str
+            Any of ``"c"``, ``"python"``, ``"json"``.
+        rates_hz : float or mapping, optional
+            Rate of every process [Hz], or per process (default: the file's).
+        verify : bool
+            Compile and run the C and the Python against seactl's sampled controller.
+
+        Returns
+        -------
+        seactl.export.ExportResult
+            ``files``, ``controllers`` and ``verification``.
+
+        Examples
+        --------
+        >>> import tempfile
+        >>> import seactl as sc
+        >>> loop = sc.load_loop("examples/loops/sea-velocity.toml")   # doctest: +SKIP
+        >>> res = loop.export(tempfile.mkdtemp(), lang="json")          # doctest: +SKIP
+        >>> [p.name for p in res.controllers.processes]                 # doctest: +SKIP
+        ['high-level', 'embedded', 'drive']
+        """
+        from .export import export_design
+
+        return export_design(self.diagram, self.design, out, languages=lang,
+                             rates_hz=self._rates(rates_hz), verify_export=verify, step=0.01)
+
+    def run(self, *, duration_s: float = 2.0, rates_hz: Any = None, step: float = 0.01,
+            transport: str = "zenoh", extra_latency_s: float = 0.0, loss: float = 0.0,
+            seed: int = 0) -> Any:
+        """Run the exported controllers as three OS processes on loopback.
+
+        As :meth:`seactl.Design.run`, for a loop file whose processes are ``embedded`` and
+        ``high-level`` (e.g. ``examples/loops/paper-sea.toml``).
+
+        Parameters
+        ----------
+        duration_s : float
+            Run time [s], 0.1 to 60.
+        rates_hz : float or mapping, optional
+            As :meth:`export` (at most 5000 Hz).
+        step : float
+            Step of the file's reference signal.
+        transport : {"zenoh", "udp"}
+            Message transport (loopback only).
+        extra_latency_s : float
+            Latency [s] injected on the high-level -> embedded link (0 to 1).
+        loss : float
+            Probability of losing a high-level -> embedded message (0 to 0.99).
+        seed : int
+            Seed of the losses.
+
+        Returns
+        -------
+        seactl.runtime.RunResult
+            ``summary``, the responses and the latency samples.
+
+        Examples
+        --------
+        >>> import seactl as sc
+        >>> loop = sc.load_loop("examples/loops/paper-sea.toml")      # doctest: +SKIP
+        >>> loop.run(duration_s=0.2).summary["replay_max_diff"] < 1e-9  # doctest: +SKIP
+        True
+        """
+        from .runtime import run_distributed
+
+        return run_distributed(self.diagram, self.design, saturation=None, step=step,
+                               duration_s=duration_s, rates_hz=self._rates(rates_hz),
+                               transport=transport, extra_latency_s=extra_latency_s,
+                               loss=loss, seed=seed)
+
     # ------------------------------------------------------------ frequency domain
     def grid(self) -> np.ndarray:
         """The bracketing frequency grid [rad/s] of the margin scan: a decade beyond the

@@ -19,6 +19,7 @@ from rich.table import Table
 
 from ..errors import InputError
 from ._common import DesignSpec, cli, console, design_options, echo_json, json_option
+from .loops import loop_options
 
 SYSTEMS = ("sea", "rigid")
 
@@ -75,9 +76,14 @@ class SystemChoice:
     t_s: float
     t_d: float
     f_v: str
+    rates_given: bool = False
 
-    def build(self, spec: DesignSpec) -> tuple[Any, ...]:
-        """(diagram, design, saturation, verification step) of the chosen system."""
+    def build(self, spec: DesignSpec, loop: Any = None) -> tuple[Any, ...]:
+        """(diagram, design, saturation, verification step, rates) of the chosen system, or
+        of a loop file (``--loop``: its diagram, values, and its processes' rates unless
+        ``--rate`` is given)."""
+        if loop is not None:
+            return self._loop(loop)
         if spec.fn_hz.size != 1 or spec.gs.size != 1:
             raise InputError("--fn", f"{spec.fn_hz.size} x {spec.gs.size} designs",
                              "one --fn and one --gs (one design per export)")
@@ -87,7 +93,7 @@ class SystemChoice:
             lim = _saturation(self.saturation, spec.actuator.max_current, "A")
             with np.errstate(over="ignore"):   # extreme --gs: infinite gains, refused later
                 design = spec.designs()
-            return sea_diagram(self.zero), design, {"i_m": lim}, 0.1
+            return sea_diagram(self.zero), design, {"i_m": lim}, 0.1, self.rates_hz
         from ..rigid import RIGID_DIAGRAM
         from ..systems import rigid
 
@@ -95,7 +101,15 @@ class SystemChoice:
         d = rigid(float(spec.fn_hz.reshape(-1)[0]), actuator=self.rigid_actuator,
                   delays_ms=(self.t_s, self.t_d), velocity_filter_hz=fv).rigid
         sat = _saturation(self.saturation, d.actuator.max_force, "N")
-        return RIGID_DIAGRAM, d, {"F_des": sat}, 0.004
+        return RIGID_DIAGRAM, d, {"F_des": sat}, 0.004, self.rates_hz
+
+    def _loop(self, loop: Any) -> tuple[Any, ...]:
+        if int(np.prod(loop.shape, dtype=int)) != 1:
+            raise InputError("--set", f"{int(np.prod(loop.shape))} designs",
+                             "one value per variable (one design per export)")
+        rates = self.rates_hz if self.rates_given else {
+            name: float(p.rate_hz) for name, p in loop.processes.items()}
+        return loop.diagram, loop.design, None, 0.01, rates
 
 
 def system_options(func: Callable[..., Any]) -> Callable[..., Any]:
@@ -128,7 +142,7 @@ def system_options(func: Callable[..., Any]) -> Callable[..., Any]:
                 no_zero: bool, rigid_actuator: str, t_s: float, t_d: float, f_v: str,
                 **kwargs: Any) -> Any:
         choice = SystemChoice(system, parse_rates(rates_hz), saturation, not no_zero,
-                              rigid_actuator, t_s, t_d, f_v)
+                              rigid_actuator, t_s, t_d, f_v, bool(rates_hz))
         return func(*args, system=choice, **kwargs)
 
     for option in reversed(options):
@@ -138,6 +152,7 @@ def system_options(func: Callable[..., Any]) -> Callable[..., Any]:
 
 @cli.command("export")
 @design_options
+@loop_options
 @click.option("--out", required=True, type=click.Path(file_okay=False),
               help="New or empty directory (or an earlier export) for the files.")
 @click.option("--lang", default="c,python,json", show_default=True,
@@ -148,8 +163,8 @@ def system_options(func: Callable[..., Any]) -> Callable[..., Any]:
                    "against seactl's sampled controller before writing.")
 @click.option("--cc", default=None, help="C compiler for --verify [default: $CC, cc, gcc].")
 @json_option
-def export(spec: DesignSpec, out: str, lang: str, system: SystemChoice, verify: bool,
-           cc: str | None, as_json: bool) -> None:
+def export(spec: DesignSpec, loop: Any, out: str, lang: str, system: SystemChoice,
+           verify: bool, cc: str | None, as_json: bool) -> None:
     """Write the discrete controller of each process (C99, Python, JSON).
 
     \b
@@ -163,8 +178,8 @@ def export(spec: DesignSpec, out: str, lang: str, system: SystemChoice, verify: 
 
     langs = check_languages(lang)
     check_export_dir(out)
-    diagram, design, sat, step = system.build(spec)
-    res = export_design(diagram, design, out, languages=langs, rates_hz=system.rates_hz,
+    diagram, design, sat, step, rates = system.build(spec, loop)
+    res = export_design(diagram, design, out, languages=langs, rates_hz=rates,
                         saturation=sat, verify_export=verify, cc=cc, step=step)
     if as_json:
         echo_json(res.to_dict())

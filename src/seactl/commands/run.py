@@ -9,6 +9,7 @@ JSON: the run's summary ``{"transport", "duration_s", "ticks", "rates_hz",
 from __future__ import annotations
 
 import math
+from typing import Any
 
 import click
 from rich.markup import escape
@@ -17,6 +18,7 @@ from rich.table import Table
 from ..errors import InputError
 from ._common import DesignSpec, cli, console, design_options, echo_json, json_option
 from .export import SystemChoice, system_options
+from .loops import loop_options
 
 
 def _float(name: str, text: str, lo: float, hi: float) -> float:
@@ -31,6 +33,7 @@ def _float(name: str, text: str, lo: float, hi: float) -> float:
 
 @cli.command("run")
 @design_options
+@loop_options
 @system_options
 @click.option("--duration", default="2", show_default=True, help="Run time [s] (0.1 to 60).")
 @click.option("--step", "step", default=None,
@@ -46,7 +49,7 @@ def _float(name: str, text: str, lo: float, hi: float) -> float:
 @click.option("--out", default=None, type=click.Path(file_okay=False),
               help="New or empty directory for summary.json, response.csv, latency-*.csv.")
 @json_option
-def run(spec: DesignSpec, system: SystemChoice, duration: str, step: str | None,
+def run(spec: DesignSpec, loop: Any, system: SystemChoice, duration: str, step: str | None,
         extra_latency: str, loss: str, seed: int, transport: str, out: str | None,
         as_json: bool) -> None:
     """Run the design's controllers as three processes (plant, embedded, high-level).
@@ -62,13 +65,13 @@ def run(spec: DesignSpec, system: SystemChoice, duration: str, step: str | None,
     from ..export import check_export_dir, write_export
     from ..runtime import RUN_MARKER, run_distributed, run_files
 
-    diagram, design, sat, _ = system.build(spec)
-    default_step = 0.01 if system.system == "sea" else 0.004
-    unit = "rad" if system.system == "sea" else "m"
+    diagram, design, sat, _, rates = system.build(spec, loop)
+    default_step = 0.004 if system.system == "rigid" and loop is None else 0.01
+    unit = "reference units" if loop is not None else "rad" if system.system == "sea" else "m"
     if out is not None:
         check_export_dir(out, RUN_MARKER, "a run")
     res = run_distributed(
-        diagram, design, saturation=sat, rates_hz=system.rates_hz, transport=transport,
+        diagram, design, saturation=sat, rates_hz=rates, transport=transport,
         step=default_step if step is None else _float(f"--step [{unit}]", step, 1e-6, 1.0),
         duration_s=_float("--duration [s]", duration, 0.1, 60),
         extra_latency_s=_float("--extra-latency [ms]", extra_latency, 0, 1000) / 1e3,
