@@ -718,29 +718,13 @@ def _run(spec: SweepSpec, out: Path, workers: int | None, client: Any, own_clien
                 for i in todo:
                     finish(i, *evaluate_chunk(spec, i))
             elif todo:
-                from distributed import Client, as_completed
+                from distributed import Client
 
                 if client is None:
                     own_cluster = _local_cluster(workers or os.cpu_count() or 1)
                     own_client = client = Client(own_cluster)
                 n_workers = len(client.scheduler_info(n_workers=-1)["workers"])
-                # local workers share this filesystem: they write their own chunks
-                task_fn, extra = ((evaluate_and_write, (out,)) if own_cluster is not None
-                                  else (evaluate_chunk, ()))
-                futures = {}
-                for i in todo:
-                    fut = client.submit(task_fn, spec, i, *extra, retries=2, pure=False,
-                                        key=f"seactl-sweep-{spec.hash[:12]}-{i:06d}")
-                    futures[fut.key] = (i, fut)
-                try:
-                    for fut, (table, stats) in as_completed([f for _, f in futures.values()],
-                                                            with_results=True):
-                        i, _ = futures.pop(fut.key)
-                        finish(i, table, stats)
-                        del table
-                except BaseException:
-                    client.cancel([f for _, f in futures.values()])
-                    raise
+                _on_dask(spec, out, todo, client, own_cluster is not None, finish)
     except KeyboardInterrupt:
         have = spec.n_chunks - len(missing_chunks(spec, out))
         raise SweepInterrupted(out, have, spec.n_chunks) from None
@@ -759,6 +743,29 @@ def _run(spec: SweepSpec, out: Path, workers: int | None, client: Any, own_clien
     _write_manifest(spec, out, "complete")
     return SweepResult(out, spec.hash, spec.n_points, spec.n_chunks, computed, points, seconds,
                        n_workers, peak, cpu, summary)
+
+
+def _on_dask(spec: SweepSpec, out: Path, todo: list[int], client: Any, local: bool,
+             finish: Callable[[int, Any, dict[str, float]], None]) -> None:
+    """Submit the chunks ``todo`` and ``finish`` each as it completes; local workers share
+    this filesystem and write their own chunks.  Any failure or Ctrl-C cancels the rest."""
+    from distributed import as_completed
+
+    task_fn, extra = (evaluate_and_write, (out,)) if local else (evaluate_chunk, ())
+    futures = {}
+    for i in todo:
+        fut = client.submit(task_fn, spec, i, *extra, retries=2, pure=False,
+                            key=f"seactl-sweep-{spec.hash[:12]}-{i:06d}")
+        futures[fut.key] = (i, fut)
+    try:
+        for fut, (table, stats) in as_completed([f for _, f in futures.values()],
+                                                with_results=True):
+            i, _ = futures.pop(fut.key)
+            finish(i, table, stats)
+            del table
+    except BaseException:
+        client.cancel([f for _, f in futures.values()])
+        raise
 
 
 def _connect(address: str):
