@@ -492,9 +492,12 @@ def certified_margins(loop: Transfer, design: Any, w_ref: np.ndarray | float, *,
        ``|log|L_a|| + |log|L_b||`` to cross the unit circle twice unseen (and the
        distances to ``+-pi`` for the negative real axis); the test allows a hidden
        excursion of at most :data:`HIDDEN_PAIR_TOL` (:data:`CROSSING_PAIR_TOL` in an
-       interval that brackets a crossing).  Near a lightly damped resonance
-       ``|D|`` is small, so intervals there are bisected until the bound resolves it.
-    4. **Beyond R** the leading term of ``Delta`` outweighs all others (and ``|N| <
+       interval that brackets a crossing).  ``|Delta|`` enters less a bound on its
+       rounding error (:data:`seactl._certify.ROUNDING`), so noise next to a root never
+       certifies.  Near a lightly damped resonance ``|D|`` is small, so intervals there
+       are bisected until the bound resolves it.
+    4. **Beyond R** (taken 1 % beyond the tightest radius, so the dominance does not hang
+       on rounding) the leading term of ``Delta`` outweighs all others (and ``|N| <
        |D|``: no gain crossover), so ``arg Delta(jw)`` changes from ``R`` to infinity
        by exactly ``-arg(Delta(jR) / (a_n (jR)^n))``.
     5. **Count.**  For a retarded quasi-polynomial of degree ``n`` with no imaginary
