@@ -724,7 +724,8 @@ def _run(spec: SweepSpec, out: Path, workers: int | None, client: Any, own_clien
                     own_cluster = _local_cluster(workers or os.cpu_count() or 1)
                     own_client = client = Client(own_cluster)
                 n_workers = len(client.scheduler_info(n_workers=-1)["workers"])
-                _on_dask(spec, out, todo, client, own_cluster is not None, finish)
+                _on_dask(spec, out, todo, client, own_cluster is not None or _local(client),
+                         finish)
     except KeyboardInterrupt:
         have = spec.n_chunks - len(missing_chunks(spec, out))
         raise SweepInterrupted(out, have, spec.n_chunks) from None
@@ -743,6 +744,13 @@ def _run(spec: SweepSpec, out: Path, workers: int | None, client: Any, own_clien
     _write_manifest(spec, out, "complete")
     return SweepResult(out, spec.hash, spec.n_points, spec.n_chunks, computed, points, seconds,
                        n_workers, peak, cpu, summary)
+
+
+def _local(client: Any) -> bool:
+    """A client of a LocalCluster: its workers share this machine's filesystem."""
+    from distributed import LocalCluster
+
+    return isinstance(getattr(client, "cluster", None), LocalCluster)
 
 
 def _on_dask(spec: SweepSpec, out: Path, todo: list[int], client: Any, local: bool,
