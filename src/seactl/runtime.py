@@ -389,7 +389,9 @@ def _spawn(cfg: dict[str, Any], run_dir: Path, fds: tuple[int, ...], on_start: A
     deadline = time.monotonic() + STARTUP_TIMEOUT_S + cfg["ticks"] / cfg["base_rate_hz"] + 20.0
 
     def failure(role: str) -> SeactlError:
-        err = (procs[role].stderr.read().strip().splitlines() or ["no message"])[-1]
+        rc = procs[role].returncode
+        last = f"ended by signal {-rc}" if rc < 0 else f"exit status {rc}, no message"
+        err = (procs[role].stderr.read().strip().splitlines() or [last])[-1]
         return SeactlError(f"run: process {role!r} failed ({cfg['transport']}): {err}")
 
     try:
