@@ -31,6 +31,7 @@ from ._validate import finite_array
 from .axes import MAX_DELAY_MS
 from .errors import InputError
 from .loops import Gains, SEADesign, Timing
+from .runtime import run_doc
 
 SUSPICIOUS_DELAY_MS = 1e-3
 """Non-zero delays below this [ms] (1 us) trigger a :class:`UnitWarning`."""
@@ -569,6 +570,7 @@ class Design:
                              rates_hz=rates_hz, saturation={"i_m": sat},
                              verify_export=verify, step=0.1)
 
+    @run_doc
     def run(self, *, duration_s: float = 2.0, rates_hz: Any = 1000.0, step_rad: float = 0.01,
             transport: str = "zenoh", extra_latency_s: float = 0.0, loss: float = 0.0,
             seed: int = 0, saturation_a: float | None = None, zero: bool = True) -> Any:
@@ -587,14 +589,7 @@ class Design:
             As :meth:`export` (at most 5000 Hz).
         step_rad : float
             Step of ``q_des`` [rad].
-        transport : {"zenoh", "udp"}
-            Message transport (loopback only).
-        extra_latency_s : float
-            Latency [s] injected on the high-level -> embedded link (0 to 1).
-        loss : float
-            Probability of losing a high-level -> embedded message (0 to 0.99).
-        seed : int
-            Seed of the losses.
+        {link_parameters}
         saturation_a : float, optional
             Current limit [A] (default: the actuator's).
         zero : bool

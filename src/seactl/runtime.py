@@ -81,6 +81,26 @@ def unpack(data: bytes) -> tuple[int, int, float, tuple[float, ...]]:
     return kind, tick, sent, struct.unpack_from(f"<{n}d", data, HEADER.size)
 
 
+LINK_PARAMETERS = """transport : {"zenoh", "udp"}
+    Message transport (loopback only).
+extra_latency_s : float
+    Latency [s] injected on the high-level -> embedded link (0 to 1).
+loss : float
+    Probability of losing a high-level -> embedded message (0 to 0.99).
+seed : int
+    Seed of the losses."""
+"""The parameters every ``run`` method shares, documented once (:func:`run_doc`)."""
+
+
+def run_doc(method: Any) -> Any:
+    """Put :data:`LINK_PARAMETERS` where ``method``'s docstring says ``{link_parameters}``
+    (a method's docstring: indented by eight spaces)."""
+    text = "\n".join(("        " + line) if line else line
+                     for line in LINK_PARAMETERS.splitlines())
+    method.__doc__ = method.__doc__.replace("        {link_parameters}", text)
+    return method
+
+
 class LostPeer(RuntimeError):
     pass
 

@@ -27,6 +27,7 @@ from ._results import (
 from ._validate import finite_array
 from .api import delays_from_ms, resolve_actuator
 from .errors import InputError
+from .runtime import run_doc
 
 KINDS = ("sea", "rigid")
 
@@ -301,6 +302,7 @@ class RigidBatch:
                              rates_hz=rates_hz, saturation={"F_des": sat},
                              verify_export=verify, step=0.004)
 
+    @run_doc
     def run(self, *, duration_s: float = 2.0, rates_hz: Any = 1000.0, step_m: float = 0.004,
             transport: str = "zenoh", extra_latency_s: float = 0.0, loss: float = 0.0,
             seed: int = 0, saturate: bool = True) -> Any:
@@ -318,14 +320,7 @@ class RigidBatch:
             As :meth:`export` (at most 5000 Hz).
         step_m : float
             Step of ``x_des`` [m].
-        transport : {"zenoh", "udp"}
-            Message transport (loopback only).
-        extra_latency_s : float
-            Latency [s] injected on the high-level -> embedded link (0 to 1).
-        loss : float
-            Probability of losing a high-level -> embedded message (0 to 0.99).
-        seed : int
-            Seed of the losses.
+        {link_parameters}
         saturate : bool
             Clip the force command at ``actuator.max_force``.
 

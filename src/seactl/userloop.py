@@ -32,6 +32,7 @@ from .loopfile import (
     parse_expr,
 )
 from .margins import Margins, loop_margins
+from .runtime import run_doc
 
 _BUILDER = "<builder>"
 
@@ -597,6 +598,7 @@ class UserLoop:
         return export_design(self.diagram, self.design, out, languages=lang,
                              rates_hz=self._rates(rates_hz), verify_export=verify, step=0.01)
 
+    @run_doc
     def run(self, *, duration_s: float = 2.0, rates_hz: Any = None, step: float = 0.01,
             transport: str = "zenoh", extra_latency_s: float = 0.0, loss: float = 0.0,
             seed: int = 0) -> Any:
@@ -613,14 +615,7 @@ class UserLoop:
             As :meth:`export` (at most 5000 Hz).
         step : float
             Step of the file's reference signal.
-        transport : {"zenoh", "udp"}
-            Message transport (loopback only).
-        extra_latency_s : float
-            Latency [s] injected on the high-level -> embedded link (0 to 1).
-        loss : float
-            Probability of losing a high-level -> embedded message (0 to 0.99).
-        seed : int
-            Seed of the losses.
+        {link_parameters}
 
         Returns
         -------
