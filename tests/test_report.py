@@ -125,3 +125,19 @@ def test_summary_lists_every_claim_that_is_not_a_pass(tmp_path, capsys):
     assert all(f'href="#claim-{c["id"]}"' not in summary for c in claims
                if c["status"] == "pass")
     assert all(f'id="claim-{c["id"]}"' in html for c in claims)
+
+
+def test_running_section_without_a_run_fails_its_claims(tmp_path, monkeypatch):
+    """Oracle: the section's own claim ids; a run that cannot start (here forced) makes
+    both claims fail with the reason in the text, and the report is still written."""
+    from seactl import runtime
+    from seactl.errors import SeactlError
+    from seactl.paper import running
+
+    def cannot(*args, **kwargs):
+        raise SeactlError("run: process 'plant' failed (zenoh): no route")
+
+    monkeypatch.setattr(runtime, "run_distributed", cannot)
+    sec = running.running(report.Context(tmp_path))
+    assert [c.id for c in sec.claims] == ["running-replay", "running-delivery"]
+    assert all(c.status == "fail" for c in sec.claims) and "no route" in sec.intro
