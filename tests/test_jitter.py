@@ -116,3 +116,27 @@ def test_api_and_cli(capsys):
     assert main(["jitter", "--fn", "14", "--t-qs", "2"]) == 0
     assert "bottleneck" in capsys.readouterr().out
     assert main(["jitter", "--fn", "-3"]) == 2
+
+
+def test_measured_trace_is_checked_against_the_analysed_band(tmp_path, capsys):
+    """``seactl jitter --trace stiffness=FILE``: a trace of 2.5-3.5 ms (the kind seactl run
+    writes) against ``[T_qs, T_qs + J]``; oracle: the jitter margin from the Python API for
+    the same design, and the trace's own min and max."""
+    import json
+
+    import seactl as sc
+    from seactl.cli import main
+
+    trace = tmp_path / "latency-stiffness.csv"
+    trace.write_text("latency_ms\n" + "".join(f"{v}\n" for v in (2.5, 3.0, 3.5, 2.75)))
+    flags = ["--fn", "14", "--t-tau", "1", "--t-qd", "1", "--f-qd", "50", "--f-taud", "100"]
+    J = sc.design(14, delays_ms=(1, 2, 1), filters_hz=(50, 100)).jitter_margins()
+    j_ms = float(np.ravel(J.stiffness_s)[0]) * 1e3
+    for t_qs, covered in (("2", 3.5 <= 2 + j_ms), ("3", False)):   # 2.5 < 3: below the band
+        assert main(["jitter", *flags, "--t-qs", t_qs, "--trace", f"stiffness={trace}",
+                     "--json"]) == 0
+        (c,) = json.loads(capsys.readouterr().out)["traces"]
+        assert (c["min_ms"], c["max_ms"]) == (2.5, 3.5) and c["covered"] is covered
+    assert c["jitter_margin_ms"] > 0
+    assert main(["jitter", "--trace", f"speed={trace}"]) == 2
+    assert "--trace" in capsys.readouterr().err

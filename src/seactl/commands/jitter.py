@@ -4,11 +4,15 @@ from __future__ import annotations
 
 from typing import Any
 
+import click
 import numpy as np
 from rich.markup import escape
 from rich.table import Table
 
+from ..errors import InputError
 from ._common import DesignSpec, cli, console, design_options, echo_json, json_option
+
+LINKS = {"stiffness": "t_qs_ms", "damping": "t_qd_ms", "torque": "t_tau_ms"}
 
 JSON_KEYS = ("fn_hz", "gs", "jitter_margin_ms", "stiffness_jitter_margin_ms",
              "damping_jitter_margin_ms", "torque_jitter_margin_ms", "delay_margin_ms")
@@ -29,10 +33,47 @@ def _ms(x: float | None, stable: bool) -> str:
     return "inf" if x is None else f"{x:.3f}"
 
 
+def parse_traces(tokens: tuple[str, ...]) -> dict[str, Any]:
+    """``LINK=FILE.csv`` (a measured latency trace, e.g. ``seactl run``'s
+    ``latency-stiffness.csv``) -> :class:`~seactl.timing_models.Empirical` per link."""
+    from ..timing_models import Empirical
+
+    out = {}
+    for tok in tokens:
+        link, sep, path = tok.partition("=")
+        if not sep or link.strip() not in LINKS:
+            raise InputError("--trace", tok, "LINK=FILE.csv with LINK one of "
+                             + ", ".join(LINKS))
+        out[link.strip()] = Empirical.from_csv(path.strip())
+    return out
+
+
+def trace_checks(spec: DesignSpec, rows: list[dict[str, Any]], traces: dict[str, Any]
+                 ) -> list[dict[str, Any]]:
+    """Per design and traced link: the measured latencies against the analysed band
+    ``[T, T + J]`` (``T`` the design's delay of the link, ``J`` its jitter margin)."""
+    out = []
+    for r in rows:
+        for link, emp in traces.items():
+            nominal = float(getattr(spec, LINKS[link]))
+            lo, hi = emp.lower_s * 1e3, max(emp.values_s) * 1e3
+            margin = r[f"{link}_jitter_margin_ms"]
+            band_hi = np.inf if margin is None else nominal + margin
+            covered = bool(r["stable"] and lo >= nominal - 1e-9 and hi <= band_hi + 1e-9)
+            out.append({"fn_hz": r["fn_hz"], "gs": r["gs"], "link": link,
+                        "min_ms": lo, "max_ms": hi, "analysed_ms": nominal,
+                        "jitter_margin_ms": margin, "stable": bool(r["stable"]),
+                        "covered": covered})
+    return out
+
+
 @cli.command()
 @design_options
+@click.option("--trace", "traces", multiple=True, metavar="LINK=FILE.csv",
+              help="A measured latency trace of a link (stiffness, damping or torque; e.g. "
+                   "seactl run's latency-stiffness.csv): checked against [T, T + J].")
 @json_option
-def jitter(spec: DesignSpec, as_json: bool) -> None:
+def jitter(spec: DesignSpec, traces: tuple[str, ...], as_json: bool) -> None:
     """Jitter margins [ms]: the largest time-varying extra delay in [0, J] that each loop
     is guaranteed to tolerate (Kao-Lincoln small-gain bound, exact delays), next to the
     whole outer loop's margin for a constant extra delay.
@@ -41,9 +82,12 @@ def jitter(spec: DesignSpec, as_json: bool) -> None:
     Example (Table I):
       seactl jitter --fn 12 14 16 18 20 --t-tau 0.5 --t-qs 2 --t-qd 0.5 --f-qd 50 --f-taud 100
     """
+    measured = parse_traces(traces)
     rows = jitter_rows(spec)
+    checks = trace_checks(spec, rows, measured)
     if as_json:
-        echo_json({"designs": [{k: r[k] for k in JSON_KEYS} for r in rows]})
+        echo_json({"designs": [{k: r[k] for k in JSON_KEYS} for r in rows]}
+                  | ({"traces": checks} if checks else {}))
         return
     t = Table(title=escape(f"Jitter margins [ms], actuator '{spec.actuator.name}' "
                            f"(T_tau={spec.t_tau_ms:g} ms, T_qs={spec.t_qs_ms:g} ms, "
@@ -63,3 +107,15 @@ def jitter(spec: DesignSpec, as_json: bool) -> None:
     console.print("A loop stays stable under any latency variation within its jitter margin "
                   "(sufficient, not necessary); the delay margin is for a constant extra "
                   "delay.", highlight=False)
+    for c in checks:
+        verdict = "covered by the analysis" if c["covered"] else "[red]NOT covered[/red]"
+        if not c["stable"]:
+            console.print(f"f_n {c['fn_hz']:g} Hz, {c['link']}: the design is [red]unstable"
+                          "[/red] at its own delays: no latency is covered", highlight=False)
+            continue
+        console.print(f"f_n {c['fn_hz']:g} Hz, {c['link']}: measured {c['min_ms']:.3f} to "
+                      f"{c['max_ms']:.3f} ms, analysed {c['analysed_ms']:g} ms + jitter "
+                      f"margin {_ms(c['jitter_margin_ms'], True)} ms: {verdict}"
+                      + ("" if c["covered"] else f" (analyse with the trace's minimum, "
+                         f"--{LINKS[c['link']][:-3].replace('_', '-')} "
+                         f"{c['min_ms']:.3g}, and compare the spread)"), highlight=False)
