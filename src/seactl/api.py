@@ -563,12 +563,16 @@ class Design:
         from .export import export_design
         from .loops import sea_diagram
 
+        return export_design(sea_diagram(zero), self.sea, out, languages=lang,
+                             rates_hz=rates_hz, saturation=self._current_limit(saturation_a),
+                             verify_export=verify, step=0.1)
+
+    def _current_limit(self, saturation_a: float | None) -> dict[str, float]:
+        """The current limit of ``export`` and ``run`` (default: the actuator's)."""
         sat = self.actuator.max_current if saturation_a is None else float(saturation_a)
         if not sat > 0:
             raise InputError("saturation_a [A]", sat, "> 0 (inf: no limit)")
-        return export_design(sea_diagram(zero), self.sea, out, languages=lang,
-                             rates_hz=rates_hz, saturation={"i_m": sat},
-                             verify_export=verify, step=0.1)
+        return {"i_m": sat}
 
     @run_doc
     def run(self, *, duration_s: float = 2.0, rates_hz: Any = 1000.0, step_rad: float = 0.01,
@@ -612,10 +616,8 @@ class Design:
         from .loops import sea_diagram
         from .runtime import run_distributed
 
-        sat = self.actuator.max_current if saturation_a is None else float(saturation_a)
-        if not sat > 0:
-            raise InputError("saturation_a [A]", sat, "> 0 (inf: no limit)")
-        return run_distributed(sea_diagram(zero), self.sea, saturation={"i_m": sat},
+        return run_distributed(sea_diagram(zero), self.sea,
+                               saturation=self._current_limit(saturation_a),
                                step=step_rad, duration_s=duration_s, rates_hz=rates_hz,
                                transport=transport, extra_latency_s=extra_latency_s,
                                loss=loss, seed=seed)

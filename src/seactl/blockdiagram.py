@@ -350,33 +350,43 @@ def _symbolic(diagram: BlockDiagram, output: str, input: str, cut: tuple[str, ..
     return expr
 
 
-def _cache_load(key: str) -> Any:
-    """A derived expression from the disk cache, or None (absent, disabled or damaged)."""
-    import sympy as sp
-
+def _cache_read(name: str) -> str | None:
+    """The text of disk-cache entry ``name``, or None (absent, or the cache disabled)."""
     folder = _cache_dir()
-    path = folder / f"{key}.srepr" if folder else None
-    if path is not None and path.is_file():
-        try:
-            return sp.sympify(path.read_text())
-        except (SyntaxError, TypeError, ValueError):  # a damaged entry: derive again
-            pass
-    return None
+    path = folder / name if folder else None
+    return path.read_text() if path is not None and path.is_file() else None
 
 
-def _cache_store(key: str, expr: Any) -> None:
-    """Keep ``expr`` on disk (atomically); a read-only home or a full disk only costs speed."""
-    import sympy as sp
-
+def _cache_write(name: str, text: str) -> None:
+    """Keep an entry on disk (atomically); a read-only home or a full disk only costs speed."""
     from .errors import OutputError
     from .outputs import write_atomic
 
     folder = _cache_dir()
     if folder is not None:
         try:
-            write_atomic(folder / f"{key}.srepr", sp.srepr(expr))
+            write_atomic(folder / name, text)
         except OutputError:
             pass
+
+
+def _cache_load(key: str) -> Any:
+    """A derived expression from the disk cache, or None (absent, disabled or damaged)."""
+    text = _cache_read(f"{key}.srepr")
+    if text is not None:
+        import sympy as sp
+
+        try:
+            return sp.sympify(text)
+        except (SyntaxError, TypeError, ValueError):  # a damaged entry: derive again
+            pass
+    return None
+
+
+def _cache_store(key: str, expr: Any) -> None:
+    import sympy as sp
+
+    _cache_write(f"{key}.srepr", sp.srepr(expr))
 
 
 def _derive(diagram: BlockDiagram, output: str, input: str, cut: tuple[str, ...],
@@ -533,23 +543,15 @@ def _structure(diagram: BlockDiagram, cut: tuple[str, ...], minus: tuple[str, ..
     """Terms of ``det(I - A)`` (held: ``cut``), minus the one with ``minus`` held if given,
     expanded in block symbols: ``[(coef, blocks), ...]``; kept on disk as JSON (a cache
     hit needs no sympy: worker processes and the command line start faster)."""
-    from .errors import OutputError
-    from .outputs import write_atomic
-
-    key = _structure_key(diagram, "", "", cut, f"terms|{minus and ','.join(minus)}")
-    folder = _cache_dir()
-    path = folder / f"{key}.json" if folder else None
-    if path is not None and path.is_file():
+    name = _structure_key(diagram, "", "", cut, f"terms|{minus and ','.join(minus)}") + ".json"
+    text = _cache_read(name)
+    if text is not None:
         try:
-            return [(float(c), tuple(b)) for c, b in json.loads(path.read_text())]
+            return [(float(c), tuple(b)) for c, b in json.loads(text)]
         except (ValueError, TypeError):  # a damaged entry: derive again
             pass
     terms = _expand_terms(diagram, cut, minus)
-    if path is not None:
-        try:
-            write_atomic(path, json.dumps(terms))
-        except OutputError:
-            pass
+    _cache_write(name, json.dumps(terms))
     return terms
 
 

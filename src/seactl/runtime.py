@@ -270,7 +270,7 @@ def run_plant(cfg: dict[str, Any], link: Any) -> dict[str, np.ndarray]:
             used[k - 1] = act_tick   # the command applied over [k-1, k]
             x = Hx @ x + Ha @ act
         y = Cx @ x + Ca @ act
-        q[k] = y[cfg["q_row"]]
+        q[k] = y[0]   # the first sensed signal: the output _analyse compares
         msg = pack(SENSE, k, y[:len(cfg["sensed"])])
         for r in ("embedded", "high-level"):
             link.send(r, msg)
@@ -511,7 +511,7 @@ def run_distributed(diagram: Any, design: Any, *, saturation: dict[str, float] |
         cfg = {"base_rate_hz": ctl.base_rate_hz, "ticks": K, "step": float(step),
                "period_ticks": {p.name: p.period_ticks for p in ctl.processes},
                "plant_npz": str(run_dir / "plant.npz"), "export_dir": str(run_dir / "export"),
-               "run_dir": str(run_dir), "q_row": 0, "sensed": list(ctl.sensed),
+               "run_dir": str(run_dir), "sensed": list(ctl.sensed),
                "references": list(ctl.references), "actuation": list(ctl.actuation),
                "message": _message_at_rest(run_dir / "export", ctl, step),
                "extra_latency_s": float(extra_latency_s), "loss": float(loss),

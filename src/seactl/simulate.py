@@ -767,7 +767,12 @@ def _continuous_kernel(H, CD, inputs, x0, whole, frac, ring_len, nx, ne, nd, ste
     S = np.zeros((nrow, n))
     xn = np.zeros((nx, n))
     alive = np.ones(n, np.bool_)
-    _fill_inputs(zb, nx, inputs, 0, ne, nd, ring, whole, frac)
+    same = True   # every design with the same buffer positions: rows read at once
+    for d in range(nd):
+        for k in range(1, n):
+            if whole[d, k] != whole[d, 0]:
+                same = False
+    _fill_inputs(zb, nx, inputs, 0, ne, nd, ring, whole, frac, same)
     cd_cols = _nonzero_columns(CD, nx + nv)
     h_cols = _nonzero_columns(H, nx + 2 * nv)
     for i in range(steps + 1):
@@ -787,7 +792,7 @@ def _continuous_kernel(H, CD, inputs, x0, whole, frac, ring_len, nx, ne, nd, ste
                         rec_t[i // every, o, k] = S[nd + o, k]
         if i == steps:
             break
-        _fill_inputs(zb, nx + nv, inputs, i + 1, ne, nd, ring, whole, frac)
+        _fill_inputs(zb, nx + nv, inputs, i + 1, ne, nd, ring, whole, frac, same)
         _product(H, zb, h_cols, xn)
         zb[:nx] = xn
         zb[nx:nx + nv] = zb[nx + nv:]
@@ -823,15 +828,11 @@ def _product(M, zb, cols, out):  # pragma: no cover - compiled
 
 
 @njit(cache=True)
-def _fill_inputs(zb, at, inputs, i, ne, nd, ring, whole, frac):  # pragma: no cover
+def _fill_inputs(zb, at, inputs, i, ne, nd, ring, whole, frac, same):  # pragma: no cover
     """``v`` of step ``i`` into ``zb[at:]``: exogenous inputs, then the delayed blocks'
-    inputs read from the ring buffer (linear interpolation between whole steps)."""
+    inputs read from the ring buffer (linear interpolation between whole steps); ``same``:
+    every design reads the same slots."""
     n, L = zb.shape[1], ring.shape[0]
-    same = True   # every design with the same buffer positions: whole rows copied
-    for d in range(nd):
-        for k in range(1, n):
-            if whole[d, k] != whole[d, 0]:
-                same = False
     for e in range(ne):
         if inputs.shape[2] == 1:
             zb[at + e] = inputs[i, e, 0]

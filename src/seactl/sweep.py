@@ -375,8 +375,13 @@ def evaluate_and_write(spec: SweepSpec, i: int, out: Path) -> tuple[int, dict[st
     """Compute chunk ``i`` and write its part file where it was computed (local workers:
     the parent then only counts, instead of receiving and writing every table)."""
     table, stats = evaluate_chunk(spec, i)
+    return _written(out, i, table), stats
+
+
+def _written(out: Path, i: int, table: Any) -> int:
+    """Write chunk ``i``'s table; its row count."""
     write_chunk(out, i, table)
-    return table.num_rows, stats
+    return table.num_rows
 
 
 def _peak_rss_mb() -> float:
@@ -701,13 +706,11 @@ def _run(spec: SweepSpec, out: Path, workers: int | None, client: Any, own_clien
         with progress:
             task = progress.add_task("sweep", total=spec.n_chunks, completed=done)
 
-            def finish(i: int, table: Any, stats: dict[str, float]) -> None:
-                """``table``: the chunk's Arrow table, or its row count once written."""
+            def finish(i: int, rows: int, stats: dict[str, float]) -> None:
+                """Chunk ``i`` is on disk with ``rows`` rows."""
                 nonlocal peak, computed, points, cpu
-                if not isinstance(table, int):
-                    write_chunk(out, i, table)
                 cpu += stats["cpu_seconds"]
-                points += table if isinstance(table, int) else table.num_rows
+                points += rows
                 peak = max(peak, stats["peak_rss_mb"])
                 computed += 1
                 progress.advance(task)
@@ -716,7 +719,8 @@ def _run(spec: SweepSpec, out: Path, workers: int | None, client: Any, own_clien
 
             if todo and workers == 0 and client is None:
                 for i in todo:
-                    finish(i, *evaluate_chunk(spec, i))
+                    table, stats = evaluate_chunk(spec, i)
+                    finish(i, _written(out, i, table), stats)
             elif todo:
                 from distributed import Client
 
@@ -724,8 +728,7 @@ def _run(spec: SweepSpec, out: Path, workers: int | None, client: Any, own_clien
                     own_cluster = _local_cluster(workers or os.cpu_count() or 1)
                     own_client = client = Client(own_cluster)
                 n_workers = len(client.scheduler_info(n_workers=-1)["workers"])
-                _on_dask(spec, out, todo, client, own_cluster is not None or _local(client),
-                         finish)
+                _on_dask(spec, out, todo, client, finish)
     except KeyboardInterrupt:
         have = spec.n_chunks - len(missing_chunks(spec, out))
         raise SweepInterrupted(out, have, spec.n_chunks) from None
@@ -753,12 +756,14 @@ def _local(client: Any) -> bool:
     return isinstance(getattr(client, "cluster", None), LocalCluster)
 
 
-def _on_dask(spec: SweepSpec, out: Path, todo: list[int], client: Any, local: bool,
-             finish: Callable[[int, Any, dict[str, float]], None]) -> None:
-    """Submit the chunks ``todo`` and ``finish`` each as it completes; local workers share
-    this filesystem and write their own chunks.  Any failure or Ctrl-C cancels the rest."""
+def _on_dask(spec: SweepSpec, out: Path, todo: list[int], client: Any,
+             finish: Callable[[int, int, dict[str, float]], None]) -> None:
+    """Submit the chunks ``todo`` and ``finish`` each as it completes; the workers of a
+    local cluster share this filesystem and write their own chunks, others send their
+    tables here.  Any failure or Ctrl-C cancels the rest."""
     from distributed import as_completed
 
+    local = _local(client)
     task_fn, extra = (evaluate_and_write, (out,)) if local else (evaluate_chunk, ())
     futures = {}
     for i in todo:
@@ -766,11 +771,11 @@ def _on_dask(spec: SweepSpec, out: Path, todo: list[int], client: Any, local: bo
                             key=f"seactl-sweep-{spec.hash[:12]}-{i:06d}")
         futures[fut.key] = (i, fut)
     try:
-        for fut, (table, stats) in as_completed([f for _, f in futures.values()],
-                                                with_results=True):
+        for fut, (result, stats) in as_completed([f for _, f in futures.values()],
+                                                 with_results=True):
             i, _ = futures.pop(fut.key)
-            finish(i, table, stats)
-            del table
+            finish(i, result if local else _written(out, i, result), stats)
+            del result
     except BaseException:
         client.cancel([f for _, f in futures.values()])
         raise

@@ -292,15 +292,19 @@ class RigidBatch:
         >>> [p.name for p in res.controllers.processes]
         ['high-level', 'embedded']
         """
-        import math
 
         from .export import export_design
         from .rigid import RIGID_DIAGRAM
 
-        sat = self.rigid.actuator.max_force if saturate else math.inf
         return export_design(RIGID_DIAGRAM, self.rigid, out, languages=lang,
-                             rates_hz=rates_hz, saturation={"F_des": sat},
+                             rates_hz=rates_hz, saturation=self._force_limit(saturate),
                              verify_export=verify, step=0.004)
+
+    def _force_limit(self, saturate: bool) -> dict[str, float]:
+        """The force limit of ``export`` and ``run`` (``inf``: none)."""
+        import math
+
+        return {"F_des": self.rigid.actuator.max_force if saturate else math.inf}
 
     @run_doc
     def run(self, *, duration_s: float = 2.0, rates_hz: Any = 1000.0, step_m: float = 0.004,
@@ -337,13 +341,12 @@ class RigidBatch:
         >>> res.summary["links"]["high-level->embedded"]["count"]         # doctest: +SKIP
         200
         """
-        import math
 
         from .rigid import RIGID_DIAGRAM
         from .runtime import run_distributed
 
-        sat = self.rigid.actuator.max_force if saturate else math.inf
-        return run_distributed(RIGID_DIAGRAM, self.rigid, saturation={"F_des": sat},
+        return run_distributed(RIGID_DIAGRAM, self.rigid,
+                               saturation=self._force_limit(saturate),
                                step=step_m, duration_s=duration_s, rates_hz=rates_hz,
                                transport=transport, extra_latency_s=extra_latency_s,
                                loss=loss, seed=seed)
