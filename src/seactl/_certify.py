@@ -2,9 +2,10 @@
 
 The scan is a per-design bisection of a few dozen intervals, each a handful of scalar
 operations on two small quasi-polynomials: in numpy the temporaries of every pass cost more
-than the arithmetic, so the per-design loop is compiled (numba, cached on disk).  Each
-design's intervals are refined depth-first from its base grid; the soundness argument and
-the tolerances are those of :func:`seactl.margins.certified_margins`.
+than the arithmetic, so the per-design loop is compiled (numba, cached on disk), and so is
+the solution of the crossings it brackets (:func:`refine`).  Each design's intervals are
+refined depth-first from its base grid; the soundness argument and the tolerances are
+those of :func:`seactl.margins.certified_margins`.
 """
 
 from __future__ import annotations
@@ -15,21 +16,22 @@ import numpy as np
 from numba import njit
 
 # Tolerances and limits (documented in seactl.margins, which re-exports them).
-HIDDEN_PAIR_TOL = 0.05
-CROSSING_PAIR_TOL = 0.1
+HIDDEN_PAIR_TOL = 0.005
+CROSSING_PAIR_TOL = 0.01
 MAX_BISECTIONS = 48
 MAX_EVALUATIONS = 1 << 16
 ROUNDING = 1e-13
 """Evaluation error of ``Q(jw)``, relative to ``sum_kj |c_kj| w^j`` (Horner and the
 exponential in double precision: a few dozen ulps, with room)."""
-LOG_BAND_LO, LOG_BAND_HI = math.log(0.05), math.log(20.0)
+BAND_LO, BAND_HI = 0.05, 20.0
+LOG_BAND_LO, LOG_BAND_HI = math.log(BAND_LO), math.log(BAND_HI)
 
 GAIN, PHASE = 0, 1
 
 
 @njit(cache=True)
 def _eval(coeffs, delays, d, w):  # pragma: no cover - compiled
-    """``Q(jw)``, ``dQ(jw)/dw`` and ``|d^2 Q(jw)/dw^2|`` of design ``d``: one Horner pass
+    """``Q(jw)``, ``dQ(jw)/dw`` and ``d^2 Q(jw)/dw^2`` of design ``d``: one Horner pass
     per delay term for ``p``, ``p'`` and ``p''`` at ``s = jw`` (as
     :meth:`QuasiPolynomial.with_derivative`; real arithmetic, ``s`` being imaginary)."""
     qr = qi = d1r = d1i = d2r = d2i = 0.0
@@ -55,7 +57,7 @@ def _eval(coeffs, delays, d, w):  # pragma: no cover - compiled
         d2r += br * er - bi * ei
         d2i += br * ei + bi * er
     # d/dw = j d/ds
-    return complex(qr, qi), complex(-d1i, d1r), math.hypot(d2r, d2i)
+    return complex(qr, qi), complex(-d1i, d1r), complex(-d2r, -d2i)
 
 
 @njit(cache=True)
@@ -68,9 +70,9 @@ def _bound3(c, d, w):  # pragma: no cover - compiled
 
 
 # Per point, what the certificates of its two intervals need (computed once):
-W, CN, CD, A_DELTA, A_DDELTA, A_N, A_D, A_DN, A_DD, A_G, LOG_L, A_ARG_L, RE_L, IM_L, \
-    ARG_DELTA = range(15)
-_F = 15
+W, CN, CD, A_DELTA, A_DDELTA, A_N, A_D, A_DN, A_DD, RE_G, IM_G, LOG_L, A_ARG_L, RE_L, \
+    IM_L, ARG_DELTA = range(16)
+_F = 16
 
 
 @njit(cache=True, error_model="numpy")
@@ -78,17 +80,19 @@ def _point(P, i, w, Nc, Nt, Dc, Dt, major, d):  # pragma: no cover - compiled
     """Evaluate ``N`` and ``D`` of design ``d`` at ``w`` into row ``i`` of ``P``;
     ``|Delta|`` is stored less its rounding bound (``major``: ``sum_k |c_kj|`` of ``N``
     and ``D`` together), so that rounding noise next to a root never certifies."""
-    N, dN, cN = _eval(Nc, Nt, d, w)
-    D, dD, cD = _eval(Dc, Dt, d, w)
+    N, dN, d2N = _eval(Nc, Nt, d, w)
+    D, dD, d2D = _eval(Dc, Dt, d, w)
     delta = N + D
     aN, aD = _mag(N), _mag(D)
     L = _div(N, D)
     p = P[i]
-    p[W], p[CN], p[CD] = w, cN, cD
+    p[W], p[CN], p[CD] = w, _mag(d2N), _mag(d2D)
     p[A_DELTA] = max(_mag(delta) - ROUNDING * _bound3(major, d, w), 0.0)
     p[A_DDELTA], p[ARG_DELTA] = _mag(dN + dD), _angle(delta)
     p[A_N], p[A_D], p[A_DN], p[A_DD] = aN, aD, _mag(dN), _mag(dD)
-    p[A_G] = _mag(dN * D - dD * N) / (aN * aD)  # |(log L)'| = |N'/N - D'/D|
+    # (log L)' = N'/N - D'/D: its real part drives log |L|, its imaginary part arg L
+    g = _div(dN * D - dD * N, N * D)
+    p[RE_G], p[IM_G] = abs(g.real), abs(g.imag)
     p[LOG_L], p[A_ARG_L], p[RE_L], p[IM_L] = np.log(aN / aD), abs(_angle(L)), L.real, L.imag
 
 
@@ -133,22 +137,35 @@ def _certified(a, b, bN, bD, stability_only, no_loop):  # pragma: no cover - com
     sN, sD = _sup(h, a[A_DN], b[A_DN], cN), _sup(h, a[A_DD], b[A_DD], cD)
     mN = 0.5 * (a[A_N] + b[A_N] - h * sN)  # lower bounds of |N|, |D|
     mD = 0.5 * (a[A_D] + b[A_D] - h * sD)
-    length = np.inf
-    if mN > 0 and mD > 0:
-        # |(log L)'| at the ends; |(log L)''| <= curv2 on the interval
-        curv2 = cN / mN + (sN / mN) ** 2 + cD / mD + (sD / mD) ** 2
-        length = h * _sup(h, a[A_G], b[A_G], curv2)
+    gain_len, phase_len = _log_lengths(h, a, b, cN, cD, sN, sD, mN, mD)
+    # sup |N|, |D|: where |N| and |D| are apart on the whole interval, |L| stays on one
+    # side of 1 (and of the band)
+    xN, xD = 0.5 * (a[A_N] + b[A_N] + h * sN), 0.5 * (a[A_D] + b[A_D] + h * sD)
     fa, fb = a[LOG_L], b[LOG_L]
     to_axis = 2 * np.pi - a[A_ARG_L] - b[A_ARG_L]
     tol = CROSSING_PAIR_TOL if (fa >= 0) != (fb >= 0) else HIDDEN_PAIR_TOL
-    gain_ok = length < abs(fa) + abs(fb) + 2 * tol
+    gain_ok = gain_len < abs(fa) + abs(fb) + 2 * tol or mN > xD or mD > xN
     # (NaN compares false, as in numpy: a NaN end is never "relevant")
-    relevant = (fa + length > LOG_BAND_LO or fb + length > LOG_BAND_LO) and \
-        (fa - length < LOG_BAND_HI or fb - length < LOG_BAND_HI) and fa == fa and fb == fb
+    relevant = (fa + gain_len > LOG_BAND_LO or fb + gain_len > LOG_BAND_LO) and \
+        (fa - gain_len < LOG_BAND_HI or fb - gain_len < LOG_BAND_HI) and \
+        fa == fa and fb == fb and not (xN < BAND_LO * mD or mN > BAND_HI * xD)
     tol = CROSSING_PAIR_TOL if _on_axis(a, b) else HIDDEN_PAIR_TOL
-    phase_ok = (not relevant) or (length < to_axis + 2 * tol)
+    phase_ok = (not relevant) or (phase_len < to_axis + 2 * tol)
     loop_ok = a[W] == 0 or no_loop or (gain_ok and phase_ok)
     return ok and loop_ok, ok
+
+
+@njit(cache=True, error_model="numpy")
+def _log_lengths(h, a, b, cN, cD, sN, sD, mN, mD):  # pragma: no cover - compiled
+    """Bounds of the paths of ``log |L|`` and ``arg L`` between points ``a`` and ``b``:
+    ``h`` times bounds of ``|Re (log L)'|`` and ``|Im (log L)'|`` from their values at the
+    ends and ``|(log L)''| <= |N''|/m_N + (|N'|/m_N)^2 + |D''|/m_D + (|D'|/m_D)^2`` (sups
+    ``cN``, ``sN``, ``cD``, ``sD``; ``m`` lower bounds of ``|N|``, ``|D|``).  Infinite
+    where ``N`` or ``D`` may vanish."""
+    if not (mN > 0 and mD > 0):
+        return np.inf, np.inf
+    curv = cN / mN + (sN / mN) ** 2 + cD / mD + (sD / mD) ** 2
+    return h * _sup(h, a[RE_G], b[RE_G], curv), h * _sup(h, a[IM_G], b[IM_G], curv)
 
 
 @njit(cache=True)
@@ -170,10 +187,20 @@ def _collect(a, b):  # pragma: no cover - compiled
 
 
 @njit(cache=True)
-def _append(out, nout, d, kind, wa, wb):  # pragma: no cover - compiled
+def _append(out, nout, d, kind, a, b):  # pragma: no cover - compiled
+    """Bracket row: design, kind, the ends' frequencies and crossing functions."""
     if nout < out.shape[0]:
-        out[nout, 0], out[nout, 1], out[nout, 2], out[nout, 3] = d, kind, wa, wb
+        row = out[nout]
+        row[0], row[1], row[2], row[3] = d, kind, a[W], b[W]
+        row[4], row[5] = _crossing_value(a, kind), _crossing_value(b, kind)
     return nout + 1
+
+
+@njit(cache=True)
+def _crossing_value(p, kind):  # pragma: no cover - compiled
+    """The function whose sign change is the crossing: ``log |L|`` for a gain crossover,
+    ``arg(-L)`` for a phase crossover (zero on the negative real axis)."""
+    return p[LOG_L] if kind == GAIN else math.atan2(-p[IM_L], -p[RE_L])
 
 
 @njit(cache=True)
@@ -182,7 +209,8 @@ def scan(Nc, Nt, Dc, Dt, major, bN, bD, start, grid, stability_only, no_loop,
     """Certify every design's base-grid intervals (design ``d``'s points are
     ``grid[start[d]:start[d + 1]]``), bisecting depth-first.  Writes ``winding`` and
     ``uncertain`` per design and the brackets into ``out`` (rows: design, kind, w_lo,
-    w_hi); returns the number of brackets (more than ``len(out)``: call again with room).
+    w_hi, and the crossing function at both, :func:`_crossing_value`); returns the
+    number of brackets (more than ``len(out)``: call again with room).
     """
     n = start.size - 1
     cap = MAX_EVALUATIONS + 2 * MAX_BISECTIONS + 2
@@ -219,9 +247,9 @@ def scan(Nc, Nt, Dc, Dt, major, bN, bD, start, grid, stability_only, no_loop,
                 winding[d] += turn
                 if not stability_only:
                     if gain:
-                        nout = _append(out, nout, d, GAIN, wa, wb)
+                        nout = _append(out, nout, d, GAIN, P[ia], P[ib])
                     if phase:
-                        nout = _append(out, nout, d, PHASE, wa, wb)
+                        nout = _append(out, nout, d, PHASE, P[ia], P[ib])
             P[0] = P[1]
             free = 2
     return nout
@@ -236,3 +264,48 @@ def loop_values(Nc, Nt, Dc, Dt, idx, w):  # pragma: no cover - compiled
         D = _eval(Dc, Dt, idx[i], w[i])[0]
         out[i] = _div(N, D)
     return out
+
+
+@njit(cache=True, error_model="numpy")
+def _crossing_at(Nc, Nt, Dc, Dt, d, kind, x):  # pragma: no cover - compiled
+    """:func:`_crossing_value` at ``w = e^x`` and its derivative in ``x``."""
+    w = math.exp(x)
+    N, dN, _ = _eval(Nc, Nt, d, w)
+    D, dD, _ = _eval(Dc, Dt, d, w)
+    g = _div(dN * D - dD * N, N * D)  # (log L)'
+    if kind == GAIN:
+        return np.log(_mag(N) / _mag(D)), w * g.real
+    L = _div(N, D)
+    return math.atan2(-L.imag, -L.real), w * g.imag
+
+
+@njit(cache=True, error_model="numpy")
+def refine(Nc, Nt, Dc, Dt, rows, xatol, xrtol, x):  # pragma: no cover - compiled
+    """Solve each bracket of ``rows`` (as :func:`scan` writes them) in ``x = log w`` by
+    Newton's method kept inside the bracket (bisection when a step would leave it), to
+    ``xatol + xrtol |x|``.  Writes ``x``; NaN where the ends' signs do not bracket."""
+    for i in range(rows.shape[0]):
+        d, kind = int(rows[i, 0]), int(rows[i, 1])
+        xl, xr, fl, fr = math.log(rows[i, 2]), math.log(rows[i, 3]), rows[i, 4], rows[i, 5]
+        x[i] = xl if fl == 0 else xr if fr == 0 else np.nan
+        if not ((fl < 0) != (fr < 0)) or fl == 0 or fr == 0 or fl != fl or fr != fr:
+            continue
+        xi = xl - fl * (xr - xl) / (fr - fl)  # regula falsi to start
+        for _ in range(200):
+            f, df = _crossing_at(Nc, Nt, Dc, Dt, d, kind, xi)
+            if f == 0:
+                break
+            if (f < 0) == (fl < 0):
+                xl, fl = xi, f
+            else:
+                xr = xi
+            step, tol = f / df, xatol + xrtol * abs(xi)
+            if abs(step) <= tol:  # converged (xi may be an end of the bracket by now)
+                xi -= step
+                break
+            xi -= step
+            if not (xl < xi < xr):  # (also NaN) a step out of the bracket: bisect
+                xi = 0.5 * (xl + xr)
+                if xr - xl <= tol:
+                    break
+        x[i] = xi

@@ -122,6 +122,18 @@ def _subset_loop(loop: LoopFn, design: Any, shape: tuple[int, ...]
     return at
 
 
+def _crossing_fn(loop_at: Callable[[np.ndarray, np.ndarray], np.ndarray], kind: str
+                 ) -> Callable[[np.ndarray, np.ndarray], np.ndarray]:
+    """``f(x, idx)``: ``log |L|`` (gain) or ``arg(-L)`` (phase) at ``w = e^x`` of the flat
+    designs ``idx``, zero at the crossing."""
+    def f(x, idx):
+        val = loop_at(idx.astype(np.intp), np.exp(x))
+        if kind == "gain":
+            return np.log(np.abs(val))
+        return np.angle(-val)  # zero where L is on the negative real axis
+    return f
+
+
 def _refine(loop_at: Callable[[np.ndarray, np.ndarray], np.ndarray], b: np.ndarray,
             lo: np.ndarray, hi: np.ndarray, kind: str) -> np.ndarray:
     """Solve a crossing exactly in ``log w`` inside each bracket (vectorized);
@@ -130,41 +142,41 @@ def _refine(loop_at: Callable[[np.ndarray, np.ndarray], np.ndarray], b: np.ndarr
         return np.empty(0)
     from scipy.optimize import elementwise  # (lazily: a quarter second to import)
 
-    def f(x, idx):
-        val = loop_at(idx.astype(np.intp), np.exp(x))
-        if kind == "gain":
-            return np.log(np.abs(val))
-        return np.angle(-val)  # zero where L is on the negative real axis
-
-    xl, xr = np.log(lo), np.log(hi)
-    res = elementwise.find_root(f, (xl, xr), args=(b.astype(float),), tolerances=_TOL)
+    f = _crossing_fn(loop_at, kind)
+    res = elementwise.find_root(f, (np.log(lo), np.log(hi)), args=(b.astype(float),),
+                                tolerances=_TOL)
     x = res.x
     failed = np.nonzero(~res.success)[0]
     if failed.size:
-        # The single-precision scan can flag a crossing whose bracket shows no sign change
-        # in double precision (|L| within ~1e-7 of 1): re-bracket around it in double.
-        n_pts = 33
-        span = (xr[failed] - xl[failed])[:, None]
-        xs = xl[failed][:, None] + span * np.linspace(-1.0, 2.0, n_pts)
-        idx = np.repeat(b[failed].astype(float), n_pts)
-        fs = f(xs.ravel(), idx).reshape(xs.shape)
-        change = np.signbit(fs[:, 1:]) != np.signbit(fs[:, :-1])
-        has = change.any(axis=1)
-        # the sign change nearest the original bracket
-        centre = np.abs(np.arange(n_pts - 1) - (n_pts - 1) / 2.0)
-        k = np.argmin(np.where(change, centre, np.inf), axis=1)
-        rows = np.arange(failed.size)
-        lo2, hi2 = xs[rows, k], xs[rows, k + 1]
-        exact = np.where(fs[rows, k] == 0, lo2, np.where(fs[rows, k + 1] == 0, hi2, np.nan))
-        ok = has & np.isnan(exact)
-        if ok.any():
-            res2 = elementwise.find_root(f, (lo2[ok], hi2[ok]),
-                                         args=(b[failed][ok].astype(float),), tolerances=_TOL)
-            exact[ok] = res2.x
-        # no sign change at all in double precision: a tangency; keep the closest point
-        closest = xs[rows, np.argmin(np.abs(fs), axis=1)]
-        x[failed] = np.where(np.isnan(exact), closest, exact)
+        x[failed] = _rebracket(f, b[failed], np.log(lo[failed]), np.log(hi[failed]))
     return np.exp(x)
+
+
+def _rebracket(f: Callable[[np.ndarray, np.ndarray], np.ndarray], b: np.ndarray,
+               xl: np.ndarray, xr: np.ndarray) -> np.ndarray:
+    """Crossings whose bracket ``[xl, xr]`` (in ``log w``) shows no sign change when
+    evaluated again (``|L|`` within rounding of 1): the sign change nearest the bracket
+    on a grid three times as wide, solved; a tangency without any keeps the point where
+    ``|f|`` is smallest."""
+    from scipy.optimize import elementwise
+
+    n_pts = 33
+    xs = xl[:, None] + (xr - xl)[:, None] * np.linspace(-1.0, 2.0, n_pts)
+    fs = f(xs.ravel(), np.repeat(b.astype(float), n_pts)).reshape(xs.shape)
+    change = np.signbit(fs[:, 1:]) != np.signbit(fs[:, :-1])
+    has = change.any(axis=1)
+    centre = np.abs(np.arange(n_pts - 1) - (n_pts - 1) / 2.0)
+    k = np.argmin(np.where(change, centre, np.inf), axis=1)
+    rows = np.arange(b.size)
+    lo2, hi2 = xs[rows, k], xs[rows, k + 1]
+    exact = np.where(fs[rows, k] == 0, lo2, np.where(fs[rows, k + 1] == 0, hi2, np.nan))
+    ok = has & np.isnan(exact)
+    if ok.any():
+        res = elementwise.find_root(f, (lo2[ok], hi2[ok]), args=(b[ok].astype(float),),
+                                    tolerances=_TOL)
+        exact[ok] = res.x
+    closest = xs[rows, np.argmin(np.abs(fs), axis=1)]
+    return np.where(np.isnan(exact), closest, exact)
 
 
 def loop_margins(loop: LoopFn, design: Any, omega: np.ndarray, *,
@@ -308,10 +320,10 @@ def _best(n: int, groups: np.ndarray, value: np.ndarray, omega: np.ndarray,
 # ----------------------------------------------------------------- the certified scan
 HIDDEN_PAIR_TOL = _certify.HIDDEN_PAIR_TOL
 """A pair of crossings hidden inside one certified interval can only exist if ``log L``
-leaves the unit circle (or the negative real axis) by less than this (0.43 dB, 2.9 deg)."""
+leaves the unit circle (or the negative real axis) by less than this (0.043 dB, 0.29 deg)."""
 
 CROSSING_PAIR_TOL = _certify.CROSSING_PAIR_TOL
-"""The same, for a pair hidden in the interval of another crossing (0.9 dB, 6 deg)."""
+"""The same, for a pair hidden in the interval of another crossing (0.087 dB, 0.57 deg)."""
 
 TURN_FRACTION = 1.0 / 2.0
 """Base grid: no loop delay turns the phase by more than this fraction of a turn per step."""
@@ -419,6 +431,18 @@ def _solve_brackets(parts: list, loop_at: Callable[[np.ndarray, np.ndarray], np.
     return b, _refine(loop_at, b, lo, hi, kind)
 
 
+def _compact(q: QuasiPolynomial) -> tuple[np.ndarray, np.ndarray]:
+    """``q``'s coefficients and delays without the terms and powers that are zero in
+    every design (the compiled evaluation's loops are over both)."""
+    nz = q.coeffs != 0
+    terms = nz.any(axis=(1, 2))
+    terms[0] |= not terms.any()
+    powers = np.nonzero(nz.any(axis=(0, 1)))[0]
+    top = powers[-1] + 1 if powers.size else 1
+    return (np.ascontiguousarray(q.coeffs[terms, :, :top], float),
+            np.ascontiguousarray(q.delays[terms], float))
+
+
 class _CertifiedScan:
     """Certifies every base-grid interval by bisection (compiled: :mod:`seactl._certify`;
     see :func:`certified_margins`); keeps the winding of ``Delta`` and the brackets."""
@@ -429,15 +453,14 @@ class _CertifiedScan:
         self.winding = np.zeros(N.shape[0])
         self.uncertain = np.zeros(N.shape[0], bool)
         self.no_loop = (N.coeffs == 0).all(axis=(0, 2))  # L = 0: no crossing to certify
-        self.brackets: dict[str, list] = {"gain": [], "phase": []}
-        self.arrays = tuple(np.ascontiguousarray(a, float)
-                            for a in (N.coeffs, N.delays, D.coeffs, D.delays))
+        self.rows = np.empty((0, 6))  # brackets (see _certify.scan)
+        self.arrays = (*_compact(N), *_compact(D))
 
     def run(self, didx: np.ndarray, w: np.ndarray) -> None:
         """Scan the base grid ``w`` (flat, designs ``didx`` in order)."""
         n = self.winding.size
         start = np.searchsorted(didx, np.arange(n + 1))
-        out = np.empty((16 * n + 64, 4))  # brackets: a few per design; rarely more
+        out = np.empty((16 * n + 64, 6))  # brackets: a few per design; rarely more
         major = _padded_sum(self.N.q.abs_coeffs, self.D.q.abs_coeffs)
         args = (*self.arrays, major, self.N.bound3_coeffs, self.D.bound3_coeffs,
                 start, w.astype(float), self.stability_only, self.no_loop)
@@ -446,18 +469,25 @@ class _CertifiedScan:
             count = _certify.scan(*args, self.winding, self.uncertain, out)
             if count <= out.shape[0]:
                 break
-            out = np.empty((count, 4))  # more brackets than room: once more with room
-        out = out[:count]
-        for kind, code in (("gain", _certify.GAIN), ("phase", _certify.PHASE)):
-            rows = out[out[:, 1] == code]
-            self.brackets[kind].append((rows[:, 0].astype(int), rows[:, 2], rows[:, 3]))
+            out = np.empty((count, 6))  # more brackets than room: once more with room
+        self.rows = out[:count]
 
     def loop_at(self, idx: np.ndarray, w: np.ndarray) -> np.ndarray:
         return _certify.loop_values(*self.arrays, np.asarray(idx, np.intp),
                                     np.asarray(w, float))
 
     def solve(self, kind: str) -> tuple[np.ndarray, np.ndarray]:
-        return _solve_brackets(self.brackets[kind], self.loop_at, kind)
+        """Designs and frequencies of the crossings: compiled safeguarded Newton on each
+        bracket, :func:`_rebracket` where its ends no longer bracket."""
+        rows = self.rows[self.rows[:, 1] == (_certify.GAIN if kind == "gain" else
+                                             _certify.PHASE)]
+        b, x = rows[:, 0].astype(int), np.empty(len(rows))
+        _certify.refine(*self.arrays, rows, _TOL["xatol"], _TOL["xrtol"], x)
+        failed = np.nonzero(np.isnan(x))[0]
+        if failed.size:
+            x[failed] = _rebracket(_crossing_fn(self.loop_at, kind), b[failed],
+                                   np.log(rows[failed, 2]), np.log(rows[failed, 3]))
+        return b, np.exp(x)
 
 
 def certified_margins(loop: Transfer, design: Any, w_ref: np.ndarray | float, *,
@@ -476,9 +506,10 @@ def certified_margins(loop: Transfer, design: Any, w_ref: np.ndarray | float, *,
        resonances of the rational part) how fast it grows.  With ``Q'`` and ``Q''``
        evaluated exactly at both ends of an interval of width ``h``,
        ``sup |f| <= (|f_a| + |f_b| + h sup |f'|) / 2`` gives ``sup |Q''|``, then
-       ``sup |Q'|``: the path of ``Q`` is no longer than ``h sup |Q'|``, and that of
-       ``log L = log N - log D`` no longer than ``h`` times a bound on
-       ``|(log L)'|`` built the same way from ``(log L)'`` at the ends and
+       ``sup |Q'|``: the path of ``Q`` is no longer than ``h sup |Q'|``, and those of
+       ``log |L|`` and ``arg L`` (``log L = log N - log D``) no longer than ``h`` times
+       bounds on ``|Re (log L)'|`` and ``|Im (log L)'|`` built the same way from their
+       values at the ends and
        ``|(log L)''| <= |N''|/m_N + (|N'|/m_N)^2 + |D''|/m_D + (|D'|/m_D)^2`` with
        ``m`` lower bounds of ``|N|``, ``|D|`` on the interval.
     2. **Base grid.**  From 0 to the Cauchy bound ``R`` (:func:`cauchy_bound`),
@@ -488,10 +519,12 @@ def certified_margins(loop: Transfer, design: Any, w_ref: np.ndarray | float, *,
        ``Delta`` is shorter than ``|Delta_a| + |Delta_b|``: a path from ``Delta_a`` to
        ``Delta_b`` that meets 0, or turns by a different multiple of ``2 pi`` than
        ``arg(Delta_b / Delta_a)``, must reach the opposite ray of ``Delta_a``, which
-       takes at least that length.  Likewise ``log L`` must travel at least
-       ``|log|L_a|| + |log|L_b||`` to cross the unit circle twice unseen (and the
-       distances to ``+-pi`` for the negative real axis); the test allows a hidden
-       excursion of at most :data:`HIDDEN_PAIR_TOL` (:data:`CROSSING_PAIR_TOL` in an
+       takes at least that length.  Likewise ``log |L|`` must travel at least
+       ``|log|L_a|| + |log|L_b||`` to cross the unit circle twice unseen, and ``arg L``
+       the distances to ``+-pi`` for the negative real axis; no gain crossing can hide
+       where ``min |N| > max |D|`` or ``min |D| > max |N|`` on the interval (nor a
+       phase crossing that matters, outside the band ``0.05 < |L| < 20``).  The tests
+       allow a hidden excursion of at most :data:`HIDDEN_PAIR_TOL` (:data:`CROSSING_PAIR_TOL` in an
        interval that brackets a crossing).  ``|Delta|`` enters less a bound on its
        rounding error (:data:`seactl._certify.ROUNDING`), so noise next to a root never
        certifies.  Near a lightly damped resonance ``|D|`` is small, so intervals there
@@ -507,7 +540,8 @@ def certified_margins(loop: Transfer, design: Any, w_ref: np.ndarray | float, *,
        design is then reported not stable.
 
     Crossings are bracketed on certified intervals above ``0.01 w_ref`` and solved on the
-    exact ``N / D`` with ``scipy.optimize.elementwise.find_root``.
+    exact ``N / D`` by Newton's method kept inside the bracket (compiled,
+    :func:`seactl._certify.refine`; two or three evaluations per crossing).
 
     Parameters
     ----------
