@@ -70,7 +70,7 @@ def _bound3(c, d, w):  # pragma: no cover - compiled
 
 
 # Per point, what the certificates of its two intervals need (computed once):
-W, CN, CD, A_DELTA, A_DDELTA, A_N, A_D, A_DN, A_DD, RE_G, IM_G, LOG_L, A_ARG_L, RE_L, \
+W, CN, CD, A_DELTA, A_DDELTA, A_N, A_D, A_DN, A_DD, RE_G, IM_G, LOG_L, ARG_L, RE_L, \
     IM_L, ARG_DELTA = range(16)
 _F = 16
 
@@ -93,7 +93,7 @@ def _point(P, i, w, Nc, Nt, Dc, Dt, major, d):  # pragma: no cover - compiled
     # (log L)' = N'/N - D'/D: its real part drives log |L|, its imaginary part arg L
     g = _div(dN * D - dD * N, N * D)
     p[RE_G], p[IM_G] = abs(g.real), abs(g.imag)
-    p[LOG_L], p[A_ARG_L], p[RE_L], p[IM_L] = np.log(aN / aD), abs(_angle(L)), L.real, L.imag
+    p[LOG_L], p[ARG_L], p[RE_L], p[IM_L] = np.log(aN / aD), _angle(L), L.real, L.imag
 
 
 @njit(cache=True)
@@ -137,20 +137,27 @@ def _certified(a, b, bN, bD, stability_only, no_loop):  # pragma: no cover - com
     sN, sD = _sup(h, a[A_DN], b[A_DN], cN), _sup(h, a[A_DD], b[A_DD], cD)
     mN = 0.5 * (a[A_N] + b[A_N] - h * sN)  # lower bounds of |N|, |D|
     mD = 0.5 * (a[A_D] + b[A_D] - h * sD)
-    gain_len, phase_len = _log_lengths(h, a, b, cN, cD, sN, sD, mN, mD)
+    gain_len, phase_len, bow = _log_lengths(h, a, b, cN, cD, sN, sD, mN, mD)
     # sup |N|, |D|: where |N| and |D| are apart on the whole interval, |L| stays on one
     # side of 1 (and of the band)
     xN, xD = 0.5 * (a[A_N] + b[A_N] + h * sN), 0.5 * (a[A_D] + b[A_D] + h * sD)
     fa, fb = a[LOG_L], b[LOG_L]
-    to_axis = 2 * np.pi - a[A_ARG_L] - b[A_ARG_L]
-    tol = CROSSING_PAIR_TOL if (fa >= 0) != (fb >= 0) else HIDDEN_PAIR_TOL
-    gain_ok = gain_len < abs(fa) + abs(fb) + 2 * tol or mN > xD or mD > xN
+    pa, pb = a[ARG_L], b[ARG_L]
+    to_axis = 2 * np.pi - abs(pa) - abs(pb)
+    same = (fa >= 0) == (fb >= 0)
+    tol = HIDDEN_PAIR_TOL if same else CROSSING_PAIR_TOL
+    # a path that may cross and come back must be long enough, or bend far enough from
+    # the chord between the ends (at most bow); or |N|, |D| stay apart
+    gain_ok = gain_len < abs(fa) + abs(fb) + 2 * tol or mN > xD or mD > xN or \
+        (same and min(abs(fa), abs(fb)) + tol > bow)
     # (NaN compares false, as in numpy: a NaN end is never "relevant")
     relevant = (fa + gain_len > LOG_BAND_LO or fb + gain_len > LOG_BAND_LO) and \
         (fa - gain_len < LOG_BAND_HI or fb - gain_len < LOG_BAND_HI) and \
         fa == fa and fb == fb and not (xN < BAND_LO * mD or mN > BAND_HI * xD)
-    tol = CROSSING_PAIR_TOL if _on_axis(a, b) else HIDDEN_PAIR_TOL
-    phase_ok = (not relevant) or (phase_len < to_axis + 2 * tol)
+    crossing = _on_axis(a, b)
+    tol = CROSSING_PAIR_TOL if crossing else HIDDEN_PAIR_TOL
+    phase_ok = (not relevant) or (phase_len < to_axis + 2 * tol) or \
+        (not crossing and phase_len < np.pi and _chord_max(pa, pb) + bow < np.pi + tol)
     loop_ok = a[W] == 0 or no_loop or (gain_ok and phase_ok)
     return ok and loop_ok, ok
 
@@ -161,11 +168,22 @@ def _log_lengths(h, a, b, cN, cD, sN, sD, mN, mD):  # pragma: no cover - compile
     ``h`` times bounds of ``|Re (log L)'|`` and ``|Im (log L)'|`` from their values at the
     ends and ``|(log L)''| <= |N''|/m_N + (|N'|/m_N)^2 + |D''|/m_D + (|D'|/m_D)^2`` (sups
     ``cN``, ``sN``, ``cD``, ``sD``; ``m`` lower bounds of ``|N|``, ``|D|``).  Infinite
-    where ``N`` or ``D`` may vanish."""
+    where ``N`` or ``D`` may vanish.  Third: ``h^2 / 8`` times that bound, the farthest
+    either can bend away from the chord between its values at the ends."""
     if not (mN > 0 and mD > 0):
-        return np.inf, np.inf
+        return np.inf, np.inf, np.inf
     curv = cN / mN + (sN / mN) ** 2 + cD / mD + (sD / mD) ** 2
-    return h * _sup(h, a[RE_G], b[RE_G], curv), h * _sup(h, a[IM_G], b[IM_G], curv)
+    return (h * _sup(h, a[RE_G], b[RE_G], curv), h * _sup(h, a[IM_G], b[IM_G], curv),
+            0.125 * h * h * curv)
+
+
+@njit(cache=True)
+def _chord_max(pa, pb):  # pragma: no cover - compiled
+    """Largest ``|arg L|`` on the chord from ``pa`` to the continuation of ``pb`` (the
+    change of ``arg L`` between them being known to be under ``pi``)."""
+    turn = pb - pa
+    turn -= 2 * np.pi * np.round(turn / (2 * np.pi))
+    return max(abs(pa), abs(pa + turn))
 
 
 @njit(cache=True)
