@@ -285,6 +285,29 @@ def test_builder_equals_file(paper):
         assert float(x.margins.phase_margin_deg) == float(y.margins.phase_margin_deg)
 
 
+@pytest.mark.parametrize("latency_ms", [200.0, 100.0, 50.0])
+def test_phase_crossover_beyond_the_delta_radius_is_found(latency_ms, tmp_path, capsys):
+    """L = K e^{-sT} / (s + 1), K = 0.9: the first phase crossover (w T + atan w = pi)
+    lies beyond the radius where Delta's leading term dominates, with |L| = 0.03-0.11, in
+    the band where gain margins are promised; it was once reported as none.  Oracle: the
+    crossing solved analytically (brentq on the phase) and GM = sqrt(1 + w^2) / K."""
+    from scipy.optimize import brentq
+
+    K, T = 0.9, latency_ms / 1e3
+    w180 = brentq(lambda w: w * T + np.arctan(w) - np.pi, 1e-6, np.pi / T)
+    gm_db = 20 * np.log10(np.sqrt(1 + w180**2) / K)
+    b = (sc.LoopBuilder("fo").variables(K=K).process("cpu", latency_ms=latency_ms)
+         .block("c", "gain", input="-y_m", output="u", gain="K", process="cpu",
+                delay_ms="process")
+         .block("ref", "gain", input="r", output="u", gain="K", process="cpu")
+         .block("p", "plant_tf", input="u", output="y", num=[1.0], den=[1.0, 1.0])
+         .block("s", "sensor", input="y", output="y_m")
+         .signals(inputs=["r"], reference="r", output="y").break_at("main", "y_m"))
+    m = b.build().analyze(jitter=False)["main"].margins
+    assert float(m.phase_crossover_hz) == pytest.approx(w180 / (2 * np.pi), rel=1e-9)
+    assert float(m.gain_margin_db) == pytest.approx(gm_db, rel=1e-9)
+
+
 # ------------------------------------------------------------------ errors
 def _loop(**over):
     """A minimal valid loop description (tables as loaded from TOML)."""

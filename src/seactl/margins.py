@@ -530,9 +530,10 @@ def certified_margins(loop: Transfer, design: Any, w_ref: np.ndarray | float, *,
        certifies.  Near a lightly damped resonance ``|D|`` is small, so intervals there
        are bisected until the bound resolves it.
     4. **Beyond R** (taken 1 % beyond the tightest radius, so the dominance does not hang
-       on rounding) the leading term of ``Delta`` outweighs all others (and ``|N| <
-       |D|``: no gain crossover), so ``arg Delta(jw)`` changes from ``R`` to infinity
-       by exactly ``-arg(Delta(jR) / (a_n (jR)^n))``.
+       on rounding) the leading term of ``Delta`` outweighs all others, so ``arg Delta(jw)``
+       changes from ``R`` to infinity by exactly ``-arg(Delta(jR) / (a_n (jR)^n))``; ``R``
+       is the radius for ``20 |N|`` and ``D`` together, so that beyond it
+       ``|L| < 0.05``: no gain crossover and no phase crossover in the band.
     5. **Count.**  For a retarded quasi-polynomial of degree ``n`` with no imaginary
        root, ``arg Delta`` increases over ``[0, inf)`` by ``pi (n/2 - Z)``, ``Z`` the
        number of roots with ``Re s > 0`` (Stepan's formula; the delayed terms have lower
@@ -567,7 +568,10 @@ def certified_margins(loop: Transfer, design: Any, w_ref: np.ndarray | float, *,
     if np.any(delta.delayed_degree >= delta.degree):
         raise ValueError(f"diagram {loop.diagram.name!r}: a delayed term has the degree of "
                          "the undelayed one (a neutral delay equation), not supported")
-    top = cauchy_bound(delta, _padded_sum(N.abs_coeffs, D.abs_coeffs))
+    # beyond top, also 20 |N| < |D|: |L| < 0.05, below the band where phase crossovers count
+    # (N's coefficients alone would only give |L| < 1)
+    scale = 1.0 if stability_only else 1.0 / _certify.BAND_LO
+    top = cauchy_bound(delta, _padded_sum(scale * N.abs_coeffs, D.abs_coeffs))
     tau_max = np.concatenate([N.delays, D.delays]).max(axis=0)
     w_ref = np.broadcast_to(np.asarray(w_ref, float), shape).reshape(n)
     scan = _CertifiedScan(N, D, stability_only)
