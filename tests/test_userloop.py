@@ -308,6 +308,34 @@ def test_phase_crossover_beyond_the_delta_radius_is_found(latency_ms, tmp_path, 
     assert float(m.gain_margin_db) == pytest.approx(gm_db, rel=1e-9)
 
 
+def test_gain_crossover_far_below_the_frequency_scale_is_found():
+    """L = K e^{-sT} / ((s + 0.001)(s/1000 + 1)), K = 0.003: the loop's grid spans 1e-4 to
+    1e4 rad/s and its crossover (0.0028 rad/s) lies below 0.01 of the grid's centre, where
+    crossings were once not searched (reported: no crossover).  Oracle: |L| = 1 solved by
+    brentq on the same formula, the phase margin from its angle there."""
+    from scipy.optimize import brentq
+
+    K, T = 0.003, 1e-3
+
+    def L(w):
+        return K * np.exp(-1j * w * T) / ((1j * w + 0.001) * (1j * w / 1000 + 1))
+
+    wc = brentq(lambda w: abs(L(w)) - 1, 1e-4, 1.0)
+    loop = (sc.LoopBuilder("slow").variables(K=K).process("cpu", latency_ms=T * 1e3)
+            .block("c", "gain", input="-y_m", output="u", gain="K", process="cpu",
+                   delay_ms="process")
+            .block("ref", "gain", input="r", output="u", gain="K", process="cpu")
+            .block("f", "lowpass1", input="u", output="uf", f_hz=1000 / (2 * np.pi))
+            .block("p", "plant_tf", input="uf", output="y", num=[1.0], den=[1.0, 0.001])
+            .block("s", "sensor", input="y", output="y_m")
+            .signals(inputs=["r"], reference="r", output="y").break_at("main", "y_m")
+            .build())
+    m = loop.analyze(jitter=False)["main"].margins
+    assert float(m.crossover_hz) == pytest.approx(wc / (2 * np.pi), rel=1e-9)
+    assert float(m.phase_margin_deg) == pytest.approx(180 + np.degrees(np.angle(L(wc))),
+                                                      rel=1e-9)
+
+
 # ------------------------------------------------------------------ errors
 def _loop(**over):
     """A minimal valid loop description (tables as loaded from TOML)."""

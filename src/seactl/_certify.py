@@ -150,15 +150,16 @@ def _certified(a, b, bN, bD, stability_only, no_loop):  # pragma: no cover - com
     # the chord between the ends (at most bow); or |N|, |D| stay apart
     gain_ok = gain_len < abs(fa) + abs(fb) + 2 * tol or mN > xD or mD > xN or \
         (same and min(abs(fa), abs(fb)) + tol > bow)
-    # (NaN compares false, as in numpy: a NaN end is never "relevant")
-    relevant = (fa + gain_len > LOG_BAND_LO or fb + gain_len > LOG_BAND_LO) and \
-        (fa - gain_len < LOG_BAND_HI or fb - gain_len < LOG_BAND_HI) and \
-        fa == fa and fb == fb and not (xN < BAND_LO * mD or mN > BAND_HI * xD)
+    # outside the band on the whole interval (a NaN anywhere leaves it relevant)
+    outside = (fa + gain_len < LOG_BAND_LO and fb + gain_len < LOG_BAND_LO) or \
+        (fa - gain_len > LOG_BAND_HI and fb - gain_len > LOG_BAND_HI) or \
+        xN < BAND_LO * mD or mN > BAND_HI * xD
+    relevant = not outside
     crossing = _on_axis(a, b)
     tol = CROSSING_PAIR_TOL if crossing else HIDDEN_PAIR_TOL
     phase_ok = (not relevant) or (phase_len < to_axis + 2 * tol) or \
         (not crossing and phase_len < np.pi and _chord_max(pa, pb) + bow < np.pi + tol)
-    loop_ok = a[W] == 0 or no_loop or (gain_ok and phase_ok)
+    loop_ok = no_loop or (gain_ok and phase_ok)
     return ok and loop_ok, ok
 
 

@@ -540,7 +540,8 @@ def certified_margins(loop: Transfer, design: Any, w_ref: np.ndarray | float, *,
        degree).  A root on the axis makes bisection fail at ``MAX_BISECTIONS``: the
        design is then reported not stable.
 
-    Crossings are bracketed on certified intervals above ``0.01 w_ref`` and solved on the
+    Crossings are bracketed on certified intervals (the first interval, from ``w = 0``,
+    is bisected until its part next to 0 is certified free of crossings) and solved on the
     exact ``N / D`` by Newton's method kept inside the bracket (compiled,
     :func:`seactl._certify.refine`; two or three evaluations per crossing).
 
