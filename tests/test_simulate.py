@@ -294,6 +294,42 @@ def test_metrics_on_known_responses():
     assert im.peak_deviation == pytest.approx(0.25, abs=1e-8)
 
 
+def _metrics_by_hand(t, y, band=0.02):
+    """One response at a time, as the definitions read (the oracle of the compiled pass)."""
+    fin = float(np.mean(y[-max(1, y.size // 50):]))
+    r = y / fin if fin != 0 else np.full(y.size, np.nan)
+
+    def reach(level):
+        for k in range(y.size):
+            if r[k] >= level:
+                return t[0] if k == 0 else np.interp(level, [r[k - 1], r[k]], [t[k - 1], t[k]])
+        return np.inf
+
+    out = [i for i in range(y.size) if abs(y[i] - fin) > band * abs(fin)]
+    settle = t[0] if not out else (np.inf if out[-1] == y.size - 1 else t[out[-1] + 1])
+    over = np.nan if np.isnan(r).any() else max(np.max(r) - 1, 0) * 100
+    return reach(0.9) - reach(0.1), over, settle, 1 - fin, fin
+
+
+def test_compiled_step_metrics_equal_the_definitions():
+    """Hard responses (negative and tiny final values, noise that crosses the levels many
+    times, a NaN tail, still outside the band at the end, a time-major batch view as the
+    simulator returns it) against a per-response evaluation of the definitions."""
+    rng = np.random.default_rng(3)
+    t = np.linspace(0, 1, 801)
+    ys = [1 - np.exp(-40 * t), -3 * (1 - np.exp(-9 * t) * np.cos(60 * t)),
+          1e-9 * (1 - np.exp(-20 * t)) + rng.normal(0, 2e-11, t.size),
+          np.clip(1 - np.exp(-30 * t), 0, 1) + rng.normal(0, 0.05, t.size),
+          1 - np.exp(-2 * t), np.where(t < 0.6, 1 - np.exp(-30 * t), np.nan)]
+    batch = np.ascontiguousarray(np.array(ys).T).T  # time-major storage
+    m = step_metrics(t, batch)
+    for i, y in enumerate(ys):
+        ref = _metrics_by_hand(t, y)
+        got = (m.rise_time_s[i], m.overshoot_pct[i], m.settling_time_s[i],
+               m.steady_state_error[i], m.final_value[i])
+        np.testing.assert_allclose(got, ref, rtol=1e-9, atol=1e-12, equal_nan=True)
+
+
 def test_bad_input():
     # Oracle: the error contract (InputError naming the parameter).
     d = SEADesign(UT_SEA, G14)
