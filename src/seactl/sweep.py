@@ -596,7 +596,7 @@ class SweepInterrupted(KeyboardInterrupt):
 
 
 def _local_cluster(workers: int):
-    """One single-threaded worker process per core.
+    """One single-threaded worker process per core (dashboard, profiler off).
 
     Dask's nanny sets ``MALLOC_TRIM_THRESHOLD_=65536`` in its workers (to return
     memory to the OS); with the margin kernel's many short-lived arrays of a few MB
@@ -615,7 +615,13 @@ def _local_cluster(workers: int):
     # this process, which cancels the chunks and closes the cluster: no worker tracebacks.
     previous = signal.signal(signal.SIGINT, signal.SIG_IGN) if _main_thread() else None
     try:
-        with dask.config.set({"distributed.nanny.pre-spawn-environ": environ}):
+        # no statistical profiler sampling every worker's stack every 10 ms, and slower
+        # health ticks: nobody reads them without a dashboard, and on two cores they
+        # take time from the chunks
+        with dask.config.set({"distributed.nanny.pre-spawn-environ": environ,
+                              "distributed.worker.profile.enabled": False,
+                              "distributed.admin.tick.interval": "100ms",
+                              "distributed.admin.system-monitor.interval": "2s"}):
             return LocalCluster(n_workers=workers, threads_per_worker=1, processes=True,
                                 dashboard_address=None, silence_logs=logging.ERROR)
     finally:
