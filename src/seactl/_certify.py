@@ -92,7 +92,7 @@ def _point(P, i, w, Nc, Nt, Dc, Dt, major, d):  # pragma: no cover - compiled
     p[A_N], p[A_D], p[A_DN], p[A_DD] = aN, aD, _mag(dN), _mag(dD)
     # (log L)' = N'/N - D'/D: its real part drives log |L|, its imaginary part arg L
     g = _div(dN * D - dD * N, N * D)
-    p[RE_G], p[IM_G] = abs(g.real), abs(g.imag)
+    p[RE_G], p[IM_G] = g.real, g.imag
     p[LOG_L], p[ARG_L], p[RE_L], p[IM_L] = np.log(aN / aD), _angle(L), L.real, L.imag
 
 
@@ -137,7 +137,8 @@ def _certified(a, b, bN, bD, stability_only, no_loop):  # pragma: no cover - com
     sN, sD = _sup(h, a[A_DN], b[A_DN], cN), _sup(h, a[A_DD], b[A_DD], cD)
     mN = 0.5 * (a[A_N] + b[A_N] - h * sN)  # lower bounds of |N|, |D|
     mD = 0.5 * (a[A_D] + b[A_D] - h * sD)
-    gain_len, phase_len, bow = _log_lengths(h, a, b, cN, cD, sN, sD, mN, mD)
+    gain_len, phase_len, hc = _log_lengths(h, a, b, cN, cD, sN, sD, mN, mD)
+    bow = 0.125 * h * hc
     # sup |N|, |D|: where |N| and |D| are apart on the whole interval, |L| stays on one
     # side of 1 (and of the band)
     xN, xD = 0.5 * (a[A_N] + b[A_N] + h * sN), 0.5 * (a[A_D] + b[A_D] + h * sD)
@@ -147,9 +148,9 @@ def _certified(a, b, bN, bD, stability_only, no_loop):  # pragma: no cover - com
     same = (fa >= 0) == (fb >= 0)
     tol = HIDDEN_PAIR_TOL if same else CROSSING_PAIR_TOL
     # a path that may cross and come back must be long enough, or bend far enough from
-    # the chord between the ends (at most bow); or |N|, |D| stay apart
+    # the chord between the ends (at most bow), or turn back; or |N|, |D| stay apart
     gain_ok = gain_len < abs(fa) + abs(fb) + 2 * tol or mN > xD or mD > xN or \
-        (same and min(abs(fa), abs(fb)) + tol > bow)
+        (same and min(abs(fa), abs(fb)) + tol > bow) or _monotone(a[RE_G], b[RE_G], hc)
     # outside the band on the whole interval (a NaN anywhere leaves it relevant)
     outside = (fa + gain_len < LOG_BAND_LO and fb + gain_len < LOG_BAND_LO) or \
         (fa - gain_len > LOG_BAND_HI and fb - gain_len > LOG_BAND_HI) or \
@@ -157,7 +158,9 @@ def _certified(a, b, bN, bD, stability_only, no_loop):  # pragma: no cover - com
     relevant = not outside
     crossing = _on_axis(a, b)
     tol = CROSSING_PAIR_TOL if crossing else HIDDEN_PAIR_TOL
+    # (arg L monotone over less than half a turn: on_axis sees its one crossing, if any)
     phase_ok = (not relevant) or (phase_len < to_axis + 2 * tol) or \
+        (phase_len < np.pi and _monotone(a[IM_G], b[IM_G], hc)) or \
         (not crossing and phase_len < np.pi and _chord_max(pa, pb) + bow < np.pi + tol)
     loop_ok = no_loop or (gain_ok and phase_ok)
     return ok and loop_ok, ok
@@ -169,13 +172,19 @@ def _log_lengths(h, a, b, cN, cD, sN, sD, mN, mD):  # pragma: no cover - compile
     ``h`` times bounds of ``|Re (log L)'|`` and ``|Im (log L)'|`` from their values at the
     ends and ``|(log L)''| <= |N''|/m_N + (|N'|/m_N)^2 + |D''|/m_D + (|D'|/m_D)^2`` (sups
     ``cN``, ``sN``, ``cD``, ``sD``; ``m`` lower bounds of ``|N|``, ``|D|``).  Infinite
-    where ``N`` or ``D`` may vanish.  Third: ``h^2 / 8`` times that bound, the farthest
-    either can bend away from the chord between its values at the ends."""
+    where ``N`` or ``D`` may vanish.  Third: ``h`` times that bound."""
     if not (mN > 0 and mD > 0):
         return np.inf, np.inf, np.inf
     curv = cN / mN + (sN / mN) ** 2 + cD / mD + (sD / mD) ** 2
-    return (h * _sup(h, a[RE_G], b[RE_G], curv), h * _sup(h, a[IM_G], b[IM_G], curv),
-            0.125 * h * h * curv)
+    return (h * _sup(h, abs(a[RE_G]), abs(b[RE_G]), curv),
+            h * _sup(h, abs(a[IM_G]), abs(b[IM_G]), curv), h * curv)
+
+
+@njit(cache=True)
+def _monotone(ga, gb, hc):  # pragma: no cover - compiled
+    """A derivative ``ga``, ``gb`` at the ends, changing by at most ``hc`` over the
+    interval, keeps its sign throughout: the function crosses any level at most once."""
+    return ((ga > 0) == (gb > 0)) and abs(ga) + abs(gb) > hc
 
 
 @njit(cache=True)
