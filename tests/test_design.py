@@ -123,6 +123,18 @@ def test_infeasible_fn_reports_range():
     assert 0 < sol.Bq[j] < 1e-3
 
 
+def test_infeasible_batch_reports_the_failing_designs_range():
+    """With zeta1 per design, the range given is the failing design's, not the first
+    design's.  Oracle: feasible_fn_range for each zeta1 alone (10 Hz is feasible at
+    zeta1 = 1, not at 0.3)."""
+    lo_03 = feasible_fn_range(UT_SEA, zeta1=0.3)[0][0]
+    assert feasible_fn_range(UT_SEA)[0][0] < 10.0 < lo_03
+    with pytest.raises(InfeasibleDesignError) as exc:
+        critically_damped_gains(UT_SEA, np.array([10.0, 10.0]), zeta1=np.array([1.0, 0.3]))
+    assert "zeta1=0.3" in str(exc.value)
+    assert exc.value.feasible_hz[0][0] == pytest.approx(lo_03)
+
+
 def test_never_returns_non_solutions():
     # Oracle: the residual of the gain equations at every returned solution (a property of
     # the solver) and the sign of the gains.

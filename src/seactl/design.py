@@ -214,14 +214,16 @@ def critically_damped_gains(actuator: SEAParams, fn_hz, *, zeta1=1.0, zeta2=1.0,
     bad = sols.n_valid <= solution
     if bad.any():
         bad_fn = np.unique(np.broadcast_to(sols.fn_hz, bad.shape)[bad])
-        ranges = feasible_fn_range(actuator, zeta1=float(np.ravel(zeta1)[0]),
-                                   zeta2=float(np.ravel(zeta2)[0]),
-                                   ratio=float(np.ravel(ratio)[0]))
+        # the range is the first failing design's (zeta1, zeta2, ratio may differ per design)
+        first = np.unravel_index(np.argmax(bad), bad.shape)
+        z1, z2, r = (float(np.broadcast_to(x, bad.shape)[first]) for x in (zeta1, zeta2, ratio))
+        ranges = feasible_fn_range(actuator, zeta1=z1, zeta2=z2, ratio=r)
         what = ", ".join(f"{f:g}" for f in bad_fn[:6]) + (" ..." if bad_fn.size > 6 else "")
+        which = "" if solution == 0 else f" (solution {solution} asks for {solution + 1} of them)"
         raise InfeasibleDesignError(
             f"no critically-damped gain set with four positive gains exists for f_n = {what} Hz "
-            f"on actuator '{actuator.name}' (zeta1={np.ravel(zeta1)[0]:g}, "
-            f"zeta2={np.ravel(zeta2)[0]:g}, ratio={np.ravel(ratio)[0]:g}); {_describe(ranges)}",
+            f"on actuator '{actuator.name}'{which} ({'the first: ' if bad.sum() > 1 else ''}"
+            f"zeta1={z1:g}, zeta2={z2:g}, ratio={r:g}); {_describe(ranges)}",
             fn_hz=bad_fn, feasible_hz=ranges)
     # order valid solutions first, by increasing Ktau
     key = np.where(sols.valid, sols.Ktau, np.inf)
