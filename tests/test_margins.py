@@ -254,7 +254,7 @@ def test_a_root_on_the_axis_is_never_counted_certain(delay_s):
     # |L| near 1: the phase dips 0.5-2.3 deg below -180 between crossings 3-6 Hz apart
     (23.952, (0.9177, np.array([13.05, 13.1, 13.2, 13.3, 13.5]), 1.3246, 50.0, 100.0)),
     # |L| = 0.23, far from 1, so only the phase certificate asks for these intervals to
-    # be bisected: dips of 0.39, 0.49, 0.60 deg (beyond HIDDEN_PAIR_TOL, 0.29 deg)
+    # be bisected: dips of 0.39, 0.49, 0.60 deg
     (38.59, (0.5925, np.array([7.81, 7.815, 7.82]), 1.76, 50.0, 100.0)),
 ])
 def test_grazing_phase_crossings_are_found(fn, ms):
@@ -275,6 +275,59 @@ def test_grazing_phase_crossings_are_found(fn, ms):
         np.testing.assert_allclose(np.sort(mine[mine < w[-1]]), w[cross], rtol=1e-4)
         gm = 1 / np.abs(L[i, cross])
         assert m.gain_margin[i] == pytest.approx(gm[np.argmin(np.abs(np.log(gm)))], rel=1e-4)
+
+
+@pytest.mark.parametrize("T_qs_ms,crosses", [(12.933073537599071, True),
+                                              (12.933070608731416, False)])
+def test_a_phase_that_touches_minus_180_is_resolved_without_tolerance(T_qs_ms, crosses):
+    """Hard designs: T_qs tuned so that the phase's extremum near 16.09 Hz, at |L| = 0.88,
+    goes 1e-7 rad (6e-6 deg) beyond -180 deg (two crossovers 0.011 Hz apart) or stops
+    1e-7 rad short of it.  The scan once accepted such a pair as hidden within a
+    tolerance and reported the gain margin of the next crossover, 1.93 instead of 1.14 (a
+    design of this family with a 0.022 deg dip turned up among random ones).  Oracle: a
+    brute-force scan (1e-6 Hz steps around the extremum) for the crossings, and 1/|L|
+    there for the gain margin."""
+    d = sea(23.952070321569646, ms=(0.9177374392596417, np.array([T_qs_ms]),
+                                    1.3246488009392563, 50.0, 100.0))
+    w = 2 * np.pi * np.concatenate([np.linspace(5.0, 15.9, 100_000),
+                                    np.linspace(15.9, 16.3, 400_001)[1:],
+                                    np.linspace(16.3, 100.0, 100_000)[1:]])
+    L = outer_loop()(d, 1j * w)[0]
+    ph = np.angle(-L)
+    cross = np.nonzero((np.signbit(ph[1:]) != np.signbit(ph[:-1])) & (L[1:].real < 0))[0]
+    near = (w[cross] > 2 * np.pi * 15.9) & (w[cross] < 2 * np.pi * 16.3)
+    assert near.sum() == (2 if crosses else 0)  # the oracle sees the design as intended
+    t = ph[cross] / (ph[cross] - ph[cross + 1])  # (linear between the samples)
+    m = sea_margins(d)
+    mine = m.phase_crossovers.omega
+    np.testing.assert_allclose(np.sort(mine[mine < w[-1]]),
+                               w[cross] + t * (w[cross + 1] - w[cross]), rtol=1e-7)
+    gm = 1 / ((1 - t) * np.abs(L[cross]) + t * np.abs(L[cross + 1]))
+    assert m.gain_margin[0] == pytest.approx(gm[np.argmin(np.abs(np.log(gm)))], rel=1e-6)
+
+
+@pytest.mark.parametrize("w_ref", [1.0, 1.3])
+def test_a_phase_tangent_to_minus_180_counts_as_a_crossover(w_ref):
+    """L(jw) = -0.5 + 0.1 j w (w^2 - 1)^2 (N = -0.5 + 0.1 s + 0.2 s^3 + 0.1 s^5, D = 1)
+    touches the negative real axis at w = 1 without crossing it: no bound tells that from
+    a pair of crossings, so the bisection ends at its limit there and the touch counts as
+    a phase crossover (a gain margin of 2, never "none").  Oracle: the formula (Im L >= 0,
+    zero only at w = 1, where L = -0.5); with and without w = 1 on the base grid."""
+    from seactl import margins as M
+    from seactl.blockdiagram import QuasiPolynomial
+
+    N = QuasiPolynomial(np.array([[[-0.5, 0.1, 0, 0.2, 0, 0.1]]]), np.zeros((1, 1)))
+    D = QuasiPolynomial(np.array([[[1.0, 0, 0, 0, 0, 0]]]), np.zeros((1, 1)))
+    w = np.linspace(0.5, 5, 90_001)  # (the formula's other zero, w = 0, left out)
+    L = N(1j * w[:, None])[:, 0] / D(1j * w[:, None])[:, 0]
+    assert L.imag.min() >= 0 and w[np.argmin(L.imag)] == pytest.approx(1.0, abs=1e-4)
+    scan = M._CertifiedScan(N, D, False)
+    top = M.cauchy_bound(N + D, M._padded_sum(20 * N.abs_coeffs, D.abs_coeffs))
+    scan.run(*M._base_grid(np.array([w_ref]), np.zeros(1), top))
+    b, w180 = scan.solve("phase")
+    assert b.tolist() == [0] and w180[0] == pytest.approx(1.0, rel=1e-12)
+    assert scan.loop_at(b, w180)[0] == pytest.approx(-0.5, rel=1e-12)
+    assert not scan.uncertain[0]
 
 
 def test_compiled_crossing_solver_agrees_with_scipy():

@@ -336,6 +336,43 @@ def test_gain_crossover_far_below_the_frequency_scale_is_found():
                                                       rel=1e-9)
 
 
+@pytest.mark.parametrize("excess", [1e-7, -1e-7])
+def test_a_gain_that_touches_one_is_resolved_without_tolerance(excess):
+    """L = K e^{-sT} w0^2 / (s^2 + 2 zeta w0 s + w0^2) with K chosen so that the resonance
+    peak of |L| is 1 + 1e-7 (two crossovers 0.03 rad/s apart) or 1 - 1e-7 (none).  The
+    scan once accepted such a pair as hidden within a tolerance (reported: no crossover,
+    i.e. |L| < 1 everywhere).  Oracle: the peak's closed form, |L| = 1 solved by brentq on
+    the same formula on both sides of it, and the phase margin from its angle there."""
+    from scipy.optimize import brentq
+
+    w0, zeta, T = 100.0, 0.1, 1e-3
+    K = 2 * zeta * np.sqrt(1 - zeta**2) * (1 + excess)
+    w_peak = w0 * np.sqrt(1 - 2 * zeta**2)
+
+    def L(w):
+        return K * np.exp(-1j * w * T) * w0**2 / (w0**2 - w**2 + 2j * zeta * w0 * w)
+
+    assert abs(L(w_peak)) == pytest.approx(1 + excess, rel=1e-12)
+    loop = (sc.LoopBuilder("peak").variables(K=K).process("cpu", latency_ms=T * 1e3)
+            .block("c", "gain", input="-y_m", output="u", gain="K", process="cpu",
+                   delay_ms="process")
+            .block("ref", "gain", input="r", output="u", gain="K", process="cpu")
+            .block("p", "plant_tf", input="u", output="y", num=[w0**2],
+                   den=[1.0, 2 * zeta * w0, w0**2])
+            .block("s", "sensor", input="y", output="y_m")
+            .signals(inputs=["r"], reference="r", output="y").break_at("main", "y_m")
+            .build())
+    m = loop.analyze(jitter=False)["main"].margins
+    if excess < 0:
+        assert m.gain_crossovers.omega.size == 0 and np.isnan(float(m.crossover_hz))
+        return
+    wc = np.array([brentq(lambda w: abs(L(w)) - 1, lo, hi, xtol=1e-14, rtol=1e-15)
+                   for lo, hi in ((0.9 * w_peak, w_peak), (w_peak, 1.1 * w_peak))])
+    np.testing.assert_allclose(np.sort(m.gain_crossovers.omega), wc, rtol=1e-9)
+    pm = 180 + np.degrees(np.angle(L(wc)))
+    assert float(m.phase_margin_deg) == pytest.approx(pm[np.argmin(np.abs(pm))], rel=1e-9)
+
+
 # ------------------------------------------------------------------ errors
 def _loop(**over):
     """A minimal valid loop description (tables as loaded from TOML)."""

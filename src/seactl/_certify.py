@@ -15,9 +15,7 @@ import math
 import numpy as np
 from numba import njit
 
-# Tolerances and limits (documented in seactl.margins, which re-exports them).
-HIDDEN_PAIR_TOL = 0.005
-CROSSING_PAIR_TOL = 0.01
+# Limits (documented in seactl.margins, which re-exports them).
 MAX_BISECTIONS = 48
 MAX_EVALUATIONS = 1 << 16
 ROUNDING = 1e-13
@@ -27,6 +25,9 @@ BAND_LO, BAND_HI = 0.05, 20.0
 LOG_BAND_LO, LOG_BAND_HI = math.log(BAND_LO), math.log(BAND_HI)
 
 GAIN, PHASE = 0, 1
+TOUCH = 2
+"""Added to a bracket's kind: the interval is at the bisection limit and its path may
+touch the level without crossing it (a tangency); solved as a crossing at its nearer end."""
 
 
 @njit(cache=True)
@@ -71,8 +72,8 @@ def _bound3(c, d, w):  # pragma: no cover - compiled
 
 # Per point, what the certificates of its two intervals need (computed once):
 W, CN, CD, A_DELTA, A_DDELTA, A_N, A_D, A_DN, A_DD, RE_G, IM_G, LOG_L, ARG_L, RE_L, \
-    IM_L, ARG_DELTA = range(16)
-_F = 16
+    IM_L, ARG_DELTA, F_N, F_D = range(18)
+_F = 18
 
 
 @njit(cache=True, error_model="numpy")
@@ -93,6 +94,8 @@ def _point(P, i, w, Nc, Nt, Dc, Dt, major, d):  # pragma: no cover - compiled
     # (log L)' = N'/N - D'/D: its real part drives log |L|, its imaginary part arg L
     g = _div(dN * D - dD * N, N * D)
     p[RE_G], p[IM_G] = g.real, g.imag
+    # |Q'' Q - Q'^2| = |(log Q)''| |Q|^2, with the cancellation of its two terms
+    p[F_N], p[F_D] = _mag(d2N * N - dN * dN), _mag(d2D * D - dD * dD)
     p[LOG_L], p[ARG_L], p[RE_L], p[IM_L] = np.log(aN / aD), _angle(L), L.real, L.imag
 
 
@@ -126,56 +129,59 @@ def _angle(z):  # pragma: no cover - compiled
 
 @njit(cache=True, error_model="numpy")
 def _certified(a, b, bN, bD, stability_only, no_loop):  # pragma: no cover - compiled
-    """``(all certified, Delta certified)`` for the interval between points ``a`` and ``b``
-    (step 3 of :func:`seactl.margins.certified_margins`)."""
+    """``(Delta certified, no unseen gain crossing, no unseen phase crossing)`` for the
+    interval between points ``a`` and ``b`` (step 3 of
+    :func:`seactl.margins.certified_margins`)."""
     h = b[W] - a[W]
     cN = _sup(h, a[CN], b[CN], bN)  # sup |N''|, |D''|
     cD = _sup(h, a[CD], b[CD], bD)
     ok = h * _sup(h, a[A_DDELTA], b[A_DDELTA], cN + cD) < a[A_DELTA] + b[A_DELTA]
-    if stability_only:
-        return ok, ok
+    if stability_only or no_loop:  # (L = 0: no crossing to certify)
+        return ok, True, True
     sN, sD = _sup(h, a[A_DN], b[A_DN], cN), _sup(h, a[A_DD], b[A_DD], cD)
     mN = 0.5 * (a[A_N] + b[A_N] - h * sN)  # lower bounds of |N|, |D|
     mD = 0.5 * (a[A_D] + b[A_D] - h * sD)
-    gain_len, phase_len, hc = _log_lengths(h, a, b, cN, cD, sN, sD, mN, mD)
-    bow = 0.125 * h * hc
     # sup |N|, |D|: where |N| and |D| are apart on the whole interval, |L| stays on one
     # side of 1 (and of the band)
     xN, xD = 0.5 * (a[A_N] + b[A_N] + h * sN), 0.5 * (a[A_D] + b[A_D] + h * sD)
+    # sup |Q'' Q - Q'^2| from its ends and (Q'' Q - Q'^2)' = Q''' Q - Q'' Q'
+    fN, fD = _sup(h, a[F_N], b[F_N], bN * xN + cN * sN), _sup(h, a[F_D], b[F_D], bD * xD + cD * sD)
+    gain_len, phase_len, hc = _log_lengths(h, a, b, cN, cD, sN, sD, mN, mD, fN, fD)
+    bow = 0.125 * h * hc
     fa, fb = a[LOG_L], b[LOG_L]
     pa, pb = a[ARG_L], b[ARG_L]
     to_axis = 2 * np.pi - abs(pa) - abs(pb)
     same = (fa >= 0) == (fb >= 0)
-    tol = HIDDEN_PAIR_TOL if same else CROSSING_PAIR_TOL
     # a path that may cross and come back must be long enough, or bend far enough from
     # the chord between the ends (at most bow), or turn back; or |N|, |D| stay apart
-    gain_ok = gain_len < abs(fa) + abs(fb) + 2 * tol or mN > xD or mD > xN or \
-        (same and min(abs(fa), abs(fb)) + tol > bow) or _monotone(a[RE_G], b[RE_G], hc)
+    gain_ok = gain_len < abs(fa) + abs(fb) or mN > xD or mD > xN or \
+        (same and min(abs(fa), abs(fb)) > bow) or _monotone(a[RE_G], b[RE_G], hc)
     # outside the band on the whole interval (a NaN anywhere leaves it relevant)
     outside = (fa + gain_len < LOG_BAND_LO and fb + gain_len < LOG_BAND_LO) or \
         (fa - gain_len > LOG_BAND_HI and fb - gain_len > LOG_BAND_HI) or \
         xN < BAND_LO * mD or mN > BAND_HI * xD
     relevant = not outside
-    crossing = _on_axis(a, b)
-    tol = CROSSING_PAIR_TOL if crossing else HIDDEN_PAIR_TOL
     # (arg L monotone over less than half a turn: on_axis sees its one crossing, if any)
-    phase_ok = (not relevant) or (phase_len < to_axis + 2 * tol) or \
+    phase_ok = (not relevant) or (phase_len < to_axis) or \
         (phase_len < np.pi and _monotone(a[IM_G], b[IM_G], hc)) or \
-        (not crossing and phase_len < np.pi and _chord_max(pa, pb) + bow < np.pi + tol)
-    loop_ok = no_loop or (gain_ok and phase_ok)
-    return ok and loop_ok, ok
+        (not _on_axis(a, b) and phase_len < np.pi and _chord_max(pa, pb) + bow < np.pi)
+    return ok, gain_ok, phase_ok
 
 
 @njit(cache=True, error_model="numpy")
-def _log_lengths(h, a, b, cN, cD, sN, sD, mN, mD):  # pragma: no cover - compiled
+def _log_lengths(h, a, b, cN, cD, sN, sD, mN, mD, fN, fD):  # pragma: no cover - compiled
     """Bounds of the paths of ``log |L|`` and ``arg L`` between points ``a`` and ``b``:
     ``h`` times bounds of ``|Re (log L)'|`` and ``|Im (log L)'|`` from their values at the
     ends and ``|(log L)''| <= |N''|/m_N + (|N'|/m_N)^2 + |D''|/m_D + (|D'|/m_D)^2`` (sups
     ``cN``, ``sN``, ``cD``, ``sD``; ``m`` lower bounds of ``|N|``, ``|D|``).  Infinite
-    where ``N`` or ``D`` may vanish.  Third: ``h`` times that bound."""
+    where ``N`` or ``D`` may vanish; each polynomial's term is also bounded by
+    ``sup |Q'' Q - Q'^2| / m_Q^2``, which keeps the cancellation between its two parts
+    and is the smaller one near a pole or zero of the loop.  Third: ``h`` times that
+    bound."""
     if not (mN > 0 and mD > 0):
         return np.inf, np.inf, np.inf
-    curv = cN / mN + (sN / mN) ** 2 + cD / mD + (sD / mD) ** 2
+    curv = min(cN / mN + (sN / mN) ** 2, fN / (mN * mN)) + \
+        min(cD / mD + (sD / mD) ** 2, fD / (mD * mD))
     return (h * _sup(h, abs(a[RE_G]), abs(b[RE_G]), curv),
             h * _sup(h, abs(a[IM_G]), abs(b[IM_G]), curv), h * curv)
 
@@ -215,6 +221,19 @@ def _collect(a, b):  # pragma: no cover - compiled
 
 
 @njit(cache=True)
+def _brackets(out, nout, d, a, b, crossing, certified, kind):  # pragma: no cover - compiled
+    """Append the bracket of a crossing of ``kind`` between points ``a`` and ``b``; at
+    the bisection limit, where the interval could not be certified free of a pair of
+    crossings (a path that touches the level), a touch at its end nearer the level."""
+    if crossing:
+        return _append(out, nout, d, kind, a, b)
+    if certified or a[W] <= 0:  # (crossings are counted above w = 0)
+        return nout
+    near = a if abs(_crossing_value(a, kind)) <= abs(_crossing_value(b, kind)) else b
+    return _append(out, nout, d, kind + TOUCH, near, near)
+
+
+@njit(cache=True)
 def _append(out, nout, d, kind, a, b):  # pragma: no cover - compiled
     """Bracket row: design, kind, the ends' frequencies and crossing functions."""
     if nout < out.shape[0]:
@@ -228,7 +247,7 @@ def _append(out, nout, d, kind, a, b):  # pragma: no cover - compiled
 def _crossing_value(p, kind):  # pragma: no cover - compiled
     """The function whose sign change is the crossing: ``log |L|`` for a gain crossover,
     ``arg(-L)`` for a phase crossover (zero on the negative real axis)."""
-    return p[LOG_L] if kind == GAIN else math.atan2(-p[IM_L], -p[RE_L])
+    return p[LOG_L] if kind % TOUCH == GAIN else math.atan2(-p[IM_L], -p[RE_L])
 
 
 @njit(cache=True)
@@ -258,9 +277,11 @@ def scan(Nc, Nt, Dc, Dt, major, bN, bD, start, grid, stability_only, no_loop,
                 top -= 1
                 ia, ib, depth = stack[top, 0], stack[top, 1], stack[top, 2]
                 wa, wb = P[ia, W], P[ib, W]
-                ok, char_ok = _certified(P[ia], P[ib], _bound3(bN, d, wb), _bound3(bD, d, wb),
-                                         stability_only, no_loop[d])
-                if not ok and depth < MAX_BISECTIONS and evals < MAX_EVALUATIONS:
+                ok, gain_ok, phase_ok = _certified(P[ia], P[ib], _bound3(bN, d, wb),
+                                                   _bound3(bD, d, wb), stability_only,
+                                                   no_loop[d])
+                if not (ok and gain_ok and phase_ok) and depth < MAX_BISECTIONS and \
+                        evals < MAX_EVALUATIONS:
                     _point(P, free, 0.5 * (wa + wb), Nc, Nt, Dc, Dt, major, d)
                     evals += 1
                     # right half below the left one: the left is certified first
@@ -269,15 +290,14 @@ def scan(Nc, Nt, Dc, Dt, major, bN, bD, start, grid, stability_only, no_loop,
                     top += 2
                     free += 1
                     continue
-                if not char_ok:
+                # out of evaluations: neither the count nor the crossings are certified
+                if not ok or ((not (gain_ok and phase_ok)) and depth < MAX_BISECTIONS):
                     uncertain[d] = True
                 turn, gain, phase = _collect(P[ia], P[ib])
                 winding[d] += turn
                 if not stability_only:
-                    if gain:
-                        nout = _append(out, nout, d, GAIN, P[ia], P[ib])
-                    if phase:
-                        nout = _append(out, nout, d, PHASE, P[ia], P[ib])
+                    nout = _brackets(out, nout, d, P[ia], P[ib], gain, gain_ok, GAIN)
+                    nout = _brackets(out, nout, d, P[ia], P[ib], phase, phase_ok, PHASE)
             P[0] = P[1]
             free = 2
     return nout

@@ -318,13 +318,6 @@ def _best(n: int, groups: np.ndarray, value: np.ndarray, omega: np.ndarray,
 
 
 # ----------------------------------------------------------------- the certified scan
-HIDDEN_PAIR_TOL = _certify.HIDDEN_PAIR_TOL
-"""A pair of crossings hidden inside one certified interval can only exist if ``log L``
-leaves the unit circle (or the negative real axis) by less than this (0.043 dB, 0.29 deg)."""
-
-CROSSING_PAIR_TOL = _certify.CROSSING_PAIR_TOL
-"""The same, for a pair hidden in the interval of another crossing (0.087 dB, 0.57 deg)."""
-
 TURN_FRACTION = 1.0 / 2.0
 """Base grid: no loop delay turns the phase by more than this fraction of a turn per step."""
 
@@ -332,10 +325,13 @@ PER_DECADE = 4
 """Base grid: points per decade at low frequency."""
 
 MAX_BISECTIONS = _certify.MAX_BISECTIONS
+"""Depth of bisection of a base-grid interval: its parts are then a few ulps of ``w`` wide
+(a root of ``Delta`` or a tangency is what is left at that depth)."""
 
 MAX_EVALUATIONS = _certify.MAX_EVALUATIONS
 """Per design: beyond this many bisections the scan stops refining that design (what it
-has is kept; a design whose count is then not certified is uncertain, never stable)."""
+has is kept; a design whose count or crossings are then not certified is uncertain, never
+stable)."""
 
 class _Bounded:
     """A flat quasi-polynomial ``Q`` with ``|d^3 Q(jw)/dw^3| <= bound3(w)`` on ``[0, w]``:
@@ -479,10 +475,12 @@ class _CertifiedScan:
     def solve(self, kind: str) -> tuple[np.ndarray, np.ndarray]:
         """Designs and frequencies of the crossings: compiled safeguarded Newton on each
         bracket, :func:`_rebracket` where its ends no longer bracket."""
-        rows = self.rows[self.rows[:, 1] == (_certify.GAIN if kind == "gain" else
-                                             _certify.PHASE)]
+        code = _certify.GAIN if kind == "gain" else _certify.PHASE
+        rows = self.rows[self.rows[:, 1] % _certify.TOUCH == code]
         b, x = rows[:, 0].astype(int), np.empty(len(rows))
         _certify.refine(*self.arrays, rows, _TOL["xatol"], _TOL["xrtol"], x)
+        touch = rows[:, 1] != code  # (a point: its frequency is the touch)
+        x[touch] = np.log(rows[touch, 2])
         failed = np.nonzero(np.isnan(x))[0]
         if failed.size:
             x[failed] = _rebracket(_crossing_fn(self.loop_at, kind), b[failed],
@@ -523,9 +521,11 @@ def certified_margins(loop: Transfer, design: Any, w_ref: np.ndarray | float, *,
        ``|log|L_a|| + |log|L_b||`` to cross the unit circle twice unseen, and ``arg L``
        the distances to ``+-pi`` for the negative real axis; no gain crossing can hide
        where ``min |N| > max |D|`` or ``min |D| > max |N|`` on the interval (nor a
-       phase crossing that matters, outside the band ``0.05 < |L| < 20``).  The tests
-       allow a hidden excursion of at most :data:`HIDDEN_PAIR_TOL` (:data:`CROSSING_PAIR_TOL` in an
-       interval that brackets a crossing).  ``|Delta|`` enters less a bound on its
+       phase crossing that matters, outside the band ``0.05 < |L| < 20``).  There is no
+       tolerance: a pair of crossings however shallow is bisected apart; a path that
+       touches the level without crossing it (a tangency, which no bound can tell from a
+       shallow pair) reaches ``MAX_BISECTIONS`` and counts as a crossing at that point, so
+       a margin is never reported larger for it.  ``|Delta|`` enters less a bound on its
        rounding error (:data:`seactl._certify.ROUNDING`), so noise next to a root never
        certifies.  Near a lightly damped resonance ``|D|`` is small, so intervals there
        are bisected until the bound resolves it.
