@@ -330,6 +330,21 @@ def test_a_phase_tangent_to_minus_180_counts_as_a_crossover(w_ref):
     assert not scan.uncertain[0]
 
 
+@pytest.mark.parametrize("a,b,gap", [
+    (3 + 4j, 3 + 4j, 5.0),        # a point
+    (1 - 1j, 1 + 1j, 1.0),        # foot of the perpendicular inside the segment
+    (2 + 1j, 5 + 1j, np.sqrt(5)),  # the nearer end
+    (-1 - 1j, 1 + 1j, 0.0),       # through 0
+    (1e-200 + 1j, 1e-200 - 1j, 1e-200),  # (no underflow)
+])
+def test_chord_gap_is_the_distance_from_zero_to_the_segment(a, b, gap):
+    """The tube certificate's distance; oracle: elementary geometry."""
+    from seactl import _certify
+
+    assert _certify._gap(a.real, a.imag, b.real, b.imag) == pytest.approx(gap, rel=1e-12)
+    assert _certify._gap(b.real, b.imag, a.real, a.imag) == pytest.approx(gap, rel=1e-12)
+
+
 def test_compiled_crossing_solver_agrees_with_scipy():
     """The certified scan solves its brackets by a compiled safeguarded Newton; oracle:
     scipy's bracketing solver (Chandrupatla, ``elementwise.find_root``) on the same

@@ -72,8 +72,8 @@ def _bound3(c, d, w):  # pragma: no cover - compiled
 
 # Per point, what the certificates of its two intervals need (computed once):
 W, CN, CD, A_DELTA, A_DDELTA, A_N, A_D, A_DN, A_DD, RE_G, IM_G, LOG_L, ARG_L, RE_L, \
-    IM_L, ARG_DELTA, F_N, F_D = range(18)
-_F = 18
+    IM_L, ARG_DELTA, F_N, F_D, RE_N, IM_N, RE_D, IM_D, A_D2DELTA, ERR = range(24)
+_F = 24
 
 
 @njit(cache=True, error_model="numpy")
@@ -88,8 +88,10 @@ def _point(P, i, w, Nc, Nt, Dc, Dt, major, d):  # pragma: no cover - compiled
     L = _div(N, D)
     p = P[i]
     p[W], p[CN], p[CD] = w, _mag(d2N), _mag(d2D)
-    p[A_DELTA] = max(_mag(delta) - ROUNDING * _bound3(major, d, w), 0.0)
-    p[A_DDELTA], p[ARG_DELTA] = _mag(dN + dD), _angle(delta)
+    p[ERR] = ROUNDING * _bound3(major, d, w)
+    p[A_DELTA] = max(_mag(delta) - p[ERR], 0.0)
+    p[A_DDELTA], p[A_D2DELTA], p[ARG_DELTA] = _mag(dN + dD), _mag(d2N + d2D), _angle(delta)
+    p[RE_N], p[IM_N], p[RE_D], p[IM_D] = N.real, N.imag, D.real, D.imag
     p[A_N], p[A_D], p[A_DN], p[A_DD] = aN, aD, _mag(dN), _mag(dD)
     # (log L)' = N'/N - D'/D: its real part drives log |L|, its imaginary part arg L
     g = _div(dN * D - dD * N, N * D)
@@ -135,12 +137,20 @@ def _certified(a, b, bN, bD, stability_only, no_loop):  # pragma: no cover - com
     h = b[W] - a[W]
     cN = _sup(h, a[CN], b[CN], bN)  # sup |N''|, |D''|
     cD = _sup(h, a[CD], b[CD], bD)
-    ok = h * _sup(h, a[A_DDELTA], b[A_DDELTA], cN + cD) < a[A_DELTA] + b[A_DELTA]
+    # Delta's path is shorter than a way around 0, or stays in a tube around the chord
+    # between its ends (at most h^2/8 sup |Delta''| away) that misses 0: a convex set
+    # without 0, so the turn is the principal one
+    ok = h * _sup(h, a[A_DDELTA], b[A_DDELTA], cN + cD) < a[A_DELTA] + b[A_DELTA] or \
+        _gap(a[RE_N] + a[RE_D], a[IM_N] + a[IM_D], b[RE_N] + b[RE_D], b[IM_N] + b[IM_D]) > \
+        0.125 * h * h * _sup(h, a[A_D2DELTA], b[A_D2DELTA], bN + bD) + max(a[ERR], b[ERR])
     if stability_only or no_loop:  # (L = 0: no crossing to certify)
         return ok, True, True
     sN, sD = _sup(h, a[A_DN], b[A_DN], cN), _sup(h, a[A_DD], b[A_DD], cD)
-    mN = 0.5 * (a[A_N] + b[A_N] - h * sN)  # lower bounds of |N|, |D|
-    mD = 0.5 * (a[A_D] + b[A_D] - h * sD)
+    # lower bounds of |N|, |D|: from the ends and sup |Q'|, or from the chord's tube
+    mN = max(0.5 * (a[A_N] + b[A_N] - h * sN),
+             _gap(a[RE_N], a[IM_N], b[RE_N], b[IM_N]) - 0.125 * h * h * cN)
+    mD = max(0.5 * (a[A_D] + b[A_D] - h * sD),
+             _gap(a[RE_D], a[IM_D], b[RE_D], b[IM_D]) - 0.125 * h * h * cD)
     # sup |N|, |D|: where |N| and |D| are apart on the whole interval, |L| stays on one
     # side of 1 (and of the band)
     xN, xD = 0.5 * (a[A_N] + b[A_N] + h * sN), 0.5 * (a[A_D] + b[A_D] + h * sD)
@@ -184,6 +194,15 @@ def _log_lengths(h, a, b, cN, cD, sN, sD, mN, mD, fN, fD):  # pragma: no cover -
         min(cD / mD + (sD / mD) ** 2, fD / (mD * mD))
     return (h * _sup(h, abs(a[RE_G]), abs(b[RE_G]), curv),
             h * _sup(h, abs(a[IM_G]), abs(b[IM_G]), curv), h * curv)
+
+
+@njit(cache=True)
+def _gap(ar, ai, br, bi):  # pragma: no cover - compiled
+    """Distance from 0 to the segment between the complex numbers ``a`` and ``b``."""
+    er, ei = br - ar, bi - ai
+    e2 = er * er + ei * ei
+    t = 0.0 if not e2 > 0 else min(max(-(ar * er + ai * ei) / e2, 0.0), 1.0)
+    return _mag(complex(ar + t * er, ai + t * ei))
 
 
 @njit(cache=True)

@@ -517,7 +517,11 @@ def certified_margins(loop: Transfer, design: Any, w_ref: np.ndarray | float, *,
        ``Delta`` is shorter than ``|Delta_a| + |Delta_b|``: a path from ``Delta_a`` to
        ``Delta_b`` that meets 0, or turns by a different multiple of ``2 pi`` than
        ``arg(Delta_b / Delta_a)``, must reach the opposite ray of ``Delta_a``, which
-       takes at least that length.  Likewise ``log |L|`` must travel at least
+       takes at least that length; or when ``Delta`` stays in a tube around the chord
+       between its ends (the chord's distance to 0 exceeds ``h^2/8 sup |Delta''|``, the
+       error of linear interpolation): a convex set without 0, so the turn is
+       ``arg(Delta_b / Delta_a)``.  The same tube bounds ``|N|`` and ``|D|`` from below.
+       Likewise ``log |L|`` must travel at least
        ``|log|L_a|| + |log|L_b||`` to cross the unit circle twice unseen, and ``arg L``
        the distances to ``+-pi`` for the negative real axis; no gain crossing can hide
        where ``min |N| > max |D|`` or ``min |D| > max |N|`` on the interval (nor a
