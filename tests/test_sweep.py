@@ -2,6 +2,7 @@
 
 import itertools
 import json
+import sys
 from dataclasses import replace
 
 import numpy as np
@@ -297,3 +298,27 @@ def test_local_cluster_gives_the_same_result(reference, cluster, tmp_path, capsy
     assert code == 0, capsys.readouterr().err
     assert json.loads(capsys.readouterr().out)["run"]["workers"] == 2
     assert read_sweep(tmp_path / "cli").equals(ref_table)
+
+
+def _report_peak(q):
+    from seactl.sweep import _peak_rss_mb
+
+    q.put(_peak_rss_mb())
+
+
+@pytest.mark.skipif(not sys.platform.startswith("linux"), reason="VmHWM is Linux's")
+def test_worker_peak_memory_is_its_own_not_its_parents():
+    """A worker started by a large process reports its own peak memory: ru_maxrss would
+    count the parent's 400 MB at the fork (kept across exec).  Oracle: the parent's
+    allocation, which the child never touches."""
+    import multiprocessing
+
+    big = np.ones(50_000_000)  # 400 MB in this process
+    ctx = multiprocessing.get_context("spawn")
+    q = ctx.Queue()
+    p = ctx.Process(target=_report_peak, args=(q,))
+    p.start()
+    child_mb = q.get(timeout=60)
+    p.join()
+    assert big.sum() == big.size  # (touched: resident in this process)
+    assert 0 < child_mb < 300

@@ -385,6 +385,17 @@ def _written(out: Path, i: int, table: Any) -> int:
 
 
 def _peak_rss_mb() -> float:
+    """This process's peak resident memory [MB].  On Linux the high-water mark of its own
+    address space (``VmHWM``): ``ru_maxrss`` also counts the parent's memory at the fork
+    that started the process (kept across ``exec``), so a worker spawned by a large
+    process would report the parent's size."""
+    try:
+        with open("/proc/self/status") as f:
+            for line in f:
+                if line.startswith("VmHWM:"):
+                    return int(line.split()[1]) / 1024.0
+    except OSError:  # pragma: no cover - not Linux
+        pass
     try:
         import resource
 
