@@ -262,6 +262,9 @@ def test_fuzz_cli_full(args):
     ["impedance", "--csv", "p.csv", "--freq", "1e-308"],   # found by the 10,000 run: Z = 0/0
     ["sweep", "--workers", "0", "--out", "out", "--z-freq", "1e308"],   # found: overflow
     ["step", "--csv", "/dev/null"],
+    # found by the 10,000 run: a 1 s delay put over 1200 points on the certified scan's
+    # base grid, whose starting guess overflowed exp (a numpy warning)
+    ["zregion", "--f-qd", "1_000", "--csv", "p.csv", "--t-qd", "1_000"],
 ])
 def test_issue_vectors_keep_the_contract(args):
     """The argument vectors of issue 11, each an exit 2 leaving the directory untouched."""

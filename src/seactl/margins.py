@@ -395,8 +395,10 @@ def _base_grid(w_ref: np.ndarray, tau_max: np.ndarray, top: np.ndarray
     start = np.cumsum(count) - count
     u = (np.arange(didx.size) - start[didx]).astype(float)
     aa, bb, lo = a, b[didx], w_lo[didx]
-    w = np.minimum(lo * np.exp(u / aa), np.where(bb > 0, lo + u / np.maximum(bb, 1e-300),
-                                                  np.inf))
+    # (a start for Newton: the smaller of the log and linear parts; exp capped, as beyond
+    # e^600 the linear part is the smaller one anyway)
+    w = np.minimum(lo * np.exp(np.minimum(u / aa, 600.0)),
+                   np.where(bb > 0, lo + u / np.maximum(bb, 1e-300), np.inf))
     for _ in range(6):  # Newton on the concave phi (any increasing points would do)
         w = w - (aa * np.log(w / lo) + bb * (w - lo) - u) / (aa / w + bb)
     last = start + count - 1
