@@ -269,3 +269,11 @@ def test_fuzz_cli_full(args):
 def test_issue_vectors_keep_the_contract(args):
     """The argument vectors of issue 11, each an exit 2 leaving the directory untouched."""
     assert check_vector(args) == 2
+
+
+def test_roots_of_a_long_delay_print_no_numpy_warning():
+    """Found while reading a test's warnings: Newton's candidates far in the left
+    half-plane overflowed e^{-s tau} (hundreds of numpy warnings, then dropped)."""
+    args = ["roots", "--fn", "70", "--t-tau", "25", "--t-qs", "0.5", "--t-qd", "0.5",
+            "--count", "30"]
+    assert check_vector(args) == 0

@@ -287,8 +287,10 @@ def _polish(q: QuasiPolynomial, s: np.ndarray, iterations: int = 40) -> np.ndarr
     """Newton on the exact ``Delta``; NaN where the residual test fails."""
     s = np.where(np.isfinite(s), s, 0.0)
     for _ in range(iterations):
-        f, df = q.with_derivative(s)
+        # (a candidate far in the left half-plane overflows e^{-s tau}: it fails the
+        # residual test below and is dropped)
         with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
+            f, df = q.with_derivative(s)
             step = np.where(df != 0, f / df, 0.0)
         s = s - np.where(np.isfinite(step), step, 0.0)
         if np.all(np.abs(step) <= 1e-14 * np.maximum(np.abs(s), 1.0)):
