@@ -265,6 +265,10 @@ def test_fuzz_cli_full(args):
     # found by the 10,000 run: a 1 s delay put over 1200 points on the certified scan's
     # base grid, whose starting guess overflowed exp (a numpy warning)
     ["zregion", "--f-qd", "1_000", "--csv", "p.csv", "--t-qd", "1_000"],
+    # found by the 10,000 run: a negative seed reached numpy's SeedSequence (ValueError)
+    ["impulse", "--band", "0.05", "--seed", "-1", "--loss", "stiffness=0.1", "--mode",
+     "sampled"],
+    ["place", "--seed", "-1"],
 ])
 def test_issue_vectors_keep_the_contract(args):
     """The argument vectors of issue 11, each an exit 2 leaving the directory untouched."""

@@ -177,6 +177,10 @@ def test_parsers_and_errors():
             parse_loss(bad)
     with pytest.raises(InputError):
         sea_monte_carlo(sc.design(14).sea, latency={"elbow": Constant(1e-3)}, runs=1)
+    for seed in (-1, 1.5, True):  # (numpy's SeedSequence once raised ValueError on -1)
+        with pytest.raises(InputError, match="seed"):
+            sea_monte_carlo(sc.design(14).sea, latency={"damping": Constant(1e-3)},
+                            runs=1, seed=seed)
 
 
 def test_cli_monte_carlo(capsys, tmp_path):

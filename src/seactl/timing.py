@@ -225,6 +225,8 @@ def timed_simulation(diagram: Any, design: Any, inputs: Mapping[str, Any], t_end
     latency, loss, links = dict(latency or {}), dict(loss or {}), dict(links or {})
     if not (isinstance(runs, (int, np.integer)) and 1 <= runs <= 100_000):
         raise InputError("runs", runs, "an integer in [1, 100000]")
+    if isinstance(seed, bool) or not isinstance(seed, (int, np.integer)) or seed < 0:
+        raise InputError("seed", seed, "an integer >= 0")
     blocks = _link_blocks(diagram, links, sorted(set(latency) | set(loss)))
     for name, model in latency.items():
         check_latency(name, model)

@@ -430,7 +430,8 @@ def advice_json(a, checks: dict[str, Any] | None = None) -> dict[str, Any]:
               help="Servo rate of both processes [Hz] (loss bursts age the held value).")
 @click.option("--runs", type=click.IntRange(0, 100_000), default=200, show_default=True,
               help="Monte Carlo check of each placement with timing (0: none).")
-@click.option("--seed", type=int, default=0, show_default=True, help="Monte Carlo seed.")
+@click.option("--seed", type=click.IntRange(min=0), default=0, show_default=True,
+              help="Monte Carlo seed.")
 @json_option
 @loop_options
 def place(high_latency, low_latency, actuator, min_pm, f_v, stiffness_embeddable,

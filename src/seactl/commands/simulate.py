@@ -174,7 +174,7 @@ def sim_options(func: Callable) -> Callable:
         click.option("--runs", type=int, default=None,
                      help="Monte Carlo realizations per design (default 100 with --latency "
                           "or --loss)."),
-        click.option("--seed", type=int, default=0, show_default=True,
+        click.option("--seed", type=click.IntRange(min=0), default=0, show_default=True,
                      help="Seed of the Monte Carlo."),
     ]
 
