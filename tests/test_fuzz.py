@@ -275,9 +275,13 @@ def test_issue_vectors_keep_the_contract(args):
     assert check_vector(args) == 2
 
 
-def test_roots_of_a_long_delay_print_no_numpy_warning():
-    """Found while reading a test's warnings: Newton's candidates far in the left
-    half-plane overflowed e^{-s tau} (hundreds of numpy warnings, then dropped)."""
-    args = ["roots", "--fn", "70", "--t-tau", "25", "--t-qs", "0.5", "--t-qd", "0.5",
-            "--count", "30"]
+@pytest.mark.parametrize("args", [
+    # found in a test's warnings: Newton's candidates far in the left half-plane
+    # overflowed e^{-s tau} (hundreds of numpy warnings, then dropped)
+    ["roots", "--fn", "70", "--t-tau", "25", "--t-qs", "0.5", "--t-qd", "0.5", "--count", "30"],
+    # found by the 10,000 run: the collocation divided by a 1e-311 s delay (LinAlgError)
+    ["gains", "--t-qd", "1e-308"],
+])
+def test_found_vectors_succeed_cleanly(args):
+    """Valid input that once crashed or warned: exit 0, nothing on stderr but the result."""
     assert check_vector(args) == 0

@@ -187,3 +187,17 @@ def test_gains_table_marks_unstable_pm(capsys):
     row = json.loads(capsys.readouterr().out)[0]
     assert row["stable"] is False and isinstance(row["phase_margin_deg"], float)
     assert row["spectral_abscissa"] > 0
+
+
+def test_a_negligible_delay_gives_the_undelayed_roots():
+    """A delay of 1e-308 ms (the collocation would divide by it) is below NEGLIGIBLE_DELAY
+    of the time scale: oracle, the roots of the same design without it (the polished
+    roots of the undelayed polynomial)."""
+    import warnings
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", sc.UnitWarning)
+        tiny = sc.design(14.0, delays_ms=(0.0, 1e-308, 0.0)).roots(4)
+    none = sc.design(14.0).roots(4)
+    assert bool(tiny.converged)
+    np.testing.assert_allclose(tiny.roots, none.roots, rtol=1e-12)

@@ -55,6 +55,12 @@ AGREE_TOL = 1e-7
 """Successive discretizations agree when the rightmost roots move by less than this,
 relative to the design's frequency scale."""
 
+NEGLIGIBLE_DELAY = 1e-9
+"""A design whose longest delay is below this, relative to its time scale (``1 /`` the
+frequency scale), gets its roots from the undelayed polynomial, polished on the exact
+equation (the delay moves them by about that fraction, far below :data:`AGREE_TOL`; the
+collocation would divide by it, and overflow for a delay of 1e-308 ms)."""
+
 START_NODES = 8
 """First Chebyshev collocation size ``N``; it grows by half until the roots converge."""
 
@@ -122,8 +128,8 @@ def characteristic_roots(diagram: BlockDiagram, design: Any, *, count: int = 6,
     n = q.shape[0]
     out = np.full((n, count), np.nan + 0j)
     nodes, ok = np.zeros(n, int), np.zeros(n, bool)
-    delayed = q.delays.max(axis=0) > 0
     scale = _frequency_scale(q)
+    delayed = q.delays.max(axis=0) * scale > NEGLIGIBLE_DELAY
     for deg, dl in {(int(a), bool(b)) for a, b in zip(q.degree, delayed)}:
         idx = np.nonzero((q.degree == deg) & (delayed == dl))[0]
         sub = q.take(idx)
