@@ -322,3 +322,18 @@ def test_worker_peak_memory_is_its_own_not_its_parents():
     p.join()
     assert big.sum() == big.size  # (touched: resident in this process)
     assert 0 < child_mb < 300
+
+
+@pytest.mark.parametrize("n,workers", [(0, 2), (1, 2), (7, 1), (200, 2), (1000, 8)])
+def test_batches_cover_the_chunks_in_order_and_shrink_to_singles(n, workers):
+    """Local workers take chunks in batches (one task each).  Oracle: the definition:
+    every chunk once, in order; at most 8 per batch; single chunks at the end, when fewer
+    than 4 per worker remain."""
+    from seactl.sweep import batches
+
+    todo = list(range(3, 3 + n))
+    b = batches(todo, workers)
+    assert [i for g in b for i in g] == todo
+    assert all(1 <= len(g) <= 8 for g in b)
+    tail = [g for g in b if sum(len(h) for h in b[b.index(g):]) < 4 * workers]
+    assert all(len(g) == 1 for g in tail)

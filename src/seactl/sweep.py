@@ -46,7 +46,7 @@ import math
 import os
 import signal
 import time
-from collections.abc import Callable, Iterable
+from collections.abc import Callable, Iterable, Sequence
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
 from typing import Any
@@ -371,11 +371,28 @@ def evaluate_chunk(spec: SweepSpec, i: int) -> tuple[Any, dict[str, float]]:
                    "peak_rss_mb": _peak_rss_mb(), "pid": os.getpid()}
 
 
-def evaluate_and_write(spec: SweepSpec, i: int, out: Path) -> tuple[int, dict[str, float]]:
-    """Compute chunk ``i`` and write its part file where it was computed (local workers:
-    the parent then only counts, instead of receiving and writing every table)."""
-    table, stats = evaluate_chunk(spec, i)
-    return _written(out, i, table), stats
+def evaluate_and_write(spec: SweepSpec, chunks: Sequence[int], out: Path
+                       ) -> list[tuple[int, int, dict[str, float]]]:
+    """Compute ``chunks`` one by one, each written to its part file where it was computed
+    (local workers: the parent then only counts, instead of receiving and writing every
+    table); ``(chunk, rows, stats)`` of each."""
+    out_rows = []
+    for i in chunks:
+        table, stats = evaluate_chunk(spec, i)
+        out_rows.append((i, _written(out, i, table), stats))
+    return out_rows
+
+
+def batches(todo: Sequence[int], workers: int, largest: int = 8) -> list[list[int]]:
+    """``todo`` in consecutive batches, one task each: up to ``largest`` chunks while many
+    remain (fewer tasks for the scheduler, about 3.5 ms of its CPU each), shrinking to
+    single chunks at the end so that no worker waits long for another's last batch."""
+    out, at = [], 0
+    while at < len(todo):
+        k = max(1, min(largest, (len(todo) - at) // (4 * max(workers, 1))))
+        out.append(list(todo[at:at + k]))
+        at += k
+    return out
 
 
 def _written(out: Path, i: int, table: Any) -> int:
@@ -745,7 +762,7 @@ def _run(spec: SweepSpec, out: Path, workers: int | None, client: Any, own_clien
                     own_cluster = _local_cluster(workers or os.cpu_count() or 1)
                     own_client = client = Client(own_cluster)
                 n_workers = len(client.scheduler_info(n_workers=-1)["workers"])
-                _on_dask(spec, out, todo, client, finish)
+                _on_dask(spec, out, todo, client, finish, n_workers)
     except KeyboardInterrupt:
         have = spec.n_chunks - len(missing_chunks(spec, out))
         raise SweepInterrupted(out, have, spec.n_chunks) from None
@@ -774,24 +791,31 @@ def _local(client: Any) -> bool:
 
 
 def _on_dask(spec: SweepSpec, out: Path, todo: list[int], client: Any,
-             finish: Callable[[int, int, dict[str, float]], None]) -> None:
+             finish: Callable[[int, int, dict[str, float]], None], n_workers: int) -> None:
     """Submit the chunks ``todo`` and ``finish`` each as it completes; the workers of a
-    local cluster share this filesystem and write their own chunks, others send their
-    tables here.  Any failure or Ctrl-C cancels the rest."""
+    local cluster share this filesystem and write their own chunks (in :func:`batches`),
+    others send their tables here, a chunk per task.  Any failure or Ctrl-C cancels the
+    rest (chunks already written stay, for ``resume``)."""
     from distributed import as_completed
 
     local = _local(client)
-    task_fn, extra = (evaluate_and_write, (out,)) if local else (evaluate_chunk, ())
+    groups = batches(todo, n_workers) if local else [[i] for i in todo]
     futures = {}
-    for i in todo:
-        fut = client.submit(task_fn, spec, i, *extra, retries=2, pure=False,
-                            key=f"seactl-sweep-{spec.hash[:12]}-{i:06d}")
-        futures[fut.key] = (i, fut)
+    for g in groups:
+        key = f"seactl-sweep-{spec.hash[:12]}-{g[0]:06d}-{g[-1]:06d}"
+        fut = (client.submit(evaluate_and_write, spec, g, out, retries=2, pure=False, key=key)
+               if local else
+               client.submit(evaluate_chunk, spec, g[0], retries=2, pure=False, key=key))
+        futures[fut.key] = (g, fut)
     try:
-        for fut, (result, stats) in as_completed([f for _, f in futures.values()],
-                                                 with_results=True):
-            i, _ = futures.pop(fut.key)
-            finish(i, result if local else _written(out, i, result), stats)
+        for fut, result in as_completed([f for _, f in futures.values()], with_results=True):
+            g, _ = futures.pop(fut.key)
+            if local:
+                for i, rows, stats in result:
+                    finish(i, rows, stats)
+            else:
+                table, stats = result
+                finish(g[0], _written(out, g[0], table), stats)
             del result
     except BaseException:
         client.cancel([f for _, f in futures.values()])
