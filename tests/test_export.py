@@ -103,6 +103,19 @@ def test_processes_and_schedule():
         ex.compile_processes(sea_diagram(), sc.design([12, 14]).sea)
 
 
+def test_processes_that_need_each_other_within_a_tick_are_refused_clearly(tmp_path):
+    """A stiffness delay under one tick of 1 kHz makes the two processes need each other's
+    output within the tick (was a bare ValueError from the scheduler, a traceback on the
+    command line); a clear InputError naming the delays, nothing written.  Oracle: the
+    same design with the delay over one tick exports."""
+    out = tmp_path / "ctl"
+    with pytest.raises(sc.InputError, match=r"T_qs.*one tick"):
+        sc.design(30, delays_ms=(0, 0.5, 0)).export(out)
+    assert not out.exists()
+    sc.design(30, delays_ms=(0, 1.5, 0)).export(out)
+    assert (out / "controllers.json").exists() or any(out.iterdir())
+
+
 def _load(path, cls):
     spec = importlib.util.spec_from_file_location("exported_" + path.stem, path)
     mod = importlib.util.module_from_spec(spec)

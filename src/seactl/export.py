@@ -305,7 +305,10 @@ def _compile(diagram: BlockDiagram, design: Any, ctrl: Sequence[Block], processe
     limit = dict(zip(plan.actuation, plan.limit[:, 0]))
     outs = {p: ([("act", a) for a in plan.actuation] if p == owner else []) for p in processes}
     deps = _message_fixpoint(nets, outs, idx, ctrl)
-    order = _schedule(deps)
+    try:
+        order = _schedule(deps)
+    except ValueError as exc:
+        raise _cyclic(ctrl, design, rates, exc) from None
     procs = [_finish(nets[p], outs[p], idx, ctrl, inject, rates[p], ticks[p], limit)
              for p in order]
     for proc in procs:
@@ -318,6 +321,19 @@ def _compile(diagram: BlockDiagram, design: Any, ctrl: Sequence[Block], processe
     req = {b.name: float(np.ravel(getattr(design, b.delay))[0]) for b in ctrl if b.delay}
     return Controllers(diagram.name, 1.0 / Tb, tuple(procs), tuple(plan.actuation),
                        tuple(sensed), tuple(exo), params, eff, req)
+
+
+def _cyclic(ctrl: Sequence[Block], design: Any, rates: Mapping[str, float],
+            exc: ValueError) -> InputError:
+    """Processes that need each other's output within one tick cannot run apart (the
+    sampled simulation solves them together; real processes exchange messages): the
+    delays between them must give each message at least a tick."""
+    delays = {b.delay: f"{1e3 * float(np.ravel(getattr(design, b.delay))[0]):g} ms"
+              for b in ctrl if b.delay and b.process is not None}
+    ticks = ", ".join(f"{p} {1e3 / r:g} ms" for p, r in sorted(rates.items()))
+    return InputError("delays", delays, f"delays that give every message between the "
+                      f"processes at least one tick of its sender ({ticks}): {exc}; "
+                      "lengthen the delay of the link between them or raise the rates")
 
 
 def _fields(design: Any) -> dict[str, Any]:
