@@ -241,10 +241,18 @@ def _dependencies(pn: _ProcNet, outs: Sequence[tuple[str, str]], idx: Mapping[st
     """Which input columns the process's outputs, buffers and states depend on."""
     C, D = _rows(pn, idx, outs, ctrl)
     xs = _state_cols(pn)
-    used = np.any(D != 0, axis=0)
+    used = _nonzero_cols(D)
     if xs.size:
-        used |= np.any(pn.net.B[0][xs] != 0, axis=0)
+        used |= _nonzero_cols(pn.net.B[0][xs])
     return used
+
+
+def _nonzero_cols(M: np.ndarray, rel: float = 1e-12) -> np.ndarray:
+    """Columns with an entry above ``rel`` of its row's largest: the wiring is solved
+    numerically, and its rounding (1e-19 of a gain) is no dependency (it made two
+    processes look as if each needed the other's output within the tick)."""
+    A = np.abs(M)
+    return np.any(A > rel * A.max(axis=1, keepdims=True, initial=0.0), axis=0)
 
 
 def _schedule(deps: Mapping[str, set[str]]) -> list[str]:
