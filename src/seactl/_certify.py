@@ -93,12 +93,18 @@ def _point(P, i, w, Nc, Nt, Dc, Dt, major, d):  # pragma: no cover - compiled
     p[A_DDELTA], p[A_D2DELTA], p[ARG_DELTA] = _mag(dN + dD), _mag(d2N + d2D), _angle(delta)
     p[RE_N], p[IM_N], p[RE_D], p[IM_D] = N.real, N.imag, D.real, D.imag
     p[A_N], p[A_D], p[A_DN], p[A_DD] = aN, aD, _mag(dN), _mag(dD)
-    # (log L)' = N'/N - D'/D: its real part drives log |L|, its imaginary part arg L
-    g = _div(dN * D - dD * N, N * D)
+    # its real part drives log |L|, its imaginary part arg L
+    g = _dlog(N, dN, D, dD)
     p[RE_G], p[IM_G] = g.real, g.imag
     # |Q'' Q - Q'^2| = |(log Q)''| |Q|^2, with the cancellation of its two terms
     p[F_N], p[F_D] = _mag(d2N * N - dN * dN), _mag(d2D * D - dD * dD)
     p[LOG_L], p[ARG_L], p[RE_L], p[IM_L] = np.log(aN / aD), _angle(L), L.real, L.imag
+
+
+@njit(cache=True, error_model="numpy")
+def _dlog(N, dN, D, dD):  # pragma: no cover - compiled
+    """``(log L)' = N'/N - D'/D`` over one division."""
+    return _div(dN * D - dD * N, N * D)
 
 
 @njit(cache=True)
@@ -339,7 +345,7 @@ def _crossing_at(Nc, Nt, Dc, Dt, d, kind, x):  # pragma: no cover - compiled
     w = math.exp(x)
     N, dN, _ = _eval(Nc, Nt, d, w)
     D, dD, _ = _eval(Dc, Dt, d, w)
-    g = _div(dN * D - dD * N, N * D)  # (log L)'
+    g = _dlog(N, dN, D, dD)
     if kind == GAIN:
         return np.log(_mag(N) / _mag(D)), w * g.real
     L = _div(N, D)

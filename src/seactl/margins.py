@@ -480,9 +480,11 @@ class _CertifiedScan:
         code = _certify.GAIN if kind == "gain" else _certify.PHASE
         rows = self.rows[self.rows[:, 1] % _certify.TOUCH == code]
         b, x = rows[:, 0].astype(int), np.empty(len(rows))
-        _certify.refine(*self.arrays, rows, _TOL["xatol"], _TOL["xrtol"], x)
         touch = rows[:, 1] != code  # (a point: its frequency is the touch)
         x[touch] = np.log(rows[touch, 2])
+        brackets, xb = rows[~touch], np.empty(int((~touch).sum()))
+        _certify.refine(*self.arrays, brackets, _TOL["xatol"], _TOL["xrtol"], xb)
+        x[~touch] = xb
         failed = np.nonzero(np.isnan(x))[0]
         if failed.size:
             x[failed] = _rebracket(_crossing_fn(self.loop_at, kind), b[failed],
