@@ -152,14 +152,17 @@ def _certified(a, b, bN, bD, stability_only, no_loop):  # pragma: no cover - com
     if stability_only or no_loop:  # (L = 0: no crossing to certify)
         return ok, True, True
     sN, sD = _sup(h, a[A_DN], b[A_DN], cN), _sup(h, a[A_DD], b[A_DD], cD)
-    # lower bounds of |N|, |D|: from the ends and sup |Q'|, or from the chord's tube
-    mN = max(0.5 * (a[A_N] + b[A_N] - h * sN),
-             _gap(a[RE_N], a[IM_N], b[RE_N], b[IM_N]) - 0.125 * h * h * cN)
-    mD = max(0.5 * (a[A_D] + b[A_D] - h * sD),
-             _gap(a[RE_D], a[IM_D], b[RE_D], b[IM_D]) - 0.125 * h * h * cD)
-    # sup |N|, |D|: where |N| and |D| are apart on the whole interval, |L| stays on one
-    # side of 1 (and of the band)
-    xN, xD = 0.5 * (a[A_N] + b[A_N] + h * sN), 0.5 * (a[A_D] + b[A_D] + h * sD)
+    # N and D stay within rN, rD of the chords between their ends (rounding included)
+    err = max(a[ERR], b[ERR])
+    rN, rD = 0.125 * h * h * cN + err, 0.125 * h * h * cD + err
+    gN, gD = _gap(a[RE_N], a[IM_N], b[RE_N], b[IM_N]), _gap(a[RE_D], a[IM_D], b[RE_D], b[IM_D])
+    # bounds of |N|, |D|: from the ends and sup |Q'|, or from the chord's tube; where
+    # |N| and |D| are apart on the whole interval, |L| stays on one side of 1 (and of
+    # the band)
+    mN, mD = max(0.5 * (a[A_N] + b[A_N] - h * sN), gN - rN), \
+        max(0.5 * (a[A_D] + b[A_D] - h * sD), gD - rD)
+    xN, xD = min(0.5 * (a[A_N] + b[A_N] + h * sN), max(a[A_N], b[A_N]) + rN), \
+        min(0.5 * (a[A_D] + b[A_D] + h * sD), max(a[A_D], b[A_D]) + rD)
     # sup |Q'' Q - Q'^2| from its ends and (Q'' Q - Q'^2)' = Q''' Q - Q'' Q'
     fN, fD = _sup(h, a[F_N], b[F_N], bN * xN + cN * sN), _sup(h, a[F_D], b[F_D], bD * xD + cD * sD)
     gain_len, phase_len, hc = _log_lengths(h, a, b, cN, cD, sN, sD, mN, mD, fN, fD)
@@ -179,9 +182,33 @@ def _certified(a, b, bN, bD, stability_only, no_loop):  # pragma: no cover - com
     relevant = not outside
     # (arg L monotone over less than half a turn: on_axis sees its one crossing, if any)
     phase_ok = (not relevant) or (phase_len < to_axis) or \
+        _tube_misses_axis(a, b, gN, rN, gD, rD) or \
         (phase_len < np.pi and _monotone(a[IM_G], b[IM_G], hc)) or \
         (not _on_axis(a, b) and phase_len < np.pi and _chord_max(pa, pb) + bow < np.pi)
     return ok, gain_ok, phase_ok
+
+
+@njit(cache=True, error_model="numpy")
+def _tube_misses_axis(a, b, gN, rN, gD, rD):  # pragma: no cover - compiled
+    """``arg L = arg N - arg D`` stays off the negative real axis between points ``a``
+    and ``b``: each of ``N``, ``D`` stays in the tube of radius ``r`` around the chord
+    between its ends, whose distance to 0 is ``g`` (a convex set without 0), so its
+    argument stays within the chord's angular span widened by ``asin(r / g)``."""
+    loN, hiN = _tube_turn(a[RE_N], a[IM_N], b[RE_N], b[IM_N], gN, rN)
+    loD, hiD = _tube_turn(a[RE_D], a[IM_D], b[RE_D], b[IM_D], gD, rD)
+    pa = a[ARG_L]
+    return pa + loN - hiD > -np.pi and pa + hiN - loD < np.pi
+
+
+@njit(cache=True, error_model="numpy")
+def _tube_turn(ar, ai, br, bi, g, r):  # pragma: no cover - compiled
+    """Range of the continuous change of ``arg z`` from ``a`` along a path that stays
+    within ``r`` of the chord from ``a`` to ``b`` (``g``: the chord's distance to 0)."""
+    if not g > r:
+        return -np.inf, np.inf
+    turn = math.atan2(ar * bi - ai * br, ar * br + ai * bi)
+    widen = math.asin(r / g)
+    return min(0.0, turn) - widen, max(0.0, turn) + widen
 
 
 @njit(cache=True, error_model="numpy")

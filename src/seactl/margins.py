@@ -524,7 +524,11 @@ def certified_margins(loop: Transfer, design: Any, w_ref: np.ndarray | float, *,
        takes at least that length; or when ``Delta`` stays in a tube around the chord
        between its ends (the chord's distance to 0 exceeds ``h^2/8 sup |Delta''|``, the
        error of linear interpolation): a convex set without 0, so the turn is
-       ``arg(Delta_b / Delta_a)``.  The same tube bounds ``|N|`` and ``|D|`` from below.
+       ``arg(Delta_b / Delta_a)``.  The same tubes around the chords of ``N`` and ``D``
+       bound ``|N|`` and ``|D|`` from below and above, and their arguments: within the
+       chord's angular span widened by ``asin(r/g)`` (``r`` the tube's radius, ``g`` the
+       chord's distance to 0), so no phase crossing hides where ``arg N - arg D`` stays
+       within that range off the negative real axis.
        Likewise ``log |L|`` must travel at least
        ``|log|L_a|| + |log|L_b||`` to cross the unit circle twice unseen, and ``arg L``
        the distances to ``+-pi`` for the negative real axis; no gain crossing can hide
