@@ -395,3 +395,95 @@ def test_tube_turn_contains_the_turn_of_every_path_in_the_tube():
         turn = np.unwrap(np.angle(q / q[0]))
         assert lo <= turn.min() + 1e-12 and turn.max() - 1e-12 <= hi
     assert bounded > 1000
+
+
+@pytest.mark.parametrize("kind,num,num_delayed,den", [
+    # coefficients ascending; the delayed part of N has delay 3 ms
+    ("strictly proper", [40.0, 3.0], [5.0, 0.0], [0.0, 2.0, 0.05, 1e-4]),
+    ("biproper", [2.0, 0.9999], [0.5, 0.0], [1.0, 1.0]),
+    ("biproper, negative", [-1e4, -30.0], [100.0, 0.0], [1.0, 1.0]),
+    ("improper", [2.0, 3.0, 1.0], [1.0, 0.0, 0.0], [10.0, 1.0, 0.0]),
+])
+def test_beyond_the_scan_radius_no_crossing_is_possible(kind, num, num_delayed, den):
+    """Step 4 of the certified scan: beyond its radius ``R`` the loop is off the unit
+    circle and off the band's phase crossovers (strictly proper: ``|L| < 0.05``,
+    improper: ``|L| > 20``, biproper: ``|L - L_inf| < eps``), and ``Delta``'s leading
+    term dominates.  A biproper ``L = (0.9999 s + 2)/(s + 1)`` once had its gain crossover
+    at 122 rad/s beyond ``R`` (20 rad/s, a radius for ``|L| < 0.05``) and was reported
+    with no crossover and an infinite delay margin (true: 25.6 ms).  Oracle: ``L`` and
+    ``Delta`` evaluated on 20,001 points from ``R`` to ``10^4 R``."""
+    from seactl import margins as M
+    from seactl.blockdiagram import QuasiPolynomial
+
+    def qp(terms, delays):
+        width = max(len(t) for t in terms)
+        c = np.array([np.pad(t, (0, width - len(t))) for t in terms], float)[:, None, :]
+        return QuasiPolynomial(c, np.array(delays, float)[:, None])
+
+    N, D = qp([num, num_delayed], [0.0, 3e-3]), qp([den], [0.0])
+    top, unresolved = M._scan_radius(N, D, False, lambda r: np.zeros_like(r))
+    assert not unresolved[0]
+    s = 1j * top[0] * np.logspace(0, 4, 20_001)[None, :]
+    L = N(s)[0] / D(s)[0]
+    on_circle = np.diff(np.sign(np.abs(L) - 1.0)) != 0
+    in_band = (np.abs(L) > 0.05) & (np.abs(L) < 20)
+    on_axis = np.diff(np.sign(L.imag)) != 0
+    assert not on_circle.any()
+    assert not (on_axis & (L.real[1:] < 0) & in_band[1:]).any()
+    delta = N + D
+    n = int(delta.degree[0])
+    lead = delta.coeffs[0, 0, n] * s[0] ** n
+    assert np.all(np.abs(delta(s)[0] - lead) < np.abs(lead))
+
+
+def test_a_biproper_loop_file_has_its_closed_form_margins(tmp_path):
+    """``L = (kp + kd s)/(s + 1)`` from a loop file (a PD on a first-order plant):
+    ``|L| = 1`` at ``w^2 = (kp^2 - 1)/(1 - kd^2)``; oracle: that closed form, the phase
+    there and the delay margin ``PM/w``.  ``kd = 1`` (``|L_inf| = 1``: crossings may
+    gather at infinity) cannot be certified and is never reported stable."""
+    import seactl as sc
+
+    text = _NEUTRAL_FREE.replace("KD", "0.9999")
+    path = tmp_path / "pd.toml"
+    path.write_text(text)
+    m = sc.load_loop(path).analyze(jitter=False).breaks[0].margins
+    w = np.sqrt((2.0**2 - 1) / (1 - 0.9999**2))
+    pm = 180 + np.degrees(np.angle((2 + 0.9999j * w) / (1 + 1j * w)))
+    assert float(m.crossover_hz) == pytest.approx(w / (2 * np.pi), rel=1e-9)
+    assert float(m.phase_margin_deg) == pytest.approx(pm, abs=1e-7)
+    assert float(m.delay_margin_s) == pytest.approx(np.radians(pm) / w, rel=1e-9)
+    assert bool(m.stable)
+    path.write_text(_NEUTRAL_FREE.replace("KD", "1.0"))
+    assert not bool(sc.load_loop(path).analyze(jitter=False).breaks[0].margins.stable)
+
+
+_NEUTRAL_FREE = """name = "pd"
+[processes.cpu]
+rate_hz = 1000
+[signals]
+inputs = ["r"]
+output = "y"
+[[blocks]]
+name = "c"
+kind = "pd"
+input = ["r", "-y_m"]
+output = "u"
+kp = 2.0
+kd = KD
+process = "cpu"
+[[blocks]]
+name = "p"
+kind = "plant_tf"
+input = "u"
+output = "y"
+num = [1.0]
+den = [1.0, 1.0]
+[[blocks]]
+name = "s"
+kind = "sensor"
+input = "y"
+output = "y_m"
+[[breaks]]
+name = "main"
+signal = "y_m"
+"""

@@ -457,6 +457,57 @@ def test_cli_loop_errors_are_one_line_exit_2(tmp_path, capsys):
     assert main(["analyze", "--loop", str(tmp_path / "missing.toml")]) == 2
 
 
+_NEUTRAL = """name = "neutral"
+[processes.cpu]
+rate_hz = 1000
+latency_ms = 1.0
+[signals]
+inputs = ["r"]
+output = "y"
+[[blocks]]
+name = "c"
+kind = "gain"
+input = ["r", "-y_m"]
+output = "u"
+gain = 1.0
+process = "cpu"
+delay_ms = "process"
+[[blocks]]
+name = "p"
+kind = "plant_tf"
+input = "u"
+output = "y"
+num = [0.999, 2.0]
+den = [1.0, 1.0]
+[[blocks]]
+name = "s"
+kind = "sensor"
+input = "y"
+output = "y_m"
+[[breaks]]
+name = "main"
+signal = "y_m"
+"""
+
+
+def test_a_neutral_loop_is_refused_in_one_line(tmp_path, capsys):
+    """A biproper plant in a delayed loop, L = e^{-sT} (0.999 s + 2)/(s + 1): its closed
+    loop is a neutral delay equation, where the certified scan does not apply (it once
+    ended in a ValueError traceback).  Oracle: the degrees, 1 = 1, of its delayed and
+    undelayed terms."""
+    import seactl as sc
+
+    path = tmp_path / "neutral.toml"
+    path.write_text(_NEUTRAL)
+    for argv in (["analyze", "--loop", str(path)], ["place", "--loop", str(path)]):
+        assert main(argv) == 2
+        err = capsys.readouterr().err.strip()
+        assert err.count("\n") == 0 and err.startswith("error: ")
+        assert "'a neutral delay equation': must be retarded" in err
+    with pytest.raises(sc.InputError, match="neutral delay equation"):
+        sc.load_loop(path).analyze()
+
+
 def test_cli_views_on_a_loop_file(capsys, tmp_path):
     path = str(EXAMPLES / "rigid.toml")
     assert main(["analyze", "--loop", path, "--set", "fn=4:12:4", "--json",

@@ -52,6 +52,8 @@ from typing import Any
 
 import numpy as np
 
+from .errors import InputError
+
 Coeffs = Callable[[Any], Sequence[Any]]
 
 
@@ -529,6 +531,17 @@ class QuasiPolynomial:
         """Highest degree among the delayed terms (terms ``k >= 1``) per design."""
         nz = (self.coeffs[1:] != 0).any(axis=0)
         return np.where(nz.any(axis=-1), nz.shape[-1] - 1 - np.argmax(nz[..., ::-1], axis=-1), -1)
+
+    def require_retarded(self, what: str) -> None:
+        """Raise :class:`~seactl.errors.InputError` where a delayed term has the degree of
+        the undelayed one: a neutral (or advanced) delay equation, whose roots reach the
+        imaginary axis at infinite frequency, so neither the certified scan nor the root
+        finder applies."""
+        if np.any(self.delayed_degree >= self.degree):
+            raise InputError(what, "a neutral delay equation",
+                             "retarded: some block on every delayed feedback loop must roll "
+                             "off (a strictly proper plant or a filter such as lowpass1); here "
+                             "the loop passes high frequencies through its delay")
 
     @cached_property
     def abs_coeffs(self) -> np.ndarray:

@@ -380,6 +380,51 @@ def cauchy_bound(q: QuasiPolynomial, majorant: np.ndarray | None = None) -> np.n
     return 1.01 * best
 
 
+def _scan_radius(N: QuasiPolynomial, D: QuasiPolynomial, stability_only: bool,
+                 grid_count: Callable[[np.ndarray], np.ndarray]
+                 ) -> tuple[np.ndarray, np.ndarray]:
+    """Per design, the ``R`` of step 4 of :func:`certified_margins`, and whether the
+    crossings beyond it are unresolved.  Beyond ``R`` the leading term of ``Delta``
+    dominates and (crossings wanted) ``|L|`` stays off 1 and off the band's phase
+    crossovers: ``|L| < BAND_LO`` for a strictly proper loop (``20 |N| < |D|``),
+    ``|L| > BAND_HI`` for an improper one, and for a biproper one ``|L - L_inf| < eps``,
+    ``L_inf`` the (real) ratio of the leading coefficients, ``eps`` half its distance to
+    the unit circle and to the phase crossovers in the band.  Unresolved: ``eps = 0``
+    (``|L_inf| = 1``, or ``L_inf`` on the negative real axis in the band), or ``R`` so far
+    out that the base grid would exceed the evaluation budget (``grid_count``)."""
+    delta = N + D
+    if stability_only:
+        return cauchy_bound(delta), np.zeros(delta.degree.size, bool)
+    n = delta.degree
+    nl, dl = _lead(N, n), _lead(D, n)
+    top, unresolved = np.empty(n.size), np.zeros(n.size, bool)
+    aN, aD = N.abs_coeffs, D.abs_coeffs
+    i = np.nonzero(nl == 0)[0]  # strictly proper
+    top[i] = cauchy_bound(delta.take(i), _padded_sum(aN[i] / _certify.BAND_LO, aD[i]))
+    i = np.nonzero((nl != 0) & (dl == 0))[0]  # improper
+    top[i] = np.maximum(cauchy_bound(delta.take(i)),
+                        cauchy_bound(N.take(i), _padded_sum(aN[i], aD[i] / _certify.BAND_LO)))
+    i = np.nonzero((nl != 0) & (dl != 0))[0]  # biproper
+    l_inf = nl[i] / dl[i]
+    mag = np.abs(l_inf)
+    off_axis = np.where(l_inf > 0, l_inf, np.maximum(_certify.BAND_LO - mag,
+                                                     mag - _certify.BAND_HI).clip(0.0))
+    eps = np.minimum(0.5 * np.minimum(np.abs(mag - 1.0), off_axis), 1.0)
+    safe = np.where(eps > 0, eps, 1.0)[:, None]
+    major = _padded_sum(aN[i] / safe, (mag[:, None] / safe + 1.0) * aD[i])
+    top[i] = np.maximum(cauchy_bound(delta.take(i)), cauchy_bound(D.take(i), major))
+    unresolved[i] = eps == 0
+    unresolved |= grid_count(top) > MAX_EVALUATIONS
+    top[unresolved] = cauchy_bound(delta.take(np.nonzero(unresolved)[0]))
+    return top, unresolved
+
+
+def _lead(q: QuasiPolynomial, n: np.ndarray) -> np.ndarray:
+    """Coefficient of ``s^n`` in ``q``'s undelayed term, per design."""
+    c = q.coeffs[0]
+    return np.where(n < c.shape[-1], c[np.arange(n.size), np.minimum(n, c.shape[-1] - 1)], 0.0)
+
+
 def _base_grid(w_ref: np.ndarray, tau_max: np.ndarray, top: np.ndarray
                ) -> tuple[np.ndarray, np.ndarray]:
     """Flat ``(design, w)`` points from 0 to ``top``: ``PER_DECADE`` points per decade
@@ -390,7 +435,7 @@ def _base_grid(w_ref: np.ndarray, tau_max: np.ndarray, top: np.ndarray
     top = np.maximum(top, 10.0 * w_lo)
     a = PER_DECADE / np.log(10.0)
     b = tau_max / (2 * np.pi * TURN_FRACTION)
-    count = np.ceil(a * np.log(top / w_lo) + b * (top - w_lo)).astype(int) + 1
+    count = _base_grid_count(w_ref, tau_max, top).astype(int)
     didx = np.repeat(np.arange(w_ref.size), count)
     start = np.cumsum(count) - count
     u = (np.arange(didx.size) - start[didx]).astype(float)
@@ -408,6 +453,15 @@ def _base_grid(w_ref: np.ndarray, tau_max: np.ndarray, top: np.ndarray
     didx = np.insert(didx, start, zero + np.arange(w_ref.size))
     w = np.insert(w, start, 0.0)
     return didx, w
+
+
+def _base_grid_count(w_ref: np.ndarray, tau_max: np.ndarray, top: np.ndarray) -> np.ndarray:
+    """Points of :func:`_base_grid` per design (float: inf where ``top`` is)."""
+    w_lo = 0.01 * w_ref
+    top = np.maximum(top, 10.0 * w_lo)
+    phi = PER_DECADE / np.log(10.0) * np.log(top / w_lo) + \
+        tau_max / (2 * np.pi * TURN_FRACTION) * (top - w_lo)
+    return np.ceil(phi) + 1
 
 
 def _padded_sum(a: np.ndarray, b: np.ndarray) -> np.ndarray:
@@ -543,9 +597,13 @@ def certified_margins(loop: Transfer, design: Any, w_ref: np.ndarray | float, *,
        are bisected until the bound resolves it.
     4. **Beyond R** (taken 1 % beyond the tightest radius, so the dominance does not hang
        on rounding) the leading term of ``Delta`` outweighs all others, so ``arg Delta(jw)``
-       changes from ``R`` to infinity by exactly ``-arg(Delta(jR) / (a_n (jR)^n))``; ``R``
-       is the radius for ``20 |N|`` and ``D`` together, so that beyond it
-       ``|L| < 0.05``: no gain crossover and no phase crossover in the band.
+       changes from ``R`` to infinity by exactly ``-arg(Delta(jR) / (a_n (jR)^n))``; and
+       ``L`` stays off the unit circle and off the band's phase crossovers
+       (:func:`_scan_radius`): ``|L| < 0.05`` for a strictly proper loop, ``|L| > 20``
+       for an improper one, ``|L - L_inf| < eps`` for a biproper one (``L_inf`` the ratio
+       of the leading coefficients).  A biproper loop whose ``|L_inf|`` is 1, or whose
+       ``L_inf`` is a phase crossover in the band, has crossings that may gather at
+       infinity: it is never reported stable.
     5. **Count.**  For a retarded quasi-polynomial of degree ``n`` with no imaginary
        root, ``arg Delta`` increases over ``[0, inf)`` by ``pi (n/2 - Z)``, ``Z`` the
        number of roots with ``Re s > 0`` (Stepan's formula; the delayed terms have lower
@@ -578,21 +636,17 @@ def certified_margins(loop: Transfer, design: Any, w_ref: np.ndarray | float, *,
     N, D = (f.evaluate(design).flat() for f in
             loop.diagram.return_difference(loop.input, loop.cut))
     delta = N + D
-    if np.any(delta.delayed_degree >= delta.degree):
-        raise ValueError(f"diagram {loop.diagram.name!r}: a delayed term has the degree of "
-                         "the undelayed one (a neutral delay equation), not supported")
-    # beyond top, also 20 |N| < |D|: |L| < 0.05, below the band where phase crossovers count
-    # (N's coefficients alone would only give |L| < 1)
-    scale = 1.0 if stability_only else 1.0 / _certify.BAND_LO
-    top = cauchy_bound(delta, _padded_sum(scale * N.abs_coeffs, D.abs_coeffs))
+    delta.require_retarded(f"loop of {loop.diagram.name!r} broken at {loop.input!r}")
     tau_max = np.concatenate([N.delays, D.delays]).max(axis=0)
     w_ref = np.broadcast_to(np.asarray(w_ref, float), shape).reshape(n)
+    top, unresolved = _scan_radius(N, D, stability_only,
+                                   lambda top: _base_grid_count(w_ref, tau_max, top))
     scan = _CertifiedScan(N, D, stability_only)
     didx, w = _base_grid(w_ref, tau_max, top)
     scan.run(didx, w)
     Z, uncertain = _stepan_count(delta, top, scan.winding)
     Z = np.maximum(Z, 1 * (uncertain & (Z == 0)))
-    stable = (Z == 0) & ~uncertain & ~scan.uncertain
+    stable = (Z == 0) & ~uncertain & ~scan.uncertain & ~unresolved
     if stability_only:
         return _stability_only(shape, stable, Z)
     return _assemble(shape, stable, Z, scan.solve("gain"), scan.solve("phase"), scan.loop_at)

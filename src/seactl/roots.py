@@ -122,9 +122,7 @@ def characteristic_roots(diagram: BlockDiagram, design: Any, *, count: int = 6,
     """
     shape = tuple(getattr(design, "shape", ()))
     q = diagram.characteristic(tuple(cut)).evaluate(design).flat()
-    if np.any(q.delayed_degree >= q.degree):
-        raise ValueError(f"diagram {diagram.name!r}: a delayed term has the degree of the "
-                         "undelayed one (a neutral delay equation), not supported")
+    q.require_retarded(f"closed loop of {diagram.name!r}")
     n = q.shape[0]
     out = np.full((n, count), np.nan + 0j)
     nodes, ok = np.zeros(n, int), np.zeros(n, bool)
