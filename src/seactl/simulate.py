@@ -92,7 +92,9 @@ True
 from __future__ import annotations
 
 import math
-from collections.abc import Mapping, Sequence
+import os
+from collections.abc import Callable, Mapping, Sequence
+from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass, field
 from functools import cached_property
 from typing import Any
@@ -736,10 +738,17 @@ def run_continuous(plan: ContinuousPlan, bound: float) -> RunResult:
     nd = v["delayed"].stop - v["delayed"].start
     rec_t = np.full((p.steps // p.every + 1, len(p.outputs), n), np.nan)  # time first
     left = np.full(n, np.inf)
-    _continuous_kernel(p.H, p.CD, np.ascontiguousarray(p.inputs), np.ascontiguousarray(p.x0),
-                       p.whole.astype(np.int64), p.frac.astype(float), p.ring_len,
-                       z["x"].stop, v["exo"].stop, nd, p.steps, p.every, p.t_s, float(bound),
-                       rec_t, left)
+
+    def run(k: slice) -> None:
+        own = (lambda a: np.ascontiguousarray(a[..., k])) if k != slice(0, n) else \
+            np.ascontiguousarray
+        inputs = p.inputs if p.inputs.shape[-1] == 1 else own(p.inputs)
+        _continuous_kernel(own(p.H), own(p.CD), np.ascontiguousarray(inputs), own(p.x0),
+                           own(p.whole).astype(np.int64), own(p.frac).astype(float),
+                           p.ring_len, z["x"].stop, v["exo"].stop, nd, p.steps, p.every,
+                           p.t_s, float(bound), rec_t[:, :, k], left[k])
+
+    in_threads(run, n)
     # (outputs, designs, time) as a view: a copy of a large batch's record costs a
     # quarter of the run
     rec = _fill_diverged(rec_t.transpose(1, 2, 0), left)
@@ -748,7 +757,28 @@ def run_continuous(plan: ContinuousPlan, bound: float) -> RunResult:
     return RunResult(p.t_s[::p.every], {o: rec[j] for j, o in enumerate(p.outputs)}, left, info)
 
 
-@njit(cache=True)
+THREADS: int | None = None
+"""Threads for a batch of designs (None: one per usable core); each runs the compiled
+kernel, which releases the GIL, on its own contiguous part of the batch."""
+
+MIN_DESIGNS_PER_THREAD = 64
+"""Below this many designs per thread, one thread: starting threads and copying the
+parts would cost more than they save."""
+
+
+def in_threads(run: Callable[[slice], None], n: int) -> None:
+    """``run(part)`` for contiguous parts of a batch of ``n`` designs, one per thread."""
+    k = max(1, min(THREADS or os.cpu_count() or 1, n // MIN_DESIGNS_PER_THREAD))
+    if k == 1:
+        run(slice(0, n))
+        return
+    edges = np.linspace(0, n, k + 1).round().astype(int)
+    with ThreadPoolExecutor(k) as pool:
+        for f in [pool.submit(run, slice(a, b)) for a, b in zip(edges[:-1], edges[1:])]:
+            f.result()
+
+
+@njit(cache=True, nogil=True)
 def _continuous_kernel(H, CD, inputs, x0, whole, frac, ring_len, nx, ne, nd, steps, every,
                        t, bound, rec_t, left):  # pragma: no cover - compiled
     """Every step: ``S = CD [x; v_i]`` gives the delayed blocks' sources (into the ring
