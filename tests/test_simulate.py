@@ -406,17 +406,16 @@ def test_a_batch_split_over_threads_is_the_one_thread_result(monkeypatch):
     of the batch.  Oracle: the same batch in one thread, bit for bit (each design's
     arithmetic is independent of the others), on 240 designs of which the long-delay
     ones leave the bounds at different times (the record then held)."""
-    import seactl.simulate as S
+    from seactl import _parallel
 
     rng = np.random.default_rng(5)
     fn = rng.uniform(10.0, 30.0, 240)
     t_tau = np.where(np.arange(240) % 3 == 0, 5.0, 0.5)  # a third unstable
     d = SEADesign(UT_SEA, critically_damped_gains(UT_SEA, fn),
                   Timing.from_ms(t_tau, 5.0, 0.5, 50.0, 100.0))
-    monkeypatch.setattr(S, "THREADS", 1)
+    monkeypatch.setattr(_parallel, "THREADS", 1)
     one = sea_step(d, t_end_s=0.4)
-    monkeypatch.setattr(S, "THREADS", 3)
-    monkeypatch.setattr(S, "MIN_DESIGNS_PER_THREAD", 16)
+    monkeypatch.setattr(_parallel, "THREADS", 3)
     parts = sea_step(d, t_end_s=0.4)
     one, parts = one.result, parts.result
     assert np.isfinite(one.left_bounds_s).sum() > 20 and np.isinf(one.left_bounds_s).sum() > 100

@@ -32,6 +32,7 @@ from typing import Any
 import numpy as np
 
 from . import _certify
+from ._parallel import in_threads
 from .blockdiagram import DesignSubset, QuasiPolynomial, Transfer
 
 LoopFn = Callable[[Any, np.ndarray], np.ndarray]
@@ -512,17 +513,20 @@ class _CertifiedScan:
         """Scan the base grid ``w`` (flat, designs ``didx`` in order)."""
         n = self.winding.size
         start = np.searchsorted(didx, np.arange(n + 1))
-        out = np.empty((16 * n + 64, 6))  # brackets: a few per design; rarely more
         major = _padded_sum(self.N.q.abs_coeffs, self.D.q.abs_coeffs)
         args = (*self.arrays, major, self.N.bound3_coeffs, self.D.bound3_coeffs,
                 start, w.astype(float), self.stability_only, self.no_loop)
-        while True:
-            self.winding[:], self.uncertain[:] = 0.0, False
-            count = _certify.scan(*args, self.winding, self.uncertain, out)
-            if count <= out.shape[0]:
-                break
-            out = np.empty((count, 6))  # more brackets than room: once more with room
-        self.rows = out[:count]
+
+        def part(k: slice) -> np.ndarray:
+            out = np.empty((16 * (k.stop - k.start) + 64, 6))  # a few per design; rarely more
+            while True:
+                self.winding[k], self.uncertain[k] = 0.0, False
+                count = _certify.scan(*args, self.winding, self.uncertain, out, k.start, k.stop)
+                if count <= out.shape[0]:
+                    return out[:count]
+                out = np.empty((count, 6))  # more brackets than room: once more with room
+
+        self.rows = np.concatenate(in_threads(part, n, min_per_thread=32))
 
     def loop_at(self, idx: np.ndarray, w: np.ndarray) -> np.ndarray:
         return _certify.loop_values(*self.arrays, np.asarray(idx, np.intp),
@@ -537,7 +541,8 @@ class _CertifiedScan:
         touch = rows[:, 1] != code  # (a point: its frequency is the touch)
         x[touch] = np.log(rows[touch, 2])
         brackets, xb = rows[~touch], np.empty(int((~touch).sum()))
-        _certify.refine(*self.arrays, brackets, _TOL["xatol"], _TOL["xrtol"], xb)
+        in_threads(lambda k: _certify.refine(*self.arrays, brackets[k], _TOL["xatol"],
+                                             _TOL["xrtol"], xb[k]), len(xb), min_per_thread=256)
         x[~touch] = xb
         failed = np.nonzero(np.isnan(x))[0]
         if failed.size:

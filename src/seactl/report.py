@@ -233,8 +233,11 @@ def _quiet_worker() -> None:
 
     import matplotlib
 
+    from . import _parallel
+
     signal.signal(signal.SIGINT, signal.SIG_IGN)
     matplotlib.use("Agg")
+    _parallel.THREADS = 1  # (one worker per core already)
 
 
 def _run_parallel(sections: list[SectionFn], ctx: Context, jobs: int,

@@ -92,9 +92,7 @@ True
 from __future__ import annotations
 
 import math
-import os
-from collections.abc import Callable, Mapping, Sequence
-from concurrent.futures import ThreadPoolExecutor
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 from functools import cached_property
 from typing import Any
@@ -102,6 +100,7 @@ from typing import Any
 import numpy as np
 from numba import njit
 
+from ._parallel import in_threads
 from .blockdiagram import Block, BlockDiagram
 from .errors import InputError
 
@@ -748,34 +747,13 @@ def run_continuous(plan: ContinuousPlan, bound: float) -> RunResult:
                            p.ring_len, z["x"].stop, v["exo"].stop, nd, p.steps, p.every,
                            p.t_s, float(bound), rec_t[:, :, k], left[k])
 
-    in_threads(run, n)
+    in_threads(run, n, min_per_thread=64)
     # (outputs, designs, time) as a view: a copy of a large batch's record costs a
     # quarter of the run
     rec = _fill_diverged(rec_t.transpose(1, 2, 0), left)
     info = {"dt_s": p.dt_s, "record_dt_s": p.dt_s * p.every,
             "effective_delays_s": {k: d.reshape(p.shape) for k, d in p.delays_s.items()}}
     return RunResult(p.t_s[::p.every], {o: rec[j] for j, o in enumerate(p.outputs)}, left, info)
-
-
-THREADS: int | None = None
-"""Threads for a batch of designs (None: one per usable core); each runs the compiled
-kernel, which releases the GIL, on its own contiguous part of the batch."""
-
-MIN_DESIGNS_PER_THREAD = 64
-"""Below this many designs per thread, one thread: starting threads and copying the
-parts would cost more than they save."""
-
-
-def in_threads(run: Callable[[slice], None], n: int) -> None:
-    """``run(part)`` for contiguous parts of a batch of ``n`` designs, one per thread."""
-    k = max(1, min(THREADS or os.cpu_count() or 1, n // MIN_DESIGNS_PER_THREAD))
-    if k == 1:
-        run(slice(0, n))
-        return
-    edges = np.linspace(0, n, k + 1).round().astype(int)
-    with ThreadPoolExecutor(k) as pool:
-        for f in [pool.submit(run, slice(a, b)) for a, b in zip(edges[:-1], edges[1:])]:
-            f.result()
 
 
 @njit(cache=True, nogil=True)

@@ -1,0 +1,63 @@
+"""Threads over a batch of designs.
+
+The compiled kernels (the continuous simulation, the certified margin scan) release the
+GIL, so a large batch runs in one thread per core, each thread on its own contiguous part
+of the batch; designs are independent, so the result is the one-thread result bit for bit.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import os
+from collections.abc import Callable, Iterator
+from concurrent.futures import ThreadPoolExecutor
+from typing import Any
+
+import numpy as np
+
+from .errors import InputError
+
+THREADS: int | None = None
+"""Threads per batch (None: the environment variable ``SEACTL_THREADS``, or one per
+core).  :func:`one_thread` pins it where processes already run one per core (the sweep's
+workers, the report's sections)."""
+
+
+def threads() -> int:
+    """Threads a batch may use (:data:`THREADS`)."""
+    if THREADS:
+        return THREADS
+    env = os.environ.get("SEACTL_THREADS", "").strip()
+    if not env:
+        return os.cpu_count() or 1
+    if not env.isdigit() or int(env) < 1:
+        raise InputError("SEACTL_THREADS", env, "a whole number >= 1 (threads per batch)")
+    return int(env)
+
+
+def parts(n: int, min_per_thread: int) -> list[slice]:
+    """Contiguous parts of a batch of ``n`` designs, one per thread, each at least
+    ``min_per_thread`` designs (below that, starting a thread costs more than it saves)."""
+    k = max(1, min(threads(), n // max(min_per_thread, 1)))
+    edges = np.linspace(0, n, k + 1).round().astype(int)
+    return [slice(int(a), int(b)) for a, b in zip(edges[:-1], edges[1:])]
+
+
+def in_threads(run: Callable[[slice], Any], n: int, min_per_thread: int) -> list[Any]:
+    """``[run(part) for part in parts(n, min_per_thread)]``, the parts in threads."""
+    ps = parts(n, min_per_thread)
+    if len(ps) == 1:
+        return [run(ps[0])]
+    with ThreadPoolExecutor(len(ps)) as pool:
+        return [f.result() for f in [pool.submit(run, p) for p in ps]]
+
+
+@contextlib.contextmanager
+def one_thread() -> Iterator[None]:
+    """Batches in the calling thread only, within the block."""
+    global THREADS
+    saved, THREADS = THREADS, 1
+    try:
+        yield
+    finally:
+        THREADS = saved
