@@ -222,11 +222,12 @@ def test_compiled_scan_evaluates_the_quasi_polynomial_like_numpy():
     for q in (N, D):
         ref = q.with_derivative(1j * w[:, None], second=True)
         for i in range(7):
-            got = _certify._eval(q.coeffs, q.delays, i, w[i])
+            got = _certify._eval(_certify.descending(q.coeffs), q.delays, i, w[i])
             np.testing.assert_allclose(got[0], ref[0][i, 0], rtol=1e-12)
             np.testing.assert_allclose(got[1], 1j * ref[1][i, 0], rtol=1e-12)
             np.testing.assert_allclose(got[2], -ref[2][i, 0], rtol=1e-12)
-    L = _certify.loop_values(N.coeffs, N.delays, D.coeffs, D.delays, np.arange(7), w)
+    L = _certify.loop_values(_certify.descending(N.coeffs), N.delays,
+                             _certify.descending(D.coeffs), D.delays, np.arange(7), w)
     np.testing.assert_allclose(L, N(1j * w[:, None])[:, 0] / D(1j * w[:, None])[:, 0],
                                rtol=1e-12)
 

@@ -34,13 +34,14 @@ touch the level without crossing it (a tangency); solved as a crossing at its ne
 def _eval(coeffs, delays, d, w):  # pragma: no cover - compiled
     """``Q(jw)``, ``dQ(jw)/dw`` and ``d^2 Q(jw)/dw^2`` of design ``d``: one Horner pass
     per delay term for ``p``, ``p'`` and ``p''`` at ``s = jw`` (as
-    :meth:`QuasiPolynomial.with_derivative`; real arithmetic, ``s`` being imaginary)."""
+    :meth:`QuasiPolynomial.with_derivative`; real arithmetic, ``s`` being imaginary).
+    ``coeffs`` in descending powers (:func:`descending`)."""
     qr = qi = d1r = d1i = d2r = d2i = 0.0
     n1 = coeffs.shape[2]
     for k in range(coeffs.shape[0]):
-        pr, pi_ = coeffs[k, d, n1 - 1], 0.0
+        pr, pi_ = coeffs[k, d, 0], 0.0
         dpr = dpi = d2pr = d2pi = 0.0
-        for j in range(n1 - 2, -1, -1):   # x <- x s + y with s = jw: (-Im x w, Re x w) + y
+        for j in range(1, n1):   # x <- x s + y with s = jw: (-Im x w, Re x w) + y
             d2pr, d2pi = -d2pi * w + 2 * dpr, d2pr * w + 2 * dpi
             dpr, dpi = -dpi * w + pr, dpr * w + pi_
             pr, pi_ = -pi_ * w + coeffs[k, d, j], pr * w
@@ -63,11 +64,18 @@ def _eval(coeffs, delays, d, w):  # pragma: no cover - compiled
 
 @njit(cache=True)
 def _bound3(c, d, w):  # pragma: no cover - compiled
-    """``sum_j c[d, j] w^j`` (Horner)."""
-    acc = c[d, c.shape[1] - 1]
-    for j in range(c.shape[1] - 2, -1, -1):
+    """The polynomial ``c[d]`` (descending powers) at ``w`` (Horner)."""
+    acc = c[d, 0]
+    for j in range(1, c.shape[1]):
         acc = acc * w + c[d, j]
     return acc
+
+
+def descending(c: np.ndarray) -> np.ndarray:
+    """Coefficients (last axis: ascending powers) in the kernels' order, descending: the
+    Horner loops then count up from 0, and an index LLVM can prove non-negative skips
+    numba's negative-index check (5 % of the scan)."""
+    return np.ascontiguousarray(c[..., ::-1], float)
 
 
 # Per point, what the certificates of its two intervals need (computed once):

@@ -492,7 +492,7 @@ def _compact(q: QuasiPolynomial) -> tuple[np.ndarray, np.ndarray]:
     terms[0] |= not terms.any()
     powers = np.nonzero(nz.any(axis=(0, 1)))[0]
     top = powers[-1] + 1 if powers.size else 1
-    return (np.ascontiguousarray(q.coeffs[terms, :, :top], float),
+    return (_certify.descending(q.coeffs[terms, :, :top]),
             np.ascontiguousarray(q.delays[terms], float))
 
 
@@ -514,7 +514,8 @@ class _CertifiedScan:
         n = self.winding.size
         start = np.searchsorted(didx, np.arange(n + 1))
         major = _padded_sum(self.N.q.abs_coeffs, self.D.q.abs_coeffs)
-        args = (*self.arrays, major, self.N.bound3_coeffs, self.D.bound3_coeffs,
+        args = (*self.arrays, *map(_certify.descending, (major, self.N.bound3_coeffs,
+                                                         self.D.bound3_coeffs)),
                 start, w.astype(float), self.stability_only, self.no_loop)
 
         def part(k: slice) -> np.ndarray:
