@@ -20,7 +20,7 @@ Examples
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, fields
 
 import numpy as np
 
@@ -93,6 +93,21 @@ class GainSolutions:
     @property
     def n_valid(self) -> np.ndarray:
         return self.valid.sum(axis=-1)
+
+    def pick(self, solution: int = 0) -> Gains:
+        """Valid solution number ``solution`` of each design, sorted by increasing
+        ``K_tau`` (each design must have one: see :func:`critically_damped_gains`)."""
+        key = np.where(self.valid, self.Ktau, np.inf)
+        order = np.argsort(key, axis=-1)[..., solution:solution + 1]
+
+        def pick(x):
+            return np.take_along_axis(x, order, axis=-1)[..., 0]
+
+        return Gains(pick(self.Kq), pick(self.Bq), pick(self.Ktau), pick(self.Btau))
+
+    def rows(self, mask: np.ndarray) -> GainSolutions:
+        """The designs of a flat batch where ``mask`` holds."""
+        return GainSolutions(*(getattr(self, f.name)[mask] for f in fields(self)))
 
 
 def solve_gains(actuator: SEAParams, fn_hz, *, zeta1=1.0, zeta2=1.0,
@@ -225,11 +240,4 @@ def critically_damped_gains(actuator: SEAParams, fn_hz, *, zeta1=1.0, zeta2=1.0,
             f"on actuator '{actuator.name}'{which} ({'the first: ' if bad.sum() > 1 else ''}"
             f"zeta1={z1:g}, zeta2={z2:g}, ratio={r:g}); {_describe(ranges)}",
             fn_hz=bad_fn, feasible_hz=ranges)
-    # order valid solutions first, by increasing Ktau
-    key = np.where(sols.valid, sols.Ktau, np.inf)
-    order = np.argsort(key, axis=-1)[..., solution:solution + 1]
-
-    def pick(x):
-        return np.take_along_axis(x, order, axis=-1)[..., 0]
-
-    return Gains(pick(sols.Kq), pick(sols.Bq), pick(sols.Ktau), pick(sols.Btau)).scaled(gs)
+    return sols.pick(solution).scaled(gs)

@@ -398,25 +398,28 @@ def _scan_radius(N: QuasiPolynomial, D: QuasiPolynomial, stability_only: bool,
         return cauchy_bound(delta), np.zeros(delta.degree.size, bool)
     n = delta.degree
     nl, dl = _lead(N, n), _lead(D, n)
-    top, unresolved = np.empty(n.size), np.zeros(n.size, bool)
     aN, aD = N.abs_coeffs, D.abs_coeffs
-    i = np.nonzero(nl == 0)[0]  # strictly proper
-    top[i] = cauchy_bound(delta.take(i), _padded_sum(aN[i] / _certify.BAND_LO, aD[i]))
-    i = np.nonzero((nl != 0) & (dl == 0))[0]  # improper
-    top[i] = np.maximum(cauchy_bound(delta.take(i)),
-                        cauchy_bound(N.take(i), _padded_sum(aN[i], aD[i] / _certify.BAND_LO)))
-    i = np.nonzero((nl != 0) & (dl != 0))[0]  # biproper
-    l_inf = nl[i] / dl[i]
-    mag = np.abs(l_inf)
-    off_axis = np.where(l_inf > 0, l_inf, np.maximum(_certify.BAND_LO - mag,
-                                                     mag - _certify.BAND_HI).clip(0.0))
-    eps = np.minimum(0.5 * np.minimum(np.abs(mag - 1.0), off_axis), 1.0)
-    safe = np.where(eps > 0, eps, 1.0)[:, None]
-    major = _padded_sum(aN[i] / safe, (mag[:, None] / safe + 1.0) * aD[i])
-    top[i] = np.maximum(cauchy_bound(delta.take(i)), cauchy_bound(D.take(i), major))
-    unresolved[i] = eps == 0
-    unresolved |= grid_count(top) > MAX_EVALUATIONS
-    top[unresolved] = cauchy_bound(delta.take(np.nonzero(unresolved)[0]))
+    # Delta dominates beyond this radius, and a strictly proper L has 20 |N| < |D| there
+    top = cauchy_bound(delta, _padded_sum(aN / _certify.BAND_LO, aD))
+    unresolved = np.zeros(n.size, bool)
+    i = np.nonzero((nl != 0) & (dl == 0))[0]  # improper: |N| > 20 |D|
+    if i.size:
+        top[i] = np.maximum(top[i], cauchy_bound(
+            N.take(i), _padded_sum(aN[i], aD[i] / _certify.BAND_LO)))
+    i = np.nonzero((nl != 0) & (dl != 0))[0]  # biproper: |N - L_inf D| < eps |D|
+    if i.size:
+        l_inf = nl[i] / dl[i]
+        mag = np.abs(l_inf)
+        off_axis = np.where(l_inf > 0, l_inf, np.maximum(_certify.BAND_LO - mag,
+                                                         mag - _certify.BAND_HI).clip(0.0))
+        eps = np.minimum(0.5 * np.minimum(np.abs(mag - 1.0), off_axis), 1.0)
+        safe = np.where(eps > 0, eps, 1.0)[:, None]
+        major = _padded_sum(aN[i] / safe, (mag[:, None] / safe + 1.0) * aD[i])
+        wanted = top.copy()
+        wanted[i] = np.maximum(top[i], cauchy_bound(D.take(i), major))
+        bad = (eps == 0) | (grid_count(wanted)[i] > MAX_EVALUATIONS)
+        unresolved[i[bad]] = True
+        top[i[~bad]] = wanted[i[~bad]]
     return top, unresolved
 
 

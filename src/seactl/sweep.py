@@ -274,7 +274,7 @@ def evaluate_points(spec: SweepSpec, values: dict[str, np.ndarray], n: int
 
     Returns numpy columns; rows that are infeasible hold NaN in the float outputs
     and the ``feasible`` mask says so (converted to nulls by :func:`to_table`)."""
-    from .design import critically_damped_gains, solve_gains
+    from .design import solve_gains
     from .loops import SEADesign, Timing
     from .sea import sea_margins
 
@@ -290,8 +290,7 @@ def evaluate_points(spec: SweepSpec, values: dict[str, np.ndarray], n: int
     out: dict[str, np.ndarray] = {"feasible": ok}
     nan = np.full(n, np.nan)
     if ok.any():
-        gains = critically_damped_gains(a, col("fn_hz")[ok], gs=col("gs")[ok],
-                                        **{k: v[ok] for k, v in design_kw.items()})
+        gains = sols.rows(ok).pick().scaled(col("gs")[ok])
         timing = Timing.from_ms(col("t_tau_ms")[ok], col("t_qs_ms")[ok], col("t_qd_ms")[ok],
                                 col("f_qd_hz")[ok], col("f_taud_hz")[ok])
         plant: Any = a
