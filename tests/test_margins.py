@@ -437,59 +437,6 @@ def test_beyond_the_scan_radius_no_crossing_is_possible(kind, num, num_delayed, 
     assert np.all(np.abs(delta(s)[0] - lead) < np.abs(lead))
 
 
-def test_a_biproper_loop_file_has_its_closed_form_margins(tmp_path):
-    """``L = (kp + kd s)/(s + 1)`` from a loop file (a PD on a first-order plant):
-    ``|L| = 1`` at ``w^2 = (kp^2 - 1)/(1 - kd^2)``; oracle: that closed form, the phase
-    there and the delay margin ``PM/w``.  ``kd = 1`` (``|L_inf| = 1``: crossings may
-    gather at infinity) cannot be certified and is never reported stable."""
-    import seactl as sc
-
-    text = _NEUTRAL_FREE.replace("KD", "0.9999")
-    path = tmp_path / "pd.toml"
-    path.write_text(text)
-    m = sc.load_loop(path).analyze(jitter=False).breaks[0].margins
-    w = np.sqrt((2.0**2 - 1) / (1 - 0.9999**2))
-    pm = 180 + np.degrees(np.angle((2 + 0.9999j * w) / (1 + 1j * w)))
-    assert float(m.crossover_hz) == pytest.approx(w / (2 * np.pi), rel=1e-9)
-    assert float(m.phase_margin_deg) == pytest.approx(pm, abs=1e-7)
-    assert float(m.delay_margin_s) == pytest.approx(np.radians(pm) / w, rel=1e-9)
-    assert bool(m.stable)
-    path.write_text(_NEUTRAL_FREE.replace("KD", "1.0"))
-    assert not bool(sc.load_loop(path).analyze(jitter=False).breaks[0].margins.stable)
-
-
-_NEUTRAL_FREE = """name = "pd"
-[processes.cpu]
-rate_hz = 1000
-[signals]
-inputs = ["r"]
-output = "y"
-[[blocks]]
-name = "c"
-kind = "pd"
-input = ["r", "-y_m"]
-output = "u"
-kp = 2.0
-kd = KD
-process = "cpu"
-[[blocks]]
-name = "p"
-kind = "plant_tf"
-input = "u"
-output = "y"
-num = [1.0]
-den = [1.0, 1.0]
-[[blocks]]
-name = "s"
-kind = "sensor"
-input = "y"
-output = "y_m"
-[[breaks]]
-name = "main"
-signal = "y_m"
-"""
-
-
 def test_margins_split_over_threads_are_the_one_thread_margins(monkeypatch):
     """A batch is scanned in one thread per core, each on its own designs.  Oracle: the
     same batch in one thread, bit for bit, crossings included (400 random designs, delays

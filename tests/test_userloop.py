@@ -457,27 +457,28 @@ def test_cli_loop_errors_are_one_line_exit_2(tmp_path, capsys):
     assert main(["analyze", "--loop", str(tmp_path / "missing.toml")]) == 2
 
 
-_NEUTRAL = """name = "neutral"
+def _first_order_loop(controller: str, num: str, latency_ms: float = 0.0) -> str:
+    """A loop file: ``controller`` (its kind and fields) from ``r - y`` to ``u``, a plant
+    ``num(s) / (s + 1)``, a unit sensor, one break."""
+    return f"""name = "first-order"
 [processes.cpu]
 rate_hz = 1000
-latency_ms = 1.0
+latency_ms = {latency_ms}
 [signals]
 inputs = ["r"]
 output = "y"
 [[blocks]]
 name = "c"
-kind = "gain"
 input = ["r", "-y_m"]
 output = "u"
-gain = 1.0
 process = "cpu"
-delay_ms = "process"
+{controller}
 [[blocks]]
 name = "p"
 kind = "plant_tf"
 input = "u"
 output = "y"
-num = [0.999, 2.0]
+num = {num}
 den = [1.0, 1.0]
 [[blocks]]
 name = "s"
@@ -495,10 +496,9 @@ def test_a_neutral_loop_is_refused_in_one_line(tmp_path, capsys):
     loop is a neutral delay equation, where the certified scan does not apply (it once
     ended in a ValueError traceback).  Oracle: the degrees, 1 = 1, of its delayed and
     undelayed terms."""
-    import seactl as sc
-
     path = tmp_path / "neutral.toml"
-    path.write_text(_NEUTRAL)
+    path.write_text(_first_order_loop('kind = "gain"\ngain = 1.0\ndelay_ms = "process"',
+                                      "[0.999, 2.0]", latency_ms=1.0))
     for argv in (["analyze", "--loop", str(path)], ["place", "--loop", str(path)]):
         assert main(argv) == 2
         err = capsys.readouterr().err.strip()
@@ -506,6 +506,26 @@ def test_a_neutral_loop_is_refused_in_one_line(tmp_path, capsys):
         assert "'a neutral delay equation': must be retarded" in err
     with pytest.raises(sc.InputError, match="neutral delay equation"):
         sc.load_loop(path).analyze()
+
+
+def test_a_biproper_loop_file_has_its_closed_form_margins(tmp_path):
+    """``L = (kp + kd s)/(s + 1)`` from a loop file (a PD on a first-order plant):
+    ``|L| = 1`` at ``w^2 = (kp^2 - 1)/(1 - kd^2)``; oracle: that closed form, the phase
+    there and the delay margin ``PM/w``.  The crossover (122 rad/s) lies beyond the radius
+    where a strictly proper loop's ``|L|`` would be under 0.05: it was once missed, and the
+    loop reported with no crossover and an infinite delay margin.  ``kd = 1``
+    (``|L_inf| = 1``: crossings may gather at infinity) is never reported stable."""
+    path = tmp_path / "pd.toml"
+    path.write_text(_first_order_loop('kind = "pd"\nkp = 2.0\nkd = 0.9999', "[1.0]"))
+    m = sc.load_loop(path).analyze(jitter=False).breaks[0].margins
+    w = np.sqrt((2.0**2 - 1) / (1 - 0.9999**2))
+    pm = 180 + np.degrees(np.angle((2 + 0.9999j * w) / (1 + 1j * w)))
+    assert float(m.crossover_hz) == pytest.approx(w / (2 * np.pi), rel=1e-9)
+    assert float(m.phase_margin_deg) == pytest.approx(pm, abs=1e-7)
+    assert float(m.delay_margin_s) == pytest.approx(np.radians(pm) / w, rel=1e-9)
+    assert bool(m.stable)
+    path.write_text(_first_order_loop('kind = "pd"\nkp = 2.0\nkd = 1.0', "[1.0]"))
+    assert not bool(sc.load_loop(path).analyze(jitter=False).breaks[0].margins.stable)
 
 
 def test_cli_views_on_a_loop_file(capsys, tmp_path):
