@@ -222,7 +222,7 @@ def test_compiled_scan_evaluates_the_quasi_polynomial_like_numpy():
     for q in (N, D):
         ref = q.with_derivative(1j * w[:, None], second=True)
         for i in range(7):
-            got = _certify._eval(_certify.descending(q.coeffs), q.delays, i, w[i])
+            got = _certify._eval(_certify.descending(q.coeffs), q.delays, i, w[i], 2)
             np.testing.assert_allclose(got[0], ref[0][i, 0], rtol=1e-12)
             np.testing.assert_allclose(got[1], 1j * ref[1][i, 0], rtol=1e-12)
             np.testing.assert_allclose(got[2], -ref[2][i, 0], rtol=1e-12)

@@ -31,19 +31,21 @@ touch the level without crossing it (a tangency); solved as a crossing at its ne
 
 
 @njit(cache=True)
-def _eval(coeffs, delays, d, w):  # pragma: no cover - compiled
-    """``Q(jw)``, ``dQ(jw)/dw`` and ``d^2 Q(jw)/dw^2`` of design ``d``: one Horner pass
-    per delay term for ``p``, ``p'`` and ``p''`` at ``s = jw`` (as
-    :meth:`QuasiPolynomial.with_derivative`; real arithmetic, ``s`` being imaginary).
-    ``coeffs`` in descending powers (:func:`descending`)."""
+def _eval(coeffs, delays, d, w, order):  # pragma: no cover - compiled
+    """``Q(jw)``, ``dQ(jw)/dw`` and ``d^2 Q(jw)/dw^2`` of design ``d`` (derivatives above
+    ``order`` left 0): one Horner pass per delay term for ``p``, ``p'`` and ``p''`` at
+    ``s = jw`` (as :meth:`QuasiPolynomial.with_derivative`; real arithmetic, ``s`` being
+    imaginary).  ``coeffs`` in descending powers (:func:`descending`)."""
     qr = qi = d1r = d1i = d2r = d2i = 0.0
     n1 = coeffs.shape[2]
     for k in range(coeffs.shape[0]):
         pr, pi_ = coeffs[k, d, 0], 0.0
         dpr = dpi = d2pr = d2pi = 0.0
         for j in range(1, n1):   # x <- x s + y with s = jw: (-Im x w, Re x w) + y
-            d2pr, d2pi = -d2pi * w + 2 * dpr, d2pr * w + 2 * dpi
-            dpr, dpi = -dpi * w + pr, dpr * w + pi_
+            if order >= 2:
+                d2pr, d2pi = -d2pi * w + 2 * dpr, d2pr * w + 2 * dpi
+            if order >= 1:
+                dpr, dpi = -dpi * w + pr, dpr * w + pi_
             pr, pi_ = -pi_ * w + coeffs[k, d, j], pr * w
         tau = delays[k, d]
         # e^{-jw tau}, exactly 1 for the undelayed term
@@ -51,13 +53,15 @@ def _eval(coeffs, delays, d, w):  # pragma: no cover - compiled
         # Q += p e;  dQ/ds += (p' - tau p) e;  d2Q/ds2 += (p'' - 2 tau p' + tau^2 p) e
         qr += pr * er - pi_ * ei
         qi += pr * ei + pi_ * er
-        ar, ai = dpr - tau * pr, dpi - tau * pi_
-        d1r += ar * er - ai * ei
-        d1i += ar * ei + ai * er
-        br = d2pr - 2 * tau * dpr + tau * tau * pr
-        bi = d2pi - 2 * tau * dpi + tau * tau * pi_
-        d2r += br * er - bi * ei
-        d2i += br * ei + bi * er
+        if order >= 1:
+            ar, ai = dpr - tau * pr, dpi - tau * pi_
+            d1r += ar * er - ai * ei
+            d1i += ar * ei + ai * er
+        if order >= 2:
+            br = d2pr - 2 * tau * dpr + tau * tau * pr
+            bi = d2pi - 2 * tau * dpi + tau * tau * pi_
+            d2r += br * er - bi * ei
+            d2i += br * ei + bi * er
     # d/dw = j d/ds
     return complex(qr, qi), complex(-d1i, d1r), complex(-d2r, -d2i)
 
@@ -89,8 +93,8 @@ def _point(P, i, w, Nc, Nt, Dc, Dt, major, d):  # pragma: no cover - compiled
     """Evaluate ``N`` and ``D`` of design ``d`` at ``w`` into row ``i`` of ``P``;
     ``|Delta|`` is stored less its rounding bound (``major``: ``sum_k |c_kj|`` of ``N``
     and ``D`` together), so that rounding noise next to a root never certifies."""
-    N, dN, d2N = _eval(Nc, Nt, d, w)
-    D, dD, d2D = _eval(Dc, Dt, d, w)
+    N, dN, d2N = _eval(Nc, Nt, d, w, 2)
+    D, dD, d2D = _eval(Dc, Dt, d, w, 2)
     delta = N + D
     aN, aD = _mag(N), _mag(D)
     L = _div(N, D)
@@ -369,8 +373,8 @@ def loop_values(Nc, Nt, Dc, Dt, idx, w):  # pragma: no cover - compiled
     """``L(jw) = N(jw) / D(jw)`` of designs ``idx`` at frequencies ``w`` (pairwise)."""
     out = np.empty(w.size, np.complex128)
     for i in range(w.size):
-        N = _eval(Nc, Nt, idx[i], w[i])[0]
-        D = _eval(Dc, Dt, idx[i], w[i])[0]
+        N = _eval(Nc, Nt, idx[i], w[i], 0)[0]
+        D = _eval(Dc, Dt, idx[i], w[i], 0)[0]
         out[i] = _div(N, D)
     return out
 
@@ -379,8 +383,8 @@ def loop_values(Nc, Nt, Dc, Dt, idx, w):  # pragma: no cover - compiled
 def _crossing_at(Nc, Nt, Dc, Dt, d, kind, x):  # pragma: no cover - compiled
     """:func:`_crossing_value` at ``w = e^x`` and its derivative in ``x``."""
     w = math.exp(x)
-    N, dN, _ = _eval(Nc, Nt, d, w)
-    D, dD, _ = _eval(Dc, Dt, d, w)
+    N, dN, _ = _eval(Nc, Nt, d, w, 1)
+    D, dD, _ = _eval(Dc, Dt, d, w, 1)
     g = _dlog(N, dN, D, dD)
     if kind == GAIN:
         return np.log(_mag(N) / _mag(D)), w * g.real
