@@ -34,6 +34,7 @@ import numpy as np
 from . import _certify
 from ._parallel import in_threads
 from .blockdiagram import DesignSubset, QuasiPolynomial, Transfer
+from .limits import check_budget
 
 LoopFn = Callable[[Any, np.ndarray], np.ndarray]
 
@@ -468,6 +469,32 @@ def _base_grid_count(w_ref: np.ndarray, tau_max: np.ndarray, top: np.ndarray) ->
     return np.ceil(phi) + 1
 
 
+BASE_POINT_BYTES = 96
+"""Memory of one base-grid point while the grid is built (its design index, frequency and
+the Newton iteration's temporaries)."""
+
+BASE_POINT_SECONDS = 1e-6
+"""Time of one base-grid point in the scan, its share of bisections included (about
+0.5 us measured; twice that as the estimate)."""
+
+
+def _check_grid_budget(count: np.ndarray, tau_max: np.ndarray, top: np.ndarray) -> None:
+    """Refuse up front a base grid larger than the machine (:func:`seactl.limits.check_budget`):
+    a long delay turns the phase once per ``2 pi / tau`` up to the scan's radius, which a
+    very fast pole (a filter's cut-off at MHz) puts far out."""
+    total = float(count.sum())
+    if total * BASE_POINT_BYTES < 2**28 and total * BASE_POINT_SECONDS < 60:
+        return
+    i = int(np.argmax(count))
+    check_budget(f"the certified margin scan ({total:.3g} frequency points)",
+                 n_bytes=total * BASE_POINT_BYTES, seconds=total * BASE_POINT_SECONDS,
+                 hint=f"its largest design needs {count[i]:.3g}: a loop delay of "
+                      f"{tau_max[i] * 1e3:.3g} ms turns the phase every "
+                      f"{2 * np.pi / max(tau_max[i], 1e-300):.3g} rad/s up to {top[i]:.3g} "
+                      "rad/s, where the loop's fastest pole lies; slow the fastest block "
+                      "(a filter's cut-off) or shorten the delay")
+
+
 def _padded_sum(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     """Sum of two coefficient arrays (last axis: powers) of different lengths."""
     m = max(a.shape[-1], b.shape[-1])
@@ -650,6 +677,7 @@ def certified_margins(loop: Transfer, design: Any, w_ref: np.ndarray | float, *,
     w_ref = np.broadcast_to(np.asarray(w_ref, float), shape).reshape(n)
     top, unresolved = _scan_radius(N, D, stability_only,
                                    lambda top: _base_grid_count(w_ref, tau_max, top))
+    _check_grid_budget(_base_grid_count(w_ref, tau_max, top), tau_max, top)
     scan = _CertifiedScan(N, D, stability_only)
     didx, w = _base_grid(w_ref, tau_max, top)
     scan.run(didx, w)
@@ -784,6 +812,8 @@ def count_right_roots(q: QuasiPolynomial, w_ref: np.ndarray) -> tuple[np.ndarray
     and whether the count is certain (``False`` when a root lies on the axis)."""
     zero = QuasiPolynomial(np.zeros_like(q.coeffs[:1]), np.zeros_like(q.delays[:1]))
     scan = _CertifiedScan(q, zero, stability_only=True)
-    scan.run(*_base_grid(np.asarray(w_ref, float), q.delays.max(axis=0), cauchy_bound(q)))
-    Z, odd = _stepan_count(q, cauchy_bound(q), scan.winding)
+    w_ref, tau, top = np.asarray(w_ref, float), q.delays.max(axis=0), cauchy_bound(q)
+    _check_grid_budget(_base_grid_count(w_ref, tau, top), tau, top)
+    scan.run(*_base_grid(w_ref, tau, top))
+    Z, odd = _stepan_count(q, top, scan.winding)
     return Z, ~odd & ~scan.uncertain
