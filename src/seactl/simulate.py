@@ -443,7 +443,10 @@ def _foh(A: np.ndarray, B: np.ndarray, h: float) -> tuple[np.ndarray, np.ndarray
     M[:, :N, :N] = A * h
     M[:, :N, N:N + nv] = B * h
     M[:, N:N + nv, N + nv:] = np.eye(nv)
-    E = expm_batched(M)
+    # (a violently unstable loop, e.g. a negative derivative gain on a micro-inertia,
+    # overflows e^{A h}: its simulation leaves the bounds at the first step)
+    with np.errstate(over="ignore", invalid="ignore"):
+        E = expm_batched(M)
     F = E[:, :N, :N]
     G1 = E[:, :N, N:N + nv]
     G2 = E[:, :N, N + nv:]
