@@ -447,10 +447,8 @@ def _foh(A: np.ndarray, B: np.ndarray, h: float) -> tuple[np.ndarray, np.ndarray
     # overflows e^{A h}: its simulation leaves the bounds at the first step)
     with np.errstate(over="ignore", invalid="ignore"):
         E = expm_batched(M)
-    F = E[:, :N, :N]
-    G1 = E[:, :N, N:N + nv]
-    G2 = E[:, :N, N + nv:]
-    return F, G1 - G2, G2
+        G1, G2 = E[:, :N, N:N + nv], E[:, :N, N + nv:]
+        return E[:, :N, :N], G1 - G2, G2
 
 
 def _delay_attr(design: Any, block: Block, shape: tuple[int, ...], n: int) -> np.ndarray:
