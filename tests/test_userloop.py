@@ -466,8 +466,9 @@ def _first_order_loop(controller: str, num: str, latency_ms: float = 0.0,
 rate_hz = 1000
 latency_ms = {latency_ms}
 [signals]
-inputs = ["r"]
+inputs = ["r", "d"]
 reference = "r"
+disturbance = "d"
 output = "y"
 [[blocks]]
 name = "c"
@@ -478,7 +479,7 @@ process = "cpu"
 [[blocks]]
 name = "p"
 kind = "plant_tf"
-input = "u"
+input = ["u", "d"]
 output = "y"
 num = {num}
 den = {den}
@@ -554,13 +555,15 @@ def test_a_violently_unstable_loop_is_simulated_without_numpy_warnings(tmp_path,
     import warnings
 
     path = tmp_path / "wild.toml"
-    path.write_text(_first_order_loop('kind = "pd"\nkd = 50.0', "[-1.0]",
-                                      den="[1e-06, 1e-06, 1e-06]"))
-    with warnings.catch_warnings():
-        warnings.simplefilter("error", RuntimeWarning)
-        assert main(["step", "--loop", str(path), "--json"]) == 0
-    out = json.loads(capsys.readouterr().out)
-    assert out["stable"] is False or out["stable"] == [False]
+    for controller, num, den in (('kind = "pd"\nkd = 50.0', "[-1.0]", "[1e-06, 1e-06, 1e-06]"),
+                                 ('kind = "pd"\nkd = -20.0', "[1.0]", "[1e-06, 1e-06, 0.0]")):
+        path.write_text(_first_order_loop(controller, num, den=den))
+        for command in ("step", "impulse"):
+            with warnings.catch_warnings():
+                warnings.simplefilter("error", RuntimeWarning)
+                assert main([command, "--loop", str(path), "--json"]) == 0
+            out = json.loads(capsys.readouterr().out)
+            assert out["stable"] is False or out["stable"] == [False], (command, den)
 
 
 def test_cli_views_on_a_loop_file(capsys, tmp_path):
