@@ -477,3 +477,49 @@ def test_threads_follow_seactl_threads_and_refuse_a_bad_value(monkeypatch, capsy
     assert main(["latency-map", "--n", "12"]) == 2
     err = capsys.readouterr().err.strip()
     assert err.startswith("error: invalid SEACTL_THREADS = '-1'") and "\n" not in err
+
+
+@pytest.mark.parametrize("seed", range(4))
+def test_first_per_design_is_the_minimum_of_a_stable_sort(seed):
+    """The linear-time path (sorted groups) and the general one pick, per group, the
+    index of the smallest key, the first among equal ones (0.0 and -0.0 equal), NaN only
+    where the group has nothing else.  Oracle: numpy's stable lexsort."""
+    from seactl.margins import first_per_design
+
+    rng = np.random.default_rng(seed)
+    for _ in range(500):
+        n = int(rng.integers(0, 30))
+        groups = rng.integers(0, 6, n)
+        if seed % 2 == 0:
+            groups = np.sort(groups)
+        key = rng.choice([0.0, -0.0, 1.0, 2.0, np.nan, np.inf, -np.inf], n)
+        order = np.lexsort((key, groups))
+        g = groups[order]
+        expected = order[np.r_[True, g[1:] != g[:-1]]] if n else order
+        np.testing.assert_array_equal(first_per_design(groups, key), expected)
+
+
+@pytest.mark.parametrize("w_lo,tau,top", [(0.1, 0.0, 1e4), (0.5, 0.02, 3000.0),
+                                          (2.0, 1e-3, 1e7), (1.0, 0.5, 11.0)])
+def test_the_base_grid_keeps_its_spacing(w_lo, tau, top):
+    """The scan's base grid: 0, then increasing points from ``w_lo`` to ``top`` whose
+    ratio never exceeds ``10^(1 / PER_DECADE)`` and whose steps never exceed
+    ``TURN_FRACTION`` of a turn of the delay; the count
+    estimate used for budgets is exact or one too many.  Oracle: the two rules, checked
+    point by point."""
+    from seactl import _certify
+    from seactl import margins as M
+
+    w_lo_, step, top_ = (float(x[0]) for x in M._base_grid(np.array([100 * w_lo]),
+                                                           np.array([tau]), np.array([top])))
+    k, base, m, w, pts = 0, 0.0, 0, 0.0, [0.0]
+    while w < top_:
+        w, k, base, m = _certify.grid_point(w_lo_, M.PER_DECADE, step, top_, k, base, m)
+        pts.append(w)
+    p = np.array(pts[1:])
+    assert p[0] == w_lo and p[-1] == top and (np.diff(p) > 0).all()
+    ratio_ok = p[1:] / p[:-1] <= 10 ** (1 / M.PER_DECADE) * (1 + 1e-12)
+    step_ok = np.diff(p) <= 2 * np.pi * M.TURN_FRACTION / tau * (1 + 1e-12) if tau else True
+    assert (ratio_ok & step_ok).all()
+    count = M._base_grid_count(np.array([100 * w_lo]), np.array([tau]), np.array([top]))[0]
+    assert count - len(pts) in (0, 1)

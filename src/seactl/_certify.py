@@ -314,33 +314,50 @@ def _crossing_value(p, kind):  # pragma: no cover - compiled
     return p[LOG_L] if kind % TOUCH == GAIN else math.atan2(-p[IM_L], -p[RE_L])
 
 
+@njit(cache=True)
+def grid_point(w_lo, per_decade, step, top, k, base, m):  # pragma: no cover - compiled
+    """Point ``k`` of a base grid from ``w_lo`` to ``top``: ``per_decade`` points per
+    decade, ``w_lo 10^(k / per_decade)`` (exact decades), until that step would exceed
+    ``step``; from the last such point ``base`` on, ``base + m step``.  Returns the point
+    (``top`` once reached) and the next ``(k, base, m)``; ``m = 0``: still logarithmic."""
+    if m == 0:
+        w = w_lo * 10.0 ** (k / per_decade)
+        nxt = w_lo * 10.0 ** ((k + 1) / per_decade)
+        if nxt - w <= step:
+            return min(w, top), k + 1, base, 0
+        return min(w, top), k, w, 1
+    return min(base + m * step, top), k, base, m + 1
+
+
 @njit(cache=True, nogil=True)
-def scan(Nc, Nt, Dc, Dt, major, bN, bD, start, grid, stability_only, no_loop,
-         winding, uncertain, out, d0, d1):  # pragma: no cover - compiled
+def scan(Nc, Nt, Dc, Dt, major, bN, bD, w_lo, per_decade, step, top, stability_only,
+         no_loop, winding, uncertain, out, d0, d1):  # pragma: no cover - compiled
     """Certify the base-grid intervals of designs ``d0`` to ``d1 - 1`` (design ``d``'s
-    points are ``grid[start[d]:start[d + 1]]``), bisecting depth-first.  Writes
-    ``winding`` and ``uncertain`` per design and the brackets into ``out`` (rows: design,
-    kind, w_lo, w_hi, and the crossing function at both, :func:`_crossing_value`);
-    returns the number of brackets (more than ``len(out)``: call again with room).
+    points are 0 and :func:`grid_point` from ``w_lo[d]`` to ``top[d]``), bisecting
+    depth-first.  Writes ``winding`` and ``uncertain`` per design and the brackets into
+    ``out`` (rows: design, kind, w_lo, w_hi, and the crossing function at both,
+    :func:`_crossing_value`); returns the number of brackets (more than ``len(out)``:
+    call again with room).  Needs ``0 < w_lo < top < inf`` and ``step > 0``.
     """
     cap = MAX_EVALUATIONS + 2 * MAX_BISECTIONS + 2
     P = np.empty((cap, _F))          # points of the current interval stack
     stack = np.empty((MAX_BISECTIONS + 2, 3), np.int64)  # (left, right, depth)
     nout = 0
-    for d in range(start.size - 1):
+    for d in range(w_lo.size):
         if not d0 <= d < d1:  # (a loop from 0 keeps d provably >= 0: indexing twice as fast)
             continue
-        g0, g1 = start[d], start[d + 1]
         evals = 0
-        _point(P, 0, grid[g0], Nc, Nt, Dc, Dt, major, d)
-        for g in range(g0 + 1, g1):
+        _point(P, 0, 0.0, Nc, Nt, Dc, Dt, major, d)
+        k, base, m, w = 0, 0.0, 0, 0.0
+        while w < top[d]:
+            w, k, base, m = grid_point(w_lo[d], per_decade, step[d], top[d], k, base, m)
             # the stack holds points 0..top; the base interval is [point 0, point 1]
-            _point(P, 1, grid[g], Nc, Nt, Dc, Dt, major, d)
+            _point(P, 1, w, Nc, Nt, Dc, Dt, major, d)
             stack[0, 0], stack[0, 1], stack[0, 2] = 0, 1, 0
-            top, free = 1, 2
-            while top > 0:
-                top -= 1
-                ia, ib, depth = stack[top, 0], stack[top, 1], stack[top, 2]
+            sp, free = 1, 2
+            while sp > 0:
+                sp -= 1
+                ia, ib, depth = stack[sp, 0], stack[sp, 1], stack[sp, 2]
                 wa, wb = P[ia, W], P[ib, W]
                 ok, gain_ok, phase_ok = _certified(P[ia], P[ib], _bound3(bN, d, wb),
                                                    _bound3(bD, d, wb), stability_only,
@@ -350,9 +367,9 @@ def scan(Nc, Nt, Dc, Dt, major, bN, bD, start, grid, stability_only, no_loop,
                     _point(P, free, 0.5 * (wa + wb), Nc, Nt, Dc, Dt, major, d)
                     evals += 1
                     # right half below the left one: the left is certified first
-                    stack[top, 0], stack[top, 1], stack[top, 2] = free, ib, depth + 1
-                    stack[top + 1, 0], stack[top + 1, 1], stack[top + 1, 2] = ia, free, depth + 1
-                    top += 2
+                    stack[sp, 0], stack[sp, 1], stack[sp, 2] = free, ib, depth + 1
+                    stack[sp + 1, 0], stack[sp + 1, 1], stack[sp + 1, 2] = ia, free, depth + 1
+                    sp += 2
                     free += 1
                     continue
                 # out of evaluations: neither the count nor the crossings are certified
@@ -364,7 +381,6 @@ def scan(Nc, Nt, Dc, Dt, major, bN, bD, start, grid, stability_only, no_loop,
                     nout = _brackets(out, nout, d, P[ia], P[ib], gain, gain_ok, GAIN)
                     nout = _brackets(out, nout, d, P[ia], P[ib], phase, phase_ok, PHASE)
             P[0] = P[1]
-            free = 2
     return nout
 
 

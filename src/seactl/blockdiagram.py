@@ -613,45 +613,61 @@ class QuasiForm:
 
     def evaluate(self, design: Any) -> QuasiPolynomial:
         shape = tuple(getattr(design, "shape", ()))
-        nums, dens = {}, {}
+        # (powers first while multiplying: each power's coefficients are contiguous)
+        factors: dict[tuple[str, bool], np.ndarray] = {}
         for b in self.dynamic:
             num, den = b.coefficients(design)
-            nums[b.name] = _ascending(num, shape)
-            dens[b.name] = _ascending(den, shape)
+            factors[b.name, True] = _powers_first(num, shape)
+            if len(den) > 1 or np.any(np.asarray(den[0]) != 1):  # (1: nothing to multiply)
+                factors[b.name, False] = _powers_first(den, shape)
         groups: dict[tuple[str, ...], np.ndarray] = {}
+        products: dict[tuple, np.ndarray] = {}  # terms share their leading factors
         for coef, blocks in self.terms:
-            poly = np.full(shape + (1,), coef)
+            poly, key = np.ones((1,) + shape), ()
             for b in self.dynamic:
-                poly = _polymul(poly, nums[b.name] if b.name in blocks else dens[b.name])
+                f = (b.name, b.name in blocks)
+                if f not in factors:
+                    continue
+                key += (f,)
+                if key not in products:
+                    products[key] = factors[f] if len(key) == 1 else _polymul(poly, factors[f])
+                poly = products[key]
+            poly = coef * poly
             key = tuple(sorted(self.diagram.block(n).delay for n in blocks
                                if self.diagram.block(n).delay is not None))
             groups[key] = poly if key not in groups else _polyadd(groups[key], poly)
         keys = sorted(groups, key=lambda k: (len(k), k))
         if not keys or keys[0] != ():
             keys.insert(0, ())
-            groups[()] = np.zeros(shape + (1,))
-        n1 = max(g.shape[-1] for g in groups.values())
-        coeffs = np.stack([_polyadd(groups[k], np.zeros(shape + (n1,))) for k in keys])
+            groups[()] = np.zeros((1,) + shape)
+        n1 = max(g.shape[0] for g in groups.values())
+        coeffs = np.stack([_polyadd(groups[k], np.zeros((n1,) + shape)) for k in keys])
         delays = np.stack([np.broadcast_to(sum((np.asarray(getattr(design, d), float)
                                                 for d in k), np.zeros(shape)), shape)
                            for k in keys])
-        return QuasiPolynomial(coeffs, delays)
+        return QuasiPolynomial(np.ascontiguousarray(np.moveaxis(coeffs, 1, -1)), delays)
 
 
-def _ascending(coeffs: Sequence[np.ndarray], shape: tuple[int, ...]) -> np.ndarray:
-    return np.stack([np.broadcast_to(c, shape) for c in coeffs[::-1]], axis=-1)
+def _powers_first(coeffs: Sequence[np.ndarray], shape: tuple[int, ...]) -> np.ndarray:
+    """Coefficients (descending powers, each broadcastable to ``shape``) as one array of
+    ascending powers on the first axis."""
+    return np.stack([np.broadcast_to(np.asarray(c, float), shape) for c in coeffs[::-1]])
 
 
 def _polymul(a: np.ndarray, b: np.ndarray) -> np.ndarray:
-    out = np.zeros(a.shape[:-1] + (a.shape[-1] + b.shape[-1] - 1,))
-    for i in range(a.shape[-1]):
-        out[..., i:i + b.shape[-1]] += a[..., i:i + 1] * b
+    """Product of two polynomials with ascending powers on the first axis."""
+    if b.shape[0] == 1:
+        return a * b
+    out = np.zeros((a.shape[0] + b.shape[0] - 1,) + np.broadcast_shapes(a.shape[1:], b.shape[1:]))
+    for i in range(a.shape[0]):
+        out[i:i + b.shape[0]] += a[i] * b
     return out
 
 
 def _polyadd(a: np.ndarray, b: np.ndarray) -> np.ndarray:
-    n = max(a.shape[-1], b.shape[-1])
-    pad = lambda x: np.pad(x, [(0, 0)] * (x.ndim - 1) + [(0, n - x.shape[-1])])  # noqa: E731
+    """Sum of two polynomials with ascending powers on the first axis."""
+    n = max(a.shape[0], b.shape[0])
+    pad = lambda x: np.pad(x, [(0, n - x.shape[0])] + [(0, 0)] * (x.ndim - 1))  # noqa: E731
     return pad(a) + pad(b)
 
 
