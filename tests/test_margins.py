@@ -323,7 +323,7 @@ def test_a_phase_tangent_to_minus_180_counts_as_a_crossover(w_ref):
     L = N(1j * w[:, None])[:, 0] / D(1j * w[:, None])[:, 0]
     assert L.imag.min() >= 0 and w[np.argmin(L.imag)] == pytest.approx(1.0, abs=1e-4)
     scan = M._CertifiedScan(N, D, False)
-    top = M.cauchy_bound(N + D, M._padded_sum(20 * N.abs_coeffs, D.abs_coeffs))
+    top = M.cauchy_bound(N + D, M.padded_sum(20 * N.abs_coeffs, D.abs_coeffs))
     scan.run(*M._base_grid(np.array([w_ref]), np.zeros(1), top))
     b, w180 = scan.solve("phase")
     assert b.tolist() == [0] and w180[0] == pytest.approx(1.0, rel=1e-12)
@@ -357,7 +357,7 @@ def test_compiled_crossing_solver_agrees_with_scipy():
     loop = outer_loop()
     N, D = (f.evaluate(d).flat() for f in loop.diagram.return_difference(loop.input, loop.cut))
     scan = M._CertifiedScan(N, D, False)
-    top = M.cauchy_bound(N + D, M._padded_sum(N.abs_coeffs, D.abs_coeffs))
+    top = M.cauchy_bound(N + D, M.padded_sum(N.abs_coeffs, D.abs_coeffs))
     tau = np.concatenate([N.delays, D.delays]).max(axis=0)
     scan.run(*M._base_grid(np.full(300, 100.0), tau, top))
     for kind, code in (("gain", 0), ("phase", 1)):
@@ -523,3 +523,28 @@ def test_the_base_grid_keeps_its_spacing(w_lo, tau, top):
     assert (ratio_ok & step_ok).all()
     count = M._base_grid_count(np.array([100 * w_lo]), np.array([tau]), np.array([top]))[0]
     assert count - len(pts) in (0, 1)
+
+
+def test_the_newton_start_is_the_root_of_the_hermite_cubic():
+    """The crossing solver starts from the root of the cubic matching a bracket's end
+    values and slopes; on a cubic with one root in the bracket that is the root itself.
+    Oracle: numpy's polynomial roots; without slopes (NaN), the regula falsi point."""
+    from seactl._certify import _hermite_root
+
+    rng = np.random.default_rng(3)
+    checked = 0
+    for _ in range(2000):
+        c = rng.normal(size=4)
+        xl, xr = sorted(rng.uniform(-2, 2, 2))
+        f, df = np.poly1d(c), np.poly1d(c).deriv()
+        inside = [r.real for r in np.roots(c) if abs(r.imag) < 1e-12 and xl < r.real < xr]
+        if len(inside) != 1 or f(xl) * f(xr) >= 0:
+            continue
+        x = _hermite_root(xl, xr, f(xl), f(xr), df(xl), df(xr))
+        assert xl < x < xr
+        if abs(df(inside[0])) > 0.1 * np.abs(c).sum():  # (a well-conditioned root)
+            assert x == pytest.approx(inside[0], abs=1e-9)
+            checked += 1
+    assert checked > 300
+    x = _hermite_root(0.0, 2.0, -1.0, 3.0, np.nan, np.nan)
+    assert x == pytest.approx(0.5, abs=1e-15)

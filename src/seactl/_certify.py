@@ -297,13 +297,20 @@ def _brackets(out, nout, d, a, b, crossing, certified, kind):  # pragma: no cove
     return _append(out, nout, d, kind + TOUCH, near, near)
 
 
+ROW = 8
+"""Columns of a bracket row (:func:`_append`)."""
+
+
 @njit(cache=True)
 def _append(out, nout, d, kind, a, b):  # pragma: no cover - compiled
-    """Bracket row: design, kind, the ends' frequencies and crossing functions."""
+    """Bracket row: design, kind, the ends' frequencies, crossing functions and their
+    derivatives in ``log w``."""
     if nout < out.shape[0]:
         row = out[nout]
         row[0], row[1], row[2], row[3] = d, kind, a[W], b[W]
         row[4], row[5] = _crossing_value(a, kind), _crossing_value(b, kind)
+        g = RE_G if kind % TOUCH == GAIN else IM_G
+        row[6], row[7] = a[W] * a[g], b[W] * b[g]
     return nout + 1
 
 
@@ -335,9 +342,10 @@ def scan(Nc, Nt, Dc, Dt, major, bN, bD, w_lo, per_decade, step, top, stability_o
     """Certify the base-grid intervals of designs ``d0`` to ``d1 - 1`` (design ``d``'s
     points are 0 and :func:`grid_point` from ``w_lo[d]`` to ``top[d]``), bisecting
     depth-first.  Writes ``winding`` and ``uncertain`` per design and the brackets into
-    ``out`` (rows: design, kind, w_lo, w_hi, and the crossing function at both,
-    :func:`_crossing_value`); returns the number of brackets (more than ``len(out)``:
-    call again with room).  Needs ``0 < w_lo < top < inf`` and ``step > 0``.
+    ``out`` (rows: design, kind, w_lo, w_hi, the crossing function at both,
+    :func:`_crossing_value`, and its derivative in ``log w`` at both); returns the
+    number of brackets (more than ``len(out)``: call again with room).  Needs
+    ``0 < w_lo < top < inf`` and ``step > 0``.
     """
     cap = MAX_EVALUATIONS + 2 * MAX_BISECTIONS + 2
     P = np.empty((cap, _F))          # points of the current interval stack
@@ -408,6 +416,39 @@ def _crossing_at(Nc, Nt, Dc, Dt, d, kind, x):  # pragma: no cover - compiled
     return math.atan2(-L.imag, -L.real), w * g.imag
 
 
+@njit(cache=True, error_model="numpy")
+def _hermite_root(xl, xr, fl, fr, dl, dr):  # pragma: no cover - compiled
+    """A start for Newton's method on a bracket whose end values ``fl``, ``fr`` have
+    opposite signs: the root in ``(xl, xr)`` of the cubic matching them and the slopes
+    ``dl``, ``dr`` (Newton's method on the cubic kept inside the bracket by bisection);
+    without finite slopes, the regula falsi point."""
+    h = xr - xl
+    t = fl / (fl - fr)
+    ml, mr = dl * h, dr * h
+    if not (abs(ml) < np.inf and abs(mr) < np.inf):
+        return xl + t * h
+    lo, hi, neg = 0.0, 1.0, fl < 0
+    for _ in range(40):
+        t2 = t * t
+        p = (2 * t2 * t - 3 * t2 + 1) * fl + (t2 * t - 2 * t2 + t) * ml + \
+            (3 * t2 - 2 * t2 * t) * fr + (t2 * t - t2) * mr
+        if p == 0:
+            break
+        if (p < 0) == neg:
+            lo = t
+        else:
+            hi = t
+        dp = (6 * t2 - 6 * t) * (fl - fr) + (3 * t2 - 4 * t + 1) * ml + (3 * t2 - 2 * t) * mr
+        nt = t - p / dp
+        if not lo < nt < hi:  # (NaN too)
+            nt = 0.5 * (lo + hi)
+        if abs(nt - t) < 1e-13:
+            t = nt
+            break
+        t = nt
+    return xl + t * h
+
+
 @njit(cache=True, error_model="numpy", nogil=True)
 def refine(Nc, Nt, Dc, Dt, rows, xatol, xrtol, x):  # pragma: no cover - compiled
     """Solve each bracket of ``rows`` (as :func:`scan` writes them) in ``x = log w`` by
@@ -419,7 +460,7 @@ def refine(Nc, Nt, Dc, Dt, rows, xatol, xrtol, x):  # pragma: no cover - compile
         x[i] = xl if fl == 0 else xr if fr == 0 else np.nan
         if not ((fl < 0) != (fr < 0)) or fl == 0 or fr == 0 or fl != fl or fr != fr:
             continue
-        xi = xl - fl * (xr - xl) / (fr - fl)  # regula falsi to start
+        xi = _hermite_root(xl, xr, fl, fr, rows[i, 6], rows[i, 7])
         for _ in range(200):
             f, df = _crossing_at(Nc, Nt, Dc, Dt, d, kind, xi)
             if f == 0:

@@ -515,8 +515,7 @@ class QuasiPolynomial:
     def __add__(self, other: QuasiPolynomial) -> QuasiPolynomial:
         """The sum (undelayed terms merged into term 0)."""
         n1 = max(self.coeffs.shape[-1], other.coeffs.shape[-1])
-        a, b = (np.pad(q.coeffs, [(0, 0)] * (q.coeffs.ndim - 1)
-                       + [(0, n1 - q.coeffs.shape[-1])]) for q in (self, other))
+        a, b = (pad_powers(q.coeffs, n1) for q in (self, other))
         coeffs = np.concatenate([(a[0] + b[0])[None], a[1:], b[1:]])
         return QuasiPolynomial(coeffs, np.concatenate([self.delays, other.delays[1:]]))
 
@@ -666,9 +665,22 @@ def _polymul(a: np.ndarray, b: np.ndarray) -> np.ndarray:
 
 def _polyadd(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     """Sum of two polynomials with ascending powers on the first axis."""
-    n = max(a.shape[0], b.shape[0])
-    pad = lambda x: np.pad(x, [(0, n - x.shape[0])] + [(0, 0)] * (x.ndim - 1))  # noqa: E731
-    return pad(a) + pad(b)
+    return padded_sum(a, b, axis=0)
+
+
+def pad_powers(x: np.ndarray, n: int, axis: int = -1) -> np.ndarray:
+    """Coefficients ``x`` (ascending powers along ``axis``) with zeros up to length ``n``
+    (a copy; faster than ``np.pad`` on these small arrays)."""
+    axis %= x.ndim
+    out = np.zeros(x.shape[:axis] + (n,) + x.shape[axis + 1:])
+    out[(slice(None),) * axis + (slice(0, x.shape[axis]),)] = x
+    return out
+
+
+def padded_sum(a: np.ndarray, b: np.ndarray, axis: int = -1) -> np.ndarray:
+    """Sum of two coefficient arrays (ascending powers along ``axis``) of different lengths."""
+    n = max(a.shape[axis], b.shape[axis])
+    return pad_powers(a, n, axis) + pad_powers(b, n, axis)
 
 
 @lru_cache(maxsize=64)

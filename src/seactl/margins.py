@@ -33,7 +33,7 @@ import numpy as np
 
 from . import _certify
 from ._parallel import in_threads
-from .blockdiagram import DesignSubset, QuasiPolynomial, Transfer
+from .blockdiagram import DesignSubset, QuasiPolynomial, Transfer, padded_sum
 from .limits import check_budget
 
 LoopFn = Callable[[Any, np.ndarray], np.ndarray]
@@ -403,12 +403,12 @@ def _scan_radius(N: QuasiPolynomial, D: QuasiPolynomial, stability_only: bool,
     nl, dl = _lead(N, n), _lead(D, n)
     aN, aD = N.abs_coeffs, D.abs_coeffs
     # Delta dominates beyond this radius, and a strictly proper L has 20 |N| < |D| there
-    top = cauchy_bound(delta, _padded_sum(aN / _certify.BAND_LO, aD))
+    top = cauchy_bound(delta, padded_sum(aN / _certify.BAND_LO, aD))
     unresolved = np.zeros(n.size, bool)
     i = np.nonzero((nl != 0) & (dl == 0))[0]  # improper: |N| > 20 |D|
     if i.size:
         top[i] = np.maximum(top[i], cauchy_bound(
-            N.take(i), _padded_sum(aN[i], aD[i] / _certify.BAND_LO)))
+            N.take(i), padded_sum(aN[i], aD[i] / _certify.BAND_LO)))
     i = np.nonzero((nl != 0) & (dl != 0))[0]  # biproper: |N - L_inf D| < eps |D|
     if i.size:
         l_inf = nl[i] / dl[i]
@@ -417,7 +417,7 @@ def _scan_radius(N: QuasiPolynomial, D: QuasiPolynomial, stability_only: bool,
                                                          mag - _certify.BAND_HI).clip(0.0))
         eps = np.minimum(0.5 * np.minimum(np.abs(mag - 1.0), off_axis), 1.0)
         safe = np.where(eps > 0, eps, 1.0)[:, None]
-        major = _padded_sum(aN[i] / safe, (mag[:, None] / safe + 1.0) * aD[i])
+        major = padded_sum(aN[i] / safe, (mag[:, None] / safe + 1.0) * aD[i])
         wanted = top.copy()
         wanted[i] = np.maximum(top[i], cauchy_bound(D.take(i), major))
         bad = (eps == 0) | (grid_count(wanted)[i] > MAX_EVALUATIONS)
@@ -478,13 +478,6 @@ def _check_grid_budget(count: np.ndarray, tau_max: np.ndarray, top: np.ndarray) 
                       "(a filter's cut-off) or shorten the delay")
 
 
-def _padded_sum(a: np.ndarray, b: np.ndarray) -> np.ndarray:
-    """Sum of two coefficient arrays (last axis: powers) of different lengths."""
-    m = max(a.shape[-1], b.shape[-1])
-    pad = [(0, 0)] * (a.ndim - 1)
-    return np.pad(a, pad + [(0, m - a.shape[-1])]) + np.pad(b, pad + [(0, m - b.shape[-1])])
-
-
 def _solve_brackets(parts: list, loop_at: Callable[[np.ndarray, np.ndarray], np.ndarray],
                     kind: str) -> tuple[np.ndarray, np.ndarray]:
     """Designs and refined frequencies of the crossings bracketed in ``parts`` (lists of
@@ -519,13 +512,13 @@ class _CertifiedScan:
         self.winding = np.zeros(N.shape[0])
         self.uncertain = np.zeros(N.shape[0], bool)
         self.no_loop = (N.coeffs == 0).all(axis=(0, 2))  # L = 0: no crossing to certify
-        self.rows = np.empty((0, 6))  # brackets (see _certify.scan)
+        self.rows = np.empty((0, _certify.ROW))  # brackets (see _certify.scan)
         self.arrays = (*_compact(N), *_compact(D))
 
     def run(self, w_lo: np.ndarray, step: np.ndarray, top: np.ndarray) -> None:
         """Scan each design's base grid (:func:`_base_grid`)."""
         n = self.winding.size
-        major = _padded_sum(self.N.q.abs_coeffs, self.D.q.abs_coeffs)
+        major = padded_sum(self.N.q.abs_coeffs, self.D.q.abs_coeffs)
         w_lo, step, top = (np.broadcast_to(x, (n,)).astype(float) for x in (w_lo, step, top))
         # (no finite grid: not scanned, and uncertain)
         bad = ~((0 < w_lo) & (w_lo < top) & (top < np.inf) & (step > 0))
@@ -535,13 +528,13 @@ class _CertifiedScan:
                 w_lo, PER_DECADE, step, top, self.stability_only, self.no_loop)
 
         def part(k: slice) -> np.ndarray:
-            out = np.empty((16 * (k.stop - k.start) + 64, 6))  # a few per design; rarely more
+            out = np.empty((16 * (k.stop - k.start) + 64, _certify.ROW))  # a few per design
             while True:
                 self.winding[k], self.uncertain[k] = 0.0, False
                 count = _certify.scan(*args, self.winding, self.uncertain, out, k.start, k.stop)
                 if count <= out.shape[0]:
                     return out[:count]
-                out = np.empty((count, 6))  # more brackets than room: once more with room
+                out = np.empty((count, _certify.ROW))  # more brackets than room: once more
 
         self.rows = np.concatenate(in_threads(part, n, min_per_thread=32))
         self.uncertain |= bad
