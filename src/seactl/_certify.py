@@ -359,7 +359,7 @@ def scan(Nc, Nt, Dc, Dt, major, bN, bD, w_lo, per_decade, step, top, stability_o
         k, base, m, w = 0, 0.0, 0, 0.0
         while w < top[d]:
             w, k, base, m = grid_point(w_lo[d], per_decade, step[d], top[d], k, base, m)
-            # the stack holds points 0..top; the base interval is [point 0, point 1]
+            # the base interval is [point 0, point 1]; its bisection points from row 2 on
             _point(P, 1, w, Nc, Nt, Dc, Dt, major, d)
             stack[0, 0], stack[0, 1], stack[0, 2] = 0, 1, 0
             sp, free = 1, 2
