@@ -548,3 +548,29 @@ def test_the_newton_start_is_the_root_of_the_hermite_cubic():
     assert checked > 300
     x = _hermite_root(0.0, 2.0, -1.0, 3.0, np.nan, np.nan)
     assert x == pytest.approx(0.5, abs=1e-15)
+
+
+def test_a_design_without_a_usable_grid_is_never_stable():
+    """A design whose base grid cannot be made (here a NaN radius) is not reported: it is
+    uncertain, so never stable, and has no crossing, while its twin in the batch is
+    scanned as usual; a frequency scale that is not positive is refused by name.  Oracle:
+    ``L = 2 / (s (s + 1))``, whose gain crossover solves ``w^4 + w^2 = 4`` (1.25 rad/s),
+    and Table I's 12 Hz design (PM 45.1 deg)."""
+    from seactl import margins as M
+    from seactl.blockdiagram import QuasiPolynomial
+    from seactl.errors import InputError
+
+    N = QuasiPolynomial(np.array([[[2.0, 0, 0], [2.0, 0, 0]]]), np.zeros((1, 2)))
+    D = QuasiPolynomial(np.array([[[0.0, 1, 1], [0.0, 1, 1]]]), np.zeros((1, 2)))
+    scan = M._CertifiedScan(N, D, False)
+    w_lo, step, top = M._base_grid(np.full(2, 1.0), np.zeros(2), np.full(2, 100.0))
+    scan.run(w_lo, step, np.array([top[0], np.nan]))
+    assert scan.uncertain.tolist() == [False, True]
+    b, wc = scan.solve("gain")
+    assert b.tolist() == [0] and wc[0] == pytest.approx(np.sqrt((np.sqrt(17) - 1) / 2))
+    loop = outer_loop()
+    assert float(M.certified_margins(loop, sea(12.0), 100.0).phase_margin_deg) == \
+        pytest.approx(45.1, abs=0.1)
+    for w_ref in (0.0, np.nan):
+        with pytest.raises(InputError, match="w_ref"):
+            M.certified_margins(loop, sea(12.0), w_ref)

@@ -33,6 +33,7 @@ import numpy as np
 
 from . import _certify
 from ._parallel import in_threads
+from ._validate import finite_array
 from .blockdiagram import DesignSubset, QuasiPolynomial, Transfer, padded_sum
 from .limits import check_budget
 
@@ -536,7 +537,8 @@ class _CertifiedScan:
                     return out[:count]
                 out = np.empty((count, _certify.ROW))  # more brackets than room: once more
 
-        self.rows = np.concatenate(in_threads(part, n, min_per_thread=32))
+        rows = np.concatenate(in_threads(part, n, min_per_thread=32))
+        self.rows = rows[~bad[rows[:, 0].astype(int)]]  # (a stand-in grid: no crossings)
         self.uncertain |= bad
 
     def loop_at(self, idx: np.ndarray, w: np.ndarray) -> np.ndarray:
@@ -654,7 +656,8 @@ def certified_margins(loop: Transfer, design: Any, w_ref: np.ndarray | float, *,
     delta = N + D
     delta.require_retarded(f"loop of {loop.diagram.name!r} broken at {loop.input!r}")
     tau_max = np.concatenate([N.delays, D.delays]).max(axis=0)
-    w_ref = np.broadcast_to(np.asarray(w_ref, float), shape).reshape(n)
+    w_ref = np.broadcast_to(finite_array("w_ref [rad/s]", w_ref, minimum=0.0, strict=True),
+                            shape).reshape(n)
     top, unresolved = _scan_radius(N, D, stability_only,
                                    lambda top: _base_grid_count(w_ref, tau_max, top))
     _check_grid_budget(_base_grid_count(w_ref, tau_max, top), tau_max, top)
