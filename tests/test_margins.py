@@ -324,7 +324,7 @@ def test_a_phase_tangent_to_minus_180_counts_as_a_crossover(w_ref):
     assert L.imag.min() >= 0 and w[np.argmin(L.imag)] == pytest.approx(1.0, abs=1e-4)
     scan = M._CertifiedScan(N, D, False)
     top = M.cauchy_bound(N + D, M.padded_sum(20 * N.abs_coeffs, D.abs_coeffs))
-    scan.run(*M._base_grid(np.array([w_ref]), np.zeros(1), top))
+    scan.run(np.array([w_ref]), np.zeros(1), top)
     b, w180 = scan.solve("phase")
     assert b.tolist() == [0] and w180[0] == pytest.approx(1.0, rel=1e-12)
     assert scan.loop_at(b, w180)[0] == pytest.approx(-0.5, rel=1e-12)
@@ -359,7 +359,7 @@ def test_compiled_crossing_solver_agrees_with_scipy():
     scan = M._CertifiedScan(N, D, False)
     top = M.cauchy_bound(N + D, M.padded_sum(N.abs_coeffs, D.abs_coeffs))
     tau = np.concatenate([N.delays, D.delays]).max(axis=0)
-    scan.run(*M._base_grid(np.full(300, 100.0), tau, top))
+    scan.run(np.full(300, 100.0), tau, top)
     for kind, code in (("gain", 0), ("phase", 1)):
         rows = scan.rows[scan.rows[:, 1] == code]
         assert len(rows) > 100
@@ -563,8 +563,7 @@ def test_a_design_without_a_usable_grid_is_never_stable():
     N = QuasiPolynomial(np.array([[[2.0, 0, 0], [2.0, 0, 0]]]), np.zeros((1, 2)))
     D = QuasiPolynomial(np.array([[[0.0, 1, 1], [0.0, 1, 1]]]), np.zeros((1, 2)))
     scan = M._CertifiedScan(N, D, False)
-    w_lo, step, top = M._base_grid(np.full(2, 1.0), np.zeros(2), np.full(2, 100.0))
-    scan.run(w_lo, step, np.array([top[0], np.nan]))
+    scan.run(np.full(2, 1.0), np.zeros(2), np.array([100.0, np.nan]))
     assert scan.uncertain.tolist() == [False, True]
     b, wc = scan.solve("gain")
     assert b.tolist() == [0] and wc[0] == pytest.approx(np.sqrt((np.sqrt(17) - 1) / 2))

@@ -632,9 +632,9 @@ class QuasiForm:
                     products[key] = factors[f] if len(key) == 1 else _polymul(poly, factors[f])
                 poly = products[key]
             poly = coef * poly
-            key = tuple(sorted(self.diagram.block(n).delay for n in blocks
-                               if self.diagram.block(n).delay is not None))
-            groups[key] = poly if key not in groups else _polyadd(groups[key], poly)
+            delays = tuple(sorted(self.diagram.block(n).delay for n in blocks
+                                  if self.diagram.block(n).delay is not None))
+            groups[delays] = poly if delays not in groups else _polyadd(groups[delays], poly)
         keys = sorted(groups, key=lambda k: (len(k), k))
         if not keys or keys[0] != ():
             keys.insert(0, ())

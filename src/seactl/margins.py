@@ -516,11 +516,14 @@ class _CertifiedScan:
         self.rows = np.empty((0, _certify.ROW))  # brackets (see _certify.scan)
         self.arrays = (*_compact(N), *_compact(D))
 
-    def run(self, w_lo: np.ndarray, step: np.ndarray, top: np.ndarray) -> None:
-        """Scan each design's base grid (:func:`_base_grid`)."""
+    def run(self, w_ref: np.ndarray, tau_max: np.ndarray, top: np.ndarray) -> None:
+        """Scan each design's base grid (:func:`_base_grid`) up to ``top``; refused up
+        front beyond the time budget (:func:`_check_grid_budget`)."""
+        _check_grid_budget(_base_grid_count(w_ref, tau_max, top), tau_max, top)
         n = self.winding.size
         major = padded_sum(self.N.q.abs_coeffs, self.D.q.abs_coeffs)
-        w_lo, step, top = (np.broadcast_to(x, (n,)).astype(float) for x in (w_lo, step, top))
+        w_lo, step, top = (np.broadcast_to(x, (n,)).astype(float)
+                           for x in _base_grid(w_ref, tau_max, top))
         # (no finite grid: not scanned, and uncertain)
         bad = ~((0 < w_lo) & (w_lo < top) & (top < np.inf) & (step > 0))
         w_lo[bad], step[bad], top[bad] = 1.0, np.inf, 10.0
@@ -660,9 +663,8 @@ def certified_margins(loop: Transfer, design: Any, w_ref: np.ndarray | float, *,
                             shape).reshape(n)
     top, unresolved = _scan_radius(N, D, stability_only,
                                    lambda top: _base_grid_count(w_ref, tau_max, top))
-    _check_grid_budget(_base_grid_count(w_ref, tau_max, top), tau_max, top)
     scan = _CertifiedScan(N, D, stability_only)
-    scan.run(*_base_grid(w_ref, tau_max, top))
+    scan.run(w_ref, tau_max, top)
     Z, uncertain = _stepan_count(delta, top, scan.winding)
     Z = np.maximum(Z, 1 * (uncertain & (Z == 0)))
     stable = (Z == 0) & ~uncertain & ~scan.uncertain & ~unresolved
@@ -801,8 +803,7 @@ def count_right_roots(q: QuasiPolynomial, w_ref: np.ndarray) -> tuple[np.ndarray
     and whether the count is certain (``False`` when a root lies on the axis)."""
     zero = QuasiPolynomial(np.zeros_like(q.coeffs[:1]), np.zeros_like(q.delays[:1]))
     scan = _CertifiedScan(q, zero, stability_only=True)
-    w_ref, tau, top = np.asarray(w_ref, float), q.delays.max(axis=0), cauchy_bound(q)
-    _check_grid_budget(_base_grid_count(w_ref, tau, top), tau, top)
-    scan.run(*_base_grid(w_ref, tau, top))
+    top = cauchy_bound(q)
+    scan.run(np.asarray(w_ref, float), q.delays.max(axis=0), top)
     Z, odd = _stepan_count(q, top, scan.winding)
     return Z, ~odd & ~scan.uncertain
