@@ -6,7 +6,13 @@ import numpy as np
 import sympy as sp
 
 from seactl import blockdiagram as bd
-from seactl.blockdiagram import Block, BlockDiagram
+from seactl.blockdiagram import (
+    EVAL_ROUNDING,
+    Block,
+    BlockDiagram,
+    QuasiPolynomial,
+    rounding_majorant,
+)
 
 
 def feedback_diagram():
@@ -61,3 +67,28 @@ def test_cache_off(tmp_path, monkeypatch):
     bd._symbolic(feedback_diagram(), "y", "r", (), None)
     bd._symbolic.cache_clear()
     assert not list(tmp_path.iterdir())
+
+
+def test_rounding_majorant_covers_the_phase_error_of_long_delays():
+    # Oracle: mpmath at 50 digits on the same quasi-polynomial at the same (double) w. At
+    # w tau ~ 3e4 the rounding of the phase w tau alone exceeds EVAL_ROUNDING times the
+    # coefficient majorant; rounding_majorant's phase term covers it.
+    import mpmath
+
+    rng = np.random.default_rng(0)
+    coeffs = rng.normal(size=(3, 1, 4))
+    delays = np.array([[0.0], [0.03], [0.0123]])
+    q = QuasiPolynomial(coeffs, delays)
+    w = np.logspace(0, 6, 200)
+    val = q(1j * w[None, :])[0]
+    mpmath.mp.dps = 50
+    exact = [sum(mpmath.polyval([mpmath.mpf(c) for c in coeffs[k, 0, ::-1]], 1j * mpmath.mpf(x))
+                 * mpmath.exp(-1j * mpmath.mpf(x) * mpmath.mpf(delays[k, 0])) for k in range(3))
+             for x in w]
+    err = np.array([float(abs(mpmath.mpc(complex(v)) - e)) for v, e in zip(val, exact)])
+
+    def at(c):
+        return np.polynomial.polynomial.polyval(w, c[0])
+
+    assert np.all(err <= EVAL_ROUNDING * at(rounding_majorant(q.abs_coeffs, delays.max(axis=0))))
+    assert np.any(err > EVAL_ROUNDING * at(q.abs_coeffs))

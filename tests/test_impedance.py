@@ -2,12 +2,15 @@
 equations, the paper's printed coefficients, asymptotes, passivity, Z-region, CLI."""
 
 import json
+from dataclasses import replace
 from types import SimpleNamespace
 
 import numpy as np
 import pytest
 
+from seactl._realpart import certify_positive
 from seactl.actuators import UT_SEA
+from seactl.blockdiagram import QuasiPolynomial
 from seactl.cli import main
 from seactl.design import critically_damped_gains
 from seactl.errors import InfeasibleDesignError, InputError
@@ -385,3 +388,103 @@ def test_cli_zregion(tmp_path, capsys):
     assert (tmp_path / "zr.svg").read_text().lstrip().startswith("<?xml")
     assert main(["zregion", "--fn", "12", "--min-pm", "89"]) == 2
     assert "no admissible design" in capsys.readouterr().err
+
+
+# A design at the edge of passivity (found by bisecting a delay scale between a passive
+# and a non-passive design): its only band, 0.03 Hz wide at 120 Hz, falls between two
+# points of the 400-per-decade scan.
+EDGE = dict(fn=32.627, gs=2.638, zeta1=1.226, f_qd=7.591, f_taud=181.577,
+            T_ms=(0.04807951841391078, 0.22716416692918664, 0.005200909443812464))
+
+
+def edge_design(scale=1.0):
+    t = np.array(EDGE["T_ms"]) * scale
+    g = critically_damped_gains(A, EDGE["fn"], gs=EDGE["gs"], zeta1=EDGE["zeta1"])
+    return SEADesign(A, g, Timing.from_ms(*t, EDGE["f_qd"], EDGE["f_taud"]))
+
+
+def dense_bands(d, lo, hi, n=400_001):
+    """Oracle: where ``Re Z < -1e-9 |Z|`` (passivity's criterion) starts or ends on a
+    uniform grid of n points."""
+    f = np.linspace(lo, hi, n)
+    z = impedance(d, f).z
+    neg = z.real < -1e-9 * np.abs(z)
+    return f[1:][neg[1:] != neg[:-1]]
+
+
+def test_passivity_finds_a_band_between_the_scan_points():
+    # Oracle: a brute-force scan of Re Z on 400,001 points from 119 to 121 Hz; the band
+    # lies between two points of the scan's own grid (so the scan alone says "passive").
+    d = edge_design()
+    edges = dense_bands(d, 119.0, 121.0)
+    assert edges.size == 2 and edges[1] - edges[0] < 0.05
+    grid = np.logspace(-2, 3, 5 * 400 + 1)
+    assert not ((grid > edges[0]) & (grid < edges[1])).any()
+    p = passivity(d, (0.01, 1e3))
+    assert not p.passive and p.proven
+    np.testing.assert_allclose(p.bands_hz[()].ravel(), edges, rtol=1e-7)
+
+
+@pytest.mark.parametrize("scale", [0.999, 0.99, 0.9])
+def test_passivity_proof_just_short_of_the_edge(scale):
+    # Oracle: the same brute-force scan finds Re Z > 0 everywhere around 120 Hz (its
+    # minimum) and a 20,000-per-decade scan of the whole range finds no Re Z < 0.
+    d = edge_design(scale)
+    p = passivity(d, (0.01, 1e3))
+    assert p.passive and p.proven
+    assert dense_bands(d, 119.0, 121.0).size == 0
+    f = np.logspace(-2, 3, 100_001)
+    assert impedance(d, f).z.real.min() > 0
+
+
+def test_passivity_of_a_lossless_design_is_not_proven(capsys):
+    # Oracle: with no damping anywhere (b_m = 0, B_q = B_tau = 0, no delays) Re Z = 0 at
+    # every frequency, which no bound can tell from a dip below 0: "not proven", and not
+    # passive (the scan's tolerance alone once called it passive).
+    d = SEADesign(replace(A, motor_damping=0.0), Gains(300.0, 0.0, 2.0, 0.0), Timing())
+    z = impedance(d, np.logspace(-1, 2, 31)).z
+    assert np.all(np.abs(z.real) <= 1e-12 * np.abs(z))
+    p = passivity(d, (0.1, 100.0))
+    assert not p.passive and not p.proven and p.bands_hz[()].size == 0
+    # a damped design's proof: passive, proven
+    q = passivity(design(30.0), (0.1, 100.0))
+    assert q.passive and q.proven
+
+
+@pytest.mark.parametrize("c, passive, proven", [(1 + 1e-6, True, True),
+                                                (1 - 1e-8, False, True),
+                                                (1.0, False, False)])
+def test_certify_positive_on_a_cosine(c, passive, proven):
+    # Oracle: Z = N / (jw D) with N = s (c + e^{-s tau}), D = 1 has Re Z = c + cos(w tau):
+    # a dip to c - 1 at w tau = pi (1e-6 above 0, 1e-8 below it over 2.8e-4 rad, or
+    # touching 0), between two points of a 5-point grid.
+    tau = 0.01
+    N = QuasiPolynomial(np.array([[[0.0, c]], [[0.0, 1.0]]]), np.array([[0.0], [tau]]))
+    D = QuasiPolynomial(np.array([[[1.0, 0.0]]]), np.array([[0.0]]))
+    w = np.array([1.0, 50.0, 290.0, 330.0, 400.0])
+    ok, found = certify_positive(N, D, np.zeros(1), w, 1e-9)
+    assert ok[0] == passive
+    assert (~np.isnan(found)).any() == (proven and not passive)
+    if not passive and proven:
+        k = np.nonzero(~np.isnan(found[0]))[0]
+        assert k.tolist() == [2]  # between 290 and 330 rad/s
+        assert abs(found[0, 2] * tau - np.pi) < 2e-4
+        assert c + np.cos(found[0, 2] * tau) < 0
+
+
+@pytest.mark.parametrize("scale", [1.0, 0.99])
+def test_cli_impedance_passivity_at_the_edge(scale, capsys):
+    # Oracle: the library's passivity() of the same design (tested above against a
+    # brute-force scan): a band 0.03 Hz wide found, or passive and proven.
+    t = [repr(float(x) * scale) for x in EDGE["T_ms"]]
+    rc = main(["impedance", "--fn", repr(EDGE["fn"]), "--gs", repr(EDGE["gs"]),
+               "--zeta1", repr(EDGE["zeta1"]), "--t-tau", t[0], "--t-qs", t[1],
+               "--t-qd", t[2], "--f-qd", repr(EDGE["f_qd"]),
+               "--f-taud", repr(EDGE["f_taud"]), "--freq", "0.01:1000:3", "--json"])
+    assert rc == 0
+    out = json.loads(capsys.readouterr().out)
+    p = passivity(edge_design(scale), (0.01, 1000.0))
+    assert out["passive"] is bool(p.passive) is (scale < 1)
+    assert out["passivity_proven"] is True
+    np.testing.assert_allclose(np.reshape(out["non_passive_bands_hz"], (-1, 2)),
+                               p.bands_hz[()], rtol=1e-12)

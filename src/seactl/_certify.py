@@ -15,12 +15,14 @@ import math
 import numpy as np
 from numba import njit
 
+from .blockdiagram import EVAL_ROUNDING
+
 # Limits (documented in seactl.margins, which re-exports them).
 MAX_BISECTIONS = 48
 MAX_EVALUATIONS = 1 << 16
-ROUNDING = 1e-13
-"""Evaluation error of ``Q(jw)``, relative to ``sum_kj |c_kj| w^j`` (Horner and the
-exponential in double precision: a few dozen ulps, with room)."""
+ROUNDING = EVAL_ROUNDING
+"""Evaluation error of ``Q(jw)`` relative to :func:`seactl.blockdiagram.rounding_majorant`
+(the scan's ``major``)."""
 BAND_LO, BAND_HI = 0.05, 20.0
 LOG_BAND_LO, LOG_BAND_HI = math.log(BAND_LO), math.log(BAND_HI)
 

@@ -547,6 +547,21 @@ class QuasiPolynomial:
         """``sum_k |c_kj|`` per design and power (for modulus bounds)."""
         return np.abs(self.coeffs).sum(axis=0)
 
+    @cached_property
+    def bound3_coeffs(self) -> np.ndarray:
+        """Per design and power of ``w`` (ascending), the coefficients of a bound of
+        ``|d^3 Q(jw)/dw^3|`` that increases with ``w >= 0``:
+        ``sum_kj |c_kj| |d^3/dw^3 (w^j e^{-j w tau_k})|`` majorized term by term (product
+        rule with ``|e^{-j w tau}| = 1``)."""
+        A = np.abs(self.coeffs)
+        tau = self.delays[..., None]
+        j = np.arange(A.shape[-1])
+        c = (A * tau**3).sum(axis=0)  # sum_i C(3, i) |(w^j)^(i)| tau^(3 - i)
+        c[..., :-1] += 3 * ((A * tau**2).sum(axis=0) * j)[..., 1:]
+        c[..., :-2] += 3 * ((A * tau).sum(axis=0) * j * (j - 1))[..., 2:]
+        c[..., :-3] += (A.sum(axis=0) * j * (j - 1) * (j - 2))[..., 3:]
+        return c
+
 
 _DELAY_SEP = "+"
 
@@ -675,6 +690,24 @@ def pad_powers(x: np.ndarray, n: int, axis: int = -1) -> np.ndarray:
     out = np.zeros(x.shape[:axis] + (n,) + x.shape[axis + 1:])
     out[(slice(None),) * axis + (slice(0, x.shape[axis]),)] = x
     return out
+
+
+EVAL_ROUNDING = 1e-13
+"""Error of ``Q(jw)`` evaluated in double precision (Horner, the exponential), relative
+to ``sum_kj |c_kj| w^j``: a few dozen ulps, with room (:func:`rounding_majorant` adds
+that of the phase ``w tau``)."""
+_PHASE_ULP = 1.2e-16  # half an ulp, relative: the error of fl(w tau)
+
+
+def rounding_majorant(abs_coeffs: np.ndarray, tau_max: np.ndarray) -> np.ndarray:
+    """Coefficients (ascending powers of ``w``, per design) of ``m(w)`` with
+    ``|fl(Q(jw)) - Q(jw)| <= EVAL_ROUNDING m(w)`` for a quasi-polynomial with
+    ``abs_coeffs`` (``sum_k |c_kj|``) and delays up to ``tau_max``: each term's
+    exponential is off by at most the rounding of its phase ``w tau``, which grows with
+    ``w``, so ``m = (1 + w tau_max _PHASE_ULP / EVAL_ROUNDING) sum_kj |c_kj| w^j``."""
+    a = np.asarray(abs_coeffs, float)
+    c = np.asarray(tau_max, float)[..., None] * (_PHASE_ULP / EVAL_ROUNDING)
+    return padded_sum(a, np.concatenate([np.zeros(a.shape[:-1] + (1,)), c * a], axis=-1))
 
 
 def padded_sum(a: np.ndarray, b: np.ndarray, axis: int = -1) -> np.ndarray:

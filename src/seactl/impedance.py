@@ -40,7 +40,7 @@ from typing import Any
 
 import numpy as np
 
-from .blockdiagram import DesignSubset, Transfer
+from .blockdiagram import Block, BlockDiagram, DesignSubset, QuasiForm, Transfer
 from .errors import InfeasibleDesignError, InputError
 
 MODELS = ("block-diagram", "paper")
@@ -55,6 +55,18 @@ def impedance_transfer() -> Transfer:
     from .loops import SEA_DIAGRAM
 
     return SEA_DIAGRAM.transfer("tau_k", "q_j", cut=("q_j",))
+
+
+@cache
+def _impedance_forms() -> tuple[QuasiForm, QuasiForm]:
+    """``(N, D)`` with ``Z = N / (s D)`` (no load): the diagram with ``q_j`` imposed by a
+    unit block from ``tau_k`` in place of the load, broken at ``q_j``, has the loop
+    ``N / D = -tau_k / q_j`` (:meth:`~seactl.blockdiagram.BlockDiagram.return_difference`)."""
+    from .loops import SEA_DIAGRAM
+
+    blocks = [b for b in SEA_DIAGRAM.blocks if b.dst != "q_j"]
+    imposed = Block("imposed_q_j", "tau_k", "q_j", role="plant")
+    return BlockDiagram("sea-q_j-imposed", [*blocks, imposed]).return_difference("q_j")
 
 
 @cache
@@ -403,9 +415,14 @@ class Passivity:
     ----------
     model : model used.
     f_range_hz : (lo, hi) scanned range [Hz]; nothing is claimed outside it.
-    passive : bool array (batch shape): no non-passive band in the range.
+    passive : bool array (batch shape): ``Re Z > 0`` on the whole range, proven
+        (block-diagram model; the paper model's is the scan's).
     bands_hz : object array (batch shape) of ``(n, 2)`` float arrays ``[lo, hi]`` [Hz].
     points_per_decade : scan density; edges are then solved exactly (root finding).
+    proven : bool array (batch shape): the verdict is proven, "not passive" by a
+        frequency with ``Re Z < 0``, "passive" by the certificate.  False where neither
+        could be shown (``Re Z`` touching 0, the paper model's "passive"): such a design
+        is not ``passive``, and its ``bands_hz`` may be empty.
     """
 
     model: str
@@ -414,6 +431,11 @@ class Passivity:
     bands_hz: np.ndarray
     points_per_decade: int
     load: bool
+    proven: np.ndarray
+
+
+CERTIFY_EVERY = 16
+"""The passivity certificate starts from every this many points of the scan's grid."""
 
 
 def passivity(design: Any, f_range_hz: tuple[float, float] = (0.01, 1e4), *,
@@ -424,9 +446,13 @@ def passivity(design: Any, f_range_hz: tuple[float, float] = (0.01, 1e4), *,
 
     ``Re Z`` is scanned on a log grid; every sign change is then solved on the exact
     function (``scipy.optimize.elementwise.find_root`` in log frequency), so band edges
-    are exact to ~1e-10 relative.  Bands narrower than the grid spacing can be missed.
-    With delays and no filter ``Re Z`` changes sign forever as ``w`` grows (the twist
-    around ``k/s``), so the answer depends on the range; it is always stated.
+    are exact to ~1e-10 relative.  Where the scan finds no band, ``Re Z > 0`` is then
+    proven between its points (:mod:`seactl._realpart`: bounds of the quasi-polynomials'
+    derivatives, bisection), and a band narrower than the spacing is found there if it
+    exists; a design for which neither can be shown (``Re Z`` touching 0) is
+    "not proven" and not passive.  With delays and no filter ``Re Z`` changes sign
+    forever as ``w`` grows (the twist around ``k/s``), so the answer depends on the
+    range; it is always stated.
 
     Examples
     --------
@@ -459,27 +485,50 @@ def passivity(design: Any, f_range_hz: tuple[float, float] = (0.01, 1e4), *,
         return zz.real / np.abs(zz) + tol
 
     di, fi = np.nonzero(neg[:, 1:] != neg[:, :-1])
+    # brackets of band edges: (design, lo, hi [Hz], whether a band starts there)
+    bd, blo, bhi, bstart = di, f[fi], f[fi + 1], ~neg[di, fi]
+    passive = ~neg.any(axis=1)
+    proven = ~passive  # (a band is proven by its points)
+    if model == "block-diagram" and passive.any():
+        i = np.nonzero(passive)[0]
+        fc = f[np.unique(np.r_[0:npts:CERTIFY_EVERY, npts - 1])]  # (it bisects as needed)
+        ok, found = _prove_passive(DesignSubset(p, i, shape), 2 * np.pi * fc, load, tol)
+        passive[i], proven[i] = ok, ok | ~np.isnan(found).all(axis=1)
+        # a band between grid points k and k + 1: edges on each side of the point found
+        j, k = np.nonzero(~np.isnan(found))
+        w = found[j, k] / (2 * np.pi)
+        bd, blo, bhi = (np.concatenate(x) for x in ((bd, i[j], i[j]), (blo, fc[k], w),
+                                                    (bhi, w, fc[k + 1])))
+        bstart = np.concatenate([bstart, np.ones(j.size, bool), np.zeros(j.size, bool)])
     edges = np.empty(0)
-    if di.size:
-        res = elementwise.find_root(g, (np.log(f[fi]), np.log(f[fi + 1])),
-                                    args=(di.astype(float),),
+    if bd.size:
+        res = elementwise.find_root(g, (np.log(blo), np.log(bhi)), args=(bd.astype(float),),
                                     tolerances={"xatol": 1e-12, "xrtol": 1e-12})
-        edges = np.where(res.success, np.exp(res.x), np.sqrt(f[fi] * f[fi + 1]))
+        edges = np.where(res.success, np.exp(res.x), np.sqrt(blo * bhi))
     bands = np.empty(n, object)
-    passive = np.ones(n, bool)
     for i in range(n):  # assembling per-design band lists (not a hot loop: edges are few)
-        e = edges[di == i]
-        starts = list(e[~neg[i, fi[di == i]]])  # passive -> non-passive
-        ends = list(e[neg[i, fi[di == i]]])
+        mine = bd == i
+        starts, ends = list(edges[mine & bstart]), list(edges[mine & ~bstart])
         if neg[i, 0]:
             starts.insert(0, lo)
         if neg[i, -1]:
             ends.append(hi)
-        b = np.array(sorted(zip(sorted(starts), sorted(ends))), float).reshape(-1, 2)
-        bands[i] = b
-        passive[i] = b.shape[0] == 0
+        bands[i] = np.array(sorted(zip(sorted(starts), sorted(ends))), float).reshape(-1, 2)
     return Passivity(model, (lo, hi), passive.reshape(shape), bands.reshape(shape),
-                     int(points_per_decade), bool(load))
+                     int(points_per_decade), bool(load), proven.reshape(shape))
+
+
+def _prove_passive(p: Any, w: np.ndarray, load: bool, tol: float
+                   ) -> tuple[np.ndarray, np.ndarray]:
+    """:func:`seactl._realpart.certify_positive` for the block-diagram ``Z`` of the
+    designs ``p`` between the points ``w`` [rad/s]."""
+    from ._realpart import certify_positive
+
+    N, D = (q.evaluate(p).flat() for q in _impedance_forms())
+    n = N.shape[0]
+    b = np.broadcast_to(np.asarray(p.bj_load, float), p.shape).reshape(n) if load \
+        else np.zeros(n)
+    return certify_positive(N, D, b, w, tol)
 
 
 def scan_range(f_hz: np.ndarray) -> tuple[float, float]:

@@ -34,7 +34,7 @@ import numpy as np
 from . import _certify
 from ._parallel import in_threads
 from ._validate import finite_array
-from .blockdiagram import DesignSubset, QuasiPolynomial, Transfer, padded_sum
+from .blockdiagram import DesignSubset, QuasiPolynomial, Transfer, padded_sum, rounding_majorant
 from .limits import check_budget
 
 LoopFn = Callable[[Any, np.ndarray], np.ndarray]
@@ -336,23 +336,6 @@ MAX_EVALUATIONS = _certify.MAX_EVALUATIONS
 has is kept; a design whose count or crossings are then not certified is uncertain, never
 stable)."""
 
-class _Bounded:
-    """A flat quasi-polynomial ``Q`` with ``|d^3 Q(jw)/dw^3| <= bound3(w)`` on ``[0, w]``:
-    ``sum_kj |c_kj| |d^3/dw^3 (w^j e^{-j w tau_k})|`` majorized term by term (product
-    rule with ``|e^{-j w tau}| = 1``; increasing in ``w``)."""
-
-    def __init__(self, q: QuasiPolynomial):
-        self.q = q
-        A = np.abs(q.coeffs)
-        tau = q.delays[..., None]
-        j = np.arange(A.shape[-1])
-        c = (A * tau**3).sum(axis=0)  # sum_i C(3, i) |(w^j)^(i)| tau^(3 - i)
-        c[:, :-1] += 3 * ((A * tau**2).sum(axis=0) * j)[:, 1:]
-        c[:, :-2] += 3 * ((A * tau).sum(axis=0) * j * (j - 1))[:, 2:]
-        c[:, :-3] += (A.sum(axis=0) * j * (j - 1) * (j - 2))[:, 3:]
-        self.bound3_coeffs = c
-
-
 def cauchy_bound(q: QuasiPolynomial, majorant: np.ndarray | None = None) -> np.ndarray:
     """Per design of a flat retarded quasi-polynomial, an ``R`` with
     ``|a_n| w^n > sum_{j<n} (sum_k |c_kj|) w^j`` for every ``w > R``: beyond it the
@@ -508,7 +491,7 @@ class _CertifiedScan:
     see :func:`certified_margins`); keeps the winding of ``Delta`` and the brackets."""
 
     def __init__(self, N: QuasiPolynomial, D: QuasiPolynomial, stability_only: bool):
-        self.N, self.D = _Bounded(N), _Bounded(D)
+        self.N, self.D = N, D
         self.stability_only = stability_only
         self.winding = np.zeros(N.shape[0])
         self.uncertain = np.zeros(N.shape[0], bool)
@@ -521,7 +504,7 @@ class _CertifiedScan:
         front beyond the time budget (:func:`_check_grid_budget`)."""
         _check_grid_budget(_base_grid_count(w_ref, tau_max, top), tau_max, top)
         n = self.winding.size
-        major = padded_sum(self.N.q.abs_coeffs, self.D.q.abs_coeffs)
+        major = rounding_majorant(padded_sum(self.N.abs_coeffs, self.D.abs_coeffs), tau_max)
         w_lo, step, top = (np.broadcast_to(x, (n,)).astype(float)
                            for x in _base_grid(w_ref, tau_max, top))
         # (no finite grid: not scanned, and uncertain)

@@ -102,7 +102,8 @@ def impedance(spec: DesignSpec, freq: tuple[str, ...], model: str, load: bool, u
 
     Reports the low-frequency virtual stiffness, the high-frequency asymptote, stability
     and the bands where Re Z < 0 (non-passive: the actuator can inject energy into its
-    environment), scanned densely over the --freq range with exact band edges.
+    environment), scanned densely over the --freq range with exact band edges; "passive"
+    is proven between the scan's points ("not proven" where Re Z touches 0).
 
     \b
     Example:
@@ -164,6 +165,7 @@ def _impedance(spec: DesignSpec, f: np.ndarray, model: str, load: bool, units: s
                 "magnitude_db": [finite_or_none(x) for x in resp.magnitude_db[idx]],
                 "phase_deg": [finite_or_none(x) for x in resp.phase_deg[idx]],
                 "passive": bool(pas.passive[idx]),
+                "passivity_proven": bool(pas.proven[idx]),
                 "non_passive_bands_hz": [[float(a), float(b)] for a, b in bands],
                 "passivity_range_hz": list(pas.f_range_hz),
             })
@@ -213,7 +215,8 @@ def _print_impedance(spec: DesignSpec, out: list[dict[str, Any]], f: np.ndarray,
         t.add_row(f"{r['fn_hz']:g}", f"{r['gs']:g}", f"{r['low_frequency_stiffness']:.4g}",
                   r["high_frequency_case"], f"{db[kmax]:.2f}", f"{f[kmax]:.4g}",
                   "yes" if r["stable"] else "[red]NO[/red]",
-                  "yes" if r["passive"] else "[yellow]no[/yellow]", btxt or "none")
+                  "yes" if r["passive"] else "[yellow]no[/yellow]" if r["passivity_proven"]
+                  else "[yellow]not proven[/yellow]", btxt or "none")
     console.print(t)
     console.print(f"|Z| in dB re 1 {unit}; the impedance of an unstable design is not "
                   "physically meaningful." if not all(r["stable"] for r in out) else
