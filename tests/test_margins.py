@@ -573,3 +573,23 @@ def test_a_design_without_a_usable_grid_is_never_stable():
     for w_ref in (0.0, np.nan):
         with pytest.raises(InputError, match="w_ref"):
             M.certified_margins(loop, sea(12.0), w_ref)
+
+
+def test_closed_loop_right_roots_equal_the_nyquist_count():
+    # Oracle: two derivations of the same count on 600 broad SEA designs (most of them
+    # unstable): Nyquist on the outer loop plus the inner loop's own right-half-plane
+    # roots (sea_margins), and the whole diagram's characteristic quasi-polynomial.
+    from seactl.loops import SEA_DIAGRAM
+    from seactl.margins import closed_loop_right_roots
+    from seactl.sea import sea_reference_frequency
+
+    rng = np.random.default_rng(4)
+    n = 600
+    t = Timing.from_ms(rng.uniform(0, 3, n), rng.uniform(0, 25, n), rng.uniform(0, 8, n),
+                       rng.uniform(10, 300, n), rng.uniform(10, 400, n))
+    d = SEADesign(UT_SEA, critically_damped_gains(UT_SEA, rng.uniform(13, 60, n),
+                                                  gs=rng.uniform(0.3, 3, n)), t)
+    z = closed_loop_right_roots(SEA_DIAGRAM, d, sea_reference_frequency(d))
+    m = sea_margins(d)
+    assert np.all(z >= 0) and 100 < int((z > 0).sum()) < n
+    np.testing.assert_array_equal(z, m.unstable_poles)

@@ -422,3 +422,24 @@ def test_a_batch_split_over_threads_is_the_one_thread_result(monkeypatch):
     np.testing.assert_array_equal(parts.outputs["q_j"], one.outputs["q_j"])
     np.testing.assert_array_equal(parts.left_bounds_s, one.left_bounds_s)
     np.testing.assert_array_equal(parts.stable, one.stable)
+
+
+@pytest.mark.parametrize("mode", ["continuous", "sampled"])
+def test_a_simulation_larger_than_the_machine_is_refused_up_front(mode, monkeypatch):
+    # Oracle: limits.simulation_estimate against a machine given 1 GiB: 400 designs over
+    # 0.5 s at a 0.01 ms step (or a 100 kHz servo rate) need about 4 GB, so the library
+    # call (not only the command line) is refused before it allocates, naming the step.
+    import time
+
+    from seactl import limits
+    from seactl.errors import ResourceError
+
+    monkeypatch.setattr(limits, "available_memory_bytes", lambda: 2.0**30)
+    n = 400
+    d = SEADesign(UT_SEA, critically_damped_gains(UT_SEA, np.linspace(15, 40, n)),
+                  Timing.from_ms(0.5, 2.0, 0.01))
+    start = time.perf_counter()
+    with pytest.raises(ResourceError, match="simulating 400 design") as err:
+        sea_step(d, t_end_s=0.5, mode=mode, rate_hz=1e5)
+    assert time.perf_counter() - start < 5.0
+    assert "50,000 steps" in str(err.value)

@@ -102,3 +102,37 @@ def test_synthetic_signals():
     assert v.growth_rate_per_s[0] == pytest.approx(1.5, rel=0.05)
     assert v.oscillation_hz[1] == pytest.approx(7, rel=0.02)
     assert v.growth_rate_per_s[1] == pytest.approx(0, abs=0.1)
+
+
+# 0.008 ms past the stability boundary in T_qs (10.5217 ms at f_n = 30 Hz with T_tau = T_qd
+# = 0.5 ms and 50/100 Hz filters): the unstable pair grows at about 0.03 /s, which a 0.5 s
+# step cannot show.
+SLOW = ["--fn", "30", "--t-tau", "0.5", "--t-qs", "10.53", "--t-qd", "0.5", "--f-qd", "50",
+        "--f-taud", "100"]
+
+
+def test_a_slowly_unstable_design_is_called_unstable(capsys):
+    # Oracle: the rightmost roots (Chebyshev collocation + Newton, seactl roots): one pair
+    # with 0 < Re s < 0.1 /s. The simulated window alone calls the response "not settled".
+    assert main(["roots", *SLOW, "--count", "2", "--json"]) == 0
+    r = json.loads(capsys.readouterr().out)["designs"][0]
+    assert 0 < r["spectral_abscissa"] < 0.1
+    assert main(["step", *SLOW, "--json"]) == 0
+    out = json.loads(capsys.readouterr().out)
+    assert out["verdict"] == "unstable" and out["stable"] is False
+    assert out["evidence"]["right_half_plane_roots"] == 2
+    assert out["evidence"]["growth_rate_per_s"] < np.log(2) / 0.25  # no growth to see
+    assert any("2 closed-loop root(s) in the right half-plane" in w for w in out["warnings"])
+    # the sampled controller is another system: no certified count, the window's verdict
+    assert main(["step", *SLOW, "--mode", "sampled", "--json"]) == 0
+    assert json.loads(capsys.readouterr().out)["evidence"]["right_half_plane_roots"] is None
+
+
+def test_judge_takes_a_certified_root_count():
+    # Oracle: by construction, a response settled to 1e-9 judged with counts 0, 2, unknown.
+    t = np.linspace(0.0, 1.0, 2001)
+    y = np.tile(1 - np.exp(-20 * t), (3, 1))
+    v = judge(t, y, target=1.0, scale=1.0, band=0.02, right_half_plane_roots=[0, 2, -1])
+    assert v.verdict == ["settled", "unstable", "settled"]
+    assert [v.evidence(k)["right_half_plane_roots"] for k in range(3)] == [0, 2, None]
+    assert v.warnings[1][0].startswith("unstable: 2 closed-loop root(s)")

@@ -34,7 +34,14 @@ import numpy as np
 from . import _certify
 from ._parallel import in_threads
 from ._validate import finite_array
-from .blockdiagram import DesignSubset, QuasiPolynomial, Transfer, padded_sum, rounding_majorant
+from .blockdiagram import (
+    BlockDiagram,
+    DesignSubset,
+    QuasiPolynomial,
+    Transfer,
+    padded_sum,
+    rounding_majorant,
+)
 from .limits import check_budget
 
 LoopFn = Callable[[Any, np.ndarray], np.ndarray]
@@ -790,3 +797,33 @@ def count_right_roots(q: QuasiPolynomial, w_ref: np.ndarray) -> tuple[np.ndarray
     scan.run(np.asarray(w_ref, float), q.delays.max(axis=0), top)
     Z, odd = _stepan_count(q, top, scan.winding)
     return Z, ~odd & ~scan.uncertain
+
+
+def closed_loop_right_roots(diagram: BlockDiagram, design: Any, w_ref: Any) -> np.ndarray:
+    """Closed-loop roots with ``Re s > 0`` of a whole block diagram, per design (batch
+    shape): :func:`count_right_roots` on its characteristic quasi-polynomial
+    (:meth:`~seactl.blockdiagram.BlockDiagram.characteristic`), ``w_ref`` [rad/s] its
+    frequency scale; -1 where no count can be certified (a root on the imaginary axis, a
+    neutral delay equation).
+
+    Examples
+    --------
+    ``y' = -a y(t - T)`` closed around an integrator is stable while ``a T < pi/2``:
+
+    >>> import numpy as np
+    >>> from types import SimpleNamespace
+    >>> from seactl.blockdiagram import Block, BlockDiagram
+    >>> g = BlockDiagram("lag", [Block("int", "u", "y", den=lambda p: (1.0, 0.0)),
+    ...                          Block("fb", "y", "u", num=lambda p: (-p.a,), delay="T")])
+    >>> p = SimpleNamespace(a=np.array([1.0, 2.0]), T=np.array([1.0, 1.0]), shape=(2,))
+    >>> closed_loop_right_roots(g, p, 1.0).tolist()
+    [0, 2]
+    """
+    shape = tuple(getattr(design, "shape", ()))
+    q = diagram.characteristic().evaluate(design).flat()
+    n = q.shape[0]
+    if np.any(q.delayed_degree >= q.degree):  # neutral: no certified count
+        return np.full(shape, -1)
+    w = np.broadcast_to(np.asarray(w_ref, float), shape).reshape(n)
+    Z, certain = count_right_roots(q, w)
+    return np.where(certain, Z, -1).reshape(shape)

@@ -103,6 +103,7 @@ from numba import njit
 from ._parallel import in_threads
 from .blockdiagram import Block, BlockDiagram
 from .errors import InputError
+from .limits import check_budget, simulation_estimate
 
 MODES = ("continuous", "sampled")
 
@@ -679,6 +680,14 @@ def _continuous_step(delays: Mapping[str, np.ndarray], dt: float | None) -> floa
     return dt
 
 
+def _check_size(n: int, steps: int, recorded: int, hint: str) -> None:
+    """Refuse up front a simulation larger than the machine (the command line checks its
+    own options first, with their names; this guards every other caller)."""
+    n_bytes, seconds = simulation_estimate(n, steps, recorded)
+    check_budget(f"simulating {n:,} design(s) over {steps:,} steps", n_bytes=n_bytes,
+                 seconds=seconds, hint=hint)
+
+
 def compile_continuous(diagram: BlockDiagram, design: Any, inputs: Mapping[str, Any],
                        t_end_s: float, outputs: Sequence[str], *, dt: float | None = None,
                        record_dt: float | None = None,
@@ -692,6 +701,9 @@ def compile_continuous(diagram: BlockDiagram, design: Any, inputs: Mapping[str, 
     dt = _continuous_step(delays, dt)
     steps = int(math.ceil(t_end_s / dt - 1e-9))
     every = 1 if record_dt is None else max(1, int(round(record_dt / dt)))
+    _check_size(n, steps, steps // every + 1, f"the continuous step is {dt:.3g} s (the "
+                "smallest positive delay, at most 0.1 ms): give a coarser record_dt, a "
+                "shorter t_end_s, or fewer designs")
     reals = [realize_continuous(b, design, shape, n, derivative_tau_s) for b in blocks]
     exo = list(diagram.inputs)
     inst = {b.name: np.ones(n) for b in blocks}
@@ -1134,6 +1146,8 @@ def compile_sampled(diagram: BlockDiagram, design: Any, inputs: Mapping[str, Any
     F, G0, G1 = _foh(pn.net.A, pn.net.B, h)
     VEL = _friction_rows(pn, friction)
     steps = int(math.ceil(t_end_s / Tb - 1e-9))
+    _check_size(n, steps * nsub, steps + 1, "lower the rates, shorten t_end_s, or simulate "
+                "fewer designs")
     t = np.arange(steps + 1) * Tb
     if np.any(_impulses(inputs, cn.exo)):
         raise InputError("inputs", "impulse", "impulses only on physical (plant) inputs")

@@ -10,7 +10,9 @@ joint barely moves.  :func:`judge` reads the recorded signals and decides, in th
     the output left the simulation's bound, or the deviation from the target grows: its
     envelope (maximum per segment, five segments over the judged window) fits an
     exponential whose growth over the judged window exceeds a factor 2, and it ends
-    outside the band;
+    outside the band; or, when the caller gives it, the loop's certified count of
+    closed-loop roots in the right half-plane is not 0 (a slowly growing or weakly
+    excited mode that the simulated window cannot show is still unstable);
 ``limit cycle``
     a sustained oscillation: in the last quarter of the window the oscillation (signal
     minus its linear trend) of the position exceeds the band, or that of the current
@@ -63,6 +65,7 @@ class TimeVerdict:
     saturated_fraction: np.ndarray
     final_deviation: np.ndarray
     warnings: list[list[str]]
+    right_half_plane_roots: np.ndarray  # certified count, -1 where not given
 
     def evidence(self, i: int) -> dict[str, Any]:
         """JSON-ready evidence of design ``i`` (NaN/inf as ``None``)."""
@@ -75,7 +78,9 @@ class TimeVerdict:
                 "oscillation_amplitude": num(self.oscillation_amplitude[i]),
                 "oscillating_signal": self.oscillating_signal[i] or None,
                 "saturated_fraction": num(self.saturated_fraction[i]),
-                "final_deviation": num(self.final_deviation[i])}
+                "final_deviation": num(self.final_deviation[i]),
+                "right_half_plane_roots": (int(self.right_half_plane_roots[i])
+                                           if self.right_half_plane_roots[i] >= 0 else None)}
 
 
 def _window(t: np.ndarray, left: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -142,11 +147,15 @@ def oscillation(t: np.ndarray, x: np.ndarray, lo: np.ndarray, hi: np.ndarray
 
 def judge(t: Any, y: Any, *, target: float, scale: Any, band: float,
           left_bounds_s: Any = None, current: Any = None, current_limit: float = np.inf,
-          saturated_fraction: Any = None) -> TimeVerdict:
+          saturated_fraction: Any = None, right_half_plane_roots: Any = None
+          ) -> TimeVerdict:
     """Judge responses ``y`` (batch x time) against ``target``; see the module docstring.
 
     ``scale`` (per design or scalar) makes deviations relative (the step size, or the
     peak deviation of an impulse response); ``band`` is the settling band relative to it.
+    ``right_half_plane_roots`` (per design): the simulated loop's certified count of
+    unstable closed-loop roots, where known (e.g. :attr:`seactl.margins.Margins.unstable_poles`
+    of the same exact-delay loop); any root there makes the verdict ``unstable``.
     """
     t = np.asarray(t, float)
     y = np.asarray(y, float).reshape(-1, t.size)
@@ -163,7 +172,9 @@ def judge(t: Any, y: Any, *, target: float, scale: Any, band: float,
     final = np.abs(np.where(t[None, :] >= (t[-1] - 0.05 * (t[-1] - t[0])), dev, 0.0)).max(-1)
     end_amp = _segment_max(t, dev, lo, hi, SEGMENTS - 1)[0]
     growing = (rate * (hi - lo) > np.log(GROWTH_FACTOR)) & (end_amp > band)
-    unstable = np.isfinite(left) | growing
+    rhp = (np.full(b, -1) if right_half_plane_roots is None
+           else np.asarray(right_half_plane_roots, int).reshape(b))
+    unstable = np.isfinite(left) | growing | (rhp > 0)
     a_y, r_y, f_y = oscillation(t, dev, lo, hi)
     seen_y = a_y > band
     cycle = seen_y & r_y
@@ -182,7 +193,7 @@ def judge(t: Any, y: Any, *, target: float, scale: Any, band: float,
     verdict = np.select([unstable, cycle, sat > SATURATED_FRACTION, final > band],
                         ["unstable", "limit cycle", "saturated", "not settled"], "settled")
     v = TimeVerdict([str(x) for x in verdict], rate, freq, amp, [str(s) for s in signal], sat,
-                    final, [])
+                    final, [], rhp)
     v.warnings.extend(_warnings(v, k, left[k], band) for k in range(b))
     return v
 
@@ -193,6 +204,10 @@ def _warnings(v: TimeVerdict, k: int, left: float, band: float) -> list[str]:
     verdict = v.verdict[k]
     if np.isfinite(left):
         out.append(f"unstable: the response left the simulation bound at {left:.3f} s")
+    elif verdict == "unstable" and v.right_half_plane_roots[k] > 0:
+        out.append(f"unstable: {v.right_half_plane_roots[k]} closed-loop root(s) in the right "
+                   "half-plane (certified); the deviation grows at "
+                   f"{v.growth_rate_per_s[k]:.3g} /s over the simulated window")
     elif verdict == "unstable":
         out.append(f"unstable: the deviation grows at {v.growth_rate_per_s[k]:.3g} /s")
     if np.isfinite(v.oscillation_hz[k]):
@@ -210,7 +225,8 @@ def _warnings(v: TimeVerdict, k: int, left: float, band: float) -> list[str]:
     return out
 
 
-def judge_response(resp: Any, band: float) -> TimeVerdict:
+def judge_response(resp: Any, band: float, right_half_plane_roots: Any = None
+                   ) -> TimeVerdict:
     """:func:`judge` on a :class:`seactl.simulate.SEAResponse` (step: target 1 of the
     normalized position, scale 1; impulse: target 0, scale the peak deviation)."""
     res = resp.result
@@ -223,4 +239,5 @@ def judge_response(resp: Any, band: float) -> TimeVerdict:
     return judge(t, y, target=1.0 if step else 0.0,
                  scale=1.0 if step else np.abs(y).max(-1), band=band,
                  left_bounds_s=res.left_bounds_s, current=cur, current_limit=limit,
-                 saturated_fraction=info.get("saturated_fraction"))
+                 saturated_fraction=info.get("saturated_fraction"),
+                 right_half_plane_roots=right_half_plane_roots)

@@ -302,7 +302,8 @@ def loop_response(loop: Any, kind: str, mode: str, t_end: float, size: float,
     v = judge(res.t_s, yf, target=size if kind == "step" else 0.0,
               scale=abs(size) if kind == "step" else np.abs(yf).max(-1),
               band=0.02 if kind == "step" else 0.05, left_bounds_s=res.left_bounds_s,
-              saturated_fraction=res.info.get("saturated_fraction"))
+              saturated_fraction=res.info.get("saturated_fraction"),
+              right_half_plane_roots=_right_roots(loop, mode))
     runs = [{**lab, "stable": bool(res.stable.reshape(-1)[i])
              and v.verdict[i] not in ("unstable", "limit cycle"),
              "verdict": v.verdict[i], "evidence": v.evidence(i), "warnings": v.warnings[i],
@@ -353,3 +354,14 @@ def loop_place(loop: Any, as_json: bool) -> None:
                   *[_fmt(r[n]["phase_margin_deg"], ".2f") for n in names],
                   *[_fmt(r[n]["delay_margin_ms"], ".3f") for n in names])
     console.print(t)
+
+
+def _right_roots(loop: Any, mode: str) -> np.ndarray | None:
+    """The loop file's certified count of unstable closed-loop roots (continuous mode:
+    the simulated exact-delay diagram itself; the sampled processes are another system)."""
+    if mode != "continuous":
+        return None
+    from ..margins import closed_loop_right_roots
+
+    g = loop.grid()
+    return closed_loop_right_roots(loop.diagram, loop.design, np.sqrt(g[..., 0] * g[..., -1]))

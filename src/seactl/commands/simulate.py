@@ -27,7 +27,9 @@ JSON for one design: ``{"mode", "t_s", "position", "stable", "verdict", "evidenc
 "metrics", "warnings", ...}``; for several designs: ``{"mode", "t_s", "warnings", "runs":
 [{"fn_hz", "gs", "position", "stable", "verdict", "evidence", "warnings", "metrics", ...}]}``.
 ``verdict`` is one of settled, not settled, unstable, limit cycle, saturated
-(:mod:`seactl.verdict`); ``stable`` is false for unstable and limit cycle.  The top-level
+(:mod:`seactl.verdict`; in continuous mode a loop with certified right-half-plane roots,
+``evidence.right_half_plane_roots``, is unstable however slowly they grow); ``stable`` is
+false for unstable and limit cycle.  The top-level
 ``warnings`` are the lines the table prints after ``warning:``.
 Metrics that do not exist (unstable response, never settled) are ``null``.
 """
@@ -228,6 +230,19 @@ def _metrics_json(m: Any, i: int) -> dict[str, Any]:
             "recovery_band": m.band}
 
 
+def _right_roots(spec: DesignSpec, mode: str, zero: bool) -> np.ndarray | None:
+    """The simulated loop's certified count of unstable closed-loop roots (continuous
+    mode: the same exact-delay loop; the sampled controller is another system)."""
+    if mode != "continuous":
+        return None
+    from ..loops import sea_diagram
+    from ..margins import closed_loop_right_roots
+    from ..sea import sea_reference_frequency
+
+    d = spec.designs()
+    return closed_loop_right_roots(sea_diagram(zero), d, sea_reference_frequency(d))
+
+
 def _output(spec: DesignSpec, resp: Any, mode: str, zero: bool, extra: dict[str, Any],
             outs: OutputSet, plot: Path | None, csv_path: Path | None, as_json: bool,
             title: str, ylabel: str) -> None:
@@ -254,7 +269,8 @@ def _output(spec: DesignSpec, resp: Any, mode: str, zero: bool, extra: dict[str,
                               unstable=[not s for s in stable])
         outs.figure(plot, fig, dpi=110)
     outs.commit()
-    verdict = judge_response(resp, STEP_BAND if resp.kind == "step" else m.band)
+    verdict = judge_response(resp, STEP_BAND if resp.kind == "step" else m.band,
+                             _right_roots(spec, mode, zero))
     runs = []
     for i, (f, g) in enumerate(labels):
         runs.append({"fn_hz": f, "gs": g, "position": [round(float(x), 9) for x in pos[i]],
