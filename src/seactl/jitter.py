@@ -27,7 +27,9 @@ precision) brackets every local maximum of ``w |T|`` within a factor 2 of the
 scan's largest, and each is refined in double precision on the exact function
 (three zooms on a 9-point sub-grid, each to a quarter of the bracket, then a
 parabolic vertex): the bracket shrinks 64-fold, to 0.2 % in ``w``, and the peak
-value is exact to about 1e-9 relative.
+value is exact to about 1e-9 relative.  For a block-diagram loop the result is then
+proven an upper bound over every ``w >= 0`` (:mod:`seactl._supremum`), which also finds
+a sharp peak the scan stepped over; ``inf`` (no margin) where it cannot be proven.
 
 Examples
 --------
@@ -148,7 +150,28 @@ def peak_omega_t(loop: LoopFn, design: Any, omega: np.ndarray,
         order = np.argsort(fx)  # ascending: the largest per design is written last
         sel = order[better[order]]
         peak[b[sel]], wpk[b[sel]] = fx[sel], x[sel]
+    if isinstance(loop, Transfer) and loop.kind == "loop":
+        g = omega.reshape(n, -1)
+        peak, wpk = _proven_peak(loop, flat, np.sqrt(g[:, 0] * g[:, -1]), peak, wpk)
     return peak.reshape(shape), wpk.reshape(shape)
+
+
+def _proven_peak(loop: Transfer, design: Any, w_ref: np.ndarray, peak: np.ndarray,
+                 w_peak: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The scan's peak made a proven upper bound of ``w |T|`` over every ``w >= 0``
+    (:func:`seactl._supremum.certify_peak`, raising it where a sharper peak is met), and
+    ``inf`` where none can be proven (a neutral loop, the scan's budget): then no jitter
+    margin is guaranteed."""
+    from ._supremum import certify_peak
+
+    N, D = (f.evaluate(design).flat() for f in
+            loop.diagram.return_difference(loop.input, loop.cut))
+    delta = N + D
+    if np.any(delta.delayed_degree >= delta.degree):
+        return np.full(peak.shape, np.inf), w_peak
+    bound, w_peak, proven = certify_peak(N, delta, w_ref, peak, w_peak)
+    zero = (N.coeffs == 0).all(axis=(0, 2))  # T = 0: no peak
+    return np.where(zero, 0.0, np.where(proven, bound, np.inf)), w_peak
 
 
 def _refine(loop: LoopFn, design: Any, shape: tuple[int, ...], b: np.ndarray,

@@ -343,17 +343,19 @@ MAX_EVALUATIONS = _certify.MAX_EVALUATIONS
 has is kept; a design whose count or crossings are then not certified is uncertain, never
 stable)."""
 
-def cauchy_bound(q: QuasiPolynomial, majorant: np.ndarray | None = None) -> np.ndarray:
+def cauchy_bound(q: QuasiPolynomial, majorant: np.ndarray | None = None,
+                 lead: np.ndarray | None = None) -> np.ndarray:
     """Per design of a flat retarded quasi-polynomial, an ``R`` with
     ``|a_n| w^n > sum_{j<n} (sum_k |c_kj|) w^j`` for every ``w > R``: beyond it the
     leading term dominates every other term together, so ``Q`` has no root with
     ``Re s >= 0`` and ``|s| > R``, and ``Q(jw) / (a_n (jw)^n)`` stays in the disc
     ``|z - 1| < 1``.  Newton from Fujiwara's bound on the polynomial
     ``|a_n| x^n - sum_j c_j x^j``, whose only positive root is the tightest such ``R``.
-    ``majorant`` replaces ``c_j`` by larger coefficients (e.g. ``N``'s and ``D``'s apart)."""
+    ``majorant`` replaces ``c_j`` by larger coefficients (e.g. ``N``'s and ``D``'s apart;
+    none above ``n``), ``lead`` ``|a_n|`` by a smaller positive one."""
     n = q.degree
     rows = np.arange(n.size)
-    lead = np.abs(q.coeffs[0, rows, n])
+    lead = np.abs(q.coeffs[0, rows, n]) if lead is None else lead
     c = (q.abs_coeffs if majorant is None else majorant).copy()
     c[rows, n] = -lead
     j = np.arange(c.shape[-1])

@@ -741,7 +741,7 @@ class UserLoop:
         other breaks one at a time (inner first), so ``stable`` is the stability of the whole
         loop.  The delay margin is the extra latency at that break that destabilizes; the
         jitter margin is the Kao-Lincoln bound ``1 / max_w (w |L/(1+L)|)`` on a time-varying
-        extra delay there (scanned on a dense grid, then zoomed twice).
+        extra delay there (scanned, refined, then proven: :mod:`seactl._supremum`).
 
         Parameters
         ----------
