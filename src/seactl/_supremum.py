@@ -134,7 +134,8 @@ def _base(w_ref: np.ndarray, tau: np.ndarray, top: np.ndarray
           ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Base grids, flat: ``(count, design, w)`` with each design's points 0, then
     ``PER_DECADE`` per decade from ``1e-3 w_ref`` until a step would exceed
-    ``TURN_FRACTION`` of a turn of the longest delay, then such steps, to ``top``."""
+    ``TURN_FRACTION`` of a turn of the longest delay, then such steps, to ``top``; none for
+    a design that would need more than :data:`MAX_BASE` (``count`` 0)."""
     lo = 1e-3 * w_ref
     r = np.maximum(top, 10 * lo)
     k = np.maximum(1, np.ceil(PER_DECADE * np.log10(r / lo))).astype(int)
@@ -146,7 +147,7 @@ def _base(w_ref: np.ndarray, tau: np.ndarray, top: np.ndarray
     w_lin = lo * ratio ** i_lin
     with np.errstate(invalid="ignore"):
         m = np.where(i_lin < k, np.ceil((r - w_lin) / step), 0).astype(int)
-    count = i_lin + 2 + m
+    count = np.where(i_lin + 2 + m <= MAX_BASE, i_lin + 2 + m, 0)  # (0: too many, unproven)
     design = np.repeat(np.arange(w_ref.size), count)
     j = np.arange(count.sum()) - np.repeat(np.cumsum(count) - count, count) - 1
     jl, d = j - i_lin[design], design
@@ -170,10 +171,7 @@ def certify_peak(N: QuasiPolynomial, Delta: QuasiPolynomial, w_ref: np.ndarray,
     peak[tail], w_peak[tail] = floor[tail], top[tail]
     idx = np.nonzero(np.isfinite(top) & ok)[0]
     count, design, w = _base(w_ref[idx], tau[idx], top[idx])
-    small = count <= MAX_BASE
-    idx, count = idx[small], count[small]
-    keep = small[design]
-    design, w = idx[np.searchsorted(np.nonzero(small)[0], design[keep])], w[keep]
+    design = idx[design]
     majors = rounding_majorant(N.abs_coeffs, tau), rounding_majorant(Delta.abs_coeffs, tau)
     proven = np.zeros(n, bool)
     starts = np.cumsum(count) - count
