@@ -93,8 +93,11 @@ def _upper(N: QuasiPolynomial, Delta: QuasiPolynomial, majors: tuple, d: np.ndar
     with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
         m2 = m * m
         curv = u2 / m2 + (2 * u1 * v1 + u0 * v2) / (m2 * m2) + 2 * u0 * v1 * v1 / (m2 * m2 * m2)
-        second = np.maximum(pa[:, _G], pb[:, _G]) ** 2 * (1 + 4 * EVAL_ROUNDING) \
-            + 0.125 * h * h * curv
+        # the ends' values, their rounding included
+        ends = np.maximum(pa[:, _W] * (pa[:, _N0] + errN) / (aD - errD),
+                          W * (pb[:, _N0] + errN) / (bD - errD))
+        ends = np.where((aD > errD) & (bD > errD), ends, np.inf)
+        second = ends * ends + 0.125 * h * h * curv
         return np.where(m > 0, np.minimum(u0 / m2, second), np.inf)
 
 
@@ -118,15 +121,15 @@ def _tail_radius(N: QuasiPolynomial, Delta: QuasiPolynomial, peak: np.ndarray
     aN = padded_sum(np.zeros_like(Delta.abs_coeffs), N.abs_coeffs)
     aN = np.concatenate([np.zeros(aN.shape[:-1] + (1,)), aN], axis=-1)  # w |N|
     lead = np.abs(Delta.coeffs[0, rows, n])
-    top = aN[rows, np.minimum(n, aN.shape[-1] - 1)] * (deg == n)
-    peak = np.where(deg == n, np.maximum(peak, (1 + TAIL_SLACK) * top / lead), peak)
+    b = aN[rows, np.minimum(n, aN.shape[-1] - 1)] * (deg == n)
+    peak = np.where(deg == n, np.maximum(peak, (1 + TAIL_SLACK) * b / lead), peak)
     aN[rows, np.minimum(n, aN.shape[-1] - 1)] = 0.0
     r = np.full(peak.shape, np.inf)
     i = np.nonzero(deg <= n)[0]
     if i.size:
         major = padded_sum(Delta.abs_coeffs[i], aN[i] / peak[i, None])
         r[i] = cauchy_bound(Delta.take(i), major[:, :Delta.abs_coeffs.shape[-1]],
-                            lead[i] - top[i] / peak[i])
+                            lead[i] - b[i] / peak[i])
     return r, peak
 
 
