@@ -243,3 +243,11 @@ def test_delays_and_filters_of_different_shapes_broadcast_to_a_grid():
                             filters_hz=(f_qd[i, 0], 100)).margins()
             assert float(grid.phase_margin_deg[i, j]) == pytest.approx(
                 float(one.phase_margin_deg), rel=1e-9)
+
+
+def test_indexing_a_single_design_says_so():
+    # Oracle: the error contract (numpy's 0-d IndexError, said in the design's words).
+    d = sc.design(30.0)
+    with pytest.raises(IndexError, match="single design"):
+        d[0]
+    assert d[()].shape == ()

@@ -171,7 +171,9 @@ def test_roots_cli_json(capsys):
     rows = out["designs"]
     assert [r["fn_hz"] for r in rows] == [15.93, 14.0]
     for r in rows:
-        assert set(r) == {"fn_hz", "gs", "spectral_abscissa", "roots"}
+        assert set(r) == {"fn_hz", "gs", "spectral_abscissa", "roots", "complete", "stable",
+                          "right_half_plane_roots"}
+        assert r["complete"] and r["stable"] is (r["right_half_plane_roots"] == 0)
         re_ = [z["re"] for z in r["roots"]]
         assert re_ == sorted(re_, reverse=True) and all(z["im"] >= 0 for z in r["roots"])
         assert r["spectral_abscissa"] == re_[0]
@@ -201,3 +203,22 @@ def test_a_negligible_delay_gives_the_undelayed_roots():
     none = sc.design(14.0).roots(4)
     assert bool(tiny.converged)
     np.testing.assert_allclose(tiny.roots, none.roots, rtol=1e-12)
+
+
+def test_a_short_delay_keeps_its_root_cluster():
+    # Oracle: the poles of python-control's closed loop with a Pade(4) delay (exact to
+    # far below the tolerance for a 1e-9 s delay). The critically damped design has a
+    # quadruple root at -188.5; a 1e-6 ms damping delay splits it into two pairs. The
+    # far-left roots of the delay (|s| ~ 1e11) once merged the second pair into the
+    # first (duplicates were judged relative to the largest root).
+    import control as ct
+
+    with pytest.warns(UserWarning, match="below 1 us"):
+        d = sc.design([30.0], delays_ms=(0.0, 0.0, 1e-6))
+    r = d.roots(count=2)
+    got = np.sort_complex(np.ravel(r.roots))
+    p = ct.poles(d[0].to_control("pade", transfer="closed", order=4))
+    ref = np.sort_complex(p[(np.abs(p + 188.5) < 20) & (p.imag > 0)])
+    assert ref.size == 2
+    np.testing.assert_allclose(got, ref, rtol=1e-6)
+    assert bool(r.stable[0]) and int(r.right_half_plane_roots[0]) == 0

@@ -421,7 +421,10 @@ class RootsResult(_Wrapped):
     def records(self) -> list[dict[str, Any]]:
         """One JSON-ready dict per design (C order): the label columns,
         ``spectral_abscissa`` [1/s] and ``roots``, a list of ``{"re", "im"}`` [rad/s]
-        sorted by decreasing real part (conjugates once, ``im >= 0``).
+        sorted by decreasing real part (conjugates once, ``im >= 0``); ``complete`` (no
+        root is missing from the list: the discretizations agreed and the argument
+        principle found no other), ``stable`` and ``right_half_plane_roots`` (the
+        certified count, None where uncertain).
 
         Returns
         -------
@@ -434,12 +437,17 @@ class RootsResult(_Wrapped):
                 self.labels.items()}
         absc = np.ravel(r.spectral_abscissa)
         roots = np.reshape(r.roots, (absc.size, -1))
+        conv, stable = np.ravel(r.converged), np.ravel(r.stable)
+        rhp = np.ravel(r.right_half_plane_roots)
         out = []
         for i in range(absc.size):
             row = {k: json_value(v[i]) for k, v in cols.items()}
             row["spectral_abscissa"] = json_value(absc[i])
             row["roots"] = [{"re": json_value(z.real), "im": json_value(z.imag)}
                             for z in roots[i] if np.isfinite(z)]
+            row["complete"] = bool(conv[i])
+            row["stable"] = bool(stable[i])
+            row["right_half_plane_roots"] = int(rhp[i]) if rhp[i] >= 0 else None
             out.append(row)
         return out
 

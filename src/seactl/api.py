@@ -177,6 +177,9 @@ class Design:
 
     def __getitem__(self, idx: Any) -> Design:
         shape = self.shape
+        if not shape and idx != () and idx is not Ellipsis:
+            raise IndexError(f"index {idx!r} of a single design (its shape is (); "
+                             "d[()] is the design itself)")
 
         def pick(x: Any) -> Any:
             return None if x is None else np.broadcast_to(np.asarray(x, float), shape)[idx]

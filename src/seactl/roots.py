@@ -81,18 +81,25 @@ class Roots:
     nodes : ndarray
         Chebyshev collocation size ``N`` the roots converged at (0: no delay).
     converged : ndarray of bool
-        The rightmost roots agreed between two discretizations.
+        The rightmost roots agreed between two discretizations and the argument principle
+        found no other root right of them; where False the list may miss roots.
+    right_half_plane_roots : ndarray of int
+        Roots with ``Re s > 0`` by the argument principle on the whole right half-plane
+        (:func:`seactl.margins.count_right_roots`; conjugates counted), whether or not
+        the list is complete; -1 where no count is certain (a root on the axis).
     """
 
     roots: np.ndarray
     spectral_abscissa: np.ndarray
     nodes: np.ndarray
     converged: np.ndarray
+    right_half_plane_roots: np.ndarray
 
     @property
     def stable(self) -> np.ndarray:
-        """Every root in the open left half-plane."""
-        return self.spectral_abscissa < 0
+        """No root in the closed right half-plane, by the certified count (not by the
+        roots listed, which may be incomplete where not ``converged``)."""
+        return self.right_half_plane_roots == 0
 
     @property
     def unstable_count(self) -> np.ndarray:
@@ -137,8 +144,9 @@ def characteristic_roots(diagram: BlockDiagram, design: Any, *, count: int = 6,
             r, nd, conv = _delay_roots(sub, deg, count, scale[idx])
         out[idx], nodes[idx], ok[idx] = r, nd, conv
     absc = np.nanmax(out.real, axis=1, initial=-np.inf)
+    Z, certain = count_right_roots(q, scale)
     return Roots(out.reshape(shape + (count,)), absc.reshape(shape), nodes.reshape(shape),
-                 ok.reshape(shape))
+                 ok.reshape(shape), np.where(certain, Z, -1).reshape(shape))
 
 
 def _frequency_scale(q: QuasiPolynomial) -> np.ndarray:
@@ -331,11 +339,12 @@ def _select(q: QuasiPolynomial, s: np.ndarray, count: int, distinct: bool = True
     out = np.full((s.shape[0], count), np.nan + 0j)
     for i in range(s.shape[0]):  # dedupe: few candidates per design
         kept: list[complex] = []
-        tol = 1e-7 * max(1.0, float(np.nanmax(np.abs(s[i]), initial=1.0)))
         for z in s[i]:
             if not np.isfinite(z):
                 break
-            if not distinct or all(abs(z - k) > tol for k in kept):
+            # (relative to the root itself: far-left roots of a short delay, 1e11 away,
+            # must not merge a cluster near the origin)
+            if not distinct or all(abs(z - k) > 1e-7 * max(1.0, abs(z)) for k in kept):
                 kept.append(complex(z))
             if len(kept) == count:
                 break

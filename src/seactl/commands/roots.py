@@ -14,7 +14,8 @@ from ._common import DesignSpec, cli, console, design_options, echo_json, json_o
 
 def roots_rows(spec: DesignSpec, count: int) -> list[dict[str, Any]]:
     """One record per design and valid gain solution: ``fn_hz``, ``gs``,
-    ``spectral_abscissa`` [1/s] and ``roots`` ``[{"re", "im"}, ...]`` [rad/s]."""
+    ``spectral_abscissa`` [1/s], ``roots`` ``[{"re", "im"}, ...]`` [rad/s], ``complete``,
+    ``stable`` and ``right_half_plane_roots``."""
     from ..api import Design
 
     rows = []
@@ -44,8 +45,10 @@ def roots(spec: DesignSpec, count: int, as_json: bool) -> None:
 
     Roots come from a Chebyshev collocation of the delay equation, each polished by
     Newton on the exact characteristic equation; the argument principle confirms that
-    none lies to the right of those listed.  Sorted by decreasing real part; a conjugate
-    pair is listed once (im >= 0).  A positive real part is an unstable root.
+    none lies to the right of those listed (a list it cannot confirm is marked
+    incomplete), and counts the right-half-plane roots behind "stable".  Sorted by
+    decreasing real part; a conjugate pair is listed once (im >= 0).  A positive real
+    part is an unstable root.
     """
     rows = roots_rows(spec, count)
     if as_json:
@@ -59,6 +62,12 @@ def roots(spec: DesignSpec, count: int, as_json: bool) -> None:
     for r in rows:
         a = r["spectral_abscissa"]
         t.add_row(f"{r['fn_hz']:g}", f"{r['gs']:g}", "none" if a is None else f"{a:.4g}",
-                  "yes" if a is not None and a < 0 else "[red]NO[/red]",
-                  ", ".join(_root_text(z) for z in r["roots"]))
+                  "yes" if r["stable"] else "[red]NO[/red]",
+                  ", ".join(_root_text(z) for z in r["roots"])
+                  + ("" if r["complete"] else " [yellow](incomplete: roots may be missing)"
+                     "[/yellow]"))
     console.print(t)
+    if not all(r["complete"] for r in rows):
+        console.print("incomplete: the discretizations did not agree, or the argument "
+                      "principle counted roots the list does not hold; 'stable' is the "
+                      "certified count of right-half-plane roots either way.", highlight=False)
