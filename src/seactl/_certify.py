@@ -84,6 +84,28 @@ def descending(c: np.ndarray) -> np.ndarray:
     return np.ascontiguousarray(c[..., ::-1], float)
 
 
+def compact(q) -> tuple[np.ndarray, np.ndarray]:
+    """A flat quasi-polynomial's coefficients (:func:`descending`) and delays without the
+    terms and powers that are zero in every design (the compiled evaluation's loops are
+    over both)."""
+    nz = q.coeffs != 0
+    terms = nz.any(axis=(1, 2))
+    terms[0] |= not terms.any()
+    powers = np.nonzero(nz.any(axis=(0, 1)))[0]
+    top = powers[-1] + 1 if powers.size else 1
+    return descending(q.coeffs[terms, :, :top]), np.ascontiguousarray(q.delays[terms], float)
+
+
+@njit(cache=True, nogil=True)
+def derivatives(coeffs, delays, idx, w):  # pragma: no cover - compiled
+    """``Q(jw)``, ``dQ(jw)/dw``, ``d^2 Q(jw)/dw^2`` of designs ``idx`` at ``w`` (pairwise;
+    :func:`compact` arrays): shape ``(len(w), 3)``."""
+    out = np.empty((w.size, 3), np.complex128)
+    for i in range(w.size):
+        out[i, 0], out[i, 1], out[i, 2] = _eval(coeffs, delays, idx[i], w[i], 2)
+    return out
+
+
 # Per point, what the certificates of its two intervals need (computed once):
 W, CN, CD, A_DELTA, A_DDELTA, A_N, A_D, A_DN, A_DD, RE_G, IM_G, LOG_L, ARG_L, RE_L, \
     IM_L, ARG_DELTA, F_N, F_D, RE_N, IM_N, RE_D, IM_D, A_D2DELTA, ERR = range(24)

@@ -16,6 +16,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from ._certify import compact, derivatives
 from .blockdiagram import EVAL_ROUNDING, QuasiPolynomial, rounding_majorant
 
 MAX_DEPTH = 40
@@ -42,15 +43,15 @@ def _horner(c: np.ndarray, w: np.ndarray) -> np.ndarray:
     return acc
 
 
-def _points(N: QuasiPolynomial, D: QuasiPolynomial, b: np.ndarray, idx: np.ndarray,
-            w: np.ndarray, tol: float) -> np.ndarray:
+def _points(arrays: tuple, b: np.ndarray, idx: np.ndarray, w: np.ndarray, tol: float
+            ) -> np.ndarray:
     """Per point ``(idx[i], w[i])``: ``w``, ``f``, ``f'``, ``|N|``, ``|N'|``, ``|N''|``,
     ``|D|``, ``|D'|``, ``|D''|`` and whether ``Re Z < -tol |Z|`` there (derivatives in
-    ``w``: ``d/dw = j d/ds``)."""
-    s = 1j * w[:, None]
-    n0, n1, n2 = (x[:, 0] for x in N.take(idx).with_derivative(s, second=True))
-    d0, d1, d2 = (x[:, 0] for x in D.take(idx).with_derivative(s, second=True))
-    n1, d1 = 1j * n1, 1j * d1
+    ``w``; ``arrays``: :func:`seactl._certify.compact` of ``N`` and ``D``)."""
+    idx = np.ascontiguousarray(idx, np.intp)
+    w = np.ascontiguousarray(w, float)
+    n0, n1, n2 = derivatives(*arrays[0], idx, w).T
+    d0, d1, d2 = derivatives(*arrays[1], idx, w).T
     bi = b[idx]
     dd = (d0 * d0.conj()).real
     f = (n0 * d0.conj()).imag + bi * w * dd
@@ -108,9 +109,10 @@ def _certify_chunk(N: QuasiPolynomial, D: QuasiPolynomial, b: np.ndarray,
     n, k = N.shape[0], w_grid.size - 1
     tau = np.concatenate([N.delays, D.delays]).max(axis=0)
     majors = rounding_majorant(N.abs_coeffs, tau), rounding_majorant(D.abs_coeffs, tau)
+    arrays = compact(N), compact(D)
     found = np.full((n, k), np.nan)
     d = np.repeat(np.arange(n), w_grid.size)
-    grid = _points(N, D, b, d, np.tile(w_grid, n), tol).reshape(n, w_grid.size, -1)
+    grid = _points(arrays, b, d, np.tile(w_grid, n), tol).reshape(n, w_grid.size, -1)
     pa, pb = grid[:, :-1].reshape(n * k, -1), grid[:, 1:].reshape(n * k, -1)
     d, base = np.repeat(np.arange(n), k), np.tile(np.arange(k), n)
     open_ = np.zeros(n, bool)  # designs left with an uncertified interval
@@ -128,7 +130,7 @@ def _certify_chunk(N: QuasiPolynomial, D: QuasiPolynomial, b: np.ndarray,
         open_[d[over]] = True
         keep = ~over
         d, base, pa, pb = d[keep], base[keep], pa[keep], pb[keep]
-        mid = _points(N, D, b, d, 0.5 * (pa[:, _W] + pb[:, _W]), tol)
+        mid = _points(arrays, b, d, 0.5 * (pa[:, _W] + pb[:, _W]), tol)
         d, base = np.concatenate([d, d]), np.concatenate([base, base])
         pa, pb = np.concatenate([pa, mid]), np.concatenate([mid, pb])
     proven = ~open_ & np.isnan(found).all(axis=1)

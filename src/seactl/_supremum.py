@@ -23,6 +23,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from ._certify import compact, derivatives
 from ._realpart import _horner
 from .blockdiagram import EVAL_ROUNDING, QuasiPolynomial, padded_sum, rounding_majorant
 
@@ -32,7 +33,7 @@ MAX_DEPTH = 40
 """Bisections of a base interval before a design is left unproven."""
 MAX_OPEN = 512
 """Uncertified intervals of one design in one round beyond which it is left unproven."""
-PER_DECADE = 16
+PER_DECADE = 8
 TURN_FRACTION = 0.25
 """Base grid: ``PER_DECADE`` points per decade from ``1e-3 w_ref``, steps of at most this
 fraction of a turn of the longest delay, to ``R``."""
@@ -45,13 +46,14 @@ CHUNK_POINTS = 200_000
 _W, _G, _N0, _N1, _N2, _DR, _DI, _D1, _D2 = range(9)
 
 
-def _points(N: QuasiPolynomial, Delta: QuasiPolynomial, idx: np.ndarray, w: np.ndarray
-            ) -> np.ndarray:
+def _points(arrays: tuple, idx: np.ndarray, w: np.ndarray) -> np.ndarray:
     """Per point ``(idx[i], w[i])``: ``w``, ``w |N| / |Delta|``, ``|N|``, ``|N'|``,
-    ``|N''|``, ``Delta`` (real, imaginary), ``|Delta'|``, ``|Delta''|``."""
-    s = 1j * w[:, None]
-    n0, n1, n2 = (np.abs(x[:, 0]) for x in N.take(idx).with_derivative(s, second=True))
-    d0, d1, d2 = (x[:, 0] for x in Delta.take(idx).with_derivative(s, second=True))
+    ``|N''|``, ``Delta`` (real, imaginary), ``|Delta'|``, ``|Delta''|`` (``arrays``: the
+    compiled evaluation's, :func:`seactl._certify.compact` of ``N`` and ``Delta``)."""
+    idx = np.ascontiguousarray(idx, np.intp)
+    w = np.ascontiguousarray(w, float)
+    n0, n1, n2 = np.abs(derivatives(*arrays[0], idx, w)).T
+    d0, d1, d2 = derivatives(*arrays[1], idx, w).T
     with np.errstate(divide="ignore", invalid="ignore"):
         g = np.where(n0 > 0, w * n0 / np.abs(d0), 0.0)
     return np.stack([w, g, n0, n1, n2, d0.real, d0.imag, np.abs(d1), np.abs(d2)], axis=1)
@@ -176,6 +178,7 @@ def certify_peak(N: QuasiPolynomial, Delta: QuasiPolynomial, w_ref: np.ndarray,
     count, design, w = _base(w_ref[idx], tau[idx], top[idx])
     design = idx[design]
     majors = rounding_majorant(N.abs_coeffs, tau), rounding_majorant(Delta.abs_coeffs, tau)
+    arrays = compact(N), compact(Delta)
     proven = np.zeros(n, bool)
     starts = np.cumsum(count) - count
     # chunks of whole designs of about CHUNK_POINTS base points
@@ -183,16 +186,16 @@ def certify_peak(N: QuasiPolynomial, Delta: QuasiPolynomial, w_ref: np.ndarray,
     bounds = np.concatenate([[0], starts[new], [count.sum()]]).astype(int)
     for a, b in zip(bounds[:-1], bounds[1:]):
         if b > a:
-            proven |= _certify(N, Delta, majors, design[a:b], w[a:b], peak, w_peak)
+            proven |= _certify(N, Delta, arrays, majors, design[a:b], w[a:b], peak, w_peak)
     return peak * (1 + EPS), w_peak, proven
 
 
-def _certify(N: QuasiPolynomial, Delta: QuasiPolynomial, majors: tuple, d: np.ndarray,
-             w: np.ndarray, peak: np.ndarray, w_peak: np.ndarray) -> np.ndarray:
+def _certify(N: QuasiPolynomial, Delta: QuasiPolynomial, arrays: tuple, majors: tuple,
+             d: np.ndarray, w: np.ndarray, peak: np.ndarray, w_peak: np.ndarray) -> np.ndarray:
     """Branch and bound on the base grids ``w`` of designs ``d`` (flat, each design's
     points together); raises ``peak``, ``w_peak`` in place; a mask of the designs whose
     bound is proven."""
-    p = _points(N, Delta, d, w)
+    p = _points(arrays, d, w)
     pair = d[:-1] == d[1:]
     pa, pb, d = p[:-1][pair], p[1:][pair], d[:-1][pair]
     failed = np.zeros(N.shape[0], bool)
@@ -213,6 +216,6 @@ def _certify(N: QuasiPolynomial, Delta: QuasiPolynomial, majors: tuple, d: np.nd
         over = np.bincount(d, minlength=N.shape[0])[d] > MAX_OPEN
         failed[d[over]] = True
         d, pa, pb = d[~over], pa[~over], pb[~over]
-        mid = _points(N, Delta, d, 0.5 * (pa[:, _W] + pb[:, _W]))
+        mid = _points(arrays, d, 0.5 * (pa[:, _W] + pb[:, _W]))
         d, pa, pb = np.concatenate([d, d]), np.concatenate([pa, mid]), np.concatenate([mid, pb])
     return seen & ~failed

@@ -108,7 +108,8 @@ def _scan(loop: LoopFn, design: Any, omega: np.ndarray, cache: dict | None,
 
 
 def peak_omega_t(loop: LoopFn, design: Any, omega: np.ndarray,
-                 cache: dict | None = None) -> tuple[np.ndarray, np.ndarray]:
+                 cache: dict | None = None, prove: Any = True
+                 ) -> tuple[np.ndarray, np.ndarray]:
     """Largest ``w |T(jw)|`` over ``w > 0`` and where it is reached, for a design batch.
 
     Parameters
@@ -123,6 +124,9 @@ def peak_omega_t(loop: LoopFn, design: Any, omega: np.ndarray,
         below the loop's bandwidth; it is extended upwards while the maximum is at its top.
     cache : dict, optional
         Shared block responses on ``omega`` (several loops of one diagram).
+    prove : bool or array of bool, optional
+        Designs whose peak is proven (block-diagram loops; default all); the others keep
+        the scan's value (e.g. unstable designs, whose jitter margin is 0 anyway).
 
     Returns
     -------
@@ -150,9 +154,12 @@ def peak_omega_t(loop: LoopFn, design: Any, omega: np.ndarray,
         order = np.argsort(fx)  # ascending: the largest per design is written last
         sel = order[better[order]]
         peak[b[sel]], wpk[b[sel]] = fx[sel], x[sel]
-    if isinstance(loop, Transfer) and loop.kind == "loop":
-        g = omega.reshape(n, -1)
-        peak, wpk = _proven_peak(loop, flat, np.sqrt(g[:, 0] * g[:, -1]), peak, wpk)
+    todo = np.nonzero(np.broadcast_to(np.asarray(prove, bool), shape).reshape(n))[0]
+    if isinstance(loop, Transfer) and loop.kind == "loop" and todo.size:
+        g = omega.reshape(n, -1)[todo]
+        peak[todo], wpk[todo] = _proven_peak(loop, DesignSubset(design, todo, shape),
+                                             np.sqrt(g[:, 0] * g[:, -1]), peak[todo],
+                                             wpk[todo])
     return peak.reshape(shape), wpk.reshape(shape)
 
 
@@ -253,8 +260,8 @@ def loop_jitter_margins(diagram_loops: Mapping[str, Transfer], design: Any, omeg
     optionally ``torque``) of one diagram, sharing block evaluations on the scan grid."""
     cache: dict[str, np.ndarray] = {}
     peaks, where = {}, {}
-    for name, loop in diagram_loops.items():
-        peaks[name], where[name] = peak_omega_t(loop, design, omega, cache)
+    for name, loop in diagram_loops.items():  # (unstable: no margin, nothing to prove)
+        peaks[name], where[name] = peak_omega_t(loop, design, omega, cache, prove=stable)
     jm = {k: jitter_margin_s(p, stable) for k, p in peaks.items()}
     return JitterMargins(jm["overall"], jm["stiffness"], jm["damping"], jm.get("torque"),
                          {k: w / (2 * np.pi) for k, w in where.items()},

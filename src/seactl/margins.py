@@ -483,18 +483,6 @@ def _solve_brackets(parts: list, loop_at: Callable[[np.ndarray, np.ndarray], np.
     return b, _refine(loop_at, b, lo, hi, kind)
 
 
-def _compact(q: QuasiPolynomial) -> tuple[np.ndarray, np.ndarray]:
-    """``q``'s coefficients and delays without the terms and powers that are zero in
-    every design (the compiled evaluation's loops are over both)."""
-    nz = q.coeffs != 0
-    terms = nz.any(axis=(1, 2))
-    terms[0] |= not terms.any()
-    powers = np.nonzero(nz.any(axis=(0, 1)))[0]
-    top = powers[-1] + 1 if powers.size else 1
-    return (_certify.descending(q.coeffs[terms, :, :top]),
-            np.ascontiguousarray(q.delays[terms], float))
-
-
 class _CertifiedScan:
     """Certifies every base-grid interval by bisection (compiled: :mod:`seactl._certify`;
     see :func:`certified_margins`); keeps the winding of ``Delta`` and the brackets."""
@@ -506,7 +494,7 @@ class _CertifiedScan:
         self.uncertain = np.zeros(N.shape[0], bool)
         self.no_loop = (N.coeffs == 0).all(axis=(0, 2))  # L = 0: no crossing to certify
         self.rows = np.empty((0, _certify.ROW))  # brackets (see _certify.scan)
-        self.arrays = (*_compact(N), *_compact(D))
+        self.arrays = (*_certify.compact(N), *_certify.compact(D))
 
     def run(self, w_ref: np.ndarray, tau_max: np.ndarray, top: np.ndarray) -> None:
         """Scan each design's base grid (:func:`_base_grid`) up to ``top``; refused up
