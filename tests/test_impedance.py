@@ -488,3 +488,14 @@ def test_cli_impedance_passivity_at_the_edge(scale, capsys):
     assert out["passivity_proven"] is True
     np.testing.assert_allclose(np.reshape(out["non_passive_bands_hz"], (-1, 2)),
                                p.bands_hz[()], rtol=1e-12)
+
+
+def test_cli_the_paper_models_passivity_is_scan_only(capsys):
+    # Oracle: the documented contract: the paper model's "passive" is its scan's, never
+    # proven (below its 9.2 Hz band at f_n = 30 Hz it is passive).
+    assert main(["impedance", "--fn", "30", "--model", "paper", "--freq", "0.1:5:5",
+                 "--json"]) == 0
+    r = json.loads(capsys.readouterr().out)
+    assert r["passive"] is True and r["passivity_proven"] is False
+    assert main(["impedance", "--fn", "30", "--model", "paper", "--freq", "0.1:5:5"]) == 0
+    assert "yes (scan only)" in capsys.readouterr().out

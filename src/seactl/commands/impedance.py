@@ -180,6 +180,14 @@ def _impedance(spec: DesignSpec, f: np.ndarray, model: str, load: bool, units: s
     _print_impedance(spec, out, f, resp, asym, pas, model, load, unit)
 
 
+def _passive_text(r: dict[str, Any]) -> str:
+    """The table's passivity cell: proven yes/no, the paper model's scan-only yes, or not
+    proven (Re Z touching 0)."""
+    if r["passive"]:
+        return "yes" if r["passivity_proven"] else "yes (scan only)"
+    return "[yellow]no[/yellow]" if r["passivity_proven"] else "[yellow]not proven[/yellow]"
+
+
 def _impedance_csv(out: list[dict[str, Any]], f: np.ndarray, zf: np.ndarray, unit: str) -> str:
     """One row per design and frequency: |Z|, dB, phase, real and imaginary parts."""
     rows = []
@@ -215,8 +223,7 @@ def _print_impedance(spec: DesignSpec, out: list[dict[str, Any]], f: np.ndarray,
         t.add_row(f"{r['fn_hz']:g}", f"{r['gs']:g}", f"{r['low_frequency_stiffness']:.4g}",
                   r["high_frequency_case"], f"{db[kmax]:.2f}", f"{f[kmax]:.4g}",
                   "yes" if r["stable"] else "[red]NO[/red]",
-                  "yes" if r["passive"] else "[yellow]no[/yellow]" if r["passivity_proven"]
-                  else "[yellow]not proven[/yellow]", btxt or "none")
+                  _passive_text(r), btxt or "none")
     console.print(t)
     console.print(f"|Z| in dB re 1 {unit}; the impedance of an unstable design is not "
                   "physically meaningful." if not all(r["stable"] for r in out) else
