@@ -184,3 +184,16 @@ def test_jitter_margins_never_exceed_a_dense_scan(seed):
             got = float(getattr(j, f"{k}_s")[i])
             assert got <= ref * (1 + 1e-9), (k, i)
             assert got == pytest.approx(ref, rel=1e-4), (k, i)
+
+
+def test_a_supremum_at_infinite_frequency_is_bounded_by_its_limit():
+    # Oracle: the per-frequency solve at 1e7 rad/s, where w |T| of the unfiltered torque
+    # loop (relative degree 1) has reached its limit to 3e-5: the proven margin is that
+    # limit's inverse less the documented 1 % (TAIL_SLACK).
+    from seactl._supremum import TAIL_SLACK
+
+    d = sc.design([30.0])
+    j = sea_jitter_margins(d.sea)
+    limit = float(1e7 * np.abs(_solve_t(sea_split_diagram(), sc.design(30.0).sea,
+                                        np.array([1e7]), "tau_sens"))[0])
+    assert float(j.torque_s[0]) == pytest.approx(1 / ((1 + TAIL_SLACK) * limit), rel=1e-4)

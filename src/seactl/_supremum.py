@@ -103,10 +103,11 @@ def _upper(N: QuasiPolynomial, Delta: QuasiPolynomial, majors: tuple, d: np.ndar
         return np.where(m > 0, np.minimum(u0 / m2, second), np.inf)
 
 
-TAIL_SLACK = 1e-3
+TAIL_SLACK = 1e-2
 """Where ``w |T|`` tends to a constant ``c`` as ``w -> inf`` (``T`` of relative degree 1),
 the bound is at least ``c (1 + TAIL_SLACK)``: the tail is then bounded beyond a finite
-``R``."""
+``R`` (at 0.1 % the proofs of unfiltered torque loops, whose supremum is that limit, need
+several hundred points each and some exceed :data:`MAX_OPEN`)."""
 
 
 def _tail_radius(N: QuasiPolynomial, Delta: QuasiPolynomial, peak: np.ndarray

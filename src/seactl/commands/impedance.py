@@ -147,6 +147,7 @@ def _impedance(spec: DesignSpec, f: np.ndarray, model: str, load: bool, units: s
     unit = UNITS[units]
     scale = 1.0 if units == "rotary" else spec.actuator.pulley_radius ** -2
     g = designs.gains
+    mag, mag_db, phase = resp.magnitude, resp.magnitude_db, resp.phase_deg  # (once: whole arrays)
     out: list[dict[str, Any]] = []
     for i, fn in enumerate(spec.fn_hz):
         for j, gs in enumerate(spec.gs):
@@ -161,9 +162,9 @@ def _impedance(spec: DesignSpec, f: np.ndarray, model: str, load: bool, units: s
                 "low_frequency_stiffness": float(k_low[idx]) * scale,
                 "high_frequency_case": "load" if load else str(case[idx]),
                 "f_hz": [float(x) for x in f],
-                "magnitude": [finite_or_none(x) for x in resp.magnitude[idx]],
-                "magnitude_db": [finite_or_none(x) for x in resp.magnitude_db[idx]],
-                "phase_deg": [finite_or_none(x) for x in resp.phase_deg[idx]],
+                "magnitude": [finite_or_none(x) for x in mag[idx]],
+                "magnitude_db": [finite_or_none(x) for x in mag_db[idx]],
+                "phase_deg": [finite_or_none(x) for x in phase[idx]],
                 "passive": bool(pas.passive[idx]),
                 "passivity_proven": bool(pas.proven[idx]),
                 "non_passive_bands_hz": [[float(a), float(b)] for a, b in bands],
