@@ -197,3 +197,15 @@ def test_a_supremum_at_infinite_frequency_is_bounded_by_its_limit():
     limit = float(1e7 * np.abs(_solve_t(sea_split_diagram(), sc.design(30.0).sea,
                                         np.array([1e7]), "tau_sens"))[0])
     assert float(j.torque_s[0]) == pytest.approx(1 / ((1 + TAIL_SLACK) * limit), rel=1e-4)
+
+
+def test_cli_marks_an_unproven_jitter_margin(capsys, monkeypatch):
+    # Oracle: the documented contract: a stable design whose bound cannot be proven
+    # (forced here: every proof fails) shows "0 (not proven)", not a number.
+    import seactl._supremum as S
+
+    monkeypatch.setattr(S, "MAX_BASE", 1)
+    assert main(["jitter", "--fn", "14", "--t-tau", "0.5", "--t-qs", "2", "--t-qd", "0.5",
+                 "--f-qd", "50", "--f-taud", "100"]) == 0
+    out = capsys.readouterr().out
+    assert out.count("0 (not proven)") == 4

@@ -30,6 +30,8 @@ def jitter_rows(spec: DesignSpec) -> list[dict[str, Any]]:
 def _ms(x: float | None, stable: bool) -> str:
     if not stable:
         return "[red]unstable[/red]"
+    if x == 0:  # (stable, but no bound of w |T| could be proven)
+        return "[yellow]0 (not proven)[/yellow]"
     return "inf" if x is None else f"{x:.3f}"
 
 

@@ -171,6 +171,7 @@ def analyze(loop_file: str, sets: tuple[str, ...], no_jitter: bool, plot: str | 
         t.add_row(*[f"{r[k]:g}" for k in varied], r["break"], r["signal"],
                   _fmt(r["phase_margin_deg"], ".2f"), _fmt(r["crossover_hz"], ".2f"),
                   _fmt(r["gain_margin_db"], ".2f"), _fmt(r["delay_margin_ms"], ".3f"),
+                  "0 (not proven)" if r["stable"] and r["jitter_margin_ms"] == 0 else
                   _fmt(r["jitter_margin_ms"], ".3f"), "yes" if r["stable"] else "[red]NO[/red]")
     console.print(t)
     console.print("DM: extra latency at the break that destabilizes; jitter: Kao-Lincoln "
