@@ -531,12 +531,16 @@ class QuasiPolynomial:
         nz = (self.coeffs[1:] != 0).any(axis=0)
         return np.where(nz.any(axis=-1), nz.shape[-1] - 1 - np.argmax(nz[..., ::-1], axis=-1), -1)
 
+    @property
+    def neutral(self) -> np.ndarray:
+        """Per design, a delayed term has the degree of the undelayed one: a neutral (or
+        advanced) delay equation, whose roots reach the imaginary axis at infinite
+        frequency, so neither the certified scans nor the root finder apply."""
+        return self.delayed_degree >= self.degree
+
     def require_retarded(self, what: str) -> None:
-        """Raise :class:`~seactl.errors.InputError` where a delayed term has the degree of
-        the undelayed one: a neutral (or advanced) delay equation, whose roots reach the
-        imaginary axis at infinite frequency, so neither the certified scan nor the root
-        finder applies."""
-        if np.any(self.delayed_degree >= self.degree):
+        """Raise :class:`~seactl.errors.InputError` where the equation is :attr:`neutral`."""
+        if np.any(self.neutral):
             raise InputError(what, "a neutral delay equation",
                              "retarded: some block on every delayed feedback loop must roll "
                              "off (a strictly proper plant or a filter such as lowpass1); here "

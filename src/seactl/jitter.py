@@ -174,7 +174,7 @@ def _proven_peak(loop: Transfer, design: Any, w_ref: np.ndarray, peak: np.ndarra
     N, D = (f.evaluate(design).flat() for f in
             loop.diagram.return_difference(loop.input, loop.cut))
     delta = N + D
-    if np.any(delta.delayed_degree >= delta.degree):
+    if np.any(delta.neutral):
         return np.full(peak.shape, np.inf), w_peak
     bound, w_peak, proven = certify_peak(N, delta, w_ref, peak, w_peak)
     zero = (N.coeffs == 0).all(axis=(0, 2))  # T = 0: no peak

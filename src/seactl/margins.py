@@ -811,9 +811,14 @@ def closed_loop_right_roots(diagram: BlockDiagram, design: Any, w_ref: Any) -> n
     """
     shape = tuple(getattr(design, "shape", ()))
     q = diagram.characteristic().evaluate(design).flat()
-    n = q.shape[0]
-    if np.any(q.delayed_degree >= q.degree):  # neutral: no certified count
-        return np.full(shape, -1)
-    w = np.broadcast_to(np.asarray(w_ref, float), shape).reshape(n)
-    Z, certain = count_right_roots(q, w)
-    return np.where(certain, Z, -1).reshape(shape)
+    w = np.broadcast_to(np.asarray(w_ref, float), shape).reshape(q.shape[0])
+    return certified_right_roots(q, w).reshape(shape)
+
+
+def certified_right_roots(q: QuasiPolynomial, w_ref: np.ndarray) -> np.ndarray:
+    """:func:`count_right_roots` of a flat quasi-polynomial, -1 where the count is not
+    certain (a root on the axis) and everywhere if it is neutral."""
+    if np.any(q.neutral):
+        return np.full(q.shape[0], -1)
+    Z, certain = count_right_roots(q, w_ref)
+    return np.where(certain, Z, -1)

@@ -46,7 +46,7 @@ from typing import Any
 import numpy as np
 
 from .blockdiagram import BlockDiagram, QuasiPolynomial, shifted
-from .margins import count_right_roots
+from .margins import certified_right_roots, count_right_roots
 
 RESIDUAL_TOL = 1e-9
 """Accept a polished root when ``|Delta(s)| <= RESIDUAL_TOL * sum_k |p_k(s) e^{-s tau_k}|``."""
@@ -144,9 +144,8 @@ def characteristic_roots(diagram: BlockDiagram, design: Any, *, count: int = 6,
             r, nd, conv = _delay_roots(sub, deg, count, scale[idx])
         out[idx], nodes[idx], ok[idx] = r, nd, conv
     absc = np.nanmax(out.real, axis=1, initial=-np.inf)
-    Z, certain = count_right_roots(q, scale)
     return Roots(out.reshape(shape + (count,)), absc.reshape(shape), nodes.reshape(shape),
-                 ok.reshape(shape), np.where(certain, Z, -1).reshape(shape))
+                 ok.reshape(shape), certified_right_roots(q, scale).reshape(shape))
 
 
 def _frequency_scale(q: QuasiPolynomial) -> np.ndarray:
