@@ -14,7 +14,10 @@ once; one whose point has ``Re Z < 0`` is a band the scan missed.
 
 from __future__ import annotations
 
+from collections.abc import Callable
+
 import numpy as np
+from numpy.polynomial.polynomial import polyval
 
 from ._certify import compact, derivatives
 from .blockdiagram import EVAL_ROUNDING, QuasiPolynomial, rounding_majorant
@@ -35,12 +38,23 @@ points: memory stays bounded)."""
 _W, _F, _DF, _N0, _N1, _N2, _D0, _D1, _D2, _NEG = range(10)
 
 
-def _horner(c: np.ndarray, w: np.ndarray) -> np.ndarray:
+def rows_at(c: np.ndarray, w: np.ndarray) -> np.ndarray:
     """Polynomials ``c`` (rows, ascending powers) at ``w`` (one per row)."""
-    acc = c[:, -1].copy()
-    for j in range(c.shape[1] - 2, -1, -1):
-        acc = acc * w + c[:, j]
-    return acc
+    return polyval(w, c.T, tensor=False)
+
+
+def bisect(d: np.ndarray, pa: np.ndarray, pb: np.ndarray, points: Callable, unresolved:
+           np.ndarray, max_open: int, *extra: np.ndarray) -> tuple[np.ndarray, ...]:
+    """Halve the intervals of designs ``d`` between the points ``pa``, ``pb`` (rows whose
+    column 0 is the frequency; ``points(d, w)`` makes the midpoints): ``(d, pa, pb,
+    *extra)`` of the halves.  A design with more than ``max_open`` intervals is marked in
+    ``unresolved`` and dropped."""
+    keep = ~(np.bincount(d, minlength=unresolved.size)[d] > max_open)
+    unresolved[d[~keep]] = True
+    d, pa, pb, *extra = (x[keep] for x in (d, pa, pb, *extra))
+    mid = points(d, 0.5 * (pa[:, 0] + pb[:, 0]))
+    return (np.concatenate([d, d]), np.concatenate([pa, mid]), np.concatenate([mid, pb]),
+            *(np.concatenate([x, x]) for x in extra))
 
 
 def _points(arrays: tuple, b: np.ndarray, idx: np.ndarray, w: np.ndarray, tol: float
@@ -70,7 +84,7 @@ def _certified(N: QuasiPolynomial, D: QuasiPolynomial, b: np.ndarray,
     h, wb, bd = pb[:, _W] - pa[:, _W], pb[:, _W], b[d]
 
     def sups(c0: int, bound3: np.ndarray) -> tuple[np.ndarray, ...]:
-        c = 0.5 * (pa[:, c0 + 2] + pb[:, c0 + 2] + h * _horner(bound3[d], wb))
+        c = 0.5 * (pa[:, c0 + 2] + pb[:, c0 + 2] + h * rows_at(bound3[d], wb))
         s = 0.5 * (pa[:, c0 + 1] + pb[:, c0 + 1] + h * c)
         return 0.5 * (pa[:, c0] + pb[:, c0] + h * s), s, c
 
@@ -78,8 +92,8 @@ def _certified(N: QuasiPolynomial, D: QuasiPolynomial, b: np.ndarray,
     xD, sD, cD = sups(_D0, D.bound3_coeffs)
     # |f''| <= |N'' D| + 2 |N' D'| + |N D''| + b |(w |D|^2)''|
     m = cN * xD + 2 * sN * sD + xN * cD + bd * (4 * sD * xD + 2 * wb * (sD * sD + cD * xD))
-    majD = _horner(majors[1][d], wb)
-    err = EVAL_ROUNDING * (3 * _horner(majors[0][d], wb) * majD + 4 * bd * wb * majD * majD)
+    majD = rows_at(majors[1][d], wb)
+    err = EVAL_ROUNDING * (3 * rows_at(majors[0][d], wb) * majD + 4 * bd * wb * majD * majD)
     fa, fb, ga, gb = pa[:, _F], pb[:, _F], pa[:, _DF], pb[:, _DF]
     chord = np.minimum(fa, fb) - 0.125 * h * h * m > err
     monotone = ((ga > 0) == (gb > 0)) & (np.abs(ga) + np.abs(gb) > h * m)
@@ -125,13 +139,8 @@ def _certify_chunk(N: QuasiPolynomial, D: QuasiPolynomial, b: np.ndarray,
         if depth == MAX_DEPTH or not todo.any():
             open_[d[todo]] = True
             break
-        d, base, pa, pb = d[todo], base[todo], pa[todo], pb[todo]
-        over = np.bincount(d, minlength=n)[d] > MAX_OPEN
-        open_[d[over]] = True
-        keep = ~over
-        d, base, pa, pb = d[keep], base[keep], pa[keep], pb[keep]
-        mid = _points(arrays, b, d, 0.5 * (pa[:, _W] + pb[:, _W]), tol)
-        d, base = np.concatenate([d, d]), np.concatenate([base, base])
-        pa, pb = np.concatenate([pa, mid]), np.concatenate([mid, pb])
+        d, pa, pb, base = bisect(d[todo], pa[todo], pb[todo],
+                                 lambda i, w: _points(arrays, b, i, w, tol), open_, MAX_OPEN,
+                                 base[todo])
     proven = ~open_ & np.isnan(found).all(axis=1)
     return proven, found

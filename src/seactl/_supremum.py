@@ -24,7 +24,7 @@ from __future__ import annotations
 import numpy as np
 
 from ._certify import compact, derivatives
-from ._realpart import _horner
+from ._realpart import bisect, rows_at
 from .blockdiagram import EVAL_ROUNDING, QuasiPolynomial, padded_sum, rounding_majorant
 
 EPS = 1e-9
@@ -77,12 +77,12 @@ def _upper(N: QuasiPolynomial, Delta: QuasiPolynomial, majors: tuple, d: np.ndar
     h, W = pb[:, _W] - pa[:, _W], pb[:, _W]
 
     def sups(c0: int, bound3: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        c = 0.5 * (pa[:, c0 + 1] + pb[:, c0 + 1] + h * _horner(bound3[d], W))
+        c = 0.5 * (pa[:, c0 + 1] + pb[:, c0 + 1] + h * rows_at(bound3[d], W))
         return 0.5 * (pa[:, c0] + pb[:, c0] + h * c), c  # sup |Q'|, sup |Q''|
 
     S, C = sups(_N1, N.bound3_coeffs)
     SD, CD = sups(_D1, Delta.bound3_coeffs)
-    errN, errD = (EVAL_ROUNDING * _horner(m[d], W) for m in majors)
+    errN, errD = (EVAL_ROUNDING * rows_at(m[d], W) for m in majors)
     aD, bD = np.hypot(pa[:, _DR], pa[:, _DI]), np.hypot(pb[:, _DR], pb[:, _DI])
     X = np.minimum(0.5 * (pa[:, _N0] + pb[:, _N0] + h * S),
                    np.maximum(pa[:, _N0], pb[:, _N0]) + 0.125 * h * h * C) + errN
@@ -213,10 +213,6 @@ def _certify(N: QuasiPolynomial, Delta: QuasiPolynomial, arrays: tuple, majors: 
         if depth == MAX_DEPTH or not todo.any():
             failed[d[todo]] = True
             break
-        d, pa, pb = d[todo], pa[todo], pb[todo]
-        over = np.bincount(d, minlength=N.shape[0])[d] > MAX_OPEN
-        failed[d[over]] = True
-        d, pa, pb = d[~over], pa[~over], pb[~over]
-        mid = _points(arrays, d, 0.5 * (pa[:, _W] + pb[:, _W]))
-        d, pa, pb = np.concatenate([d, d]), np.concatenate([pa, mid]), np.concatenate([mid, pb])
+        d, pa, pb = bisect(d[todo], pa[todo], pb[todo], lambda i, w: _points(arrays, i, w),
+                           failed, MAX_OPEN)
     return seen & ~failed
