@@ -136,3 +136,14 @@ def test_judge_takes_a_certified_root_count():
     assert v.verdict == ["settled", "unstable", "settled"]
     assert [v.evidence(k)["right_half_plane_roots"] for k in range(3)] == [0, 2, None]
     assert v.warnings[1][0].startswith("unstable: 2 closed-loop root(s)")
+
+
+@pytest.mark.parametrize("bad", [np.nan, 2.5, 1e308, -2, np.inf])
+def test_judge_refuses_a_bad_root_count(bad):
+    # Oracle: the error contract (InputError naming the field and its value).
+    from seactl.errors import InputError
+
+    t = np.linspace(0.0, 1.0, 101)
+    with pytest.raises(InputError, match="right_half_plane_roots"):
+        judge(t, np.ones((2, 101)), target=1.0, scale=1.0, band=0.02,
+              right_half_plane_roots=[bad, 0])

@@ -39,6 +39,9 @@ from typing import Any
 
 import numpy as np
 
+from ._validate import finite_array
+from .errors import InputError
+
 VERDICTS = ("settled", "not settled", "unstable", "limit cycle", "saturated")
 SEGMENTS = 5
 """Segments of the judged window for the envelope fit."""
@@ -172,8 +175,8 @@ def judge(t: Any, y: Any, *, target: float, scale: Any, band: float,
     final = np.abs(np.where(t[None, :] >= (t[-1] - 0.05 * (t[-1] - t[0])), dev, 0.0)).max(-1)
     end_amp = _segment_max(t, dev, lo, hi, SEGMENTS - 1)[0]
     growing = (rate * (hi - lo) > np.log(GROWTH_FACTOR)) & (end_amp > band)
-    rhp = (np.full(b, -1) if right_half_plane_roots is None
-           else np.asarray(right_half_plane_roots, int).reshape(b))
+    rhp = np.full(b, -1) if right_half_plane_roots is None else \
+        _root_counts(right_half_plane_roots, b)
     unstable = np.isfinite(left) | growing | (rhp > 0)
     a_y, r_y, f_y = oscillation(t, dev, lo, hi)
     seen_y = a_y > band
@@ -196,6 +199,17 @@ def judge(t: Any, y: Any, *, target: float, scale: Any, band: float,
                     final, [], rhp)
     v.warnings.extend(_warnings(v, k, left[k], band) for k in range(b))
     return v
+
+
+def _root_counts(value: Any, b: int) -> np.ndarray:
+    """``right_half_plane_roots`` as ``b`` integers, each a count >= 0 or -1 (unknown)."""
+    arr = finite_array("right_half_plane_roots", value, minimum=-1.0)
+    arr = arr.reshape(b) if arr.size == b else np.broadcast_to(arr, (b,))
+    odd = (arr != np.round(arr)) | (arr > 1e9)
+    if odd.any():
+        raise InputError("right_half_plane_roots", float(arr[odd][0]),
+                         "whole counts from 0 to 1e9, or -1 where unknown")
+    return arr.astype(int)
 
 
 def _warnings(v: TimeVerdict, k: int, left: float, band: float) -> list[str]:
