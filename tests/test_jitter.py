@@ -209,3 +209,24 @@ def test_cli_marks_an_unproven_jitter_margin(capsys, monkeypatch):
                  "--f-qd", "50", "--f-taud", "100"]) == 0
     out = capsys.readouterr().out
     assert out.count("0 (not proven)") == 4
+
+
+def test_a_neutral_design_leaves_the_others_of_its_batch_proven(monkeypatch):
+    # Oracle: each design's proven peak computed alone.  A design whose loop is a neutral
+    # delay equation (forced here: no built-in SEA loop is one) has no proven peak (inf,
+    # so no jitter margin); it once took every other design of its batch with it.
+    from seactl.blockdiagram import QuasiPolynomial
+    from seactl.jitter import sea_jitter_grid
+
+    d = sc.design([12.0, 16.0], **TABLE_I).sea
+    omega = sea_jitter_grid(d)
+    loops = {k: sea_split_diagram().loop(tap) for k, tap in SEA_TAPS.items()}
+    alone = {k: peak_omega_t(loop, sc.design(12.0, **TABLE_I).sea, omega[0])[0]
+             for k, loop in loops.items()}
+    real = QuasiPolynomial.neutral.fget
+    monkeypatch.setattr(QuasiPolynomial, "neutral", property(
+        lambda q: real(q) | (np.arange(q.coeffs.shape[1]) == 1)))
+    for k, loop in loops.items():
+        peak = peak_omega_t(loop, d, omega)[0]
+        assert peak[0] == pytest.approx(float(alone[k]), rel=1e-12), k
+        assert np.isfinite(alone[k]) and peak[1] == np.inf, k

@@ -174,11 +174,14 @@ def _proven_peak(loop: Transfer, design: Any, w_ref: np.ndarray, peak: np.ndarra
     N, D = (f.evaluate(design).flat() for f in
             loop.diagram.return_difference(loop.input, loop.cut))
     delta = N + D
-    if np.any(delta.neutral):
-        return np.full(peak.shape, np.inf), w_peak
-    bound, w_peak, proven = certify_peak(N, delta, w_ref, peak, w_peak)
+    out, w_peak = np.full(peak.shape, np.inf), np.array(w_peak, float)
+    i = np.nonzero(~delta.neutral)[0]  # (a neutral design leaves the others proven)
+    if i.size:
+        bound, w_peak[i], proven = certify_peak(N.take(i), delta.take(i), w_ref[i], peak[i],
+                                                w_peak[i])
+        out[i] = np.where(proven, bound, np.inf)
     zero = (N.coeffs == 0).all(axis=(0, 2))  # T = 0: no peak
-    return np.where(zero, 0.0, np.where(proven, bound, np.inf)), w_peak
+    return np.where(zero, 0.0, out), w_peak
 
 
 def _refine(loop: LoopFn, design: Any, shape: tuple[int, ...], b: np.ndarray,
