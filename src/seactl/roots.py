@@ -335,19 +335,18 @@ def _select(q: QuasiPolynomial, s: np.ndarray, count: int, distinct: bool = True
     key = np.where(np.isfinite(s), -s.real, np.inf)
     order = np.argsort(key, axis=1, kind="stable")
     s = np.take_along_axis(s, order, axis=1)
+    keep = np.isfinite(s)
+    if distinct:  # greedy over the candidates, vectorized over designs: one kept
+        # candidate per cluster (relative to the root itself: far-left roots of a short
+        # delay, 1e11 away, must not merge a cluster near the origin)
+        tol = 1e-7 * np.maximum(1.0, np.abs(s))
+        for j in range(1, s.shape[1]):
+            near = np.abs(s[:, j:j + 1] - s[:, :j]) <= tol[:, j:j + 1]
+            keep[:, j] &= ~(near & keep[:, :j]).any(axis=1)
+    keep &= np.cumsum(keep, axis=1) <= count
     out = np.full((s.shape[0], count), np.nan + 0j)
-    for i in range(s.shape[0]):  # dedupe: few candidates per design
-        kept: list[complex] = []
-        for z in s[i]:
-            if not np.isfinite(z):
-                break
-            # (relative to the root itself: far-left roots of a short delay, 1e11 away,
-            # must not merge a cluster near the origin)
-            if not distinct or all(abs(z - k) > 1e-7 * max(1.0, abs(z)) for k in kept):
-                kept.append(complex(z))
-            if len(kept) == count:
-                break
-        out[i, :len(kept)] = kept
+    rows, cols = np.nonzero(keep)
+    out[rows, np.cumsum(keep, axis=1)[rows, cols] - 1] = s[rows, cols]
     return out
 
 
