@@ -85,7 +85,9 @@ def test_paper_sea_file_equals_builtin_impedance_and_responses(paper, builtin):
         y = paper.step(0.4, mode=mode, record_dt=rec).outputs["q_j"]
         y_ref = sea_step(builtin.sea, mode=mode, t_end_s=0.4, record_dt=rec,
                          saturation_a=sat).position
-        assert np.max(np.abs(y - y_ref)) < 1e-9
+        # two realizations of one loop: rounding only (3e-14 measured; 7e-9 before the
+        # matrix exponential balanced its matrices)
+        assert np.max(np.abs(y - y_ref)) < 1e-12
         y = paper.impulse(0.4, mode=mode, area=0.05, record_dt=rec).outputs["q_j"]
         y_ref = sea_impulse(builtin.sea, mode=mode, impulse_nms=0.05, t_end_s=0.4,
                             record_dt=rec, saturation_a=sat).position
