@@ -396,7 +396,7 @@ def balance_batched(A: np.ndarray, sweeps: int = 40) -> np.ndarray:
     """Powers of two ``d`` (shape ``(..., N)``) that balance each matrix of a stack:
     ``A * d[..., None, :] / d[..., :, None]`` (that is ``D^-1 A D``) has off-diagonal row
     and column 1-norms within a factor of about 2 of each other (Parlett and Reinsch, the
-    scaling of LAPACK's ``gebal``; one index at a time, vectorized over the stack).
+    scaling of LAPACK's ``gebal``; one index at a time, compiled, over the stack).
 
     Powers of two make the similarity exact in floating point.  Rows or columns that are
     zero off the diagonal, or not finite, are left alone.
@@ -415,25 +415,35 @@ def balance_batched(A: np.ndarray, sweeps: int = 40) -> np.ndarray:
     with np.errstate(invalid="ignore"):
         W = np.where(np.isfinite(A), np.abs(A), 0.0) * (1.0 - np.eye(n))
     d = np.ones(A.shape[:-1])
-    for _ in range(sweeps):
-        changed = False
-        for i in range(n):
-            # W holds |D^-1 A D| off the diagonal; scaling index i by f multiplies its
-            # column by f and divides its row by f
-            c, r = W[..., :, i].sum(axis=-1), W[..., i, :].sum(axis=-1)
-            ok = (c > 0) & (r > 0)
-            with np.errstate(divide="ignore", invalid="ignore"):
-                f = np.exp2(np.round(0.5 * np.log2(np.where(ok, r / c, 1.0))))
-                better = ok & (c * f + r / f < 0.95 * (c + r))
-            if better.any():
-                f = np.where(better, f, 1.0)
-                W[..., :, i] *= f[..., None]
-                W[..., i, :] /= f[..., None]
-                d[..., i] *= f
-                changed = True
-        if not changed:
-            break
+    _balance_kernel(W.reshape(-1, n, n), d.reshape(-1, n), sweeps)
     return d
+
+
+@njit(cache=True, nogil=True)
+def _balance_kernel(W, d, sweeps):  # pragma: no cover - compiled
+    # W: |A| off the diagonal, rescaled in place to |D^-1 A D|; scaling index i by f
+    # multiplies its column by f and divides its row by f
+    for k in range(W.shape[0]):
+        n = W.shape[1]
+        for _ in range(sweeps):
+            changed = False
+            for i in range(n):
+                c = 0.0
+                r = 0.0
+                for j in range(n):
+                    c += W[k, j, i]
+                    r += W[k, i, j]
+                if not (c > 0.0 and r > 0.0):
+                    continue
+                f = 2.0 ** np.round(0.5 * np.log2(r / c))
+                if c * f + r / f < 0.95 * (c + r):
+                    for j in range(n):
+                        W[k, j, i] *= f
+                        W[k, i, j] /= f
+                    d[k, i] *= f
+                    changed = True
+            if not changed:
+                break
 
 
 def expm_batched(A: np.ndarray) -> np.ndarray:
