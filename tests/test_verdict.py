@@ -15,7 +15,10 @@ import numpy as np
 import pytest
 
 import seactl as sc
+from seactl.actuators import UT_SEA
 from seactl.cli import main
+from seactl.design import critically_damped_gains
+from seactl.loops import SEADesign, Timing, sea_diagram
 from seactl.sea import sea_impulse, sea_step
 from seactl.verdict import judge, judge_response
 
@@ -123,9 +126,50 @@ def test_a_slowly_unstable_design_is_called_unstable(capsys):
     assert out["evidence"]["right_half_plane_roots"] == 2
     assert out["evidence"]["growth_rate_per_s"] < np.log(2) / 0.25  # no growth to see
     assert any("2 closed-loop root(s) in the right half-plane" in w for w in out["warnings"])
-    # the sampled controller is another system: no certified count, the window's verdict
+    # the sampled controller is another system (whole-sample buffers: T_qs 10.5 ms, stable);
+    # its own count is 0 and decides nothing: the window's verdict
     assert main(["step", *SLOW, "--mode", "sampled", "--json"]) == 0
-    assert json.loads(capsys.readouterr().out)["evidence"]["right_half_plane_roots"] is None
+    out = json.loads(capsys.readouterr().out)
+    assert out["evidence"]["right_half_plane_roots"] == 0 and out["verdict"] == "not settled"
+
+
+def test_sampled_growing_modes_match_a_long_simulation():
+    """The lifted map's spectral radius gives each sampled design's growth rate,
+    ``ln(rho) / period``.  Oracle: the envelope of a 20 s sampled simulation without
+    limits (peaks per second, a line through their logarithms), on designs 0.1-0.25 /s
+    either side of the boundary near f_n = 30.1 Hz, which a 0.5 s window cannot tell."""
+    from seactl.simulate import Step, compile_sampled, lifted_map
+
+    fn = np.array([29.9, 30.05, 30.2, 30.3])
+    d = SEADesign(UT_SEA, critically_damped_gains(UT_SEA, fn),
+                  Timing.from_ms(0.5, 10.53, 0.5, 50, 100))
+    plan = compile_sampled(sea_diagram(True), d, {"q_des": Step(1.0)}, 0.5, ("q_j",),
+                           rates_hz=1000.0)
+    M, period_s = lifted_map(plan)
+    rate = np.log(np.abs(np.linalg.eigvals(M)).max(axis=1)) / period_s
+    r = sea_step(d, mode="sampled", saturation_a=np.inf, t_end_s=20.0)
+    assert np.all(np.isinf(r.result.left_bounds_s))
+    sec = np.floor(r.result.t_s).astype(int)
+    peaks = np.array([[np.abs(y[sec == k] - 1.0).max() for k in range(4, 20)]
+                      for y in r.position])
+    fitted = np.polyfit(np.arange(4, 20) + 0.5, np.log(peaks.T), 1)[0]
+    np.testing.assert_allclose(rate, fitted, atol=0.005)
+    assert list(np.sign(rate)) == [-1, -1, 1, 1]
+    np.testing.assert_array_equal(r.result.info["unstable_modes"], [0, 0, 2, 2])
+
+
+def test_a_slowly_unstable_sampled_design_is_called_unstable(capsys):
+    # Oracle: the test above (f_n 30.2 Hz grows at 0.105 /s, 30.05 Hz decays at 0.073 /s).
+    args = ["--t-tau", "0.5", "--t-qs", "10.53", "--t-qd", "0.5", "--f-qd", "50",
+            "--f-taud", "100", "--mode", "sampled", "--json"]
+    assert main(["step", "--fn", "30.2", *args]) == 0
+    out = json.loads(capsys.readouterr().out)
+    assert out["verdict"] == "unstable" and out["stable"] is False
+    assert out["evidence"]["right_half_plane_roots"] == 2
+    assert out["evidence"]["growth_rate_per_s"] < np.log(2) / 0.25  # no growth to see
+    assert main(["step", "--fn", "30.05", *args]) == 0
+    out = json.loads(capsys.readouterr().out)
+    assert out["evidence"]["right_half_plane_roots"] == 0 and out["verdict"] != "unstable"
 
 
 def test_judge_takes_a_certified_root_count():

@@ -97,7 +97,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Mapping, Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from functools import cached_property
 from typing import Any
 
@@ -619,6 +619,8 @@ def simulate(diagram: BlockDiagram, design: Any, inputs: Mapping[str, Any], t_en
                                friction=friction, friction_substeps=friction_substeps,
                                buffered=timing.blocks if timing is not None else ())
         res = run_sampled(plan, bound, timing.schedules(plan) if timing is not None else None)
+        if timing is None:  # time-varying timing has no fixed lifted map
+            res.info["unstable_modes"] = sampled_unstable_modes(plan).reshape(shape)
     scale = max(bound / 1e3, 1e-300)
     grow = _growing(res.outputs[outputs[0]], scale)
     stable = np.isinf(res.left_bounds_s) & ~grow
@@ -1435,6 +1437,131 @@ def run_sampled(plan: SampledPlan, bound: float,
             st.zc[:, ~st.alive] = 0.0
             st.ring[:, :, ~st.alive] = 0.0
     return _sampled_result(plan, st)
+
+
+UNIT_CIRCLE_TOL = 1e-6
+"""Eigenvalues of the lifted map with ``| |lambda| - 1 | <= UNIT_CIRCLE_TOL`` make the count
+unknown (-1): a growth or decay slower than about 1e-3 /s at 1 kHz is not decided."""
+
+
+def lifted_map(plan: SampledPlan, designs: slice = slice(None)) -> tuple[np.ndarray, float]:
+    """The sampled loop's state map over ``m`` base ticks, ``(n, S, S)``, and that period
+    ``m T`` [s], with ``m`` a multiple of the slowest process's period and of the delay
+    buffers' length.
+
+    The state is everything a tick carries over: plant states, the held actuation,
+    controller states, held outputs of slow blocks and the delay buffers.  Each column is
+    the run loop itself (:func:`_sense`, :func:`_control`, :func:`_advance_plant`) started
+    from one unit state with no input, no saturation and no quantization: the linear
+    loop the simulation runs while no limit is reached.  Without friction only;
+    ``designs`` selects part of the batch.
+    """
+    if plan.friction:
+        raise InputError("friction", "given", "a loop without friction (it is not linear)")
+    nbuf = plan.nbuf[:, designs]
+    m = _lifted_ticks(plan, nbuf)
+    n = nbuf.shape[1]
+    S = _lifted_size(plan, nbuf)
+
+    def rep(a):  # per-design arrays (batch last), one copy per unit state
+        return np.repeat(a[..., designs], S, axis=-1)
+
+    probe = replace(
+        plan, t_s=np.arange(m + 1) * plan.base_period_s, Hp=rep(plan.Hp), CDp=rep(plan.CDp),
+        ABc=[rep(a) for a in plan.ABc], CDc=[rep(a) for a in plan.CDc],
+        HOLD=[[rep(a) for a in row] for row in plan.HOLD],
+        plant_inputs=np.zeros((m * plan.substeps + 1,) + plan.plant_inputs.shape[1:2] + (1,)),
+        ctrl_inputs=np.zeros((m + 1,) + plan.ctrl_inputs.shape[1:2] + (1,)),
+        x0=np.zeros((plan.x0.shape[0], n * S)), nbuf=np.repeat(nbuf, S, axis=-1),
+        limit=np.full_like(plan.limit, np.inf))
+    st = _SampledState.start(probe, m)
+    slots = _read_slots(plan, nbuf)
+    unit = np.tile(np.eye(S), (1, n))       # column j: design j // S, unit state j % S
+    _lifted_state(probe, st, slots, unit)
+    for k in range(m):
+        Sp = _sense(probe, st, k)
+        st.act = _control(probe, st, k, Sp[probe.prow["sensed"]], None)[1]
+        _advance_plant(probe, st, k)
+    M = _lifted_state(probe, st, slots).reshape(S, n, S).transpose(1, 0, 2)
+    return M, m * plan.base_period_s
+
+
+def _lifted_ticks(plan: SampledPlan, nbuf: np.ndarray) -> int:
+    """Ticks of the lifted map: a multiple of the slowest period covering the buffers."""
+    L = int(nbuf.max(initial=0)) + 2
+    return -(-L // plan.phases) * plan.phases
+
+
+def _read_slots(plan: SampledPlan, nbuf: np.ndarray) -> np.ndarray:
+    """Buffer slots ``(m, links)`` that are read before they are overwritten in a lifted
+    period: slot ``s`` holds the value of tick ``s - m`` and link ``l`` reads it at tick
+    ``s - m + nbuf``.  The others never matter (their columns of the map are zero), so the
+    state leaves them out; the largest buffer of the batch decides, per link."""
+    m = _lifted_ticks(plan, nbuf)
+    return np.arange(m)[:, None] >= m - nbuf.max(axis=1, initial=0)[None, :]
+
+
+def _lifted_size(plan: SampledPlan, nbuf: np.ndarray) -> int:
+    """Length of the carried-over state (:func:`_lifted_state`)."""
+    sizes = [plan.zp["x"], plan.zp["act"], plan.zc["x"], plan.zc["held"]]
+    return sum(sl.stop - sl.start for sl in sizes) + int(_read_slots(plan, nbuf).sum())
+
+
+def _lifted_state(plan: SampledPlan, st: _SampledState, slots: np.ndarray,
+                  set_to: np.ndarray | None = None) -> np.ndarray:
+    """The carried-over state (the buffers' ``slots`` only) packed as rows ``(S, columns)``;
+    with ``set_to``, set it."""
+    parts = [(st.zp, plan.zp["x"]), (st.act, slice(None)), (st.zc, plan.zc["x"]),
+             (st.zc, plan.zc["held"])]
+    if set_to is not None:
+        i = 0
+        for arr, sl in parts:
+            k = arr[sl].shape[0]
+            arr[sl] = set_to[i:i + k]
+            i += k
+        st.ring[slots] = set_to[i:]
+    return np.concatenate([arr[sl] for arr, sl in parts] + [st.ring[slots]], axis=0)
+
+
+def sampled_unstable_modes(plan: SampledPlan) -> np.ndarray:
+    """Per design, the number of the lifted map's eigenvalues outside the unit circle
+    (:func:`lifted_map`): 0 means the linear sampled loop is stable, ``k > 0`` that ``k``
+    modes grow (however slowly), -1 undecided (an eigenvalue within
+    :data:`UNIT_CIRCLE_TOL` of the circle, not finite, or a loop with friction).
+
+    Continuous-time counterpart: the right half-plane of ``s = ln(lambda) / (m T)``.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from seactl.actuators import UT_SEA
+    >>> from seactl.design import critically_damped_gains
+    >>> from seactl.loops import SEADesign, Timing, sea_diagram
+    >>> d = SEADesign(UT_SEA, critically_damped_gains(UT_SEA, np.array([30.05, 30.2])),
+    ...               Timing.from_ms(0.5, 10.53, 0.5, 50, 100))
+    >>> plan = compile_sampled(sea_diagram(True), d, {"q_des": Step(1.0)}, 0.1, ("q_j",))
+    >>> sampled_unstable_modes(plan).tolist()
+    [0, 2]
+    """
+    n = plan.x0.shape[1]
+    if plan.friction:
+        return np.full(n, -1)
+    chunk = max(1, _LIFTED_COLUMNS // _lifted_size(plan, plan.nbuf))
+    return np.concatenate([_unstable_modes(plan, slice(i, i + chunk))
+                           for i in range(0, n, chunk)])
+
+
+_LIFTED_COLUMNS = 20_000
+"""Designs x unit states probed at once (bounds the probe's memory to tens of MB)."""
+
+
+def _unstable_modes(plan: SampledPlan, designs: slice) -> np.ndarray:
+    with np.errstate(all="ignore"):
+        M = lifted_map(plan, designs)[0]
+        ok = np.all(np.isfinite(M), axis=(1, 2))
+        lam = np.abs(np.linalg.eigvals(np.where(ok[:, None, None], M, 0.0)))
+    near = np.any(np.abs(lam - 1.0) <= UNIT_CIRCLE_TOL, axis=1) | ~ok
+    return np.where(near, -1, np.sum(lam > 1.0, axis=1))
 
 
 def run_controller(plan: SampledPlan, sensed: np.ndarray) -> np.ndarray:

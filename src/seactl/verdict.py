@@ -12,7 +12,9 @@ joint barely moves.  :func:`judge` reads the recorded signals and decides, in th
     exponential whose growth over the judged window exceeds a factor 2, and it ends
     outside the band; or, when the caller gives it, the loop's certified count of
     closed-loop roots in the right half-plane is not 0 (a slowly growing or weakly
-    excited mode that the simulated window cannot show is still unstable);
+    excited mode that the simulated window cannot show is still unstable); for a sampled
+    loop the count is of the lifted map's eigenvalues outside the unit circle
+    (:func:`seactl.simulate.sampled_unstable_modes`);
 ``limit cycle``
     a sustained oscillation: in the last quarter of the window the oscillation (signal
     minus its linear trend) of the position exceeds the band, or that of the current
@@ -242,9 +244,13 @@ def _warnings(v: TimeVerdict, k: int, left: float, band: float) -> list[str]:
 def judge_response(resp: Any, band: float, right_half_plane_roots: Any = None
                    ) -> TimeVerdict:
     """:func:`judge` on a :class:`seactl.simulate.SEAResponse` (step: target 1 of the
-    normalized position, scale 1; impulse: target 0, scale the peak deviation)."""
+    normalized position, scale 1; impulse: target 0, scale the peak deviation).  Without
+    ``right_half_plane_roots``, a sampled simulation's own count of growing modes
+    (``info["unstable_modes"]``, :func:`seactl.simulate.sampled_unstable_modes`) is used."""
     res = resp.result
     t = res.t_s
+    if right_half_plane_roots is None:
+        right_half_plane_roots = (res.info or {}).get("unstable_modes")
     y = np.asarray(resp.position, float).reshape(-1, t.size)
     cur = np.asarray(resp.current, float).reshape(-1, t.size)
     info = res.info or {}

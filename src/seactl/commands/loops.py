@@ -304,7 +304,7 @@ def loop_response(loop: Any, kind: str, mode: str, t_end: float, size: float,
               scale=abs(size) if kind == "step" else np.abs(yf).max(-1),
               band=0.02 if kind == "step" else 0.05, left_bounds_s=res.left_bounds_s,
               saturated_fraction=res.info.get("saturated_fraction"),
-              right_half_plane_roots=_right_roots(loop, mode))
+              right_half_plane_roots=_right_roots(loop, mode, res))
     runs = [{**lab, "stable": bool(res.stable.reshape(-1)[i])
              and v.verdict[i] not in ("unstable", "limit cycle"),
              "verdict": v.verdict[i], "evidence": v.evidence(i), "warnings": v.warnings[i],
@@ -357,11 +357,12 @@ def loop_place(loop: Any, as_json: bool) -> None:
     console.print(t)
 
 
-def _right_roots(loop: Any, mode: str) -> np.ndarray | None:
-    """The loop file's certified count of unstable closed-loop roots (continuous mode:
-    the simulated exact-delay diagram itself; the sampled processes are another system)."""
+def _right_roots(loop: Any, mode: str, res: Any) -> np.ndarray | None:
+    """The loop file's count of unstable closed-loop modes: continuous mode, the certified
+    count of the simulated exact-delay diagram; sampled mode, the lifted map's eigenvalues
+    outside the unit circle (the sampled processes are another system)."""
     if mode != "continuous":
-        return None
+        return res.info.get("unstable_modes")
     from ..margins import closed_loop_right_roots
 
     g = loop.grid()

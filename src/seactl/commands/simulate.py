@@ -27,8 +27,10 @@ JSON for one design: ``{"mode", "t_s", "position", "stable", "verdict", "evidenc
 "metrics", "warnings", ...}``; for several designs: ``{"mode", "t_s", "warnings", "runs":
 [{"fn_hz", "gs", "position", "stable", "verdict", "evidence", "warnings", "metrics", ...}]}``.
 ``verdict`` is one of settled, not settled, unstable, limit cycle, saturated
-(:mod:`seactl.verdict`; in continuous mode a loop with certified right-half-plane roots,
-``evidence.right_half_plane_roots``, is unstable however slowly they grow); ``stable`` is
+(:mod:`seactl.verdict`; a loop with growing modes, ``evidence.right_half_plane_roots``,
+is unstable however slowly they grow: in continuous mode the certified count of
+right-half-plane roots, in sampled mode the eigenvalues of the loop's map over a period
+outside the unit circle, without saturation and quantization); ``stable`` is
 false for unstable and limit cycle.  The top-level
 ``warnings`` are the lines the table prints after ``warning:``.
 Metrics that do not exist (unstable response, never settled) are ``null``.
@@ -232,7 +234,8 @@ def _metrics_json(m: Any, i: int) -> dict[str, Any]:
 
 def _right_roots(spec: DesignSpec, mode: str, zero: bool) -> np.ndarray | None:
     """The simulated loop's certified count of unstable closed-loop roots (continuous
-    mode: the same exact-delay loop; the sampled controller is another system)."""
+    mode: the same exact-delay loop); ``None`` in sampled mode, whose simulation counts its
+    own growing modes (:func:`seactl.verdict.judge_response` reads them)."""
     if mode != "continuous":
         return None
     from ..loops import sea_diagram
