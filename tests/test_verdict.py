@@ -191,3 +191,18 @@ def test_judge_refuses_a_bad_root_count(bad):
     with pytest.raises(InputError, match="right_half_plane_roots"):
         judge(t, np.ones((2, 101)), target=1.0, scale=1.0, band=0.02,
               right_half_plane_roots=[bad, 0])
+
+
+def test_sampled_counts_too_costly_or_with_friction_are_unknown(monkeypatch):
+    # Oracle: the contract (-1 = not decided, the window alone judges), by construction.
+    import seactl.simulate as sim
+    from seactl.simulate import Friction, Step, compile_sampled, sampled_unstable_modes
+
+    d = SEADesign(UT_SEA, critically_damped_gains(UT_SEA, np.array([14.0, 30.2])),
+                  Timing.from_ms(0.5, 10.53, 0.5, 50, 100))
+    args = (sea_diagram(True), d, {"q_des": Step(1.0)}, 0.1, ("q_j",))
+    assert sampled_unstable_modes(compile_sampled(*args)).tolist() == [0, 2]
+    fr = Friction("tau_net_m", "q_m", coulomb=0.1)
+    assert sampled_unstable_modes(compile_sampled(*args, friction=fr)).tolist() == [-1, -1]
+    monkeypatch.setattr(sim, "_LIFTED_WORK", 1.0)
+    assert sampled_unstable_modes(compile_sampled(*args)).tolist() == [-1, -1]
