@@ -238,6 +238,9 @@ class ResponseResult(_Wrapped):
         The simulated response.
     labels : list of str
         One legend label per design (flattened batch).
+    right_roots : callable, optional
+        Returns the simulated loop's certified count of right-half-plane roots per design
+        (continuous mode; used by :meth:`verdict`).
 
     Examples
     --------
@@ -247,9 +250,54 @@ class ResponseResult(_Wrapped):
     (2, ['current', 'final_value', 'kind'])
     """
 
-    def __init__(self, response: Any, labels: list[str]):
+    STEP_BAND = 0.02
+    """Settling band of a step's verdict, relative to the step."""
+
+    def __init__(self, response: Any, labels: list[str], right_roots: Any = None):
         self._inner = response
         self.labels = labels
+        self._right_roots = right_roots
+
+    def verdict(self, band: float | None = None) -> Any:
+        """Settled, not settled, unstable, limit cycle or saturated, per design, with the
+        evidence (what ``seactl step`` and ``seactl impulse`` print).
+
+        A loop with growing modes is unstable however slowly they grow and whatever the
+        simulated window shows: in continuous mode by the certified count of closed-loop
+        roots in the right half-plane, in sampled mode by the eigenvalues of the loop's
+        map over one period (:func:`seactl.simulate.sampled_unstable_modes`).
+        ``metrics.stable`` only says the simulated response stayed bounded and decayed.
+
+        Parameters
+        ----------
+        band : float, optional
+            Settling band relative to the scale (default 0.02 for a step, the metrics'
+            recovery band for an impulse).
+
+        Returns
+        -------
+        seactl.verdict.TimeVerdict
+            ``verdict`` (one string per design), ``warnings`` and ``evidence(i)``.
+
+        Examples
+        --------
+        Two designs either side of the stability boundary (10.5217 ms): the window
+        cannot tell them apart, the certified count can.
+
+        >>> import seactl as sc
+        >>> d = sc.design(30, delays_ms=(0.5, [10.5, 10.53], 0.5), filters_hz=(50, 100))
+        >>> v = d.step().verdict()
+        >>> v.verdict, [v.evidence(i)["right_half_plane_roots"] for i in range(2)]
+        (['not settled', 'unstable'], [0, 2])
+        """
+        from .verdict import judge_response
+
+        r = self._inner
+        if band is None:
+            band = self.STEP_BAND if r.kind == "step" else r.metrics.band
+        roots = self._right_roots() if (self._right_roots is not None
+                                        and r.result.mode == "continuous") else None
+        return judge_response(r, band, roots)
 
     def __repr__(self) -> str:
         r = self._inner

@@ -13,6 +13,7 @@ plausible are refused (a delay above 1000 ms) or warned about (a non-zero delay 
 
 from __future__ import annotations
 
+import functools
 import warnings
 from collections.abc import Sequence
 from dataclasses import dataclass, fields
@@ -370,12 +371,12 @@ class Design:
         >>> bool(r.metrics.stable), round(float(r.metrics.final_value), 3)
         (True, 1.0)
         """
-        from .sea import sea_step
+        from .sea import sea_right_roots, sea_step
 
         self._check_simulation(mode, rate_hz, t_end_s)
         return ResponseResult(sea_step(self.sea, zero=zero, mode=mode, rate_hz=rate_hz,
                                        t_end_s=t_end_s, saturation_a=saturation_a),
-                              self.labels())
+                              self.labels(), functools.partial(sea_right_roots, self.sea, zero))
 
     def _check_simulation(self, mode: str, rate_hz: float, t_end_s: float) -> None:
         """Ranges, samples, memory and time of a simulation (errors name the parameters)."""
@@ -418,12 +419,13 @@ class Design:
         >>> bool(r.metrics.stable), bool(r.metrics.recovery_time_s < 0.2)
         (True, True)
         """
-        from .sea import sea_impulse
+        from .sea import sea_impulse, sea_right_roots
 
         self._check_simulation(mode, rate_hz, t_end_s)
         return ResponseResult(sea_impulse(self.sea, impulse_nms=impulse_nms, mode=mode,
                                           rate_hz=rate_hz, t_end_s=t_end_s,
-                                          saturation_a=saturation_a), self.labels())
+                                          saturation_a=saturation_a), self.labels(),
+                              functools.partial(sea_right_roots, self.sea, True))
 
     def monte_carlo(self, kind: str = "step", *, latency: Any = None, loss: Any = None,
                     runs: int = 100, seed: int = 0, rate_hz: float = 1000.0,

@@ -76,6 +76,14 @@ def _sea_kwargs(design, mode, rate_hz, saturation_a):
     return {"rates_hz": float(rate_hz), "saturation": {"i_m": sat}}
 
 
+def sea_right_roots(design: Any, zero: bool = True) -> np.ndarray:
+    """Certified count of the SEA loop's closed-loop roots with ``Re s > 0`` per design
+    (the whole exact-delay diagram the continuous simulation runs; -1 where uncertain)."""
+    from .margins import closed_loop_right_roots
+
+    return closed_loop_right_roots(sea_diagram(zero), design, sea_reference_frequency(design))
+
+
 def sea_step(design: Any, *, zero: bool = True, mode: str = "continuous",
              rate_hz: float = 1000.0, t_end_s: float = 0.5, saturation_a: float | None = None,
              amplitude: float = 1.0, dt: float | None = None, **kwargs: Any) -> SEAResponse:

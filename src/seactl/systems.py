@@ -209,6 +209,7 @@ class RigidBatch:
         >>> r.metrics.stable.tolist(), bool(abs(r.position[0, -1] - 1) < 1e-3)
         ([True, True], True)
         """
+        from .margins import closed_loop_right_roots
         from .rigid import RIGID_DIAGRAM
         from .simulate import SEAResponse, SimResult, Step, simulate, step_metrics
 
@@ -223,7 +224,8 @@ class RigidBatch:
                                             "i_m": force / r.actuator.beta},
                         res.stable, res.left_bounds_s, res.bound, res.info)
         met = step_metrics(res.t_s, res.outputs["q_j"], res.stable, res.left_bounds_s)
-        return ResponseResult(SEAResponse("step", res, met), self.labels())
+        return ResponseResult(SEAResponse("step", res, met), self.labels(),
+                              lambda: closed_loop_right_roots(RIGID_DIAGRAM, r, r.wn))
 
     def impedance(self, f_hz: Any) -> ImpedanceResult:
         """Impedance ``Z(j 2 pi f) = F_ext / (j 2 pi f x)`` [N s/m] felt at the output.

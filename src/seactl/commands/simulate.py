@@ -238,12 +238,9 @@ def _right_roots(spec: DesignSpec, mode: str, zero: bool) -> np.ndarray | None:
     own growing modes (:func:`seactl.verdict.judge_response` reads them)."""
     if mode != "continuous":
         return None
-    from ..loops import sea_diagram
-    from ..margins import closed_loop_right_roots
-    from ..sea import sea_reference_frequency
+    from ..sea import sea_right_roots
 
-    d = spec.designs()
-    return closed_loop_right_roots(sea_diagram(zero), d, sea_reference_frequency(d))
+    return sea_right_roots(spec.designs(), zero)
 
 
 def _output(spec: DesignSpec, resp: Any, mode: str, zero: bool, extra: dict[str, Any],
