@@ -791,3 +791,29 @@ def test_multirate_sampled_growth_rates_match_a_long_simulation(paper):
     fitted = np.polyfit((np.arange(2, 12) + 0.5) * 0.25, np.log(peaks.T), 1)[0]
     np.testing.assert_allclose(rate, fitted, atol=0.02)
     assert rate[0] < -5 and 0.3 < rate[1] < 0.4
+
+
+def test_a_loop_files_verdict_from_python_is_the_command_lines(paper, capsys):
+    """``UserLoop.verdict`` is what ``seactl step --loop`` prints (the command uses it), and
+    its continuous count is the built-in SEA loop's certified count (another realization
+    of the same loop; oracle of that one: tests/test_verdict.py, seactl roots)."""
+    from seactl.loops import SEADesign, Timing
+    from seactl.sea import sea_right_roots
+
+    t_high = np.array([2.0, 10.0, 30.0])
+    lp = paper.with_values(T_high=t_high)
+    g = sc.design(14, **TABLE_I_14).gains
+    ref = sea_right_roots(SEADesign(sc.UT_SEA, g, Timing.from_ms(0.5, t_high, 0.5, 50, 100)))
+    np.testing.assert_array_equal(lp.right_half_plane_roots(), ref)
+    assert ref.tolist() == [0, 0, 2]
+    for mode in ("continuous", "sampled"):
+        v = lp.verdict(lp.step(0.5, mode=mode, amplitude=0.01,
+                               record_dt=5e-4 if mode == "continuous" else None))
+        assert main(["step", "--loop", str(EXAMPLES / "paper-sea.toml"), "--mode", mode,
+                     "--set", "T_high=2,10,30", "--json"]) == 0
+        runs = json.loads(capsys.readouterr().out)["runs"]
+        assert v.verdict == [r["verdict"] for r in runs]
+        assert [v.evidence(i) for i in range(3)] == [r["evidence"] for r in runs]
+        assert v.verdict[0] == "settled" and v.verdict[2] == "unstable"
+    with pytest.raises(sc.InputError, match="result"):
+        lp.verdict(sc.design(14).step())

@@ -22,7 +22,7 @@ from typing import Any
 
 import numpy as np
 
-from .errors import LoopFileError
+from .errors import InputError, LoopFileError
 from .loopfile import (
     CompiledLoop,
     check_name,
@@ -846,8 +846,82 @@ class UserLoop:
             raise LoopFileError(self.file, "input", inp, "an exogenous input: "
                                 + ", ".join(self.diagram.inputs))
         self._signal(out, "output")
-        return simulate(self.diagram, self.design, {inp: excitation}, t_end_s, mode=mode,
-                        outputs=(out,), rates_hz=self._rates(rates_hz), record_dt=record_dt)
+        res = simulate(self.diagram, self.design, {inp: excitation}, t_end_s, mode=mode,
+                       outputs=(out,), rates_hz=self._rates(rates_hz), record_dt=record_dt)
+        step = which == "reference"
+        res.info["excitation"] = {"kind": "step" if step else "impulse",
+                                  "size": float(excitation.amplitude if step
+                                                else excitation.area)}
+        return res
+
+    def right_half_plane_roots(self) -> np.ndarray:
+        """Certified count of the whole diagram's closed-loop roots with ``Re s > 0`` per
+        design (the exact-delay loop the continuous simulation runs; -1 where uncertain).
+
+        Returns
+        -------
+        numpy.ndarray
+            Integer counts, the batch's shape.
+
+        Examples
+        --------
+        >>> import seactl as sc
+        >>> loop = sc.load_loop("examples/loops/paper-sea.toml")      # doctest: +SKIP
+        >>> loop.with_values(T_high=[2.0, 30.0]).right_half_plane_roots().tolist()  # doctest: +SKIP
+        [0, 2]
+        """
+        from .margins import closed_loop_right_roots
+
+        g = self.grid()
+        return closed_loop_right_roots(self.diagram, self.design, np.sqrt(g[..., 0] * g[..., -1]))
+
+    def verdict(self, result: Any, band: float | None = None) -> Any:
+        """Settled, not settled, unstable, limit cycle or saturated per design, with the
+        evidence, for a result of this loop's :meth:`step` or :meth:`impulse` (what
+        ``seactl step --loop`` prints).
+
+        A loop with growing modes is unstable however slowly they grow: in continuous mode
+        by :meth:`right_half_plane_roots`, in sampled mode by the eigenvalues of the loop's
+        map over one period (:func:`seactl.simulate.sampled_unstable_modes`).
+        ``result.stable`` only says that the simulated window stayed bounded and decayed.
+
+        Parameters
+        ----------
+        result : seactl.simulate.SimResult
+            From :meth:`step` or :meth:`impulse` of this loop (same values).
+        band : float, optional
+            Settling band relative to the step (default 0.02), or recovery band relative to
+            the impulse's peak deviation (default 0.05).
+
+        Returns
+        -------
+        seactl.verdict.TimeVerdict
+            ``verdict`` (one string per design), ``warnings`` and ``evidence(i)``.
+
+        Examples
+        --------
+        >>> import seactl as sc
+        >>> loop = sc.load_loop("examples/loops/paper-sea.toml")      # doctest: +SKIP
+        >>> loop = loop.with_values(T_high=[2.0, 30.0])                # doctest: +SKIP
+        >>> loop.verdict(loop.step(0.3)).verdict                       # doctest: +SKIP
+        ['settled', 'unstable']
+        """
+        from .verdict import judge
+
+        exc = (getattr(result, "info", None) or {}).get("excitation")
+        if exc is None:
+            raise InputError("result", type(result).__name__,
+                             "a result of this loop's step() or impulse()")
+        step = exc["kind"] == "step"
+        y = next(iter(result.outputs.values())).reshape(-1, result.t_s.size)
+        rhp = (result.info.get("unstable_modes") if result.mode == "sampled"
+               else self.right_half_plane_roots())
+        return judge(result.t_s, y, target=exc["size"] if step else 0.0,
+                     scale=abs(exc["size"]) if step else np.abs(y).max(-1),
+                     band=(0.02 if step else 0.05) if band is None else band,
+                     left_bounds_s=result.left_bounds_s,
+                     saturated_fraction=result.info.get("saturated_fraction"),
+                     right_half_plane_roots=rhp)
 
     def step(self, t_end_s: float = 0.5, *, mode: str = "continuous", amplitude: float = 1.0,
              input: str | None = None, output: str | None = None,

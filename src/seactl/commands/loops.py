@@ -264,7 +264,6 @@ def loop_response(loop: Any, kind: str, mode: str, t_end: float, size: float,
     its rate in sampled mode."""
     from .. import limits
     from ..simulate import impulse_metrics, step_metrics
-    from ..verdict import judge
 
     delays = [float(np.max(v)) for k, v in loop.design._arrays.items() if k.endswith("__T")]
     limits.check_simulation(int(np.prod(loop.shape, dtype=int)), mode,
@@ -300,11 +299,7 @@ def loop_response(loop: Any, kind: str, mode: str, t_end: float, size: float,
                    [[float(t), *map(float, yf[:, k])] for k, t in enumerate(res.t_s)])
     eff = {k: np.asarray(v).reshape(-1).tolist() for k, v in
            res.info.get("effective_delays_s", {}).items()}
-    v = judge(res.t_s, yf, target=size if kind == "step" else 0.0,
-              scale=abs(size) if kind == "step" else np.abs(yf).max(-1),
-              band=0.02 if kind == "step" else 0.05, left_bounds_s=res.left_bounds_s,
-              saturated_fraction=res.info.get("saturated_fraction"),
-              right_half_plane_roots=_right_roots(loop, mode, res))
+    v = loop.verdict(res)
     runs = [{**lab, "stable": bool(res.stable.reshape(-1)[i])
              and v.verdict[i] not in ("unstable", "limit cycle"),
              "verdict": v.verdict[i], "evidence": v.evidence(i), "warnings": v.warnings[i],
@@ -355,15 +350,3 @@ def loop_place(loop: Any, as_json: bool) -> None:
                   *[_fmt(r[n]["phase_margin_deg"], ".2f") for n in names],
                   *[_fmt(r[n]["delay_margin_ms"], ".3f") for n in names])
     console.print(t)
-
-
-def _right_roots(loop: Any, mode: str, res: Any) -> np.ndarray | None:
-    """The loop file's count of unstable closed-loop modes: continuous mode, the certified
-    count of the simulated exact-delay diagram; sampled mode, the lifted map's eigenvalues
-    outside the unit circle (the sampled processes are another system)."""
-    if mode != "continuous":
-        return res.info.get("unstable_modes")
-    from ..margins import closed_loop_right_roots
-
-    g = loop.grid()
-    return closed_loop_right_roots(loop.diagram, loop.design, np.sqrt(g[..., 0] * g[..., -1]))
