@@ -896,7 +896,8 @@ class UserLoop:
         Returns
         -------
         seactl.verdict.TimeVerdict
-            ``verdict`` (one string per design), ``warnings`` and ``evidence(i)``.
+            As :meth:`seactl.api.Design.step`'s ``verdict()``: the verdicts, the warnings
+            and the evidence per design.
 
         Examples
         --------
