@@ -230,3 +230,40 @@ def test_the_python_api_gives_the_command_lines_verdicts(capsys):
     counts = [r.step(t_end_s=1.0).verdict().evidence(i)["right_half_plane_roots"]
               for i in range(2)]
     assert [c == 0 for c in counts] == r.margins().stable.tolist()
+
+
+@pytest.mark.parametrize("rate_hz", [500.0, 2000.0])
+def test_sampled_growth_rates_of_random_designs_match_their_simulations(rate_hz):
+    """60 random SEA designs (f_n 10-40 Hz, delays up to 3/25/5 ms, filters 30-300 Hz).
+    Oracle: 4 s simulations without limits, the growth of the deviation's peak from the
+    second to the fourth second.  Every design the map calls growing (> 0.2 /s) grows or
+    leaves the bound, every decaying one decays (above the rounding floor).  Where the
+    rate can be read from two peaks (-6 to 4 /s, the next mode 3 /s slower) it agrees to
+    the peaks' resolution (a peak lands anywhere in an oscillation: 0.03 + 4 % /s)."""
+    from seactl.simulate import Step, compile_sampled, lifted_map, run_sampled
+
+    rng = np.random.default_rng(7)
+    n = 60
+    tim = Timing.from_ms(rng.uniform(0, 3, n), rng.uniform(0, 25, n), rng.uniform(0, 5, n),
+                         rng.uniform(30, 300, n), rng.uniform(30, 300, n))
+    d = SEADesign(UT_SEA, critically_damped_gains(UT_SEA, rng.uniform(10, 40, n)), tim)
+    plan = compile_sampled(sea_diagram(True), d, {"q_des": Step(1.0)}, 4.0, ("q_j",),
+                           rates_hz=rate_hz)
+    M, period_s = lifted_map(plan)
+    with np.errstate(divide="ignore"):  # the buffers' eigenvalues are 0
+        rates = np.sort(np.log(np.abs(np.linalg.eigvals(M))) / period_s, axis=1)[:, ::-1]
+    rate = rates[:, 0]
+    nxt = np.array([r[r < r[0] - 1e-6][0] for r in rates])
+    res = run_sampled(plan, 1e12)
+    sec = np.floor(plan.t_s).astype(int)
+    peaks = np.array([[np.abs(y[sec == k] - 1.0).max() for k in (1, 3)]
+                      for y in res.outputs["q_j"]])
+    left = np.isfinite(res.left_bounds_s)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        slope = np.log(peaks[:, 1] / peaks[:, 0]) / 2.0
+    grows = left | (slope > 0)
+    seen = left | (peaks[:, 0] > 1e-9)
+    assert np.all(grows[rate > 0.2]) and not np.any(grows[(rate < -0.2) & seen])
+    use = (rate > -6) & (rate < 4) & (np.abs(rate) > 0.2) & ~left & seen & (nxt < rate - 3)
+    assert use.sum() >= 6
+    np.testing.assert_allclose(slope[use], rate[use], atol=0.03, rtol=0.04)
