@@ -250,9 +250,6 @@ class ResponseResult(_Wrapped):
     (2, ['current', 'final_value', 'kind'])
     """
 
-    STEP_BAND = 0.02
-    """Settling band of a step's verdict, relative to the step."""
-
     def __init__(self, response: Any, labels: list[str], right_roots: Any = None):
         self._inner = response
         self.labels = labels
@@ -290,11 +287,11 @@ class ResponseResult(_Wrapped):
         >>> v.verdict, [v.evidence(i)["right_half_plane_roots"] for i in range(2)]
         (['not settled', 'unstable'], [0, 2])
         """
-        from .verdict import judge_response
+        from .verdict import STEP_BAND, judge_response
 
         r = self._inner
         if band is None:
-            band = self.STEP_BAND if r.kind == "step" else r.metrics.band
+            band = STEP_BAND if r.kind == "step" else r.metrics.band
         roots = self._right_roots() if (self._right_roots is not None
                                         and r.result.mode == "continuous") else None
         return judge_response(r, band, roots)

@@ -24,6 +24,7 @@ from .simulate import (
     simulate,
     step_metrics,
 )
+from .verdict import RECOVERY_BAND
 
 __all__ = ["sea_impulse", "sea_margins", "sea_reference_frequency", "sea_step"]
 
@@ -115,8 +116,8 @@ def sea_step(design: Any, *, zero: bool = True, mode: str = "continuous",
 
 def sea_impulse(design: Any, *, impulse_nms: float = 0.05, zero: bool = True,
                 mode: str = "continuous", rate_hz: float = 1000.0, t_end_s: float = 1.0,
-                saturation_a: float | None = None, band: float = 0.05, dt: float | None = None,
-                **kwargs: Any) -> SEAResponse:
+                saturation_a: float | None = None, band: float = RECOVERY_BAND,
+                dt: float | None = None, **kwargs: Any) -> SEAResponse:
     """Response of ``q_j`` [rad] to an angular impulse ``impulse_nms`` [N m s] of external
     torque on the joint at ``t = 0`` (``q_des = 0``), with :class:`ImpulseMetrics`."""
     if not (math.isfinite(impulse_nms) and impulse_nms != 0):

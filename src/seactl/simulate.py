@@ -108,6 +108,7 @@ from ._parallel import in_threads
 from .blockdiagram import Block, BlockDiagram
 from .errors import InputError
 from .limits import check_budget, simulation_estimate
+from .verdict import RECOVERY_BAND, STEP_BAND
 
 MODES = ("continuous", "sampled")
 
@@ -1601,7 +1602,7 @@ def _sampled_result(plan: SampledPlan, st: _SampledState) -> RunResult:
 # ----------------------------------------------------------------------------- metrics
 def step_metrics(t: np.ndarray, y: np.ndarray, stable: np.ndarray | None = None,
                  left_bounds_s: np.ndarray | None = None, reference: float = 1.0,
-                 band: float = 0.02) -> StepMetrics:
+                 band: float = STEP_BAND) -> StepMetrics:
     """Metrics of step responses ``y`` (time on the last axis) to a step of ``reference``:
     final value (mean of the last 2 %), 10-90 % rise time (interpolated), overshoot [%],
     settling time (the sample after the last one outside ``band`` of the final value;
@@ -1663,7 +1664,7 @@ def _step_kernel(t, y, reference, band, tail, out):  # pragma: no cover - compil
 
 
 def impulse_metrics(t: np.ndarray, y: np.ndarray, stable: np.ndarray | None = None,
-                    left_bounds_s: np.ndarray | None = None, band: float = 0.05
+                    left_bounds_s: np.ndarray | None = None, band: float = RECOVERY_BAND
                     ) -> ImpulseMetrics:
     """Peak deviation from the initial value and recovery time (last exit from
     ``band`` x peak) of impulse responses ``y`` (time on the last axis).

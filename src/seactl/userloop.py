@@ -907,7 +907,7 @@ class UserLoop:
         >>> loop.verdict(loop.step(0.3)).verdict                       # doctest: +SKIP
         ['settled', 'unstable']
         """
-        from .verdict import judge
+        from .verdict import RECOVERY_BAND, STEP_BAND, judge
 
         exc = (getattr(result, "info", None) or {}).get("excitation")
         if exc is None:
@@ -919,7 +919,7 @@ class UserLoop:
                else self.right_half_plane_roots())
         return judge(result.t_s, y, target=exc["size"] if step else 0.0,
                      scale=abs(exc["size"]) if step else np.abs(y).max(-1),
-                     band=(0.02 if step else 0.05) if band is None else band,
+                     band=(STEP_BAND if step else RECOVERY_BAND) if band is None else band,
                      left_bounds_s=result.left_bounds_s,
                      saturated_fraction=result.info.get("saturated_fraction"),
                      right_half_plane_roots=rhp)

@@ -56,6 +56,10 @@ CURRENT_FRACTION = 0.1
 """Current oscillation, as a fraction of the limit, that counts as a limit cycle."""
 SATURATED_FRACTION = 0.1
 """Fraction of the time at the limit above which the response is ``saturated``."""
+STEP_BAND = 0.02
+"""Settling band of a step (2 % of the step), as in the settling-time metric."""
+RECOVERY_BAND = 0.05
+"""Recovery band of an impulse response (5 % of its peak deviation)."""
 
 
 @dataclass(frozen=True)
@@ -249,11 +253,11 @@ def judge_response(resp: Any, band: float, right_half_plane_roots: Any = None
     (``info["unstable_modes"]``, :func:`seactl.simulate.sampled_unstable_modes`) is used."""
     res = resp.result
     t = res.t_s
-    if right_half_plane_roots is None:
-        right_half_plane_roots = (res.info or {}).get("unstable_modes")
     y = np.asarray(resp.position, float).reshape(-1, t.size)
     cur = np.asarray(resp.current, float).reshape(-1, t.size)
     info = res.info or {}
+    if right_half_plane_roots is None:
+        right_half_plane_roots = info.get("unstable_modes")
     limit = float((info.get("saturation") or {}).get("i_m", np.inf))
     step = resp.kind == "step"
     return judge(t, y, target=1.0 if step else 0.0,

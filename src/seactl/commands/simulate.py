@@ -55,12 +55,10 @@ from .. import limits
 from ..errors import InputError
 from ..limits import check_range
 from ..outputs import CSV_SUFFIXES, FIGURE_SUFFIXES, OutputSet
-from ..verdict import judge_response
+from ..verdict import STEP_BAND, judge_response
 from ._common import DesignSpec, cli, console, design_options, echo_json, finite_or_none
 from .loops import loop_options, loop_response
 
-STEP_BAND = 0.02
-"""Settling band of a step (2 % of the step), as in the settling-time metric."""
 BAD = ("unstable", "limit cycle")
 """Verdicts under which a response is not called stable."""
 
