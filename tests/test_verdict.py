@@ -267,3 +267,16 @@ def test_sampled_growth_rates_of_random_designs_match_their_simulations(rate_hz)
     use = (rate > -6) & (rate < 4) & (np.abs(rate) > 0.2) & ~left & seen & (nxt < rate - 3)
     assert use.sum() >= 6
     np.testing.assert_allclose(slope[use], rate[use], atol=0.03, rtol=0.04)
+
+
+@pytest.mark.parametrize("bad", [0, -1, np.nan, np.inf, 1e308, "2ms", None])
+def test_a_bad_band_is_refused_not_judged(bad):
+    # Oracle: the error contract.  Before, NaN, inf or 1e308 judged every response
+    # "settled" and '2ms' raised numpy's UFuncTypeError.
+    from seactl.errors import InputError
+
+    r = sc.design(14, filters_hz=(50, 100)).step(t_end_s=0.3)
+    with pytest.raises(InputError, match="band"):
+        r.verdict(band=bad) if bad is not None else judge(
+            r.t_s, r.position, target=1.0, scale=1.0, band=bad)
+    assert r.verdict(band=0.02).verdict == ["settled"]

@@ -166,6 +166,7 @@ def judge(t: Any, y: Any, *, target: float, scale: Any, band: float,
     unstable closed-loop roots, where known (e.g. :attr:`seactl.margins.Margins.unstable_poles`
     of the same exact-delay loop); any root there makes the verdict ``unstable``.
     """
+    band = _band(band)
     t = np.asarray(t, float)
     y = np.asarray(y, float).reshape(-1, t.size)
     b = y.shape[0]
@@ -205,6 +206,19 @@ def judge(t: Any, y: Any, *, target: float, scale: Any, band: float,
                     final, [], rhp)
     v.warnings.extend(_warnings(v, k, left[k], band) for k in range(b))
     return v
+
+
+def _band(value: Any) -> float:
+    """The settling band, a fraction of the scale in (0, 1] (NaN would judge everything
+    settled)."""
+    valid = "a number > 0 and <= 1 (a fraction of the scale)"
+    try:
+        band = float(value)
+    except (TypeError, ValueError):
+        raise InputError("band", value, valid) from None
+    if not 0 < band <= 1:
+        raise InputError("band", band, valid)
+    return band
 
 
 def _root_counts(value: Any, b: int) -> np.ndarray:
