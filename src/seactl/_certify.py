@@ -122,19 +122,19 @@ def _point(P, i, w, Nc, Nt, Dc, Dt, major, d):  # pragma: no cover - compiled
     delta = N + D
     aN, aD = _mag(N), _mag(D)
     L = _div(N, D)
-    p = P[i]
-    p[W], p[CN], p[CD] = w, _mag(d2N), _mag(d2D)
-    p[ERR] = ROUNDING * _bound3(major, d, w)
-    p[A_DELTA] = max(_mag(delta) - p[ERR], 0.0)
-    p[A_DDELTA], p[A_D2DELTA], p[ARG_DELTA] = _mag(dN + dD), _mag(d2N + d2D), _angle(delta)
-    p[RE_N], p[IM_N], p[RE_D], p[IM_D] = N.real, N.imag, D.real, D.imag
-    p[A_N], p[A_D], p[A_DN], p[A_DD] = aN, aD, _mag(dN), _mag(dD)
+    P[i, W], P[i, CN], P[i, CD] = w, _mag(d2N), _mag(d2D)
+    P[i, ERR] = ROUNDING * _bound3(major, d, w)
+    P[i, A_DELTA] = max(_mag(delta) - P[i, ERR], 0.0)
+    P[i, A_DDELTA], P[i, A_D2DELTA] = _mag(dN + dD), _mag(d2N + d2D)
+    P[i, ARG_DELTA] = _angle(delta)
+    P[i, RE_N], P[i, IM_N], P[i, RE_D], P[i, IM_D] = N.real, N.imag, D.real, D.imag
+    P[i, A_N], P[i, A_D], P[i, A_DN], P[i, A_DD] = aN, aD, _mag(dN), _mag(dD)
     # its real part drives log |L|, its imaginary part arg L
     g = _dlog(N, dN, D, dD)
-    p[RE_G], p[IM_G] = g.real, g.imag
+    P[i, RE_G], P[i, IM_G] = g.real, g.imag
     # |Q'' Q - Q'^2| = |(log Q)''| |Q|^2, with the cancellation of its two terms
-    p[F_N], p[F_D] = _mag(d2N * N - dN * dN), _mag(d2D * D - dD * dD)
-    p[LOG_L], p[ARG_L], p[RE_L], p[IM_L] = np.log(aN / aD), _angle(L), L.real, L.imag
+    P[i, F_N], P[i, F_D] = _mag(d2N * N - dN * dN), _mag(d2D * D - dD * dD)
+    P[i, LOG_L], P[i, ARG_L], P[i, RE_L], P[i, IM_L] = np.log(aN / aD), _angle(L), L.real, L.imag
 
 
 @njit(cache=True, error_model="numpy")
@@ -172,45 +172,50 @@ def _angle(z):  # pragma: no cover - compiled
 
 
 @njit(cache=True, error_model="numpy")
-def _certified(a, b, bN, bD, stability_only, no_loop):  # pragma: no cover - compiled
+def _certified(P, a, b, bN, bD, stability_only, no_loop):  # pragma: no cover - compiled
     """``(Delta certified, no unseen gain crossing, no unseen phase crossing)`` for the
-    interval between points ``a`` and ``b`` (step 3 of
-    :func:`seactl.margins.certified_margins`)."""
-    h = b[W] - a[W]
-    cN = _sup(h, a[CN], b[CN], bN)  # sup |N''|, |D''|
-    cD = _sup(h, a[CD], b[CD], bD)
+    interval between the points in rows ``a`` and ``b`` of ``P`` (step 3 of
+    :func:`seactl.margins.certified_margins`).  The points are passed as row numbers, not
+    as rows: each row view costs numba an atomic reference count (the scan spent 20 % of
+    its time in them)."""
+    h = P[b, W] - P[a, W]
+    cN = _sup(h, P[a, CN], P[b, CN], bN)  # sup |N''|, |D''|
+    cD = _sup(h, P[a, CD], P[b, CD], bD)
     # Delta's path is shorter than a way around 0, or stays in a tube around the chord
     # between its ends (at most h^2/8 sup |Delta''| away) that misses 0: a convex set
     # without 0, so the turn is the principal one
-    ok = h * _sup(h, a[A_DDELTA], b[A_DDELTA], cN + cD) < a[A_DELTA] + b[A_DELTA] or \
-        _gap(a[RE_N] + a[RE_D], a[IM_N] + a[IM_D], b[RE_N] + b[RE_D], b[IM_N] + b[IM_D]) > \
-        0.125 * h * h * _sup(h, a[A_D2DELTA], b[A_D2DELTA], bN + bD) + max(a[ERR], b[ERR])
+    err = max(P[a, ERR], P[b, ERR])
+    ok = h * _sup(h, P[a, A_DDELTA], P[b, A_DDELTA], cN + cD) < P[a, A_DELTA] + P[b, A_DELTA] \
+        or _gap(P[a, RE_N] + P[a, RE_D], P[a, IM_N] + P[a, IM_D],
+                P[b, RE_N] + P[b, RE_D], P[b, IM_N] + P[b, IM_D]) > \
+        0.125 * h * h * _sup(h, P[a, A_D2DELTA], P[b, A_D2DELTA], bN + bD) + err
     if stability_only or no_loop:  # (L = 0: no crossing to certify)
         return ok, True, True
-    sN, sD = _sup(h, a[A_DN], b[A_DN], cN), _sup(h, a[A_DD], b[A_DD], cD)
+    sN, sD = _sup(h, P[a, A_DN], P[b, A_DN], cN), _sup(h, P[a, A_DD], P[b, A_DD], cD)
     # N and D stay within rN, rD of the chords between their ends (rounding included)
-    err = max(a[ERR], b[ERR])
     rN, rD = 0.125 * h * h * cN + err, 0.125 * h * h * cD + err
-    gN, gD = _gap(a[RE_N], a[IM_N], b[RE_N], b[IM_N]), _gap(a[RE_D], a[IM_D], b[RE_D], b[IM_D])
+    gN = _gap(P[a, RE_N], P[a, IM_N], P[b, RE_N], P[b, IM_N])
+    gD = _gap(P[a, RE_D], P[a, IM_D], P[b, RE_D], P[b, IM_D])
     # bounds of |N|, |D|: from the ends and sup |Q'|, or from the chord's tube; where
     # |N| and |D| are apart on the whole interval, |L| stays on one side of 1 (and of
     # the band)
-    mN, mD = max(0.5 * (a[A_N] + b[A_N] - h * sN), gN - rN), \
-        max(0.5 * (a[A_D] + b[A_D] - h * sD), gD - rD)
-    xN, xD = min(0.5 * (a[A_N] + b[A_N] + h * sN), max(a[A_N], b[A_N]) + rN), \
-        min(0.5 * (a[A_D] + b[A_D] + h * sD), max(a[A_D], b[A_D]) + rD)
+    mN, mD = max(0.5 * (P[a, A_N] + P[b, A_N] - h * sN), gN - rN), \
+        max(0.5 * (P[a, A_D] + P[b, A_D] - h * sD), gD - rD)
+    xN, xD = min(0.5 * (P[a, A_N] + P[b, A_N] + h * sN), max(P[a, A_N], P[b, A_N]) + rN), \
+        min(0.5 * (P[a, A_D] + P[b, A_D] + h * sD), max(P[a, A_D], P[b, A_D]) + rD)
     # sup |Q'' Q - Q'^2| from its ends and (Q'' Q - Q'^2)' = Q''' Q - Q'' Q'
-    fN, fD = _sup(h, a[F_N], b[F_N], bN * xN + cN * sN), _sup(h, a[F_D], b[F_D], bD * xD + cD * sD)
-    gain_len, phase_len, hc = _log_lengths(h, a, b, cN, cD, sN, sD, mN, mD, fN, fD)
+    fN = _sup(h, P[a, F_N], P[b, F_N], bN * xN + cN * sN)
+    fD = _sup(h, P[a, F_D], P[b, F_D], bD * xD + cD * sD)
+    gain_len, phase_len, hc = _log_lengths(h, P, a, b, cN, cD, sN, sD, mN, mD, fN, fD)
     bow = 0.125 * h * hc
-    fa, fb = a[LOG_L], b[LOG_L]
-    pa, pb = a[ARG_L], b[ARG_L]
+    fa, fb = P[a, LOG_L], P[b, LOG_L]
+    pa, pb = P[a, ARG_L], P[b, ARG_L]
     to_axis = 2 * np.pi - abs(pa) - abs(pb)
     same = (fa >= 0) == (fb >= 0)
     # a path that may cross and come back must be long enough, or bend far enough from
     # the chord between the ends (at most bow), or turn back; or |N|, |D| stay apart
     gain_ok = gain_len < abs(fa) + abs(fb) or mN > xD or mD > xN or \
-        (same and min(abs(fa), abs(fb)) > bow) or _monotone(a[RE_G], b[RE_G], hc)
+        (same and min(abs(fa), abs(fb)) > bow) or _monotone(P[a, RE_G], P[b, RE_G], hc)
     # outside the band on the whole interval (a NaN anywhere leaves it relevant)
     outside = (fa + gain_len < LOG_BAND_LO and fb + gain_len < LOG_BAND_LO) or \
         (fa - gain_len > LOG_BAND_HI and fb - gain_len > LOG_BAND_HI) or \
@@ -218,21 +223,21 @@ def _certified(a, b, bN, bD, stability_only, no_loop):  # pragma: no cover - com
     relevant = not outside
     # (arg L monotone over less than half a turn: on_axis sees its one crossing, if any)
     phase_ok = (not relevant) or (phase_len < to_axis) or \
-        _tube_misses_axis(a, b, gN, rN, gD, rD) or \
-        (phase_len < np.pi and _monotone(a[IM_G], b[IM_G], hc)) or \
-        (not _on_axis(a, b) and phase_len < np.pi and _chord_max(pa, pb) + bow < np.pi)
+        _tube_misses_axis(P, a, b, gN, rN, gD, rD) or \
+        (phase_len < np.pi and _monotone(P[a, IM_G], P[b, IM_G], hc)) or \
+        (not _on_axis(P, a, b) and phase_len < np.pi and _chord_max(pa, pb) + bow < np.pi)
     return ok, gain_ok, phase_ok
 
 
 @njit(cache=True, error_model="numpy")
-def _tube_misses_axis(a, b, gN, rN, gD, rD):  # pragma: no cover - compiled
-    """``arg L = arg N - arg D`` stays off the negative real axis between points ``a``
-    and ``b``: each of ``N``, ``D`` stays in the tube of radius ``r`` around the chord
+def _tube_misses_axis(P, a, b, gN, rN, gD, rD):  # pragma: no cover - compiled
+    """``arg L = arg N - arg D`` stays off the negative real axis between the points in
+    rows ``a`` and ``b``: each of ``N``, ``D`` stays in the tube of radius ``r`` around the chord
     between its ends, whose distance to 0 is ``g`` (a convex set without 0), so its
     argument stays within the chord's angular span widened by ``asin(r / g)``."""
-    loN, hiN = _tube_turn(a[RE_N], a[IM_N], b[RE_N], b[IM_N], gN, rN)
-    loD, hiD = _tube_turn(a[RE_D], a[IM_D], b[RE_D], b[IM_D], gD, rD)
-    pa = a[ARG_L]
+    loN, hiN = _tube_turn(P[a, RE_N], P[a, IM_N], P[b, RE_N], P[b, IM_N], gN, rN)
+    loD, hiD = _tube_turn(P[a, RE_D], P[a, IM_D], P[b, RE_D], P[b, IM_D], gD, rD)
+    pa = P[a, ARG_L]
     return pa + loN - hiD > -np.pi and pa + hiN - loD < np.pi
 
 
@@ -248,12 +253,13 @@ def _tube_turn(ar, ai, br, bi, g, r):  # pragma: no cover - compiled
 
 
 @njit(cache=True, error_model="numpy")
-def _log_lengths(h, a, b, cN, cD, sN, sD, mN, mD, fN, fD):  # pragma: no cover - compiled
-    """Bounds of the paths of ``log |L|`` and ``arg L`` between points ``a`` and ``b``:
-    ``h`` times bounds of ``|Re (log L)'|`` and ``|Im (log L)'|`` from their values at the
-    ends and ``|(log L)''| <= |N''|/m_N + (|N'|/m_N)^2 + |D''|/m_D + (|D'|/m_D)^2`` (sups
-    ``cN``, ``sN``, ``cD``, ``sD``; ``m`` lower bounds of ``|N|``, ``|D|``).  Infinite
-    where ``N`` or ``D`` may vanish; each polynomial's term is also bounded by
+def _log_lengths(h, P, a, b, cN, cD, sN, sD, mN, mD, fN, fD):  # pragma: no cover - compiled
+    """Bounds of the paths of ``log |L|`` and ``arg L`` between the points in rows ``a``
+    and ``b``: ``h`` times bounds of ``|Re (log L)'|`` and ``|Im (log L)'|`` from their
+    values at the ends and
+    ``|(log L)''| <= |N''|/m_N + (|N'|/m_N)^2 + |D''|/m_D + (|D'|/m_D)^2`` (sups ``cN``,
+    ``sN``, ``cD``, ``sD``; ``m`` lower bounds of ``|N|``, ``|D|``).  Infinite where ``N``
+    or ``D`` may vanish; each polynomial's term is also bounded by
     ``sup |Q'' Q - Q'^2| / m_Q^2``, which keeps the cancellation between its two parts
     and is the smaller one near a pole or zero of the loop.  Third: ``h`` times that
     bound."""
@@ -261,8 +267,8 @@ def _log_lengths(h, a, b, cN, cD, sN, sD, mN, mD, fN, fD):  # pragma: no cover -
         return np.inf, np.inf, np.inf
     curv = min(cN / mN + (sN / mN) ** 2, fN / (mN * mN)) + \
         min(cD / mD + (sD / mD) ** 2, fD / (mD * mD))
-    return (h * _sup(h, abs(a[RE_G]), abs(b[RE_G]), curv),
-            h * _sup(h, abs(a[IM_G]), abs(b[IM_G]), curv), h * curv)
+    return (h * _sup(h, abs(P[a, RE_G]), abs(P[b, RE_G]), curv),
+            h * _sup(h, abs(P[a, IM_G]), abs(P[b, IM_G]), curv), h * curv)
 
 
 @njit(cache=True)
@@ -291,34 +297,34 @@ def _chord_max(pa, pb):  # pragma: no cover - compiled
 
 
 @njit(cache=True)
-def _on_axis(a, b):  # pragma: no cover - compiled
+def _on_axis(P, a, b):  # pragma: no cover - compiled
     """``L`` crosses the negative real axis between the points."""
-    return ((a[IM_L] >= 0) != (b[IM_L] >= 0)) and \
-        (a[RE_L] * abs(b[IM_L]) + b[RE_L] * abs(a[IM_L]) < 0)
+    return ((P[a, IM_L] >= 0) != (P[b, IM_L] >= 0)) and \
+        (P[a, RE_L] * abs(P[b, IM_L]) + P[b, RE_L] * abs(P[a, IM_L]) < 0)
 
 
 @njit(cache=True)
-def _collect(a, b):  # pragma: no cover - compiled
-    """Turn of ``Delta`` over the interval between points ``a`` and ``b``, and whether
-    it brackets a gain crossing and a phase crossing (above ``w = 0``)."""
-    turn = b[ARG_DELTA] - a[ARG_DELTA]
+def _collect(P, a, b):  # pragma: no cover - compiled
+    """Turn of ``Delta`` over the interval between the points in rows ``a`` and ``b``, and
+    whether it brackets a gain crossing and a phase crossing (above ``w = 0``)."""
+    turn = P[b, ARG_DELTA] - P[a, ARG_DELTA]
     turn -= 2 * np.pi * np.round(turn / (2 * np.pi))   # wrapped to [-pi, pi]
-    if a[W] <= 0:
+    if P[a, W] <= 0:
         return turn, False, False
-    return turn, (a[LOG_L] >= 0) != (b[LOG_L] >= 0), _on_axis(a, b)
+    return turn, (P[a, LOG_L] >= 0) != (P[b, LOG_L] >= 0), _on_axis(P, a, b)
 
 
 @njit(cache=True)
-def _brackets(out, nout, d, a, b, crossing, certified, kind):  # pragma: no cover - compiled
-    """Append the bracket of a crossing of ``kind`` between points ``a`` and ``b``; at
-    the bisection limit, where the interval could not be certified free of a pair of
+def _brackets(out, nout, d, P, a, b, crossing, certified, kind):  # pragma: no cover - compiled
+    """Append the bracket of a crossing of ``kind`` between the points in rows ``a`` and
+    ``b``; at the bisection limit, where the interval could not be certified free of a pair of
     crossings (a path that touches the level), a touch at its end nearer the level."""
     if crossing:
-        return _append(out, nout, d, kind, a, b)
-    if certified or a[W] <= 0:  # (crossings are counted above w = 0)
+        return _append(out, nout, d, kind, P, a, b)
+    if certified or P[a, W] <= 0:  # (crossings are counted above w = 0)
         return nout
-    near = a if abs(_crossing_value(a, kind)) <= abs(_crossing_value(b, kind)) else b
-    return _append(out, nout, d, kind + TOUCH, near, near)
+    near = a if abs(_crossing_value(P, a, kind)) <= abs(_crossing_value(P, b, kind)) else b
+    return _append(out, nout, d, kind + TOUCH, P, near, near)
 
 
 ROW = 8
@@ -326,23 +332,23 @@ ROW = 8
 
 
 @njit(cache=True)
-def _append(out, nout, d, kind, a, b):  # pragma: no cover - compiled
+def _append(out, nout, d, kind, P, a, b):  # pragma: no cover - compiled
     """Bracket row: design, kind, the ends' frequencies, crossing functions and their
     derivatives in ``log w``."""
     if nout < out.shape[0]:
-        row = out[nout]
-        row[0], row[1], row[2], row[3] = d, kind, a[W], b[W]
-        row[4], row[5] = _crossing_value(a, kind), _crossing_value(b, kind)
+        out[nout, 0], out[nout, 1], out[nout, 2], out[nout, 3] = d, kind, P[a, W], P[b, W]
+        out[nout, 4] = _crossing_value(P, a, kind)
+        out[nout, 5] = _crossing_value(P, b, kind)
         g = RE_G if kind % TOUCH == GAIN else IM_G
-        row[6], row[7] = a[W] * a[g], b[W] * b[g]
+        out[nout, 6], out[nout, 7] = P[a, W] * P[a, g], P[b, W] * P[b, g]
     return nout + 1
 
 
 @njit(cache=True)
-def _crossing_value(p, kind):  # pragma: no cover - compiled
+def _crossing_value(P, i, kind):  # pragma: no cover - compiled
     """The function whose sign change is the crossing: ``log |L|`` for a gain crossover,
     ``arg(-L)`` for a phase crossover (zero on the negative real axis)."""
-    return p[LOG_L] if kind % TOUCH == GAIN else math.atan2(-p[IM_L], -p[RE_L])
+    return P[i, LOG_L] if kind % TOUCH == GAIN else math.atan2(-P[i, IM_L], -P[i, RE_L])
 
 
 @njit(cache=True)
@@ -391,7 +397,7 @@ def scan(Nc, Nt, Dc, Dt, major, bN, bD, w_lo, per_decade, step, top, stability_o
                 sp -= 1
                 ia, ib, depth = stack[sp, 0], stack[sp, 1], stack[sp, 2]
                 wa, wb = P[ia, W], P[ib, W]
-                ok, gain_ok, phase_ok = _certified(P[ia], P[ib], _bound3(bN, d, wb),
+                ok, gain_ok, phase_ok = _certified(P, ia, ib, _bound3(bN, d, wb),
                                                    _bound3(bD, d, wb), stability_only,
                                                    no_loop[d])
                 if not (ok and gain_ok and phase_ok) and depth < MAX_BISECTIONS and \
@@ -407,12 +413,13 @@ def scan(Nc, Nt, Dc, Dt, major, bN, bD, w_lo, per_decade, step, top, stability_o
                 # out of evaluations: neither the count nor the crossings are certified
                 if not ok or ((not (gain_ok and phase_ok)) and depth < MAX_BISECTIONS):
                     uncertain[d] = True
-                turn, gain, phase = _collect(P[ia], P[ib])
+                turn, gain, phase = _collect(P, ia, ib)
                 winding[d] += turn
                 if not stability_only:
-                    nout = _brackets(out, nout, d, P[ia], P[ib], gain, gain_ok, GAIN)
-                    nout = _brackets(out, nout, d, P[ia], P[ib], phase, phase_ok, PHASE)
-            P[0] = P[1]
+                    nout = _brackets(out, nout, d, P, ia, ib, gain, gain_ok, GAIN)
+                    nout = _brackets(out, nout, d, P, ia, ib, phase, phase_ok, PHASE)
+            for c in range(_F):  # (a row copy, no view: see _certified)
+                P[0, c] = P[1, c]
     return nout
 
 
