@@ -867,7 +867,8 @@ def _continuous_kernel(H, CD, inputs, x0, whole, frac, ring_len, nx, ne, nd, ste
     for i in range(steps + 1):
         _product(CD, zb, cd_cols, S)
         for d in range(nd):
-            ring[i % ring_len, d] = S[d]
+            for k in range(n):
+                ring[i % ring_len, d, k] = S[d, k]
         for k in range(n):
             if alive[k] and not abs(S[nd, k]) <= bound:
                 alive[k] = False
@@ -883,8 +884,12 @@ def _continuous_kernel(H, CD, inputs, x0, whole, frac, ring_len, nx, ne, nd, ste
             break
         _fill_inputs(zb, nx + nv, inputs, i + 1, ne, nd, ring, whole, frac, same)
         _product(H, zb, h_cols, xn)
-        zb[:nx] = xn
-        zb[nx:nx + nv] = zb[nx + nv:]
+        for r in range(nx):
+            for k in range(n):
+                zb[r, k] = xn[r, k]
+        for r in range(nx, nx + nv):
+            for k in range(n):
+                zb[r, k] = zb[r + nv, k]
 
 
 @njit(cache=True)
@@ -907,9 +912,11 @@ def _nonzero_columns(M, ncol):  # pragma: no cover - compiled
 def _product(M, zb, cols, out):  # pragma: no cover - compiled
     """``out[r, k] = sum_j M[r, j, k] zb[j, k]`` over the non-zero columns ``cols[r]``
     (one matrix per design, batch last)."""
-    out[:] = 0.0
     for r in range(M.shape[0]):
-        for j in cols[r]:
+        for k in range(M.shape[2]):
+            out[r, k] = 0.0
+        for m in range(cols.shape[1]):
+            j = cols[r, m]
             if j < 0:
                 break
             for k in range(M.shape[2]):
