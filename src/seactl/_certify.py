@@ -172,12 +172,13 @@ def _angle(z):  # pragma: no cover - compiled
 
 
 @njit(cache=True, error_model="numpy")
-def _certified(P, a, b, bN, bD, stability_only, no_loop):  # pragma: no cover - compiled
+def _certified(P, a, b, bN, bD, stability_only, no_loop, final):  # pragma: no cover - compiled
     """``(Delta certified, no unseen gain crossing, no unseen phase crossing)`` for the
     interval between the points in rows ``a`` and ``b`` of ``P`` (step 3 of
     :func:`seactl.margins.certified_margins`).  The points are passed as row numbers, not
     as rows: each row view costs numba an atomic reference count (the scan spent 20 % of
-    its time in them)."""
+    its time in them).  Unless ``final`` (the interval cannot be bisected further), the
+    first certificate that fails ends the work: the interval is bisected anyway."""
     h = P[b, W] - P[a, W]
     cN = _sup(h, P[a, CN], P[b, CN], bN)  # sup |N''|, |D''|
     cD = _sup(h, P[a, CD], P[b, CD], bD)
@@ -191,6 +192,8 @@ def _certified(P, a, b, bN, bD, stability_only, no_loop):  # pragma: no cover - 
         0.125 * h * h * _sup(h, P[a, A_D2DELTA], P[b, A_D2DELTA], bN + bD) + err
     if stability_only or no_loop:  # (L = 0: no crossing to certify)
         return ok, True, True
+    if not (ok or final):
+        return False, False, False
     sN, sD = _sup(h, P[a, A_DN], P[b, A_DN], cN), _sup(h, P[a, A_DD], P[b, A_DD], cD)
     # N and D stay within rN, rD of the chords between their ends (rounding included)
     rN, rD = 0.125 * h * h * cN + err, 0.125 * h * h * cD + err
@@ -216,6 +219,8 @@ def _certified(P, a, b, bN, bD, stability_only, no_loop):  # pragma: no cover - 
     # the chord between the ends (at most bow), or turn back; or |N|, |D| stay apart
     gain_ok = gain_len < abs(fa) + abs(fb) or mN > xD or mD > xN or \
         (same and min(abs(fa), abs(fb)) > bow) or _monotone(P[a, RE_G], P[b, RE_G], hc)
+    if not (gain_ok or final):
+        return ok, False, False
     # outside the band on the whole interval (a NaN anywhere leaves it relevant)
     outside = (fa + gain_len < LOG_BAND_LO and fb + gain_len < LOG_BAND_LO) or \
         (fa - gain_len > LOG_BAND_HI and fb - gain_len > LOG_BAND_HI) or \
@@ -356,12 +361,14 @@ def grid_point(w_lo, per_decade, step, top, k, base, m):  # pragma: no cover - c
     """Point ``k`` of a base grid from ``w_lo`` to ``top``: ``per_decade`` points per
     decade, ``w_lo 10^(k / per_decade)`` (exact decades), until that step would exceed
     ``step``; from the last such point ``base`` on, ``base + m step``.  Returns the point
-    (``top`` once reached) and the next ``(k, base, m)``; ``m = 0``: still logarithmic."""
+    (``top`` once reached) and the next ``(k, base, m)``; ``m = 0``: still logarithmic,
+    and ``base``, if not 0, is point ``k`` (computed by the previous call: one power per
+    point instead of two)."""
     if m == 0:
-        w = w_lo * 10.0 ** (k / per_decade)
+        w = base if base > 0 else w_lo * 10.0 ** (k / per_decade)
         nxt = w_lo * 10.0 ** ((k + 1) / per_decade)
         if nxt - w <= step:
-            return min(w, top), k + 1, base, 0
+            return min(w, top), k + 1, nxt, 0
         return min(w, top), k, w, 1
     return min(base + m * step, top), k, base, m + 1
 
@@ -397,11 +404,11 @@ def scan(Nc, Nt, Dc, Dt, major, bN, bD, w_lo, per_decade, step, top, stability_o
                 sp -= 1
                 ia, ib, depth = stack[sp, 0], stack[sp, 1], stack[sp, 2]
                 wa, wb = P[ia, W], P[ib, W]
+                final = depth >= MAX_BISECTIONS or evals >= MAX_EVALUATIONS
                 ok, gain_ok, phase_ok = _certified(P, ia, ib, _bound3(bN, d, wb),
                                                    _bound3(bD, d, wb), stability_only,
-                                                   no_loop[d])
-                if not (ok and gain_ok and phase_ok) and depth < MAX_BISECTIONS and \
-                        evals < MAX_EVALUATIONS:
+                                                   no_loop[d], final)
+                if not (ok and gain_ok and phase_ok or final):
                     _point(P, free, 0.5 * (wa + wb), Nc, Nt, Dc, Dt, major, d)
                     evals += 1
                     # right half below the left one: the left is certified first
