@@ -817,3 +817,36 @@ def test_a_loop_files_verdict_from_python_is_the_command_lines(paper, capsys):
         assert v.verdict[0] == "settled" and v.verdict[2] == "unstable"
     with pytest.raises(sc.InputError, match="result"):
         lp.verdict(sc.design(14).step())
+
+
+@pytest.mark.parametrize("name, gains", [
+    ("paper-sea.toml", ["Kq", "Bq", "Ktau", "Btau"]),
+    ("sea-velocity.toml", ["Kq", "Bq", "Ktau", "Btau", "Kv"]),
+    ("sea-dob.toml", ["Kq", "Bq", "Ktau", "Btau"]),
+])
+def test_a_loop_vanishes_exactly_where_its_response_is_zero_on_the_grid(name, gains):
+    """Which loops are identically zero (a gain set to 0) is read from the numerator's
+    coefficients.  Oracle: the loop's response on its whole frequency grid is exactly 0
+    (how it was decided before), for every break with the cuts ``break_margins`` uses, on
+    a batch that zeroes each gain, pairs of them, and none."""
+    from seactl.userloop import _vanishes
+
+    base = sc.load_loop(EXAMPLES / name)
+    n = len(gains)
+    zero = np.array([[i == j or i == (j + 1) % n for i in range(n)] for j in range(n)]
+                    + [[False] * n])
+    nominal = base.compiled.model.variables
+    loop = base.with_values(**{g: np.where(zero[:, i], 0.0, nominal[g])
+                               for i, g in enumerate(gains)})
+    omega = loop.grid()
+    signals = list(loop.compiled.breaks_signals)
+    seen = set()
+    for k, sig in enumerate(signals):
+        for cut in (tuple(signals[k + 1:]), tuple(s for s in signals if s != sig)):
+            transfer = loop.diagram.loop(sig, cut=cut)
+            with np.errstate(all="ignore"):
+                grid_zero = np.all(transfer(loop.design, 1j * omega) == 0, axis=-1)
+            got = _vanishes(transfer, loop.design)
+            np.testing.assert_array_equal(got, np.broadcast_to(grid_zero, got.shape))
+            seen |= set(np.flatnonzero(got))
+    assert seen and len(seen) < len(zero)  # some loops vanish, some do not

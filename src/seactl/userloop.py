@@ -1005,13 +1005,13 @@ def break_margins(compiled: CompiledLoop, design: Any, omega: np.ndarray, signal
         cut = tuple(sorted(set(others[i + 1:]) | {signal}))
         if has_loop(compiled.edges, sig, cut):
             loop = diagram.loop(sig, cut=cut)
-            zero = _vanishes(loop, design, omega)
+            zero = _vanishes(loop, design)
             with np.errstate(all="ignore"):
                 Pn = loop_margins(loop, design, omega, open_loop_rhp_poles=P,
                                   stability_only=True, block_cache=cache).unstable_poles
             P = np.where(zero, np.broadcast_to(P, shape), Pn)
     loop = diagram.loop(signal)
-    zero = _vanishes(loop, design, omega)
+    zero = _vanishes(loop, design)
     with np.errstate(all="ignore"):
         m = loop_margins(loop, design, omega, open_loop_rhp_poles=P, block_cache=cache)
     if not zero.any():
@@ -1059,11 +1059,16 @@ def open_loop_rhp_poles(compiled: CompiledLoop, design: Any) -> np.ndarray:
     return rhp.sum(axis=-1).reshape(shape)
 
 
-def _vanishes(loop: Any, design: Any, omega: np.ndarray) -> np.ndarray:
-    """Per design: the loop transfer is exactly zero on the whole grid."""
-    with np.errstate(all="ignore"):
-        L = loop(design, 1j * omega)
-    return np.broadcast_to(np.all(L == 0, axis=-1), tuple(design.shape))
+def _vanishes(loop: Any, design: Any) -> np.ndarray:
+    """Per design: the loop transfer is identically zero, i.e. its numerator ``N``
+    (``L = N / D``, :meth:`~seactl.blockdiagram.BlockDiagram.return_difference`) once its
+    terms of equal delay are merged: exponentials of distinct delays are independent over
+    the polynomials.  (Its coefficients, not the response on a grid: 2 ms instead of
+    60 ms for 10,000 designs.)"""
+    N = loop.diagram.return_difference(loop.input, loop.cut)[0].evaluate(design).flat()
+    same = (N.delays[:, None] == N.delays[None, :]).astype(float)  # (term, term, design)
+    merged = np.einsum("jkn,knp->jnp", same, N.coeffs)
+    return (merged == 0).all(axis=(0, 2)).reshape(tuple(design.shape))
 
 
 def _roots_magnitudes(coeffs: Sequence[Any], shape: tuple[int, ...]) -> np.ndarray:
