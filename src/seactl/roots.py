@@ -35,17 +35,13 @@ array([-1.+0.j, -1.+0.j])
 
 from __future__ import annotations
 
-import contextlib
-import ctypes
-from collections.abc import Iterator, Sequence
+from collections.abc import Sequence
 from dataclasses import dataclass
-from functools import lru_cache
-from pathlib import Path
 from typing import Any
 
 import numpy as np
 
-from ._parallel import in_threads
+from ._parallel import eigvals
 from .blockdiagram import BlockDiagram, QuasiPolynomial, shifted
 from .margins import certified_right_roots, count_right_roots
 
@@ -283,12 +279,7 @@ def _last_finite(re: np.ndarray) -> np.ndarray:
 
 
 def _igd_candidates(c: np.ndarray, tau: np.ndarray, N: int, scale: np.ndarray) -> np.ndarray:
-    A = _generator(c, tau, N)
-    # many small eigenproblems: LAPACK on one thread (its threads only contend), the
-    # batch split over one thread per core (numpy releases the GIL; 1.8x on two cores)
-    with _single_threaded_blas():
-        parts = in_threads(lambda k: np.linalg.eigvals(A[k]), len(A), min_per_thread=4)
-    ev = np.concatenate(parts) * scale[:, None]
+    ev = eigvals(_generator(c, tau, N)) * scale[:, None]
     return np.where(ev.imag >= -1e-9 * np.abs(ev), ev, np.nan)
 
 
@@ -353,36 +344,3 @@ def _select(q: QuasiPolynomial, s: np.ndarray, count: int, distinct: bool = True
     rows, cols = np.nonzero(keep)
     out[rows, np.cumsum(keep, axis=1)[rows, cols] - 1] = s[rows, cols]
     return out
-
-
-@lru_cache(maxsize=1)
-def _openblas() -> tuple[Any, Any] | None:
-    """numpy's bundled OpenBLAS thread get/set functions, if it has them."""
-    libs = Path(np.__file__).parent.parent / "numpy.libs"
-    for path in sorted(libs.glob("libscipy_openblas*.so")) + sorted(libs.glob("libopenblas*.so")):
-        try:
-            lib = ctypes.CDLL(str(path))
-        except OSError:
-            continue
-        for get, set_ in (("scipy_openblas_get_num_threads64_",
-                           "scipy_openblas_set_num_threads64_"),
-                          ("openblas_get_num_threads", "openblas_set_num_threads")):
-            if hasattr(lib, get) and hasattr(lib, set_):
-                return getattr(lib, get), getattr(lib, set_)
-    return None
-
-
-@contextlib.contextmanager
-def _single_threaded_blas() -> Iterator[None]:
-    """Run LAPACK on one thread inside the block (no-op without numpy's OpenBLAS)."""
-    funcs = _openblas()
-    if funcs is None:
-        yield
-        return
-    get, set_ = funcs
-    before = int(get())
-    set_(1)
-    try:
-        yield
-    finally:
-        set_(before)

@@ -104,7 +104,7 @@ from typing import Any
 import numpy as np
 from numba import njit
 
-from ._parallel import in_threads
+from ._parallel import eigvals, in_threads
 from .blockdiagram import Block, BlockDiagram
 from .errors import InputError
 from .limits import check_budget, simulation_estimate
@@ -1572,7 +1572,7 @@ def _unstable_modes(plan: SampledPlan, designs: slice) -> np.ndarray:
     with np.errstate(all="ignore"):
         M = lifted_map(plan, designs)[0]
         ok = np.all(np.isfinite(M), axis=(1, 2))
-        lam = np.abs(np.linalg.eigvals(np.where(ok[:, None, None], M, 0.0)))
+        lam = np.abs(eigvals(np.where(ok[:, None, None], M, 0.0)))
     near = np.any(np.abs(lam - 1.0) <= UNIT_CIRCLE_TOL, axis=1) | ~ok
     return np.where(near, -1, np.sum(lam > 1.0, axis=1))
 

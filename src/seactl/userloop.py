@@ -22,6 +22,7 @@ from typing import Any
 
 import numpy as np
 
+from ._parallel import eigvals
 from .errors import InputError, LoopFileError
 from .loopfile import (
     CompiledLoop,
@@ -1050,7 +1051,7 @@ def open_loop_rhp_poles(compiled: CompiledLoop, design: Any) -> np.ndarray:
     if sum(r[0].shape[1] for r in reals) == 0:
         return np.zeros(shape, int)
     net = _assemble(n, signals, blocks, reals, [], {b.name: np.ones(n) for b in blocks}, {})
-    ev = np.linalg.eigvals(net.A)
+    ev = eigvals(net.A)
     mag = np.abs(ev)
     # A multiple pole at the origin splits numerically (+-1e-7 for a double one): poles
     # within max(1e-4, 1e-6 |largest pole|) rad/s of the origin are taken to be on it.
