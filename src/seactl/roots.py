@@ -291,17 +291,23 @@ def _agree(a: np.ndarray, b: np.ndarray, scale: np.ndarray) -> np.ndarray:
 
 
 def _polish(q: QuasiPolynomial, s: np.ndarray, iterations: int = 40) -> np.ndarray:
-    """Newton on the exact ``Delta``; NaN where the residual test fails."""
+    """Newton on the exact ``Delta``, each candidate until its step is below 1e-14 of it
+    (converged ones leave the batch: most converge in a few steps, spurious ones never);
+    NaN where the residual test fails."""
     s = np.where(np.isfinite(s), s, 0.0)
+    flat, design = s.ravel().copy(), np.repeat(np.arange(s.shape[0]), s.shape[1])
+    active = np.arange(flat.size)
     for _ in range(iterations):
         # (a candidate far in the left half-plane overflows e^{-s tau}: it fails the
         # residual test below and is dropped)
         with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
-            f, df = q.with_derivative(s)
-            step = np.where(df != 0, f / df, 0.0)
-        s = s - np.where(np.isfinite(step), step, 0.0)
-        if np.all(np.abs(step) <= 1e-14 * np.maximum(np.abs(s), 1.0)):
+            f, df = q.take(design[active]).with_derivative(flat[active, None])
+            step = np.where(df != 0, f / df, 0.0)[:, 0]
+        flat[active] -= np.where(np.isfinite(step), step, 0.0)
+        active = active[~(np.abs(step) <= 1e-14 * np.maximum(np.abs(flat[active]), 1.0))]
+        if active.size == 0:
             break
+    s = flat.reshape(s.shape)
     with np.errstate(over="ignore", invalid="ignore"):
         f = q(s)
         size = _term_size(q, s)
