@@ -40,6 +40,7 @@ from typing import Any
 
 import numpy as np
 
+from ._parallel import in_threads
 from .blockdiagram import Block, BlockDiagram, DesignSubset, QuasiForm, Transfer
 from .errors import InfeasibleDesignError, InputError
 
@@ -229,9 +230,14 @@ def _z_chunked(p: _Extended, s: np.ndarray, model: str, load: bool) -> np.ndarra
         return np.broadcast_to(z, shape + (s.shape[-1],)) if z.shape[:-1] != shape else z
     out = np.empty((n, s.size), complex)
     step = max(1, _CHUNK_POINTS // s.size)
-    for a in range(0, n, step):  # chunks of designs (vectorized inside), bounds memory
-        idx = np.arange(a, min(n, a + step))
-        out[idx] = _z_raw(DesignSubset(p, idx, shape), s, model, load)
+    starts = range(0, n, step)
+
+    def chunks(k: slice) -> None:  # chunks of designs (vectorized inside), bounds memory
+        for a in starts[k]:
+            idx = np.arange(a, min(n, a + step))
+            out[idx] = _z_raw(DesignSubset(p, idx, shape), s, model, load)
+
+    in_threads(chunks, len(starts), min_per_thread=1)  # numpy releases the GIL
     return out.reshape(shape + (s.size,))
 
 
