@@ -20,6 +20,7 @@ import numpy as np
 from numpy.polynomial.polynomial import polyval
 
 from ._certify import compact, derivatives
+from ._parallel import in_threads, threads
 from .blockdiagram import EVAL_ROUNDING, QuasiPolynomial, rounding_majorant
 
 MAX_DEPTH = 40
@@ -102,13 +103,18 @@ def _certified(N: QuasiPolynomial, D: QuasiPolynomial, b: np.ndarray,
 
 def certify_positive(N: QuasiPolynomial, D: QuasiPolynomial, b: np.ndarray,
                      w_grid: np.ndarray, tol: float) -> tuple[np.ndarray, np.ndarray]:
-    """:func:`_certify_chunk` on chunks of designs of about :data:`CHUNK_POINTS` points."""
+    """:func:`_certify_chunk` on chunks of designs of about :data:`CHUNK_POINTS` points,
+    at least one per thread, in one thread per core (numpy releases the GIL)."""
     n = N.shape[0]
     if n == 0:
         return np.zeros(0, bool), np.zeros((0, w_grid.size - 1))
-    step = max(1, CHUNK_POINTS // w_grid.size)
-    parts = [_certify_chunk(N.take(k), D.take(k), b[k], w_grid, tol)
-             for k in (np.arange(a, min(n, a + step)) for a in range(0, n, step))]
+    step = max(1, min(CHUNK_POINTS // w_grid.size, -(-n // threads())))
+    chunks = [np.arange(a, min(n, a + step)) for a in range(0, n, step)]
+
+    def run(k: slice) -> list:
+        return [_certify_chunk(N.take(c), D.take(c), b[c], w_grid, tol) for c in chunks[k]]
+
+    parts = [p for ps in in_threads(run, len(chunks), min_per_thread=1) for p in ps]
     return (np.concatenate([p[0] for p in parts]),
             np.concatenate([p[1] for p in parts]).reshape(n, w_grid.size - 1))
 
