@@ -51,6 +51,7 @@ import numpy as np
 from numba import njit
 from pydantic import Field
 
+from ._parallel import in_threads
 from ._params import check, nonnegative, positive, read_toml, schema_of, validate
 from .errors import InputError
 
@@ -442,8 +443,10 @@ def simulate(p: MobileBaseParams, kx, dx, bq, *, reference=None, duration: float
     V0[:, 2] = 3.0 * push
     out = np.empty((7 if record_energy else 3, n, B, 3))   # x, v, tau (, PHI, QM, WM, -)
     sat = np.zeros(B)
-    _simulate_batch(_constants(p), _matrices(p), np.stack([kx, dx, bq]), ref_ext, V0, out,
-                    sat)
+    c, mats, gains = _constants(p), _matrices(p), np.stack([kx, dx, bq])
+    # the batch over one thread per core (the compiled kernel releases the GIL)
+    in_threads(lambda k: _simulate_batch(c, mats, gains[:, k], ref_ext, V0[k], out[:, :, k],
+                                         sat[k]), B, min_per_thread=2)
     if not np.all(np.isfinite(out[0])):
         raise FloatingPointError("base simulation diverged to non-finite values")
     es = None
@@ -478,7 +481,7 @@ def _matrices(p: MobileBaseParams) -> np.ndarray:
 
 # The per-sample loop is compiled (numba, cached on disk): thousands of samples of a few
 # scalar operations each, where numpy's per-call overhead dominated (issue: reproduce time).
-@njit(cache=True)
+@njit(cache=True, nogil=True)
 def _simulate_batch(c, mats, gains, ref, V0, out, sat):  # pragma: no cover - compiled
     """The multi-rate base, one batch element at a time.
 
