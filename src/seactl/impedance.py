@@ -237,7 +237,10 @@ def _z_chunked(p: _Extended, s: np.ndarray, model: str, load: bool) -> np.ndarra
             idx = np.arange(a, min(n, a + step))
             out[idx] = _z_raw(DesignSubset(p, idx, shape), s, model, load)
 
-    in_threads(chunks, len(starts), min_per_thread=1)  # numpy releases the GIL
+    # one design first: whatever the model derives on first use (sympy, its disk cache) is
+    # derived once, in this thread; then the chunks in threads (numpy releases the GIL)
+    _z_raw(DesignSubset(p, np.arange(1), shape), s[:1], model, load)
+    in_threads(chunks, len(starts), min_per_thread=1)
     return out.reshape(shape + (s.size,))
 
 
