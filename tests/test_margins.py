@@ -593,3 +593,59 @@ def test_closed_loop_right_roots_equal_the_nyquist_count():
     m = sea_margins(d)
     assert np.all(z >= 0) and 100 < int((z > 0).sum()) < n
     np.testing.assert_array_equal(z, m.unstable_poles)
+
+
+def _threaded_cases():
+    """(name, run) pairs: each run returns a dict of arrays computed in threads."""
+    from seactl import impedance as imp
+    from seactl.bench.impedance import random_designs as imp_designs
+    from seactl.jitter import sea_jitter_margins
+    from seactl.loops import SEA_DIAGRAM
+    from seactl.mobile_base import TRIKEY, simulate
+    from seactl.roots import characteristic_roots
+
+    d = imp_designs(24, seed=3)
+
+    def impedance(monkeypatch):
+        monkeypatch.setattr(imp, "_CHUNK_POINTS", 2000)  # 24 designs x 500 frequencies: 6 chunks
+        return {"z": imp.impedance(d, np.logspace(-1, 3, 500)).z}
+
+    def passivity(monkeypatch):
+        p = imp.passivity(d, points_per_decade=50)
+        return {"passive": p.passive, "proven": p.proven}
+
+    def jitter(monkeypatch):
+        j = sea_jitter_margins(d)
+        return {k: getattr(j, k) for k in ("overall_s", "stiffness_s", "damping_s", "stable")}
+
+    def roots(monkeypatch):
+        r = characteristic_roots(SEA_DIAGRAM, d, count=4)
+        return {"roots": r.roots, "nodes": r.nodes}
+
+    def base(monkeypatch):
+        r = simulate(TRIKEY, np.linspace(20, 80, 6), np.linspace(5, 15, 6), 0.3, duration=0.3)
+        return {"x": r.x, "tau": r.tau}
+
+    def eigenvalues(monkeypatch):
+        from seactl._parallel import eigvals
+        A = np.random.default_rng(5).normal(size=(40, 9, 9))
+        return {"ev": eigvals(A), "numpy": np.linalg.eigvals(A)}
+
+    return [impedance, passivity, jitter, roots, base, eigenvalues]
+
+
+@pytest.mark.parametrize("run", _threaded_cases(), ids=lambda f: f.__name__)
+def test_threaded_batches_are_the_one_thread_results(run, monkeypatch):
+    """Impedance chunks, the jitter and passivity proofs' chunks, the roots' eigenvalues,
+    the mobile base's batch and batched eigenvalues run in one thread per core.  Oracle:
+    the same call in one thread (and numpy's own eigenvalues), bit for bit."""
+    from seactl import _parallel
+
+    monkeypatch.setattr(_parallel, "THREADS", 1)
+    one = run(monkeypatch)
+    monkeypatch.setattr(_parallel, "THREADS", 3)
+    many = run(monkeypatch)
+    for k in one:
+        np.testing.assert_array_equal(many[k], one[k])
+    if "numpy" in one:
+        np.testing.assert_array_equal(many["ev"], one["numpy"])

@@ -79,6 +79,8 @@ def eigvals(A: np.ndarray, min_per_thread: int = 4) -> np.ndarray:
     [[(2+0j), (3+0j)], [1j, -1j]]
     """
     A = np.asarray(A)
+    if A.ndim < 3:  # one matrix
+        return np.linalg.eigvals(A)
     with single_threaded_blas():
         return np.concatenate(in_threads(lambda k: np.linalg.eigvals(A[k]), len(A),
                                          min_per_thread))
