@@ -11,7 +11,7 @@ from __future__ import annotations
 import contextlib
 import ctypes
 import os
-from collections.abc import Callable, Iterator
+from collections.abc import Callable, Iterator, Sequence
 from concurrent.futures import ThreadPoolExecutor
 from functools import lru_cache
 from pathlib import Path
@@ -54,6 +54,19 @@ def in_threads(run: Callable[[slice], Any], n: int, min_per_thread: int) -> list
         return [run(ps[0])]
     with ThreadPoolExecutor(len(ps)) as pool:
         return [f.result() for f in [pool.submit(run, p) for p in ps]]
+
+
+def map_in_threads(run: Callable[[Any], Any], items: Sequence[Any]) -> list[Any]:
+    """``[run(x) for x in items]``, the items (independent chunks of work) split over one
+    thread per core, each thread on its own contiguous share, in order."""
+    return [r for part in in_threads(lambda k: [run(x) for x in items[k]], len(items), 1)
+            for r in part]
+
+
+def chunk_size(total: int, most: int) -> int:
+    """A chunk length of at most ``most`` (memory) that still gives every thread a chunk
+    of ``total``."""
+    return max(1, min(most, -(-int(total) // threads())))
 
 
 @contextlib.contextmanager

@@ -20,7 +20,7 @@ import numpy as np
 from numpy.polynomial.polynomial import polyval
 
 from ._certify import compact, derivatives
-from ._parallel import in_threads, threads
+from ._parallel import chunk_size, map_in_threads
 from .blockdiagram import EVAL_ROUNDING, QuasiPolynomial, rounding_majorant
 
 MAX_DEPTH = 40
@@ -108,13 +108,9 @@ def certify_positive(N: QuasiPolynomial, D: QuasiPolynomial, b: np.ndarray,
     n = N.shape[0]
     if n == 0:
         return np.zeros(0, bool), np.zeros((0, w_grid.size - 1))
-    step = max(1, min(CHUNK_POINTS // w_grid.size, -(-n // threads())))
-    chunks = [np.arange(a, min(n, a + step)) for a in range(0, n, step)]
-
-    def run(k: slice) -> list:
-        return [_certify_chunk(N.take(c), D.take(c), b[c], w_grid, tol) for c in chunks[k]]
-
-    parts = [p for ps in in_threads(run, len(chunks), min_per_thread=1) for p in ps]
+    step = chunk_size(n, CHUNK_POINTS // w_grid.size)
+    parts = map_in_threads(lambda c: _certify_chunk(N.take(c), D.take(c), b[c], w_grid, tol),
+                           [np.arange(a, min(n, a + step)) for a in range(0, n, step)])
     return (np.concatenate([p[0] for p in parts]),
             np.concatenate([p[1] for p in parts]).reshape(n, w_grid.size - 1))
 

@@ -24,7 +24,7 @@ from __future__ import annotations
 import numpy as np
 
 from ._certify import compact, derivatives
-from ._parallel import in_threads, threads
+from ._parallel import chunk_size, map_in_threads
 from ._realpart import bisect, rows_at
 from .blockdiagram import EVAL_ROUNDING, QuasiPolynomial, padded_sum, rounding_majorant
 
@@ -185,17 +185,12 @@ def certify_peak(N: QuasiPolynomial, Delta: QuasiPolynomial, w_ref: np.ndarray,
     starts = np.cumsum(count) - count
     # chunks of whole designs of about CHUNK_POINTS base points, at least one per thread
     # (chunks are independent: each writes its own designs' peaks; numpy releases the GIL)
-    size = max(1, min(CHUNK_POINTS, -(-int(count.sum()) // threads())))
-    new = np.nonzero(np.diff(starts // size))[0] + 1
+    new = np.nonzero(np.diff(starts // chunk_size(count.sum(), CHUNK_POINTS)))[0] + 1
     bounds = np.concatenate([[0], starts[new], [count.sum()]]).astype(int)
-
-    def chunks(k: slice) -> None:
-        for a, b in zip(bounds[:-1][k], bounds[1:][k]):
-            if b > a:
-                proven[_certify(N, Delta, arrays, majors, design[a:b], w[a:b], peak,
-                                w_peak)] = True
-
-    in_threads(chunks, len(bounds) - 1, min_per_thread=1)
+    chunks = [slice(a, b) for a, b in zip(bounds[:-1], bounds[1:]) if b > a]
+    for done in map_in_threads(lambda c: _certify(N, Delta, arrays, majors, design[c], w[c],
+                                                  peak, w_peak), chunks):
+        proven |= done
     return peak * (1 + EPS), w_peak, proven
 
 

@@ -40,7 +40,7 @@ from typing import Any
 
 import numpy as np
 
-from ._parallel import in_threads
+from ._parallel import map_in_threads
 from .blockdiagram import Block, BlockDiagram, DesignSubset, QuasiForm, Transfer
 from .errors import InfeasibleDesignError, InputError
 
@@ -230,17 +230,14 @@ def _z_chunked(p: _Extended, s: np.ndarray, model: str, load: bool) -> np.ndarra
         return np.broadcast_to(z, shape + (s.shape[-1],)) if z.shape[:-1] != shape else z
     out = np.empty((n, s.size), complex)
     step = max(1, _CHUNK_POINTS // s.size)
-    starts = range(0, n, step)
 
-    def chunks(k: slice) -> None:  # chunks of designs (vectorized inside), bounds memory
-        for a in starts[k]:
-            idx = np.arange(a, min(n, a + step))
-            out[idx] = _z_raw(DesignSubset(p, idx, shape), s, model, load)
+    def chunk(idx: np.ndarray) -> None:  # chunks of designs (vectorized inside), bounds memory
+        out[idx] = _z_raw(DesignSubset(p, idx, shape), s, model, load)
 
     # one design first: whatever the model derives on first use (sympy, its disk cache) is
     # derived once, in this thread; then the chunks in threads (numpy releases the GIL)
     _z_raw(DesignSubset(p, np.arange(1), shape), s[:1], model, load)
-    in_threads(chunks, len(starts), min_per_thread=1)
+    map_in_threads(chunk, [np.arange(a, min(n, a + step)) for a in range(0, n, step)])
     return out.reshape(shape + (s.size,))
 
 
