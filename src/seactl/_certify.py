@@ -15,6 +15,7 @@ import math
 import numpy as np
 from numba import njit
 
+from ._borrow import borrowed
 from .blockdiagram import EVAL_ROUNDING
 
 # Limits (documented in seactl.margins, which re-exports them).
@@ -32,7 +33,7 @@ TOUCH = 2
 touch the level without crossing it (a tangency); solved as a crossing at its nearer end."""
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def _eval(coeffs, delays, d, w, order):  # pragma: no cover - compiled
     """``Q(jw)``, ``dQ(jw)/dw`` and ``d^2 Q(jw)/dw^2`` of design ``d`` (derivatives above
     ``order`` left 0): one Horner pass per delay term for ``p``, ``p'`` and ``p''`` at
@@ -68,7 +69,7 @@ def _eval(coeffs, delays, d, w, order):  # pragma: no cover - compiled
     return complex(qr, qi), complex(-d1i, d1r), complex(-d2r, -d2i)
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def _bound3(c, d, w):  # pragma: no cover - compiled
     """The polynomial ``c[d]`` (descending powers) at ``w`` (Horner)."""
     acc = c[d, 0]
@@ -112,7 +113,7 @@ W, CN, CD, A_DELTA, A_DDELTA, A_N, A_D, A_DN, A_DD, RE_G, IM_G, LOG_L, ARG_L, RE
 _F = 24
 
 
-@njit(cache=True, error_model="numpy")
+@njit(cache=True, error_model="numpy", inline="always")
 def _point(P, i, w, Nc, Nt, Dc, Dt, major, d):  # pragma: no cover - compiled
     """Evaluate ``N`` and ``D`` of design ``d`` at ``w`` into row ``i`` of ``P``;
     ``|Delta|`` is stored less its rounding bound (``major``: ``sum_k |c_kj|`` of ``N``
@@ -171,7 +172,7 @@ def _angle(z):  # pragma: no cover - compiled
     return math.atan2(z.imag, z.real)
 
 
-@njit(cache=True, error_model="numpy")
+@njit(cache=True, error_model="numpy", inline="always")
 def _certified(P, a, b, bN, bD, stability_only, no_loop, final):  # pragma: no cover - compiled
     """``(Delta certified, no unseen gain crossing, no unseen phase crossing)`` for the
     interval between the points in rows ``a`` and ``b`` of ``P`` (step 3 of
@@ -226,11 +227,12 @@ def _certified(P, a, b, bN, bD, stability_only, no_loop, final):  # pragma: no c
         (fa - gain_len > LOG_BAND_HI and fb - gain_len > LOG_BAND_HI) or \
         xN < BAND_LO * mD or mN > BAND_HI * xD
     relevant = not outside
-    # (arg L monotone over less than half a turn: on_axis sees its one crossing, if any)
+    # (arg L monotone over less than half a turn: on_axis sees its one crossing, if any;
+    # the tube, with its four inverse trigonometric functions, is tried last)
     phase_ok = (not relevant) or (phase_len < to_axis) or \
-        _tube_misses_axis(P, a, b, gN, rN, gD, rD) or \
         (phase_len < np.pi and _monotone(P[a, IM_G], P[b, IM_G], hc)) or \
-        (not _on_axis(P, a, b) and phase_len < np.pi and _chord_max(pa, pb) + bow < np.pi)
+        (not _on_axis(P, a, b) and phase_len < np.pi and _chord_max(pa, pb) + bow < np.pi) or \
+        _tube_misses_axis(P, a, b, gN, rN, gD, rD)
     return ok, gain_ok, phase_ok
 
 
@@ -387,6 +389,20 @@ def scan(Nc, Nt, Dc, Dt, major, bN, bD, w_lo, per_decade, step, top, stability_o
     cap = MAX_EVALUATIONS + 2 * MAX_BISECTIONS + 2
     P = np.empty((cap, _F))          # points of the current interval stack
     stack = np.empty((MAX_BISECTIONS + 2, 3), np.int64)  # (left, right, depth)
+    return _scan(Nc, Nt, Dc, Dt, major, bN, bD, w_lo, per_decade, step, top, stability_only,
+                 no_loop, winding, uncertain, out, d0, d1, P, stack)
+
+
+@njit(cache=True, nogil=True, error_model="numpy")
+def _scan(Nc, Nt, Dc, Dt, major, bN, bD, w_lo, per_decade, step, top, stability_only,
+          no_loop, winding, uncertain, out, d0, d1, P, stack):  # pragma: no cover - compiled
+    """:func:`scan` with its work arrays ``P`` and ``stack``; every array borrowed
+    (:mod:`seactl._borrow`: 20 % of the scan was reference counting)."""
+    Nc, Nt, Dc, Dt, major, bN, bD = borrowed(Nc), borrowed(Nt), borrowed(Dc), borrowed(Dt), \
+        borrowed(major), borrowed(bN), borrowed(bD)
+    w_lo, step, top, no_loop = borrowed(w_lo), borrowed(step), borrowed(top), borrowed(no_loop)
+    winding, uncertain, out = borrowed(winding), borrowed(uncertain), borrowed(out)
+    P, stack = borrowed(P), borrowed(stack)
     nout = 0
     for d in range(w_lo.size):
         if not d0 <= d < d1:  # (a loop from 0 keeps d provably >= 0: indexing twice as fast)
@@ -492,6 +508,7 @@ def refine(Nc, Nt, Dc, Dt, rows, xatol, xrtol, x):  # pragma: no cover - compile
     """Solve each bracket of ``rows`` (as :func:`scan` writes them) in ``x = log w`` by
     Newton's method kept inside the bracket (bisection when a step would leave it), to
     ``xatol + xrtol |x|``.  Writes ``x``; NaN where the ends' signs do not bracket."""
+    Nc, Nt, Dc, Dt = borrowed(Nc), borrowed(Nt), borrowed(Dc), borrowed(Dt)  # (_borrow)
     for i in range(rows.shape[0]):
         d, kind = int(rows[i, 0]), int(rows[i, 1])
         xl, xr, fl, fr = math.log(rows[i, 2]), math.log(rows[i, 3]), rows[i, 4], rows[i, 5]
