@@ -911,8 +911,21 @@ def _nonzero_columns(M, ncol):  # pragma: no cover - compiled
 @njit(cache=True)
 def _product(M, zb, cols, out):  # pragma: no cover - compiled
     """``out[r, k] = sum_j M[r, j, k] zb[j, k]`` over the non-zero columns ``cols[r]``
-    (one matrix per design, batch last)."""
+    (one matrix per design, batch last).  A batch of a few designs sums in a register
+    (through memory, each term waits for the last one's store: a third of a lone
+    design's step); a larger one vectorizes over the batch."""
+    n = M.shape[2]
     for r in range(M.shape[0]):
+        if n < 4:
+            for k in range(n):
+                acc = 0.0
+                for m in range(cols.shape[1]):
+                    j = cols[r, m]
+                    if j < 0:
+                        break
+                    acc += M[r, j, k] * zb[j, k]
+                out[r, k] = acc
+            continue
         for k in range(M.shape[2]):
             out[r, k] = 0.0
         for m in range(cols.shape[1]):
