@@ -51,6 +51,7 @@ import numpy as np
 from numba import njit
 from pydantic import Field
 
+from ._borrow import borrowed
 from ._parallel import in_threads
 from ._params import check, nonnegative, positive, read_toml, schema_of, validate
 from .errors import InputError
@@ -489,96 +490,122 @@ def _simulate_batch(c, mats, gains, ref, V0, out, sat):  # pragma: no cover - co
     ``ref``: x, v, a of the extended reference; ``out``: x, v, tau (and PHI, QM, WM when
     it has 7 rows) per sample, written in place; ``sat``: saturated wheel-samples.
     """
+    d_meas, d_cmd = int(c[2]), int(c[3])
+    for b in range(out.shape[2]):
+        X, V, PHI, QM = np.zeros(3), V0[b].copy(), np.zeros(3), np.zeros(3)
+        WM = np.array(_mv(mats[0], V0[b]))         # drivetrain moving with the wheels
+        meas = np.zeros((d_meas + 1, 3))           # ring of encoder readings (wheel side)
+        cmd = np.zeros((d_cmd + 1, 6))             # ring of central outputs (tau, qdot_d)
+        central = np.zeros((3, 3))                 # pose_hat, prev_c, vel_c
+        work = np.zeros((7, 3))                    # prev_e, vel_e, q; _integrate's scratch
+        _simulate_one(c, mats, gains, ref, out, sat, b, X, V, PHI, QM, WM, meas, cmd, central,
+                      work)
+
+
+@njit(cache=True, nogil=True)
+def _simulate_one(c, mats, gains, ref, out, sat, b, X, V, PHI, QM, WM, meas, cmd, central,
+                  work):  # pragma: no cover - compiled
+    """Batch element ``b`` of :func:`_simulate_batch`, its arrays borrowed
+    (:mod:`seactl._borrow`: the reference counts of the arrays passed at every step were
+    40 % of the time)."""
+    mats, gains, ref, out, sat = borrowed(mats), borrowed(gains), borrowed(ref), \
+        borrowed(out), borrowed(sat)
+    X, V, PHI, QM, WM = borrowed(X), borrowed(V), borrowed(PHI), borrowed(QM), borrowed(WM)
+    meas, cmd, central, work = borrowed(meas), borrowed(cmd), borrowed(central), borrowed(work)
     substeps, m_c, d_meas, d_cmd = int(c[0]), int(c[1]), int(c[2]), int(c[3])
     Te, Tc, a_e, a_c, res, r, L = c[4], c[5], c[6], c[7], c[8], c[9], c[10]
     kd, cd, Ir, I_sp, bv, tc, vf, tau_max = c[11], c[12], c[13], c[14], c[15], c[16], \
         c[17], c[18]
     dt = Te / substeps
-    n = out.shape[1]
-    for b in range(out.shape[2]):
-        X, V, PHI, QM = np.zeros(3), V0[b].copy(), np.zeros(3), np.zeros(3)
-        WM = _mv(mats[0], V0[b])                   # drivetrain moving with the wheels
-        meas = np.zeros((d_meas + 1, 3))           # ring of encoder readings (wheel side)
-        cmd = np.zeros((d_cmd + 1, 6))             # ring of central outputs (tau, qdot_d)
-        held, central = np.zeros(6), np.zeros((3, 3))   # pose_hat, prev_c, vel_c
-        prev_e, vel_e, q = np.zeros(3), np.zeros(3), np.zeros(3)
-        for k in range(n):
-            out[0, k, b] = X
-            out[1, k, b] = V
+    prev_e, vel_e, q = work[0], work[1], work[2]
+    held = np.zeros(6)
+    for k in range(out.shape[1]):
+        for i in range(3):
+            out[0, k, b, i], out[1, k, b, i] = X[i], V[i]
             if out.shape[0] == 7:
-                out[3, k, b] = PHI
-                out[4, k, b] = QM
-                out[5, k, b] = WM
-            for i in range(3):
-                q[i] = QM[i] if res == 0 else np.floor(QM[i] / res + 0.5) * res
-            meas[k % (d_meas + 1)] = q
-            if k % m_c == 0:
-                qc = meas[(k - d_meas) % (d_meas + 1)].copy() if k >= d_meas else np.zeros(3)
-                held = _central_command(k, qc, central, mats, gains[0, b], gains[1, b], ref,
-                                        d_meas + d_cmd, Tc, a_c)
-            cmd[k % (d_cmd + 1)] = held
-            cm = cmd[(k - d_cmd) % (d_cmd + 1)] if k >= d_cmd else np.zeros(6)
-            for i in range(3):   # embedded process: differenced, filtered velocity; damping
-                if k > 0:
-                    vel_e[i] += a_e * ((q[i] - prev_e[i]) / Te - vel_e[i])
-                prev_e[i] = q[i]
-                tau = cm[i] + gains[2, b] * (cm[3 + i] - vel_e[i])
-                if abs(tau) > tau_max:
-                    sat[b] += 1
-                out[2, k, b, i] = min(max(tau, -tau_max), tau_max)
-            _integrate(X, V, PHI, QM, WM, out[2, k, b], mats[3], substeps, dt, r, L, kd, cd,
-                       Ir, I_sp, bv, tc, vf)
+                out[3, k, b, i], out[4, k, b, i], out[5, k, b, i] = PHI[i], QM[i], WM[i]
+        for i in range(3):
+            q[i] = QM[i] if res == 0 else np.floor(QM[i] / res + 0.5) * res
+        meas[k % (d_meas + 1)] = q
+        if k % m_c == 0:
+            m = (k - d_meas) % (d_meas + 1)
+            qc = (meas[m, 0], meas[m, 1], meas[m, 2]) if k >= d_meas else (0.0, 0.0, 0.0)
+            _central_command(k, qc, central, mats, gains[0, b], gains[1, b], ref,
+                             d_meas + d_cmd, Tc, a_c, held)
+        cmd[k % (d_cmd + 1)] = held
+        row = (k - d_cmd) % (d_cmd + 1)
+        for i in range(3):   # embedded process: differenced, filtered velocity; damping
+            if k > 0:
+                vel_e[i] += a_e * ((q[i] - prev_e[i]) / Te - vel_e[i])
+            prev_e[i] = q[i]
+            cm, cm_v = (cmd[row, i], cmd[row, 3 + i]) if k >= d_cmd else (0.0, 0.0)
+            tau = cm + gains[2, b] * (cm_v - vel_e[i])
+            if abs(tau) > tau_max:
+                sat[b] += 1
+            out[2, k, b, i] = min(max(tau, -tau_max), tau_max)
+        _integrate(X, V, PHI, QM, WM, out[2, k, b], mats[3], substeps, dt, r, L, kd, cd,
+                   Ir, I_sp, bv, tc, vf, work[3:])
 
 
 @njit(cache=True)
 def _rot3(v, th):  # pragma: no cover - compiled
+    """``v`` turned by ``th`` about z; 3-vectors are tuples here (no allocation)."""
     c, s = np.cos(th), np.sin(th)
-    return np.array([c * v[0] - s * v[1], s * v[0] + c * v[1], v[2]])
+    return c * v[0] - s * v[1], s * v[0] + c * v[1], v[2]
 
 
 @njit(cache=True)
 def _mv(M, v):  # pragma: no cover - compiled
     """``M @ v`` for 3x3 ``M`` (no BLAS call for three terms)."""
-    return np.array([M[i, 0] * v[0] + M[i, 1] * v[1] + M[i, 2] * v[2] for i in range(3)])
+    return (M[0, 0] * v[0] + M[0, 1] * v[1] + M[0, 2] * v[2],
+            M[1, 0] * v[0] + M[1, 1] * v[1] + M[1, 2] * v[2],
+            M[2, 0] * v[0] + M[2, 1] * v[1] + M[2, 2] * v[2])
 
 
 @njit(cache=True)
 def _mtv(M, v):  # pragma: no cover - compiled
     """``M.T @ v`` for 3x3 ``M``."""
-    return np.array([M[0, i] * v[0] + M[1, i] * v[1] + M[2, i] * v[2] for i in range(3)])
+    return (M[0, 0] * v[0] + M[1, 0] * v[1] + M[2, 0] * v[2],
+            M[0, 1] * v[0] + M[1, 1] * v[1] + M[2, 1] * v[2],
+            M[0, 2] * v[0] + M[1, 2] * v[1] + M[2, 2] * v[2])
 
 
 @njit(cache=True)
-def _central_command(k, qc, state, mats, kx, dx, ref, ahead, Tc, a_c):  # pragma: no cover
+def _central_command(k, qc, state, mats, kx, dx, ref, ahead, Tc, a_c,
+                     held):  # pragma: no cover - compiled
     """Odometry and the operational space law of the central process: wheel torques
-    ``J^-T F`` and desired wheel speeds (6,) from the (delayed) encoder reading ``qc``."""
+    ``J^-T F`` and desired wheel speeds into ``held`` (6,) from the (delayed) encoder
+    reading ``qc``."""
     Jb, Jb_inv, Lam = mats[0], mats[1], mats[2]
     pose_hat, prev_c, vel_c = state[0], state[1], state[2]
-    dq = qc - prev_c
-    prev_c[:] = qc
+    dq = (qc[0] - prev_c[0], qc[1] - prev_c[1], qc[2] - prev_c[2])
     body = _mv(Jb_inv, dq)                        # body-frame displacement since last sample
-    pose_hat += _rot3(body, pose_hat[2] + 0.5 * body[2])
-    vel_c += a_c * (dq / Tc - vel_c)
+    turn = _rot3(body, pose_hat[2] + 0.5 * body[2])
+    for i in range(3):
+        prev_c[i] = qc[i]
+        pose_hat[i] += turn[i]
+        vel_c[i] += a_c * (dq[i] / Tc - vel_c[i])
     v_hat = _rot3(_mv(Jb_inv, vel_c), pose_hat[2])
     ka = k + ahead                                # row of the arrival time
-    err = ref[0, k] - pose_hat
-    err[2] = np.arctan2(np.sin(err[2]), np.cos(err[2]))
-    acc = ref[2, ka] + kx * err + dx * (ref[1, k] - v_hat)
+    err = (ref[0, k, 0] - pose_hat[0], ref[0, k, 1] - pose_hat[1], ref[0, k, 2] - pose_hat[2])
+    err = (err[0], err[1], np.arctan2(np.sin(err[2]), np.cos(err[2])))
+    acc = (ref[2, ka, 0] + kx * err[0] + dx * (ref[1, k, 0] - v_hat[0]),
+           ref[2, ka, 1] + kx * err[1] + dx * (ref[1, k, 1] - v_hat[1]),
+           ref[2, ka, 2] + kx * err[2] + dx * (ref[1, k, 2] - v_hat[2]))
     F = _mv(Lam, acc)
     th = pose_hat[2]
-    held = np.empty(6)
-    held[:3] = _mtv(Jb_inv, _rot3(F, -th))
-    held[3:] = _mv(Jb, _rot3(ref[1, ka], -th))
-    return held
+    held[0], held[1], held[2] = _mtv(Jb_inv, _rot3(F, -th))
+    held[3], held[4], held[5] = _mv(Jb, _rot3(ref[1, ka], -th))
 
 
 @njit(cache=True)
 def _integrate(X, V, PHI, QM, WM, tau, rows, substeps, dt, r, L, kd, cd, Ir, I_sp, bv, tc,
-               vf):  # pragma: no cover - compiled
+               vf, scratch):  # pragma: no cover - compiled
     """One embedded period under wheel torques ``tau``, in place: ``substeps``
-    semi-implicit Euler steps of the chassis, the wheels and the compliant drivetrains."""
+    semi-implicit Euler steps of the chassis, the wheels and the compliant drivetrains
+    (``scratch``: three rows of 3)."""
     M_inv, alpha = rows[0], rows[1]
-    s, co, tq = np.empty(3), np.empty(3), np.empty(3)
+    s, co, tq = scratch[0], scratch[1], scratch[2]
     for _ in range(substeps):
         for i in range(3):
             s[i], co[i] = np.sin(X[2] + alpha[i]), np.cos(X[2] + alpha[i])
