@@ -107,15 +107,17 @@ def derivatives(coeffs, delays, idx, w):  # pragma: no cover - compiled
     return out
 
 
-# Per point, what the certificates of its two intervals need (computed once):
+# Per point, what the certificates of its two intervals need (computed once; B3N, B3D:
+# the third-derivative bounds at the point, used by the interval it ends):
 W, CN, CD, A_DELTA, A_DDELTA, A_N, A_D, A_DN, A_DD, RE_G, IM_G, LOG_L, ARG_L, RE_L, \
-    IM_L, ARG_DELTA, F_N, F_D, RE_N, IM_N, RE_D, IM_D, A_D2DELTA, ERR = range(24)
-_F = 24
+    IM_L, F_N, F_D, RE_N, IM_N, RE_D, IM_D, A_D2DELTA, ERR, B3N, B3D = range(25)
+_F = 25
 
 
 @njit(cache=True, error_model="numpy", inline="always")
-def _point(P, i, w, Nc, Nt, Dc, Dt, major, d):  # pragma: no cover - compiled
-    """Evaluate ``N`` and ``D`` of design ``d`` at ``w`` into row ``i`` of ``P``;
+def _point(P, i, w, Nc, Nt, Dc, Dt, major, d, bN, bD):  # pragma: no cover - compiled
+    """Evaluate ``N`` and ``D`` of design ``d`` at ``w`` into row ``i`` of ``P``, with the
+    bounds ``bN``, ``bD`` of their third derivatives on ``[0, w]``;
     ``|Delta|`` is stored less its rounding bound (``major``: ``sum_k |c_kj|`` of ``N``
     and ``D`` together), so that rounding noise next to a root never certifies."""
     N, dN, d2N = _eval(Nc, Nt, d, w, 2)
@@ -125,9 +127,9 @@ def _point(P, i, w, Nc, Nt, Dc, Dt, major, d):  # pragma: no cover - compiled
     L = _div(N, D)
     P[i, W], P[i, CN], P[i, CD] = w, _mag(d2N), _mag(d2D)
     P[i, ERR] = ROUNDING * _bound3(major, d, w)
+    P[i, B3N], P[i, B3D] = _bound3(bN, d, w), _bound3(bD, d, w)
     P[i, A_DELTA] = max(_mag(delta) - P[i, ERR], 0.0)
     P[i, A_DDELTA], P[i, A_D2DELTA] = _mag(dN + dD), _mag(d2N + d2D)
-    P[i, ARG_DELTA] = _angle(delta)
     P[i, RE_N], P[i, IM_N], P[i, RE_D], P[i, IM_D] = N.real, N.imag, D.real, D.imag
     P[i, A_N], P[i, A_D], P[i, A_DN], P[i, A_DD] = aN, aD, _mag(dN), _mag(dD)
     # its real part drives log |L|, its imaginary part arg L
@@ -312,13 +314,30 @@ def _on_axis(P, a, b):  # pragma: no cover - compiled
 
 @njit(cache=True)
 def _collect(P, a, b):  # pragma: no cover - compiled
-    """Turn of ``Delta`` over the interval between the points in rows ``a`` and ``b``, and
-    whether it brackets a gain crossing and a phase crossing (above ``w = 0``)."""
-    turn = P[b, ARG_DELTA] - P[a, ARG_DELTA]
-    turn -= 2 * np.pi * np.round(turn / (2 * np.pi))   # wrapped to [-pi, pi]
+    """Crossings of the negative real axis by ``Delta`` between the points in rows ``a``
+    and ``b`` (:func:`_cut_turns`), and whether the interval brackets a gain crossing and
+    a phase crossing (above ``w = 0``)."""
+    cut = _cut_turns(P[a, RE_N] + P[a, RE_D], P[a, IM_N] + P[a, IM_D],
+                     P[b, RE_N] + P[b, RE_D], P[b, IM_N] + P[b, IM_D])
     if P[a, W] <= 0:
-        return turn, False, False
-    return turn, (P[a, LOG_L] >= 0) != (P[b, LOG_L] >= 0), _on_axis(P, a, b)
+        return cut, False, False
+    return cut, (P[a, LOG_L] >= 0) != (P[b, LOG_L] >= 0), _on_axis(P, a, b)
+
+
+@njit(cache=True)
+def _cut_turns(ar, ai, br, bi):  # pragma: no cover - compiled
+    """``c`` with ``arg b - arg a + 2 pi c`` the principal turn from ``a`` to ``b`` (in
+    ``[-pi, pi]``; ``arg``: atan2's, in ``(-pi, pi]``): 1 where the short way from ``a`` to
+    ``b`` crosses the negative real axis counterclockwise, -1 clockwise, else 0.  The short
+    way sweeps a convex sector, which holds the axis exactly when the chord crosses it; on
+    the axis itself (``Im = 0``, atan2's signed zeros decide) from the arguments.  Summed
+    over a design's intervals, with the arguments at its first and last point, it gives
+    the winding with two arctangents instead of one per point."""
+    if ai == 0 or bi == 0:
+        return -np.round((math.atan2(bi, br) - math.atan2(ai, ar)) / (2 * np.pi))
+    if (ai > 0) == (bi > 0) or not ar * abs(bi) + br * abs(ai) < 0:
+        return 0.0
+    return 1.0 if ai > 0 else -1.0
 
 
 @njit(cache=True)
@@ -408,12 +427,13 @@ def _scan(Nc, Nt, Dc, Dt, major, bN, bD, w_lo, per_decade, step, top, stability_
         if not d0 <= d < d1:  # (a loop from 0 keeps d provably >= 0: indexing twice as fast)
             continue
         evals = 0
-        _point(P, 0, 0.0, Nc, Nt, Dc, Dt, major, d)
+        _point(P, 0, 0.0, Nc, Nt, Dc, Dt, major, d, bN, bD)
+        winding[d] -= _delta_arg(P, 0)   # (plus 2 pi per cut crossing, plus the last arg)
         k, base, m, w = 0, 0.0, 0, 0.0
         while w < top[d]:
             w, k, base, m = grid_point(w_lo[d], per_decade, step[d], top[d], k, base, m)
             # the base interval is [point 0, point 1]; its bisection points from row 2 on
-            _point(P, 1, w, Nc, Nt, Dc, Dt, major, d)
+            _point(P, 1, w, Nc, Nt, Dc, Dt, major, d, bN, bD)
             stack[0, 0], stack[0, 1], stack[0, 2] = 0, 1, 0
             sp, free = 1, 2
             while sp > 0:
@@ -421,11 +441,11 @@ def _scan(Nc, Nt, Dc, Dt, major, bN, bD, w_lo, per_decade, step, top, stability_
                 ia, ib, depth = stack[sp, 0], stack[sp, 1], stack[sp, 2]
                 wa, wb = P[ia, W], P[ib, W]
                 final = depth >= MAX_BISECTIONS or evals >= MAX_EVALUATIONS
-                ok, gain_ok, phase_ok = _certified(P, ia, ib, _bound3(bN, d, wb),
-                                                   _bound3(bD, d, wb), stability_only,
+                ok, gain_ok, phase_ok = _certified(P, ia, ib, P[ib, B3N],
+                                                   P[ib, B3D], stability_only,
                                                    no_loop[d], final)
                 if not (ok and gain_ok and phase_ok or final):
-                    _point(P, free, 0.5 * (wa + wb), Nc, Nt, Dc, Dt, major, d)
+                    _point(P, free, 0.5 * (wa + wb), Nc, Nt, Dc, Dt, major, d, bN, bD)
                     evals += 1
                     # right half below the left one: the left is certified first
                     stack[sp, 0], stack[sp, 1], stack[sp, 2] = free, ib, depth + 1
@@ -436,14 +456,21 @@ def _scan(Nc, Nt, Dc, Dt, major, bN, bD, w_lo, per_decade, step, top, stability_
                 # out of evaluations: neither the count nor the crossings are certified
                 if not ok or ((not (gain_ok and phase_ok)) and depth < MAX_BISECTIONS):
                     uncertain[d] = True
-                turn, gain, phase = _collect(P, ia, ib)
-                winding[d] += turn
+                cut, gain, phase = _collect(P, ia, ib)
+                winding[d] += 2 * np.pi * cut
                 if not stability_only:
                     nout = _brackets(out, nout, d, P, ia, ib, gain, gain_ok, GAIN)
                     nout = _brackets(out, nout, d, P, ia, ib, phase, phase_ok, PHASE)
             for c in range(_F):  # (a row copy, no view: see _certified)
                 P[0, c] = P[1, c]
+        winding[d] += _delta_arg(P, 0)
     return nout
+
+
+@njit(cache=True)
+def _delta_arg(P, i):  # pragma: no cover - compiled
+    """``arg Delta`` at the point in row ``i``."""
+    return math.atan2(P[i, IM_N] + P[i, IM_D], P[i, RE_N] + P[i, RE_D])
 
 
 @njit(cache=True)
