@@ -378,16 +378,34 @@ def _crossing_value(P, i, kind):  # pragma: no cover - compiled
 
 
 @njit(cache=True)
-def grid_point(w_lo, per_decade, step, top, k, base, m):  # pragma: no cover - compiled
+def decade_powers(per_decade, count=256):  # pragma: no cover - compiled
+    """``10^(k / per_decade)`` for ``k < count``: the base grid's log points, computed once
+    per scan instead of once per point and design (a ``pow`` call each)."""
+    out = np.empty(count)
+    for k in range(count):
+        out[k] = 10.0 ** (k / per_decade)
+    return out
+
+
+@njit(cache=True)
+def _decade_power(k, per_decade, powers):  # pragma: no cover - compiled
+    """``10^(k / per_decade)``, from ``powers`` (:func:`decade_powers`) where it has it: the
+    same ``pow`` call either way."""
+    return powers[k] if k < powers.size else 10.0 ** (k / per_decade)
+
+
+@njit(cache=True)
+def grid_point(w_lo, per_decade, powers, step, top, k, base, m):  # pragma: no cover
     """Point ``k`` of a base grid from ``w_lo`` to ``top``: ``per_decade`` points per
-    decade, ``w_lo 10^(k / per_decade)`` (exact decades), until that step would exceed
+    decade, ``w_lo 10^(k / per_decade)`` (exact decades; ``powers``:
+    :func:`decade_powers`), until that step would exceed
     ``step``; from the last such point ``base`` on, ``base + m step``.  Returns the point
     (``top`` once reached) and the next ``(k, base, m)``; ``m = 0``: still logarithmic,
     and ``base``, if not 0, is point ``k`` (computed by the previous call: one power per
     point instead of two)."""
     if m == 0:
-        w = base if base > 0 else w_lo * 10.0 ** (k / per_decade)
-        nxt = w_lo * 10.0 ** ((k + 1) / per_decade)
+        w = base if base > 0 else w_lo * _decade_power(k, per_decade, powers)
+        nxt = w_lo * _decade_power(k + 1, per_decade, powers)
         if nxt - w <= step:
             return min(w, top), k + 1, nxt, 0
         return min(w, top), k, w, 1
@@ -409,19 +427,19 @@ def scan(Nc, Nt, Dc, Dt, major, bN, bD, w_lo, per_decade, step, top, stability_o
     P = np.empty((cap, _F))          # points of the current interval stack
     stack = np.empty((MAX_BISECTIONS + 2, 3), np.int64)  # (left, right, depth)
     return _scan(Nc, Nt, Dc, Dt, major, bN, bD, w_lo, per_decade, step, top, stability_only,
-                 no_loop, winding, uncertain, out, d0, d1, P, stack)
+                 no_loop, winding, uncertain, out, d0, d1, P, stack, decade_powers(per_decade))
 
 
 @njit(cache=True, nogil=True, error_model="numpy")
 def _scan(Nc, Nt, Dc, Dt, major, bN, bD, w_lo, per_decade, step, top, stability_only,
-          no_loop, winding, uncertain, out, d0, d1, P, stack):  # pragma: no cover - compiled
+          no_loop, winding, uncertain, out, d0, d1, P, stack, powers):  # pragma: no cover
     """:func:`scan` with its work arrays ``P`` and ``stack``; every array borrowed
     (:mod:`seactl._borrow`: 20 % of the scan was reference counting)."""
     Nc, Nt, Dc, Dt, major, bN, bD = borrowed(Nc), borrowed(Nt), borrowed(Dc), borrowed(Dt), \
         borrowed(major), borrowed(bN), borrowed(bD)
     w_lo, step, top, no_loop = borrowed(w_lo), borrowed(step), borrowed(top), borrowed(no_loop)
     winding, uncertain, out = borrowed(winding), borrowed(uncertain), borrowed(out)
-    P, stack = borrowed(P), borrowed(stack)
+    P, stack, powers = borrowed(P), borrowed(stack), borrowed(powers)
     nout = 0
     for d in range(w_lo.size):
         if not d0 <= d < d1:  # (a loop from 0 keeps d provably >= 0: indexing twice as fast)
@@ -431,7 +449,7 @@ def _scan(Nc, Nt, Dc, Dt, major, bN, bD, w_lo, per_decade, step, top, stability_
         winding[d] -= _delta_arg(P, 0)   # (plus 2 pi per cut crossing, plus the last arg)
         k, base, m, w = 0, 0.0, 0, 0.0
         while w < top[d]:
-            w, k, base, m = grid_point(w_lo[d], per_decade, step[d], top[d], k, base, m)
+            w, k, base, m = grid_point(w_lo[d], per_decade, powers, step[d], top[d], k, base, m)
             # the base interval is [point 0, point 1]; its bisection points from row 2 on
             _point(P, 1, w, Nc, Nt, Dc, Dt, major, d, bN, bD)
             stack[0, 0], stack[0, 1], stack[0, 2] = 0, 1, 0
