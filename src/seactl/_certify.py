@@ -16,14 +16,14 @@ import numpy as np
 from numba import njit
 
 from ._borrow import borrowed
-from .blockdiagram import EVAL_ROUNDING
+from .blockdiagram import EVAL_ROUNDING, pad_powers
 
 # Limits (documented in seactl.margins, which re-exports them).
 MAX_BISECTIONS = 48
 MAX_EVALUATIONS = 1 << 16
 ROUNDING = EVAL_ROUNDING
 """Evaluation error of ``Q(jw)`` relative to :func:`seactl.blockdiagram.rounding_majorant`
-(the scan's ``major``)."""
+(the first row of the scan's ``bounds``, :func:`bound_table`)."""
 BAND_LO, BAND_HI = 0.05, 20.0
 LOG_BAND_LO, LOG_BAND_HI = math.log(BAND_LO), math.log(BAND_HI)
 
@@ -70,12 +70,25 @@ def _eval(coeffs, delays, d, w, order):  # pragma: no cover - compiled
 
 
 @njit(cache=True, inline="always")
-def _bound3(c, d, w):  # pragma: no cover - compiled
-    """The polynomial ``c[d]`` (descending powers) at ``w`` (Horner)."""
-    acc = c[d, 0]
-    for j in range(1, c.shape[1]):
-        acc = acc * w + c[d, j]
-    return acc
+def _bounds(B, d, w):  # pragma: no cover - compiled
+    """The three polynomials ``B[d]`` (:func:`bound_table`) at ``w``, by Horner in one
+    loop (three loops took 4 % more of the scan)."""
+    a0, a1, a2 = B[d, 0, 0], B[d, 1, 0], B[d, 2, 0]
+    for j in range(1, B.shape[2]):
+        a0 = a0 * w + B[d, 0, j]
+        a1 = a1 * w + B[d, 1, j]
+        a2 = a2 * w + B[d, 2, j]
+    return a0, a1, a2
+
+
+def bound_table(major: np.ndarray, b3N: np.ndarray, b3D: np.ndarray) -> np.ndarray:
+    """The scan's bounds per design (``(designs, 3, powers)``, :func:`descending`, the
+    shorter ones led by zeros, which leave Horner's values as they are): the rounding
+    majorant of ``N`` and ``D`` together (:func:`seactl.blockdiagram.rounding_majorant`)
+    and the third-derivative bounds of ``N`` and of ``D``
+    (:attr:`~seactl.blockdiagram.QuasiPolynomial.bound3_coeffs`), all ascending."""
+    n = max(x.shape[-1] for x in (major, b3N, b3D))
+    return descending(np.stack([pad_powers(x, n) for x in (major, b3N, b3D)], axis=1))
 
 
 def descending(c: np.ndarray) -> np.ndarray:
@@ -115,19 +128,19 @@ _F = 25
 
 
 @njit(cache=True, error_model="numpy", inline="always")
-def _point(P, i, w, Nc, Nt, Dc, Dt, major, d, bN, bD):  # pragma: no cover - compiled
+def _point(P, i, w, Nc, Nt, Dc, Dt, bounds, d):  # pragma: no cover - compiled
     """Evaluate ``N`` and ``D`` of design ``d`` at ``w`` into row ``i`` of ``P``, with the
-    bounds ``bN``, ``bD`` of their third derivatives on ``[0, w]``;
-    ``|Delta|`` is stored less its rounding bound (``major``: ``sum_k |c_kj|`` of ``N``
-    and ``D`` together), so that rounding noise next to a root never certifies."""
+    bounds of their third derivatives on ``[0, w]`` (:func:`bound_table`); ``|Delta|`` is
+    stored less its rounding bound (:data:`ROUNDING` times the table's majorant), so that
+    rounding noise next to a root never certifies."""
     N, dN, d2N = _eval(Nc, Nt, d, w, 2)
     D, dD, d2D = _eval(Dc, Dt, d, w, 2)
     delta = N + D
     aN, aD = _mag(N), _mag(D)
     L = _div(N, D)
     P[i, W], P[i, CN], P[i, CD] = w, _mag(d2N), _mag(d2D)
-    P[i, ERR] = ROUNDING * _bound3(major, d, w)
-    P[i, B3N], P[i, B3D] = _bound3(bN, d, w), _bound3(bD, d, w)
+    major, P[i, B3N], P[i, B3D] = _bounds(bounds, d, w)
+    P[i, ERR] = ROUNDING * major
     P[i, A_DELTA] = max(_mag(delta) - P[i, ERR], 0.0)
     P[i, A_DDELTA], P[i, A_D2DELTA] = _mag(dN + dD), _mag(d2N + d2D)
     P[i, RE_N], P[i, IM_N], P[i, RE_D], P[i, IM_D] = N.real, N.imag, D.real, D.imag
@@ -413,30 +426,30 @@ def grid_point(w_lo, per_decade, powers, step, top, k, base, m):  # pragma: no c
 
 
 @njit(cache=True, nogil=True)
-def scan(Nc, Nt, Dc, Dt, major, bN, bD, w_lo, per_decade, step, top, stability_only,
+def scan(Nc, Nt, Dc, Dt, bounds, w_lo, per_decade, step, top, stability_only,
          no_loop, winding, uncertain, out, d0, d1):  # pragma: no cover - compiled
     """Certify the base-grid intervals of designs ``d0`` to ``d1 - 1`` (design ``d``'s
     points are 0 and :func:`grid_point` from ``w_lo[d]`` to ``top[d]``), bisecting
-    depth-first.  Writes ``winding`` and ``uncertain`` per design and the brackets into
-    ``out`` (rows: design, kind, w_lo, w_hi, the crossing function at both,
-    :func:`_crossing_value`, and its derivative in ``log w`` at both); returns the
-    number of brackets (more than ``len(out)``: call again with room).  Needs
-    ``0 < w_lo < top < inf`` and ``step > 0``.
+    depth-first; ``bounds``: :func:`bound_table`.  Writes ``winding`` and ``uncertain``
+    per design and the brackets into ``out`` (rows: design, kind, w_lo, w_hi, the
+    crossing function at both, :func:`_crossing_value`, and its derivative in ``log w``
+    at both); returns the number of brackets (more than ``len(out)``: call again with
+    room).  Needs ``0 < w_lo < top < inf`` and ``step > 0``.
     """
     cap = MAX_EVALUATIONS + 2 * MAX_BISECTIONS + 2
     P = np.empty((cap, _F))          # points of the current interval stack
     stack = np.empty((MAX_BISECTIONS + 2, 3), np.int64)  # (left, right, depth)
-    return _scan(Nc, Nt, Dc, Dt, major, bN, bD, w_lo, per_decade, step, top, stability_only,
+    return _scan(Nc, Nt, Dc, Dt, bounds, w_lo, per_decade, step, top, stability_only,
                  no_loop, winding, uncertain, out, d0, d1, P, stack, decade_powers(per_decade))
 
 
 @njit(cache=True, nogil=True, error_model="numpy")
-def _scan(Nc, Nt, Dc, Dt, major, bN, bD, w_lo, per_decade, step, top, stability_only,
+def _scan(Nc, Nt, Dc, Dt, bounds, w_lo, per_decade, step, top, stability_only,
           no_loop, winding, uncertain, out, d0, d1, P, stack, powers):  # pragma: no cover
     """:func:`scan` with its work arrays ``P`` and ``stack``; every array borrowed
     (:mod:`seactl._borrow`: 20 % of the scan was reference counting)."""
-    Nc, Nt, Dc, Dt, major, bN, bD = borrowed(Nc), borrowed(Nt), borrowed(Dc), borrowed(Dt), \
-        borrowed(major), borrowed(bN), borrowed(bD)
+    Nc, Nt, Dc, Dt, bounds = borrowed(Nc), borrowed(Nt), borrowed(Dc), borrowed(Dt), \
+        borrowed(bounds)
     w_lo, step, top, no_loop = borrowed(w_lo), borrowed(step), borrowed(top), borrowed(no_loop)
     winding, uncertain, out = borrowed(winding), borrowed(uncertain), borrowed(out)
     P, stack, powers = borrowed(P), borrowed(stack), borrowed(powers)
@@ -445,13 +458,13 @@ def _scan(Nc, Nt, Dc, Dt, major, bN, bD, w_lo, per_decade, step, top, stability_
         if not d0 <= d < d1:  # (a loop from 0 keeps d provably >= 0: indexing twice as fast)
             continue
         evals = 0
-        _point(P, 0, 0.0, Nc, Nt, Dc, Dt, major, d, bN, bD)
+        _point(P, 0, 0.0, Nc, Nt, Dc, Dt, bounds, d)
         winding[d] -= _delta_arg(P, 0)   # (plus 2 pi per cut crossing, plus the last arg)
         k, base, m, w = 0, 0.0, 0, 0.0
         while w < top[d]:
             w, k, base, m = grid_point(w_lo[d], per_decade, powers, step[d], top[d], k, base, m)
             # the base interval is [point 0, point 1]; its bisection points from row 2 on
-            _point(P, 1, w, Nc, Nt, Dc, Dt, major, d, bN, bD)
+            _point(P, 1, w, Nc, Nt, Dc, Dt, bounds, d)
             stack[0, 0], stack[0, 1], stack[0, 2] = 0, 1, 0
             sp, free = 1, 2
             while sp > 0:
@@ -463,7 +476,7 @@ def _scan(Nc, Nt, Dc, Dt, major, bN, bD, w_lo, per_decade, step, top, stability_
                                                    P[ib, B3D], stability_only,
                                                    no_loop[d], final)
                 if not (ok and gain_ok and phase_ok or final):
-                    _point(P, free, 0.5 * (wa + wb), Nc, Nt, Dc, Dt, major, d, bN, bD)
+                    _point(P, free, 0.5 * (wa + wb), Nc, Nt, Dc, Dt, bounds, d)
                     evals += 1
                     # right half below the left one: the left is certified first
                     stack[sp, 0], stack[sp, 1], stack[sp, 2] = free, ib, depth + 1

@@ -507,8 +507,8 @@ class _CertifiedScan:
         # (no finite grid: not scanned, and uncertain)
         bad = ~((0 < w_lo) & (w_lo < top) & (top < np.inf) & (step > 0))
         w_lo[bad], step[bad], top[bad] = 1.0, np.inf, 10.0
-        args = (*self.arrays, *map(_certify.descending, (major, self.N.bound3_coeffs,
-                                                         self.D.bound3_coeffs)),
+        args = (*self.arrays, _certify.bound_table(major, self.N.bound3_coeffs,
+                                                   self.D.bound3_coeffs),
                 w_lo, PER_DECADE, step, top, self.stability_only, self.no_loop)
 
         def part(k: slice) -> np.ndarray:
