@@ -682,3 +682,36 @@ def test_threaded_batches_are_the_one_thread_results(run, monkeypatch):
         np.testing.assert_array_equal(many[k], one[k])
     if "numpy" in one:
         np.testing.assert_array_equal(many["ev"], one["numpy"])
+
+
+def test_borrowed_views_are_their_arrays():
+    """``seactl._borrow.borrowed`` (the compiled kernels' arrays without reference counts):
+    the view has its array's data, shape and strides, so a helper writing through it
+    writes the array, for a contiguous, a strided and a 3-d array.  Oracle: numpy's own
+    arithmetic on copies of the same arrays."""
+    from numba import njit
+
+    from seactl._borrow import borrowed
+
+    @njit
+    def scale(v, k):
+        for i in range(v.shape[0]):
+            v[i] *= k
+
+    @njit
+    def kernel(a, b, c):
+        a, b, c = borrowed(a), borrowed(b), borrowed(c)
+        scale(a, 2.0)
+        scale(b, 3.0)
+        c[1, 2, 3] += a.sum() + b.sum()
+        return a.shape[0], b.strides[0], c.shape
+
+    rng = np.random.default_rng(2)
+    a, whole, c = rng.normal(size=7), rng.normal(size=20), rng.normal(size=(2, 3, 4))
+    b = whole[::3]
+    a0, b0, c0 = a.copy(), b.copy(), c.copy()
+    assert kernel(a, b, c) == (7, b.strides[0], (2, 3, 4))
+    np.testing.assert_array_equal(a, 2 * a0)
+    np.testing.assert_array_equal(b, 3 * b0)
+    c0[1, 2, 3] += (2 * a0).sum() + (3 * b0).sum()
+    np.testing.assert_allclose(c, c0, rtol=1e-15)
