@@ -660,9 +660,10 @@ def _threaded_cases():
         return {"x": r.x, "tau": r.tau}
 
     def eigenvalues(monkeypatch):
-        from seactl._parallel import eigvals
+        from seactl._parallel import eigvals, stacked
         A = np.random.default_rng(5).normal(size=(40, 9, 9))
-        return {"ev": eigvals(A), "numpy": np.linalg.eigvals(A)}
+        return {"ev": eigvals(A), "numpy": np.linalg.eigvals(A),
+                "inv": stacked(np.linalg.inv, A), "numpy_inv": np.linalg.inv(A)}
 
     return [impedance, passivity, jitter, roots, base, eigenvalues]
 
@@ -670,8 +671,9 @@ def _threaded_cases():
 @pytest.mark.parametrize("run", _threaded_cases(), ids=lambda f: f.__name__)
 def test_threaded_batches_are_the_one_thread_results(run, monkeypatch):
     """Impedance chunks, the jitter and passivity proofs' chunks, the roots' eigenvalues,
-    the mobile base's batch and batched eigenvalues run in one thread per core.  Oracle:
-    the same call in one thread (and numpy's own eigenvalues), bit for bit."""
+    the mobile base's batch and batched eigenvalues and inverses run in one thread per
+    core.  Oracle: the same call in one thread (and numpy's own eigenvalues and
+    inverses), bit for bit."""
     from seactl import _parallel
 
     monkeypatch.setattr(_parallel, "THREADS", 1)
@@ -682,6 +684,7 @@ def test_threaded_batches_are_the_one_thread_results(run, monkeypatch):
         np.testing.assert_array_equal(many[k], one[k])
     if "numpy" in one:
         np.testing.assert_array_equal(many["ev"], one["numpy"])
+        np.testing.assert_array_equal(many["inv"], one["numpy_inv"])
 
 
 def test_borrowed_views_are_their_arrays():

@@ -104,7 +104,7 @@ from typing import Any
 import numpy as np
 from numba import njit
 
-from ._parallel import eigvals, in_threads
+from ._parallel import eigvals, in_threads, stacked
 from .blockdiagram import Block, BlockDiagram
 from .errors import InputError
 from .limits import check_budget, simulation_estimate
@@ -365,7 +365,7 @@ def _assemble(n: int, signals: Sequence[str], blocks: Sequence[Block],
         P[:, d, idx[b.src]] += D * z
         if b.name in wcol:
             R[:, d, wcol[b.name]] += D * (1.0 - z)
-    M = np.linalg.inv(np.eye(m)[None] - P)
+    M = stacked(np.linalg.inv, np.eye(m)[None] - P)
     Cs, Ds = M @ Q, M @ R
     Ax = np.zeros((n, N, N))
     Bx = np.zeros((n, N, nv))
