@@ -40,7 +40,7 @@ from typing import Any
 
 import numpy as np
 
-from ._parallel import map_in_threads
+from ._parallel import chunk_size, map_in_threads
 from .blockdiagram import Block, BlockDiagram, DesignSubset, QuasiForm, Transfer
 from .errors import InfeasibleDesignError, InputError
 
@@ -229,7 +229,7 @@ def _z_chunked(p: _Extended, s: np.ndarray, model: str, load: bool) -> np.ndarra
         z = _z_raw(p, s, model, load)
         return np.broadcast_to(z, shape + (s.shape[-1],)) if z.shape[:-1] != shape else z
     out = np.empty((n, s.size), complex)
-    step = max(1, _CHUNK_POINTS // s.size)
+    step = chunk_size(n, _CHUNK_POINTS // s.size)  # (at least a chunk per thread)
 
     def chunk(idx: np.ndarray) -> None:  # chunks of designs (vectorized inside), bounds memory
         out[idx] = _z_raw(DesignSubset(p, idx, shape), s, model, load)
