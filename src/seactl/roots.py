@@ -171,7 +171,7 @@ def _polynomial_roots(q: QuasiPolynomial, n: int, count: int) -> np.ndarray:
     comp = np.zeros((c.shape[0], n, n))
     comp[:, np.arange(n - 1), np.arange(1, n)] = 1.0
     comp[:, -1, :] = -c
-    cand = np.linalg.eigvals(comp) * scale[:, None]
+    cand = eigvals(comp) * scale[:, None]
     return _select(q, _polish(q, cand), count, distinct=False)
 
 

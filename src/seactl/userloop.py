@@ -1087,7 +1087,7 @@ def _roots_magnitudes(coeffs: Sequence[Any], shape: tuple[int, ...]) -> np.ndarr
         comp = np.zeros((rows.shape[0], q, q))
         comp[:, 0, :] = -rows[:, 1:] / rows[:, :1]
         comp[:, np.arange(1, q), np.arange(q - 1)] = 1.0
-        out.append(np.abs(np.linalg.eigvals(comp)).ravel())
+        out.append(np.abs(eigvals(comp)).ravel())
     mags = np.concatenate(out) if out else np.empty(0)
     return mags[np.isfinite(mags) & (mags > 1e-12)]
 
