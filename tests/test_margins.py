@@ -232,6 +232,50 @@ def test_compiled_scan_evaluates_the_quasi_polynomial_like_numpy():
                                rtol=1e-12)
 
 
+def test_compiled_evaluation_with_more_delay_terms_than_a_phasor_call():
+    """The kernels compute delay phasors four at a time (seactl._vecmath.cis4): random
+    quasi-polynomials with 5 terms in N and 4 in D (three and two calls) against the
+    numpy Horner pass (oracle), through the single evaluation (derivatives), the pair
+    (loop_values) and the scan's point (N, D and their derivatives' moduli)."""
+    from seactl import _certify
+    from seactl.blockdiagram import QuasiPolynomial
+
+    rng = np.random.default_rng(5)
+    n = 6
+
+    def random_q(terms, powers):
+        delays = rng.uniform(1e-3, 2e-2, (terms, n))
+        delays[0] = 0.0  # (undelayed first, as the diagrams give them)
+        delays[2, :2] = 0.0  # (a term without delay for some designs)
+        return QuasiPolynomial(rng.normal(size=(terms, n, powers)), delays)
+
+    N, D = random_q(5, 3), random_q(4, 6)
+    w = rng.uniform(0.5, 400.0, n)
+    arrays = (*(_certify.descending(q.coeffs) for q in (N, D)),)
+    Nc, Dc = arrays
+    for q, c in ((N, Nc), (D, Dc)):
+        ref = q.with_derivative(1j * w[:, None], second=True)
+        got = _certify.derivatives(c, q.delays, np.arange(n), w)
+        for k, sign in enumerate((1, 1j, -1)):
+            np.testing.assert_allclose(got[:, k], sign * ref[k][:, 0], rtol=1e-12)
+    L = _certify.loop_values(Nc, N.delays, Dc, D.delays, np.arange(n), w)
+    np.testing.assert_allclose(L, N(1j * w[:, None])[:, 0] / D(1j * w[:, None])[:, 0],
+                               rtol=1e-12)
+    P = np.empty((1, _certify._F))
+    bounds = np.zeros((n, 3, 1))
+    refN, refD = (q.with_derivative(1j * w[:, None], second=True) for q in (N, D))
+    for i in range(n):
+        _certify._point(P, 0, w[i], Nc, N.delays, Dc, D.delays, bounds, i)
+        np.testing.assert_allclose(P[0, _certify.RE_N] + 1j * P[0, _certify.IM_N],
+                                   refN[0][i, 0], rtol=1e-12)
+        np.testing.assert_allclose(P[0, _certify.RE_D] + 1j * P[0, _certify.IM_D],
+                                   refD[0][i, 0], rtol=1e-12)
+        np.testing.assert_allclose(P[0, [_certify.A_DN, _certify.A_DD, _certify.CN,
+                                         _certify.CD]],
+                                   np.abs([refN[1][i, 0], refD[1][i, 0], refN[2][i, 0],
+                                           refD[2][i, 0]]), rtol=1e-12)
+
+
 @pytest.mark.parametrize("delay_s", [0.0, 0.01])
 def test_a_root_on_the_axis_is_never_counted_certain(delay_s):
     """Oracle: by construction Q(s) = (s^2 + 100)(s + 1) + 0 * e^{-s tau} has roots

@@ -16,6 +16,7 @@ import numpy as np
 from numba import njit
 
 from ._borrow import borrowed
+from ._vecmath import cis4
 from .blockdiagram import EVAL_ROUNDING, pad_powers
 
 # Limits (documented in seactl.margins, which re-exports them).
@@ -36,23 +37,48 @@ touch the level without crossing it (a tangency); solved as a crossing at its ne
 @njit(cache=True, inline="always")
 def _eval(coeffs, delays, d, w, order):  # pragma: no cover - compiled
     """``Q(jw)``, ``dQ(jw)/dw`` and ``d^2 Q(jw)/dw^2`` of design ``d`` (derivatives above
-    ``order`` left 0): one Horner pass per delay term for ``p``, ``p'`` and ``p''`` at
-    ``s = jw`` (as :meth:`QuasiPolynomial.with_derivative`; real arithmetic, ``s`` being
-    imaginary).  ``coeffs`` in descending powers (:func:`descending`)."""
+    ``order`` left 0); ``coeffs`` in descending powers (:func:`descending`)."""
+    return _eval_pair(coeffs, delays, coeffs, delays, 0, d, w, order)[:3]
+
+
+@njit(cache=True, inline="always")
+def _eval_pair(Nc, Nt, Dc, Dt, kd, d, w, order):  # pragma: no cover - compiled
+    """:func:`_eval` of ``N`` and of the first ``kd`` terms of ``D``: their delay phasors
+    four at a time (:func:`seactl._vecmath.cis4`: two vector calls for the SEA loop's
+    three delays instead of six scalar ones, a tenth of the scan)."""
+    kn = Nc.shape[0]
+    if kn + kd <= 4:  # (one group: 6 % of the scan faster than the loop)
+        cos_, sin_ = _phasors(Nt, Dt, kn, kd, d, w, 0)
+        N, dN, d2N = _terms(Nc, Nt, 0, kn, 0, d, w, order, cos_, sin_)
+        D, dD, d2D = _terms(Dc, Dt, 0, kd, kn, d, w, order, cos_, sin_)
+        return N, dN, d2N, D, dD, d2D
+    N = dN = d2N = D = dD = d2D = 0j
+    for k0 in range(0, kn + kd, 4):
+        cos_, sin_ = _phasors(Nt, Dt, kn, kd, d, w, k0)
+        a, b, c = _terms(Nc, Nt, k0, min(kn, k0 + 4), -k0, d, w, order, cos_, sin_)
+        N, dN, d2N = N + a, dN + b, d2N + c
+        a, b, c = _terms(Dc, Dt, max(kn, k0) - kn, min(kn + kd, k0 + 4) - kn, kn - k0,
+                         d, w, order, cos_, sin_)
+        D, dD, d2D = D + a, dD + b, d2D + c
+    return N, dN, d2N, D, dD, d2D
+
+
+@njit(cache=True, inline="always")
+def _terms(coeffs, delays, lo, hi, off, d, w, order, cos_, sin_):  # pragma: no cover
+    """Terms ``lo`` to ``hi - 1`` of a quasi-polynomial (:func:`_eval`), term ``k``'s
+    phasor at ``k + off`` in ``cos_``, ``sin_``."""
     qr = qi = d1r = d1i = d2r = d2i = 0.0
-    n1 = coeffs.shape[2]
-    for k in range(coeffs.shape[0]):
+    for k in range(lo, hi):
+        tau = delays[k, d]
+        er, ei = (cos_[k + off], -sin_[k + off]) if tau != 0 else (1.0, 0.0)
         pr, pi_ = coeffs[k, d, 0], 0.0
         dpr = dpi = d2pr = d2pi = 0.0
-        for j in range(1, n1):   # x <- x s + y with s = jw: (-Im x w, Re x w) + y
+        for j in range(1, coeffs.shape[2]):   # x <- x s + y, s = jw: (-Im x w, Re x w) + y
             if order >= 2:
                 d2pr, d2pi = -d2pi * w + 2 * dpr, d2pr * w + 2 * dpi
             if order >= 1:
                 dpr, dpi = -dpi * w + pr, dpr * w + pi_
             pr, pi_ = -pi_ * w + coeffs[k, d, j], pr * w
-        tau = delays[k, d]
-        # e^{-jw tau}, exactly 1 for the undelayed term
-        er, ei = (math.cos(w * tau), -math.sin(w * tau)) if tau != 0 else (1.0, 0.0)
         # Q += p e;  dQ/ds += (p' - tau p) e;  d2Q/ds2 += (p'' - 2 tau p' + tau^2 p) e
         qr += pr * er - pi_ * ei
         qi += pr * ei + pi_ * er
@@ -67,6 +93,23 @@ def _eval(coeffs, delays, d, w, order):  # pragma: no cover - compiled
             d2i += br * ei + bi * er
     # d/dw = j d/ds
     return complex(qr, qi), complex(-d1i, d1r), complex(-d2r, -d2i)
+
+
+@njit(cache=True, inline="always")
+def _phasors(Nt, Dt, kn, kd, d, w, k0):  # pragma: no cover - compiled
+    """Cosines and sines of ``w tau`` for terms ``k0`` to ``k0 + 3`` of ``N`` followed by
+    ``D`` (0 past the last)."""
+    c0, c1, c2, c3, s0, s1, s2, s3 = cis4(
+        _phase(Nt, Dt, kn, kd, d, w, k0), _phase(Nt, Dt, kn, kd, d, w, k0 + 1),
+        _phase(Nt, Dt, kn, kd, d, w, k0 + 2), _phase(Nt, Dt, kn, kd, d, w, k0 + 3))
+    return (c0, c1, c2, c3), (s0, s1, s2, s3)
+
+
+@njit(cache=True, inline="always")
+def _phase(Nt, Dt, kn, kd, d, w, k):  # pragma: no cover - compiled
+    if k < kn:
+        return w * Nt[k, d]
+    return w * Dt[k - kn, d] if k < kn + kd else 0.0
 
 
 @njit(cache=True, inline="always")
@@ -133,8 +176,7 @@ def _point(P, i, w, Nc, Nt, Dc, Dt, bounds, d):  # pragma: no cover - compiled
     bounds of their third derivatives on ``[0, w]`` (:func:`bound_table`); ``|Delta|`` is
     stored less its rounding bound (:data:`ROUNDING` times the table's majorant), so that
     rounding noise next to a root never certifies."""
-    N, dN, d2N = _eval(Nc, Nt, d, w, 2)
-    D, dD, d2D = _eval(Dc, Dt, d, w, 2)
+    N, dN, d2N, D, dD, d2D = _eval_pair(Nc, Nt, Dc, Dt, Dc.shape[0], d, w, 2)
     delta = N + D
     aN, aD = _mag(N), _mag(D)
     L = _div(N, D)
@@ -509,8 +551,7 @@ def loop_values(Nc, Nt, Dc, Dt, idx, w):  # pragma: no cover - compiled
     """``L(jw) = N(jw) / D(jw)`` of designs ``idx`` at frequencies ``w`` (pairwise)."""
     out = np.empty(w.size, np.complex128)
     for i in range(w.size):
-        N = _eval(Nc, Nt, idx[i], w[i], 0)[0]
-        D = _eval(Dc, Dt, idx[i], w[i], 0)[0]
+        N, _, _, D, _, _ = _eval_pair(Nc, Nt, Dc, Dt, Dc.shape[0], idx[i], w[i], 0)
         out[i] = _div(N, D)
     return out
 
@@ -519,8 +560,7 @@ def loop_values(Nc, Nt, Dc, Dt, idx, w):  # pragma: no cover - compiled
 def _crossing_at(Nc, Nt, Dc, Dt, d, kind, x):  # pragma: no cover - compiled
     """:func:`_crossing_value` at ``w = e^x`` and its derivative in ``x``."""
     w = math.exp(x)
-    N, dN, _ = _eval(Nc, Nt, d, w, 1)
-    D, dD, _ = _eval(Dc, Dt, d, w, 1)
+    N, dN, _, D, dD, _ = _eval_pair(Nc, Nt, Dc, Dt, Dc.shape[0], d, w, 1)
     g = _dlog(N, dN, D, dD)
     if kind == GAIN:
         return np.log(_mag(N) / _mag(D)), w * g.real

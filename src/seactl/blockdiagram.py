@@ -697,9 +697,9 @@ def pad_powers(x: np.ndarray, n: int, axis: int = -1) -> np.ndarray:
 
 
 EVAL_ROUNDING = 1e-13
-"""Error of ``Q(jw)`` evaluated in double precision (Horner, the exponential), relative
-to ``sum_kj |c_kj| w^j``: a few dozen ulps, with room (:func:`rounding_majorant` adds
-that of the phase ``w tau``)."""
+"""Error of ``Q(jw)`` evaluated in double precision (Horner, the exponential: within
+4 ulps, :mod:`seactl._vecmath`), relative to ``sum_kj |c_kj| w^j``: a few dozen ulps,
+with room (:func:`rounding_majorant` adds that of the phase ``w tau``)."""
 _PHASE_ULP = 1.2e-16  # half an ulp, relative: the error of fl(w tau)
 
 
