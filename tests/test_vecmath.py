@@ -1,7 +1,7 @@
-"""The kernels' four-lane delay phasors (seactl._vecmath.cis4).
+"""The margin kernel's four-lane functions (seactl._vecmath: cis4, atan2_4).
 
-Oracle: mpmath's sine and cosine at 120 bits.  The bound asserted, 4 ulps, is the one glibc
-states for its vector functions; the scan's rounding allowance assumes it
+Oracle: mpmath's sine, cosine and arctangent at 120 bits.  The bound asserted, 4 ulps, is
+the one glibc states for its vector functions; the scan's rounding allowance assumes it
 (seactl.blockdiagram.EVAL_ROUNDING).
 """
 
@@ -14,7 +14,7 @@ import numpy as np
 import pytest
 from numba import njit
 
-from seactl._vecmath import cis4
+from seactl._vecmath import atan2_4, cis4
 
 
 @njit
@@ -25,6 +25,16 @@ def _cis_all(x):
         r = cis4(x[i], x[i + 1], x[i + 2], x[i + 3])
         for j in range(4):
             out[0, i + j], out[1, i + j] = r[j], r[4 + j]
+    return out
+
+
+@njit
+def _atan2_all(y, x):
+    out = np.empty(x.size)
+    for i in range(0, x.size, 4):
+        r = atan2_4(y[i], y[i + 1], y[i + 2], y[i + 3], x[i], x[i + 1], x[i + 2], x[i + 3])
+        for j in range(4):
+            out[i + j] = r[j]
     return out
 
 
@@ -45,6 +55,19 @@ def test_phasors_within_glibcs_stated_error(lo, hi):
     assert _ulps(sin_, x, mpmath.sin).max() <= 4.0
 
 
+def test_arctangents_within_glibcs_stated_error():
+    """4,000 random points in all four quadrants, moduli from 1e-6 to 1e6 (``arg L`` and
+    the chords' turns): within 4 ulps of the 120-bit values."""
+    rng = np.random.default_rng(9)
+    y, x = (rng.normal(size=4000) * 10.0 ** rng.uniform(-6, 6, 4000) for _ in range(2))
+    got = _atan2_all(y, x)
+    with mpmath.workprec(120):
+        ref = [mpmath.atan2(mpmath.mpf(float(a)), mpmath.mpf(float(b))) for a, b in zip(y, x)]
+        ulps = [float(abs(mpmath.mpf(float(g)) - r)) / math.ulp(float(r))
+                for g, r in zip(got, ref)]
+    assert max(ulps) <= 4.0
+
+
 def test_small_phases_keep_their_relative_accuracy():
     """Phases from 1e-12 to 1e-2 (a low frequency times a short delay): the sine within
     4 ulps of itself, not of 1."""
@@ -63,8 +86,15 @@ def test_a_lane_does_not_depend_on_its_neighbours():
         np.testing.assert_array_equal(np.roll(base, shift, axis=1), moved)
 
 
-def test_special_phases():
-    """0 gives exactly (1, 0); NaN and infinities give NaN, as the scalar functions."""
+def test_special_values():
+    """Phase 0 gives exactly (1, 0), NaN and infinities NaN; the arctangent's signed
+    zeros and axes are the scalar function's (``arg L`` on the negative real axis is
+    compared with +-pi)."""
     cos_, sin_ = _cis_all(np.array([0.0, np.nan, np.inf, -np.inf]))
     assert (cos_[0], sin_[0]) == (1.0, 0.0)
     assert np.isnan(cos_[1:]).all() and np.isnan(sin_[1:]).all()
+    y = np.array([0.0, -0.0, 0.0, -0.0, 1.0, -1.0, 0.0, np.nan])
+    x = np.array([-1.0, -1.0, 1.0, 1.0, 0.0, 0.0, 0.0, 1.0])
+    got, ref = _atan2_all(y, x), np.arctan2(y, x)
+    np.testing.assert_array_equal(got[:7], ref[:7])
+    assert np.array_equal(np.signbit(got[:7]), np.signbit(ref[:7])) and np.isnan(got[7])

@@ -16,7 +16,7 @@ import numpy as np
 from numba import njit
 
 from ._borrow import borrowed
-from ._vecmath import cis4
+from ._vecmath import atan2_4, cis4
 from .blockdiagram import EVAL_ROUNDING, pad_powers
 
 # Limits (documented in seactl.margins, which re-exports them).
@@ -192,7 +192,8 @@ def _point(P, i, w, Nc, Nt, Dc, Dt, bounds, d):  # pragma: no cover - compiled
     P[i, RE_G], P[i, IM_G] = g.real, g.imag
     # |Q'' Q - Q'^2| = |(log Q)''| |Q|^2, with the cancellation of its two terms
     P[i, F_N], P[i, F_D] = _mag(d2N * N - dN * dN), _mag(d2D * D - dD * dD)
-    P[i, LOG_L], P[i, ARG_L], P[i, RE_L], P[i, IM_L] = np.log(aN / aD), _angle(L), L.real, L.imag
+    P[i, LOG_L], P[i, RE_L], P[i, IM_L] = np.log(aN / aD), L.real, L.imag
+    P[i, ARG_L] = atan2_4(L.imag, 0.0, 0.0, 0.0, L.real, 1.0, 1.0, 1.0)[0]  # (_vecmath)
 
 
 @njit(cache=True, error_model="numpy")
@@ -296,11 +297,18 @@ def _certified(P, a, b, bN, bD, stability_only, no_loop, final):  # pragma: no c
 @njit(cache=True, error_model="numpy")
 def _tube_misses_axis(P, a, b, gN, rN, gD, rD):  # pragma: no cover - compiled
     """``arg L = arg N - arg D`` stays off the negative real axis between the points in
-    rows ``a`` and ``b``: each of ``N``, ``D`` stays in the tube of radius ``r`` around the chord
-    between its ends, whose distance to 0 is ``g`` (a convex set without 0), so its
+    rows ``a`` and ``b``: each of ``N``, ``D`` stays in the tube of radius ``r`` around the
+    chord between its ends, whose distance to 0 is ``g`` (a convex set without 0), so its
     argument stays within the chord's angular span widened by ``asin(r / g)``."""
-    loN, hiN = _tube_turn(P[a, RE_N], P[a, IM_N], P[b, RE_N], P[b, IM_N], gN, rN)
-    loD, hiD = _tube_turn(P[a, RE_D], P[a, IM_D], P[b, RE_D], P[b, IM_D], gD, rD)
+    if not (gN > rN and gD > rD):  # (a tube around 0: any turn)
+        return False
+    turnN, turnD, _, _ = atan2_4(  # (_chord_turn of both in one call: _vecmath)
+        P[a, RE_N] * P[b, IM_N] - P[a, IM_N] * P[b, RE_N],
+        P[a, RE_D] * P[b, IM_D] - P[a, IM_D] * P[b, RE_D], 0.0, 0.0,
+        P[a, RE_N] * P[b, RE_N] + P[a, IM_N] * P[b, IM_N],
+        P[a, RE_D] * P[b, RE_D] + P[a, IM_D] * P[b, IM_D], 1.0, 1.0)
+    loN, hiN = _widened(turnN, gN, rN)
+    loD, hiD = _widened(turnD, gD, rD)
     pa = P[a, ARG_L]
     return pa + loN - hiD > -np.pi and pa + hiN - loD < np.pi
 
@@ -309,9 +317,16 @@ def _tube_misses_axis(P, a, b, gN, rN, gD, rD):  # pragma: no cover - compiled
 def _tube_turn(ar, ai, br, bi, g, r):  # pragma: no cover - compiled
     """Range of the continuous change of ``arg z`` from ``a`` along a path that stays
     within ``r`` of the chord from ``a`` to ``b`` (``g``: the chord's distance to 0)."""
+    turn = atan2_4(ar * bi - ai * br, 0.0, 0.0, 0.0, ar * br + ai * bi, 1.0, 1.0, 1.0)[0]
+    return _widened(turn, g, r)
+
+
+@njit(cache=True, error_model="numpy")
+def _widened(turn, g, r):  # pragma: no cover - compiled
+    """The chord's span ``[min(0, turn), max(0, turn)]`` widened by ``asin(r / g)``; any
+    turn unless ``g > r``."""
     if not g > r:
         return -np.inf, np.inf
-    turn = math.atan2(ar * bi - ai * br, ar * br + ai * bi)
     widen = math.asin(r / g)
     return min(0.0, turn) - widen, max(0.0, turn) + widen
 

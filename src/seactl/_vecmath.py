@@ -1,22 +1,29 @@
-"""Four cosines and sines in two calls, for the compiled kernels' delay phasors.
+"""Four cosines, sines or arctangents in one call, for the margin scan's compiled kernel.
 
 A design's loop has a few delay terms, and every frequency point of the margin scan needs
-``e^{-j w tau}`` of each: three sine-cosine pairs per point for the SEA loop, which glibc's
-scalar ``sin`` and ``cos`` compute one after the other (60 ns per three pairs here).
-glibc's vector math library (libmvec) computes the sines or the cosines of four doubles in
-one AVX2 call (``_ZGVdN4v_sin``, ``_ZGVdN4v_cos``): 7 ns for the same three pairs.
+``e^{-j w tau}`` of each (three sine-cosine pairs for the SEA loop) and ``arg L``, which
+glibc's scalar functions compute one after the other: 60 ns for three sine-cosine pairs
+here, 21 ns for an arctangent.  glibc's vector math library (libmvec) computes four at
+once in one AVX2 call (``_ZGVdN4v_cos``, ``_ZGVdN4v_sin``, ``_ZGVdN4vv_atan2``): 7 ns for
+the same three pairs, 8 ns for an arctangent.
 
 Accuracy: glibc states that its vector functions were tested, by random sampling over
-their domains, to stay within 4 ulps (its scalar ``sin`` and ``cos``: under 1 ulp);
-measured here up to 3.5 ulps (``tests/test_vecmath.py``, against a 120-bit reference).
-The scan's rounding allowance (:data:`seactl.blockdiagram.EVAL_ROUNDING`, 1e-13 relative
-to ``sum |c_kj| w^j``: some 450 ulps) covers a phasor off by ``4 sqrt(2)`` ulps with room:
-each term's error is its polynomial's modulus times the phasor's.
+their domains, to stay within 4 ulps (its scalar ones: under 1 ulp); measured here up to
+3.5 ulps (``tests/test_vecmath.py``, against 120-bit references).
+* The phasors: the scan's rounding allowance (:data:`seactl.blockdiagram.EVAL_ROUNDING`,
+  1e-13 relative to ``sum |c_kj| w^j``: some 450 ulps) covers a phasor off by
+  ``4 sqrt(2)`` ulps with room, each term's error being its polynomial's modulus times
+  its phasor's.
+* ``arg L``: its arctangent's 4 ulps (9e-16 rad at most) add to the error ``arg L``
+  already carries from ``N`` and ``D`` (up to ``EVAL_ROUNDING`` relative to their
+  majorants); the crossing certificates take both as they took glibc's scalar result.
+  The stability count (``Delta``'s winding) takes its arguments from the scalar
+  ``atan2``.
 
-:func:`cis4` emits the vector calls where libmvec is loaded and the kernels are compiled
-for AVX2 (numba's target features, which its on-disk cache is keyed on), and four scalar
-``sin`` and ``cos`` otherwise (other C libraries, other processors, ``NUMBA_CPU_NAME``):
-the same values to a few ulps, as between two BLAS builds.
+Each function is called from libmvec where libmvec has it (``atan2`` since glibc 2.35)
+and the kernels are compiled for AVX2 (numba's target features, which its on-disk cache
+is keyed on), and as four scalar calls otherwise (other C libraries, other processors,
+``NUMBA_CPU_NAME``): the same values to a few ulps, as between two BLAS builds.
 """
 
 from __future__ import annotations
@@ -30,64 +37,84 @@ from numba import types
 from numba.core import cgutils
 from numba.extending import intrinsic
 
-_SIN4, _COS4 = "_ZGVdN4v_sin", "_ZGVdN4v_cos"  # (glibc's vector ABI: AVX2, 4 lanes)
+# name: (libmvec's AVX2 symbol, the scalar function, number of arguments)
+_FUNCTIONS = {"cos": ("_ZGVdN4v_cos", "llvm.cos.f64", 1),
+              "sin": ("_ZGVdN4v_sin", "llvm.sin.f64", 1),
+              "atan2": ("_ZGVdN4vv_atan2", "atan2", 2)}
 
 
-def _load_libmvec() -> bool:
-    """Bind libmvec's AVX2 sine and cosine for the JIT; False where there is no libmvec."""
+def _bind_libmvec() -> frozenset[str]:
+    """Bind libmvec's AVX2 functions for the JIT; the names of those it has."""
     try:
         lib = ctypes.CDLL(ctypes.util.find_library("mvec") or "libmvec.so.1")
-        addresses = [ctypes.cast(getattr(lib, n), ctypes.c_void_p).value for n in (_SIN4, _COS4)]
-    except (OSError, AttributeError):
-        return False
-    for name, address in zip((_SIN4, _COS4), addresses):
-        llvm.add_symbol(name, address)
-    return True
+    except OSError:
+        return frozenset()
+    bound = set()
+    for name, (symbol, _, _) in _FUNCTIONS.items():
+        try:
+            llvm.add_symbol(symbol, ctypes.cast(getattr(lib, symbol), ctypes.c_void_p).value)
+        except AttributeError:  # (an older glibc)
+            continue
+        bound.add(name)
+    return frozenset(bound)
 
 
-LIBMVEC = _load_libmvec()
-"""libmvec's vector sine and cosine are bound (they are used where the kernels are
-compiled for AVX2)."""
+LIBMVEC = _bind_libmvec()
+"""The functions libmvec provides here (used where the kernels are compiled for AVX2)."""
 
 
-def _vector(context) -> bool:
-    """The kernel being compiled may call libmvec's AVX2 functions."""
-    return LIBMVEC and "+avx2" in context.codegen().magic_tuple()[2].split(",")
+def _vectorized(context, name: str) -> bool:
+    """The kernel being compiled calls libmvec's ``name``."""
+    return name in LIBMVEC and "+avx2" in context.codegen().magic_tuple()[2].split(",")
 
 
-def vector_phasors() -> bool:
-    """Whether this process's kernels compute their phasors with libmvec (reported by
-    ``seactl bench``)."""
+def vector_functions() -> list[str]:
+    """The functions this process's kernels take from libmvec (``seactl bench`` reports
+    them)."""
     from numba.core.registry import cpu_target
 
-    return _vector(cpu_target.target_context)
+    return [n for n in _FUNCTIONS if _vectorized(cpu_target.target_context, n)]
+
+
+def _call4(context, builder, name: str, args: list) -> list:
+    """``name`` of four lanes (``args``: the arguments' four values each, in order)."""
+    dbl, i32 = ir.DoubleType(), ir.IntType(32)
+    symbol, scalar, arity = _FUNCTIONS[name]
+    if not _vectorized(context, name):
+        fn = cgutils.get_or_insert_function(builder.module,
+                                            ir.FunctionType(dbl, [dbl] * arity), scalar)
+        return [builder.call(fn, [a[i] for a in args]) for i in range(4)]
+    v4 = ir.VectorType(dbl, 4)
+    vectors = []
+    for values in args:
+        v = ir.Constant(v4, None)
+        for i, x in enumerate(values):
+            v = builder.insert_element(v, x, ir.Constant(i32, i))
+        vectors.append(v)
+    fn = cgutils.get_or_insert_function(builder.module, ir.FunctionType(v4, [v4] * arity),
+                                        symbol)
+    y = builder.call(fn, vectors)
+    return [builder.extract_element(y, ir.Constant(i32, i)) for i in range(4)]
+
+
+_F8 = types.float64
 
 
 @intrinsic
 def cis4(typingctx, x0, x1, x2, x3):  # pragma: no cover - compiled
-    """``(cos x0, .., cos x3, sin x0, .., sin x3)`` of four float64 phases (unused lanes:
-    pass 0)."""
-    f8 = types.float64
-    sig = types.UniTuple(f8, 8)(f8, f8, f8, f8)
-
+    """``(cos x0, .., cos x3, sin x0, .., sin x3)`` of four phases (unused lanes: 0)."""
     def codegen(context, builder, sig, args):
-        dbl, i32 = ir.DoubleType(), ir.IntType(32)
-        if not _vector(context):
-            out = []
-            for name in ("llvm.cos.f64", "llvm.sin.f64"):
-                fn = cgutils.get_or_insert_function(builder.module,
-                                                    ir.FunctionType(dbl, [dbl]), name)
-                out += [builder.call(fn, [x]) for x in args]
-            return context.make_tuple(builder, sig.return_type, out)
-        v4 = ir.VectorType(dbl, 4)
-        x = ir.Constant(v4, None)
-        for i, a in enumerate(args):
-            x = builder.insert_element(x, a, ir.Constant(i32, i))
-        out = []
-        for name in (_COS4, _SIN4):
-            fn = cgutils.get_or_insert_function(builder.module, ir.FunctionType(v4, [v4]), name)
-            y = builder.call(fn, [x])
-            out += [builder.extract_element(y, ir.Constant(i32, i)) for i in range(4)]
+        out = _call4(context, builder, "cos", [args]) + _call4(context, builder, "sin", [args])
         return context.make_tuple(builder, sig.return_type, out)
 
-    return sig, codegen
+    return types.UniTuple(_F8, 8)(_F8, _F8, _F8, _F8), codegen
+
+
+@intrinsic
+def atan2_4(typingctx, y0, y1, y2, y3, x0, x1, x2, x3):  # pragma: no cover - compiled
+    """``(atan2(y0, x0), .., atan2(y3, x3))`` (unused lanes: ``atan2(0, 1)``)."""
+    def codegen(context, builder, sig, args):
+        out = _call4(context, builder, "atan2", [args[:4], args[4:]])
+        return context.make_tuple(builder, sig.return_type, out)
+
+    return types.UniTuple(_F8, 4)(*([_F8] * 8)), codegen

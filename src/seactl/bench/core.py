@@ -112,7 +112,7 @@ def bench_margins(repeat: int) -> BenchResult:
     import control
 
     from .._parallel import one_thread
-    from .._vecmath import vector_phasors
+    from .._vecmath import vector_functions
     from ..blockdiagram import DesignSubset
     from ..loops import outer_loop
     from ..sea import sea_margins
@@ -146,8 +146,8 @@ def bench_margins(repeat: int) -> BenchResult:
              f"(one thread per core, as the library runs by default: "
              f"{d.shape[0] / t_all:.3g} designs/s on {os.cpu_count()} cores); "
              f"baseline timed on {n_base} designs. Max |PM error| vs a 200,000-point reference "
-             f"grid: seactl {err_ours:.2g} deg, python-control {err_pc:.2g} deg; delay "
-             f"phasors: {'libmvec, AVX2' if vector_phasors() else 'scalar sin and cos'}",
+             f"grid: seactl {err_ours:.2g} deg, python-control {err_pc:.2g} deg; from "
+             f"libmvec (AVX2): {', '.join(vector_functions()) or 'none'}",
         max_error_text=f"{err_ours:.2g} deg (python-control {err_pc:.2g})")
 
 
