@@ -377,8 +377,8 @@ def cauchy_bound(q: QuasiPolynomial, majorant: np.ndarray | None = None,
     return 1.01 * best
 
 
-def _scan_radius(N: QuasiPolynomial, D: QuasiPolynomial, stability_only: bool,
-                 grid_count: Callable[[np.ndarray], np.ndarray]
+def _scan_radius(N: QuasiPolynomial, D: QuasiPolynomial, delta: QuasiPolynomial,
+                 stability_only: bool, grid_count: Callable[[np.ndarray], np.ndarray]
                  ) -> tuple[np.ndarray, np.ndarray]:
     """Per design, the ``R`` of step 4 of :func:`certified_margins`, and whether the
     crossings beyond it are unresolved.  Beyond ``R`` the leading term of ``Delta``
@@ -388,8 +388,8 @@ def _scan_radius(N: QuasiPolynomial, D: QuasiPolynomial, stability_only: bool,
     ``L_inf`` the (real) ratio of the leading coefficients, ``eps`` half its distance to
     the unit circle and to the phase crossovers in the band.  Unresolved: ``eps = 0``
     (``|L_inf| = 1``, or ``L_inf`` on the negative real axis in the band), or ``R`` so far
-    out that the base grid would exceed the evaluation budget (``grid_count``)."""
-    delta = N + D
+    out that the base grid would exceed the evaluation budget (``grid_count``);
+    ``delta = N + D``."""
     if stability_only:
         return cauchy_bound(delta), np.zeros(delta.degree.size, bool)
     n = delta.degree
@@ -641,7 +641,7 @@ def certified_margins(loop: Transfer, design: Any, w_ref: np.ndarray | float, *,
     tau_max = np.concatenate([N.delays, D.delays]).max(axis=0)
     w_ref = np.broadcast_to(finite_array("w_ref [rad/s]", w_ref, minimum=0.0, strict=True),
                             shape).reshape(n)
-    top, unresolved = _scan_radius(N, D, stability_only,
+    top, unresolved = _scan_radius(N, D, delta, stability_only,
                                    lambda top: _base_grid_count(w_ref, tau_max, top))
     scan = _CertifiedScan(N, D, stability_only)
     scan.run(w_ref, tau_max, top)
