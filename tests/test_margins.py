@@ -375,6 +375,39 @@ def test_a_phase_tangent_to_minus_180_counts_as_a_crossover(w_ref):
     assert not scan.uncertain[0]
 
 
+def test_cauchy_bound_is_the_tightest_dominance_radius():
+    """Beyond ``R`` the leading term outweighs all others together, and ``R / 1.01`` is
+    never below the one positive root of ``|a_n| x^n - sum_{j<n} c_j x^j``
+    (``c_j = sum_k |c_kj|``), the tightest such radius, nor above Fujiwara's bound where
+    its Newton iteration starts (at most twice the root).  Oracle: numpy's polynomial
+    roots, on 400 random quasi-polynomials of degree 1 to 7 with three delay terms and
+    coefficients spread over ten decades; of degree 2 to 5 the 8 Newton steps come within
+    1e-6 of the root (of degree 1 and 6-7 they may stop further above it: a longer grid,
+    never a skipped root)."""
+    from seactl import margins as M
+    from seactl.blockdiagram import QuasiPolynomial
+
+    rng = np.random.default_rng(17)
+    n_designs, powers = 400, 8
+    coeffs = rng.normal(size=(3, n_designs, powers)) * 10.0 ** rng.uniform(-5, 5, (3, 1, powers))
+    degree = rng.integers(1, powers, n_designs)
+    coeffs[:, np.arange(powers)[None, :] > degree[:, None]] = 0.0
+    coeffs[1:, np.arange(n_designs), degree] = 0.0  # (retarded: delayed terms lower)
+    q = QuasiPolynomial(coeffs, rng.uniform(0.0, 0.01, (3, n_designs)))
+    R = M.cauchy_bound(q)
+    c = np.abs(coeffs).sum(axis=0)
+    excess = np.empty(n_designs)
+    for i in range(n_designs):
+        p = -c[i, :degree[i] + 1].copy()
+        p[-1] = abs(coeffs[0, i, degree[i]])
+        positive = [r.real for r in np.roots(p[::-1]) if abs(r.imag) < 1e-9 and r.real > 0]
+        assert len(positive) == 1
+        excess[i] = R[i] / (1.01 * positive[0]) - 1
+    assert excess.min() >= -1e-12 and excess.max() <= 1 + 1e-12
+    mid = (degree >= 2) & (degree <= 5)
+    assert mid.sum() > 200 and excess[mid].max() < 1e-6
+
+
 @pytest.mark.parametrize("a,b,gap", [
     (3 + 4j, 3 + 4j, 5.0),        # a point
     (1 - 1j, 1 + 1j, 1.0),        # foot of the perpendicular inside the segment
@@ -491,7 +524,7 @@ def test_beyond_the_scan_radius_no_crossing_is_possible(kind, num, num_delayed, 
         return QuasiPolynomial(c, np.array(delays, float)[:, None])
 
     N, D = qp([num, num_delayed], [0.0, 3e-3]), qp([den], [0.0])
-    top, unresolved = M._scan_radius(N, D, False, lambda r: np.zeros_like(r))
+    top, unresolved = M._scan_radius(N, D, N + D, False, lambda r: np.zeros_like(r))
     assert not unresolved[0]
     s = 1j * top[0] * np.logspace(0, 4, 20_001)[None, :]
     L = N(s)[0] / D(s)[0]
