@@ -571,6 +571,35 @@ def loop_values(Nc, Nt, Dc, Dt, idx, w):  # pragma: no cover - compiled
     return out
 
 
+@njit(cache=True, nogil=True, error_model="numpy")
+def cauchy_newton(c, x):  # pragma: no cover - compiled
+    """Per design (row of ``c``, ascending powers), the smallest of 8 Newton iterates from
+    ``x`` on ``-sum_j c_j w^j`` (by Horner) where it is positive
+    (:func:`seactl.margins.cauchy_bound`; one compiled pass instead of some hundred numpy
+    operations, a ninth of a lone design's margins)."""
+    best = x.copy()
+    for d in range(x.size):
+        xd, bd = x[d], x[d]
+        for _ in range(8):
+            g, dg = -c[d, c.shape[1] - 1], 0.0
+            for j in range(c.shape[1] - 2, -1, -1):
+                dg = dg * xd + g
+                g = g * xd + -c[d, j]
+            if g > 0:
+                bd = _minimum(bd, xd)
+            xd = xd - g / dg if dg > 0 else bd
+        best[d] = bd
+    return best
+
+
+@njit(cache=True)
+def _minimum(a, b):  # pragma: no cover - compiled
+    """numpy's ``minimum``: NaN if either is."""
+    if a != a or b != b:
+        return a + b
+    return a if a <= b else b
+
+
 @njit(cache=True, error_model="numpy")
 def _crossing_at(Nc, Nt, Dc, Dt, d, kind, x):  # pragma: no cover - compiled
     """:func:`_crossing_value` at ``w = e^x`` and its derivative in ``x``."""

@@ -668,8 +668,12 @@ class QuasiForm:
 
 def _powers_first(coeffs: Sequence[np.ndarray], shape: tuple[int, ...]) -> np.ndarray:
     """Coefficients (descending powers, each broadcastable to ``shape``) as one array of
-    ascending powers on the first axis."""
-    return np.stack([np.broadcast_to(np.asarray(c, float), shape) for c in coeffs[::-1]])
+    ascending powers on the first axis (filled by assignment, which broadcasts: a third of
+    :meth:`QuasiForm.evaluate` for one design went to ``broadcast_to`` and ``stack``)."""
+    out = np.empty((len(coeffs),) + shape)
+    for i, c in enumerate(coeffs[::-1]):
+        out[i] = c
+    return out
 
 
 def _polymul(a: np.ndarray, b: np.ndarray) -> np.ndarray:

@@ -362,16 +362,7 @@ def cauchy_bound(q: QuasiPolynomial, majorant: np.ndarray | None = None,
     below = j[None, :] < n[:, None]
     with np.errstate(divide="ignore", invalid="ignore"):
         fuji = np.where(below, (np.abs(c) / lead[:, None]) ** (1.0 / (n[:, None] - j)), 0.0)
-    x = 2.0 * fuji.max(axis=1) + 1e-300
-    best = x.copy()
-    cT = -c.T  # (Horner over the powers, each a vector over designs)
-    for _ in range(8):
-        g, dg = cT[-1], 0.0
-        for cj in cT[-2::-1]:
-            dg = dg * x + g
-            g = g * x + cj
-        best = np.where(g > 0, np.minimum(best, x), best)
-        x = np.where(dg > 0, x - g / dg, best)
+    best = _certify.cauchy_newton(np.ascontiguousarray(c), 2.0 * fuji.max(axis=1) + 1e-300)
     # At R itself the dominance holds only by rounding (a root with |s| = R on the axis,
     # e.g. (s^2 + 100)(s + 1), sits there): 1 % beyond it the margin is solid.
     return 1.01 * best
