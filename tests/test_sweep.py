@@ -128,6 +128,15 @@ def test_resume_after_interruption_gives_the_same_dataset(reference, tmp_path):
     assert res.chunks_computed == 2
     assert not list(out.glob(".part-*"))
     assert read_sweep(out).equals(ref_table)
+    # the summary merges this run's chunks (kept in memory) with the parts read back;
+    # oracle: the summary read entirely from disk, and the uninterrupted run's
+    from seactl.sweep import summarize
+
+    written, ref = (json.loads((o / "_summary.json").read_text()) for o in (out, ref_out))
+    assert written.pop("run")["chunks_computed"] == 2
+    ref.pop("run")
+    assert written == summarize(SPEC, out) == ref
+    assert written["best_phase_margin"] is not None and written["phase_margin_deg_stable"]
     for i in range(SPEC.n_chunks):
         name = f"part-{i:05d}.parquet"
         assert (out / name).read_bytes() == (ref_out / name).read_bytes()
@@ -284,11 +293,15 @@ def test_local_cluster_gives_the_same_result(reference, cluster, tmp_path, capsy
     # Oracle: the in-process reference run's table.
     from distributed import Client
 
-    _, _, ref_table = reference
+    ref_out, _, ref_table = reference
     with Client(cluster) as client:
         res = run_sweep(SPEC, tmp_path / "dask", client=client)
     assert res.workers == 2 and res.chunks_computed == SPEC.n_chunks
     assert read_sweep(tmp_path / "dask").equals(ref_table)
+    # the summary from the workers' shares of it (no part read back) is the reference's
+    ref_summary = json.loads((ref_out / "_summary.json").read_text())
+    ref_summary.pop("run")
+    assert {k: v for k, v in res.summary.items() if k != "run"} == ref_summary
     # the same through the CLI, given only the scheduler's address
     code = main(["sweep", "--fn", "8,12,20", "--gs", "0.6,1", "--t-tau", "0.5",
                  "--t-qs", "2,12", "--t-qd", "0.5", "--f-qd", "50", "--f-taud", "100",
@@ -296,8 +309,10 @@ def test_local_cluster_gives_the_same_result(reference, cluster, tmp_path, capsy
                  "--out", str(tmp_path / "cli"), "--scheduler", cluster.scheduler_address,
                  "--quiet", "--json"])
     assert code == 0, capsys.readouterr().err
-    assert json.loads(capsys.readouterr().out)["run"]["workers"] == 2
+    printed = json.loads(capsys.readouterr().out)
+    assert printed.pop("run")["workers"] == 2
     assert read_sweep(tmp_path / "cli").equals(ref_table)
+    assert {k: printed[k] for k in ref_summary} == ref_summary  # (tables sent here)
 
 
 def _report_peak(q):

@@ -373,14 +373,14 @@ def evaluate_chunk(spec: SweepSpec, i: int) -> tuple[Any, dict[str, float]]:
 
 
 def evaluate_and_write(spec: SweepSpec, chunks: Sequence[int], out: Path
-                       ) -> list[tuple[int, int, dict[str, float]]]:
+                       ) -> list[tuple[int, int, dict[str, Any], dict[str, float]]]:
     """Compute ``chunks`` one by one, each written to its part file where it was computed
     (local workers: the parent then only counts, instead of receiving and writing every
-    table); ``(chunk, rows, stats)`` of each."""
+    table); ``(chunk, rows, its share of the summary, stats)`` of each."""
     out_rows = []
     for i in chunks:
         table, stats = evaluate_chunk(spec, i)
-        out_rows.append((i, _written(out, i, table), stats))
+        out_rows.append((i, *_written(spec, out, i, table), stats))
     return out_rows
 
 
@@ -396,10 +396,11 @@ def batches(todo: Sequence[int], workers: int, largest: int = 8) -> list[list[in
     return out
 
 
-def _written(out: Path, i: int, table: Any) -> int:
-    """Write chunk ``i``'s table; its row count."""
+def _written(spec: SweepSpec, out: Path, i: int, table: Any) -> tuple[int, dict[str, Any]]:
+    """Write chunk ``i``'s table; its row count and its share of the summary
+    (:func:`chunk_summary`, from the table in memory: the summary then reads no part back)."""
     write_chunk(out, i, table)
-    return table.num_rows
+    return table.num_rows, chunk_summary(spec, table)
 
 
 def _peak_rss_mb() -> float:
@@ -737,13 +738,17 @@ def _run(spec: SweepSpec, out: Path, workers: int | None, client: Any, own_clien
                         console=console, disable=console is None, transient=False)
     computed = points = 0
     cpu = 0.0
+    parts: dict[int, dict[str, Any]] = {}
     try:
         with progress:
             task = progress.add_task("sweep", total=spec.n_chunks, completed=done)
 
-            def finish(i: int, rows: int, stats: dict[str, float]) -> None:
-                """Chunk ``i`` is on disk with ``rows`` rows."""
+            def finish(i: int, rows: int, part: dict[str, Any], stats: dict[str, float]
+                       ) -> None:
+                """Chunk ``i`` is on disk with ``rows`` rows (``part``: its share of the
+                summary)."""
                 nonlocal peak, computed, points, cpu
+                parts[i] = part
                 cpu += stats["cpu_seconds"]
                 points += rows
                 peak = max(peak, stats["peak_rss_mb"])
@@ -755,7 +760,7 @@ def _run(spec: SweepSpec, out: Path, workers: int | None, client: Any, own_clien
             if todo and workers == 0 and client is None:
                 for i in todo:
                     table, stats = evaluate_chunk(spec, i)
-                    finish(i, _written(out, i, table), stats)
+                    finish(i, *_written(spec, out, i, table), stats)
             elif todo:
                 from distributed import Client
 
@@ -772,7 +777,7 @@ def _run(spec: SweepSpec, out: Path, workers: int | None, client: Any, own_clien
             own_client.close()
             own_cluster.close()
     seconds = time.perf_counter() - t0
-    summary = summarize(spec, out)
+    summary = summarize(spec, out, parts)
     summary["run"] = {"chunks_computed": computed, "seconds": round(seconds, 3),
                       "workers": n_workers, "worker_peak_rss_mb": round(peak, 1),
                       "worker_cpu_seconds": round(cpu, 3)}
@@ -792,7 +797,7 @@ def _local(client: Any) -> bool:
 
 
 def _on_dask(spec: SweepSpec, out: Path, todo: list[int], client: Any,
-             finish: Callable[[int, int, dict[str, float]], None], n_workers: int) -> None:
+             finish: Callable[..., None], n_workers: int) -> None:
     """Submit the chunks ``todo`` and ``finish`` each as it completes; the workers of a
     local cluster share this filesystem and write their own chunks (in :func:`batches`),
     others send their tables here, a chunk per task.  Any failure or Ctrl-C cancels the
@@ -812,11 +817,11 @@ def _on_dask(spec: SweepSpec, out: Path, todo: list[int], client: Any,
         for fut, result in as_completed([f for _, f in futures.values()], with_results=True):
             g, _ = futures.pop(fut.key)
             if local:
-                for i, rows, stats in result:
-                    finish(i, rows, stats)
+                for row in result:
+                    finish(*row)
             else:
                 table, stats = result
-                finish(g[0], _written(out, g[0], table), stats)
+                finish(g[0], *_written(spec, out, g[0], table), stats)
             del result
     except BaseException:
         client.cancel([f for _, f in futures.values()])
@@ -835,33 +840,26 @@ def _connect(address: str):
         raise InputError("scheduler", address, f"a reachable Dask scheduler ({exc})") from None
 
 
-def summarize(spec: SweepSpec, out: Path) -> dict[str, Any]:
-    """Counts and phase-margin statistics of a complete sweep, read part by part
-    (bounded memory) from ``out``."""
+def summarize(spec: SweepSpec, out: Path, parts: dict[int, dict[str, Any]] | None = None
+              ) -> dict[str, Any]:
+    """Counts and phase-margin statistics of a complete sweep, from each chunk's share
+    (:func:`chunk_summary`): from ``parts`` where given (the chunks of this run), else read
+    part by part (bounded memory) from ``out``."""
     import pyarrow.parquet as pq
 
     n = n_feas = n_stable = 0
     pm_all: list[np.ndarray] = []
     best: dict[str, Any] | None = None
-    cols = ["point", "feasible", "stable", "phase_margin_deg", *[n for n, _ in spec.swept]]
     for i in range(spec.n_chunks):
-        t = pq.read_table(part_path(out, i), columns=cols)
-        feas = t.column("feasible").to_numpy()
-        stable = t.column("stable").to_numpy(zero_copy_only=False)
-        stable = np.where(feas, stable, False).astype(bool)
-        pm = t.column("phase_margin_deg").to_numpy(zero_copy_only=False)
-        n += t.num_rows
-        n_feas += int(feas.sum())
-        n_stable += int(stable.sum())
-        pm_s = pm[stable]
-        # a bounded sample for percentiles: every point when small, else strided
-        stride = max(1, spec.n_points // 1_000_000)
-        pm_all.append(pm_s[::stride])
-        finite = stable & np.isfinite(pm)
-        if finite.any():
-            j = int(np.argmax(np.where(finite, pm, -np.inf)))
-            if best is None or pm[j] > best["phase_margin_deg"]:
-                best = {c: t.column(c)[j].as_py() for c in cols if c not in ("stable",)}
+        part = (parts or {}).get(i)
+        if part is None:
+            part = chunk_summary(spec, pq.read_table(part_path(out, i),
+                                                     columns=_summary_columns(spec)))
+        n, n_feas, n_stable = n + part["n"], n_feas + part["feasible"], n_stable + part["stable"]
+        pm_all.append(part["pm_sample"])
+        if part["best"] is not None and (best is None or part["best"]["phase_margin_deg"] >
+                                         best["phase_margin_deg"]):
+            best = part["best"]
     pms = np.concatenate(pm_all) if pm_all else np.empty(0)
     pms = pms[np.isfinite(pms)]
     stats = None
@@ -871,6 +869,27 @@ def summarize(spec: SweepSpec, out: Path) -> dict[str, Any]:
     return {"spec_hash": spec.hash, "n_points": n, "feasible": n_feas,
             "infeasible": n - n_feas, "stable": n_stable, "unstable": n_feas - n_stable,
             "phase_margin_deg_stable": stats, "best_phase_margin": best}
+
+
+def _summary_columns(spec: SweepSpec) -> list[str]:
+    return ["point", "feasible", "stable", "phase_margin_deg", *[n for n, _ in spec.swept]]
+
+
+def chunk_summary(spec: SweepSpec, table: Any) -> dict[str, Any]:
+    """One chunk's share of :func:`summarize`: its counts, its stable points' phase margins
+    (every one for sweeps up to 1e6 points, else strided: a bounded sample for the
+    percentiles) and its best stable point."""
+    feas = table.column("feasible").to_numpy()
+    stable = table.column("stable").to_numpy(zero_copy_only=False)
+    stable = np.where(feas, stable, False).astype(bool)
+    pm = table.column("phase_margin_deg").to_numpy(zero_copy_only=False)
+    best = None
+    finite = stable & np.isfinite(pm)
+    if finite.any():
+        j = int(np.argmax(np.where(finite, pm, -np.inf)))
+        best = {c: table.column(c)[j].as_py() for c in _summary_columns(spec) if c != "stable"}
+    return {"n": table.num_rows, "feasible": int(feas.sum()), "stable": int(stable.sum()),
+            "pm_sample": pm[stable][::max(1, spec.n_points // 1_000_000)], "best": best}
 
 
 # ------------------------------------------------------------------ robustness
