@@ -59,7 +59,5 @@ def bench_loop_file(repeat: int) -> BenchResult:
         "loop-file", 10_000 / t_ours, "built-in SEA loop (sea_margins)", 10_000 / t_base, err,
         note="examples/loops/paper-sea.toml with 10,000 (gains, T_qs, T_tau = T_qd) value "
              "sets, outer-loop margins after the first derivation; max |PM difference| vs "
-             f"the built-in loop {err:.2g} deg, stability verdicts identical: {same}. The "
-             "file's generic grid (a decade beyond its block poles) has more points than "
-             "the built-in's SEA-specific one",
+             f"the built-in loop {err:.2g} deg, stability verdicts identical: {same}",
         max_error_text=f"{err:.2g} deg")
