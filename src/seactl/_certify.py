@@ -572,6 +572,20 @@ def loop_values(Nc, Nt, Dc, Dt, idx, w):  # pragma: no cover - compiled
 
 
 @njit(cache=True, nogil=True, error_model="numpy")
+def horner_rows(c, idx, w):  # pragma: no cover - compiled
+    """Row ``idx[i]`` of ``c`` (ascending powers) at ``w[i]``, by Horner in numpy
+    ``polyval``'s operations and order (the same bits)."""
+    out = np.empty(w.size)
+    for i in range(w.size):
+        x, r = w[i], idx[i]
+        acc = c[r, c.shape[1] - 1] + x * 0.0
+        for j in range(c.shape[1] - 2, -1, -1):
+            acc = c[r, j] + acc * x
+        out[i] = acc
+    return out
+
+
+@njit(cache=True, nogil=True, error_model="numpy")
 def cauchy_newton(c, x):  # pragma: no cover - compiled
     """Per design (row of ``c``, ascending powers), the smallest of 8 Newton iterates from
     ``x`` on ``-sum_j c_j w^j`` (by Horner) where it is positive

@@ -78,12 +78,12 @@ def _upper(N: QuasiPolynomial, Delta: QuasiPolynomial, majors: tuple, d: np.ndar
     h, W = pb[:, _W] - pa[:, _W], pb[:, _W]
 
     def sups(c0: int, bound3: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        c = 0.5 * (pa[:, c0 + 1] + pb[:, c0 + 1] + h * rows_at(bound3[d], W))
+        c = 0.5 * (pa[:, c0 + 1] + pb[:, c0 + 1] + h * rows_at(bound3, d, W))
         return 0.5 * (pa[:, c0] + pb[:, c0] + h * c), c  # sup |Q'|, sup |Q''|
 
     S, C = sups(_N1, N.bound3_coeffs)
     SD, CD = sups(_D1, Delta.bound3_coeffs)
-    errN, errD = (EVAL_ROUNDING * rows_at(m[d], W) for m in majors)
+    errN, errD = (EVAL_ROUNDING * rows_at(m, d, W) for m in majors)
     aD, bD = np.hypot(pa[:, _DR], pa[:, _DI]), np.hypot(pb[:, _DR], pb[:, _DI])
     X = np.minimum(0.5 * (pa[:, _N0] + pb[:, _N0] + h * S),
                    np.maximum(pa[:, _N0], pb[:, _N0]) + 0.125 * h * h * C) + errN
