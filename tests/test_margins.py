@@ -375,6 +375,25 @@ def test_a_phase_tangent_to_minus_180_counts_as_a_crossover(w_ref):
     assert not scan.uncertain[0]
 
 
+def test_compiled_row_polynomials_are_numpys_polyval_bit_for_bit():
+    """The proofs' bound polynomials (seactl._certify.horner_rows, per row and point).
+    Oracle: numpy's polyval on the same rows, the same bits (infinite and NaN points
+    included)."""
+    from numpy.polynomial.polynomial import polyval
+
+    from seactl._certify import horner_rows
+
+    rng = np.random.default_rng(23)
+    for powers in (1, 3, 8):
+        c = rng.normal(size=(50, powers)) * 10.0 ** rng.uniform(-6, 6, (50, powers))
+        idx = rng.integers(0, 50, 4000)
+        w = 10.0 ** rng.uniform(-3, 5, 4000)
+        w[:3] = np.inf, np.nan, 0.0
+        with np.errstate(all="ignore"):
+            ref = polyval(w, c[idx].T, tensor=False)
+        np.testing.assert_array_equal(horner_rows(c, idx, w), ref)
+
+
 def test_cauchy_bound_is_the_tightest_dominance_radius():
     """Beyond ``R`` the leading term outweighs all others together, and ``R / 1.01`` is
     never below the one positive root of ``|a_n| x^n - sum_{j<n} c_j x^j``
