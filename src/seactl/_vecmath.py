@@ -24,6 +24,10 @@ Each function is called from libmvec where libmvec has it (``atan2`` since glibc
 and the kernels are compiled for AVX2 (numba's target features, which its on-disk cache
 is keyed on), and as four scalar calls otherwise (other C libraries, other processors,
 ``NUMBA_CPU_NAME``): the same values to a few ulps, as between two BLAS builds.
+
+numba keys a kernel's on-disk cache on the kernel's own source file: after editing this
+module, touch :mod:`seactl._certify` (or clear its ``__pycache__``) so that its kernels
+are compiled again.
 """
 
 from __future__ import annotations
