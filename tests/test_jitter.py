@@ -230,3 +230,70 @@ def test_a_neutral_design_leaves_the_others_of_its_batch_proven(monkeypatch):
         peak = peak_omega_t(loop, d, omega)[0]
         assert peak[0] == pytest.approx(float(alone[k]), rel=1e-12), k
         assert np.isfinite(alone[k]) and peak[1] == np.inf, k
+
+
+def _upper_numpy(b3N, b3D, majors, d, pa, pb):
+    """The proof's interval bound written with numpy passes (its form before it was
+    compiled), the oracle of the next test."""
+    from numpy.polynomial.polynomial import polyval
+
+    from seactl.blockdiagram import EVAL_ROUNDING
+
+    W_, N0, N1, DR, DI, D1 = 0, 2, 3, 5, 6, 7  # (columns; N1 + 1, D1 + 1: the second derivatives)
+    h, W = pb[:, W_] - pa[:, W_], pb[:, W_]
+    at = lambda c: polyval(W, c[d].T, tensor=False)  # noqa: E731
+
+    def sups(c0, bound3):
+        c = 0.5 * (pa[:, c0 + 1] + pb[:, c0 + 1] + h * at(bound3))
+        return 0.5 * (pa[:, c0] + pb[:, c0] + h * c), c
+
+    S, C = sups(N1, b3N)
+    SD, CD = sups(D1, b3D)
+    errN, errD = (EVAL_ROUNDING * at(m) for m in majors)
+    aD, bD = np.hypot(pa[:, DR], pa[:, DI]), np.hypot(pb[:, DR], pb[:, DI])
+    a = pa[:, DR] + 1j * pa[:, DI]
+    e = pb[:, DR] + 1j * pb[:, DI] - a
+    e2 = np.abs(e) ** 2
+    t = np.where(e2 > 0, np.clip(-(a.real * e.real + a.imag * e.imag) / e2, 0, 1), 0.0)
+    gap = np.abs(a + t * e)
+    X = np.minimum(0.5 * (pa[:, N0] + pb[:, N0] + h * S),
+                   np.maximum(pa[:, N0], pb[:, N0]) + 0.125 * h * h * C) + errN
+    Y = np.minimum(0.5 * (aD + bD + h * SD), np.maximum(aD, bD) + 0.125 * h * h * CD) + errD
+    m = np.maximum(0.5 * (aD + bD - h * SD), gap - 0.125 * h * h * CD) - errD
+    u0, u1 = (W * X) ** 2, 2 * W * X * (X + W * S)
+    u2 = 2 * X * X + 8 * W * X * S + 2 * W * W * (S * S + X * C)
+    v1, v2 = 2 * Y * SD, 2 * (SD * SD + Y * CD)
+    m2 = m * m
+    curv = u2 / m2 + (2 * u1 * v1 + u0 * v2) / (m2 * m2) + 2 * u0 * v1 * v1 / (m2 * m2 * m2)
+    ends = np.maximum(pa[:, W_] * (pa[:, N0] + errN) / (aD - errD),
+                      W * (pb[:, N0] + errN) / (bD - errD))
+    ends = np.where((aD > errD) & (bD > errD), ends, np.inf)
+    second = ends * ends + 0.125 * h * h * curv
+    return np.where(m > 0, np.minimum(u0 / m2, second), np.inf)
+
+
+def test_compiled_interval_bound_is_the_numpy_form_bit_for_bit():
+    """The supremum proof's bound per interval (seactl._supremum._upper_rows, compiled)
+    against its numpy form (oracle, above): the same bits on 20,000 random intervals with
+    values over twenty decades, zeros, infinities and NaN among them."""
+    from types import SimpleNamespace as NS
+
+    from seactl import _supremum
+
+    rng = np.random.default_rng(29)
+    n, designs = 20_000, 40
+    pa = np.abs(rng.normal(size=(n, 9))) * 10.0 ** rng.uniform(-10, 10, (n, 9))
+    pb = np.abs(rng.normal(size=(n, 9))) * 10.0 ** rng.uniform(-10, 10, (n, 9))
+    pa[:, 5:7] *= rng.choice([-1.0, 1.0], (n, 2))  # (Delta's real and imaginary parts)
+    pb[:, 5:7] *= rng.choice([-1.0, 1.0], (n, 2))
+    pb[:, 0] = pa[:, 0] * (1 + rng.uniform(1e-9, 1.0, n))
+    for p in (pa, pb):
+        rows = rng.integers(0, n, 300)
+        p[rows, rng.integers(1, 9, 300)] = rng.choice([0.0, -0.0, np.inf, np.nan], 300)
+    b3N, b3D, mN, mD = (np.abs(rng.normal(size=(designs, k))) for k in (4, 6, 5, 7))
+    d = rng.integers(0, designs, n)
+    with np.errstate(all="ignore"):
+        ref = _upper_numpy(b3N, b3D, (mN, mD), d, pa, pb)
+    got = _supremum._upper(NS(bound3_coeffs=b3N), NS(bound3_coeffs=b3D), (mN, mD), d, pa, pb)
+    assert np.isfinite(ref).sum() > 5000 and np.isinf(ref).sum() > 100
+    np.testing.assert_array_equal(got, ref)

@@ -577,12 +577,17 @@ def horner_rows(c, idx, w):  # pragma: no cover - compiled
     ``polyval``'s operations and order (the same bits)."""
     out = np.empty(w.size)
     for i in range(w.size):
-        x, r = w[i], idx[i]
-        acc = c[r, c.shape[1] - 1] + x * 0.0
-        for j in range(c.shape[1] - 2, -1, -1):
-            acc = c[r, j] + acc * x
-        out[i] = acc
+        out[i] = horner_row(c, idx[i], w[i])
     return out
+
+
+@njit(cache=True)
+def horner_row(c, r, x):  # pragma: no cover - compiled
+    """Row ``r`` of ``c`` at ``x`` (:func:`horner_rows`)."""
+    acc = c[r, c.shape[1] - 1] + x * 0.0
+    for j in range(c.shape[1] - 2, -1, -1):
+        acc = c[r, j] + acc * x
+    return acc
 
 
 @njit(cache=True, nogil=True, error_model="numpy")
@@ -600,18 +605,26 @@ def cauchy_newton(c, x):  # pragma: no cover - compiled
                 dg = dg * xd + g
                 g = g * xd + -c[d, j]
             if g > 0:
-                bd = _minimum(bd, xd)
+                bd = np_minimum(bd, xd)
             xd = xd - g / dg if dg > 0 else bd
         best[d] = bd
     return best
 
 
 @njit(cache=True)
-def _minimum(a, b):  # pragma: no cover - compiled
+def np_minimum(a, b):  # pragma: no cover - compiled
     """numpy's ``minimum``: NaN if either is."""
     if a != a or b != b:
         return a + b
     return a if a <= b else b
+
+
+@njit(cache=True)
+def np_maximum(a, b):  # pragma: no cover - compiled
+    """numpy's ``maximum``: NaN if either is."""
+    if a != a or b != b:
+        return a + b
+    return a if a >= b else b
 
 
 @njit(cache=True, error_model="numpy")

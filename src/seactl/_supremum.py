@@ -21,11 +21,14 @@ it meets a larger value:
 
 from __future__ import annotations
 
-import numpy as np
+import math
 
-from ._certify import compact, derivatives
+import numpy as np
+from numba import njit
+
+from ._certify import compact, derivatives, horner_row, np_maximum, np_minimum
 from ._parallel import chunk_size, map_in_threads
-from ._realpart import bisect, rows_at
+from ._realpart import bisect
 from .blockdiagram import EVAL_ROUNDING, QuasiPolynomial, padded_sum, rounding_majorant
 
 EPS = 1e-9
@@ -60,8 +63,23 @@ def _points(arrays: tuple, idx: np.ndarray, w: np.ndarray) -> np.ndarray:
     return np.stack([w, g, n0, n1, n2, d0.real, d0.imag, np.abs(d1), np.abs(d2)], axis=1)
 
 
+def _upper(N: QuasiPolynomial, Delta: QuasiPolynomial, majors: tuple, d: np.ndarray,
+           pa: np.ndarray, pb: np.ndarray) -> np.ndarray:
+    """Upper bounds of ``(w |N| / |Delta|)^2`` on the intervals (inf where ``Delta`` may
+    vanish): the smaller of ``(wb sup |N| / inf |Delta|)^2`` and, second order, the larger
+    end value plus ``h^2/8 sup |(u/v)''|`` with ``u = w^2 |N|^2``, ``v = |Delta|^2``
+    (compiled, :func:`_upper_rows`: numpy's passes over the intervals were a third of the
+    proof)."""
+    f8 = lambda x: np.ascontiguousarray(x, float)  # noqa: E731
+    return _upper_rows(f8(pa), f8(pb), np.asarray(d, np.intp), f8(N.bound3_coeffs),
+                       f8(Delta.bound3_coeffs), f8(majors[0]), f8(majors[1]),
+                       _gap(pa, pb))
+
+
 def _gap(pa: np.ndarray, pb: np.ndarray) -> np.ndarray:
-    """Distance from 0 to the chord between ``Delta(wa)`` and ``Delta(wb)``."""
+    """Distance from 0 to the chord between ``Delta(wa)`` and ``Delta(wb)`` (numpy: its
+    complex modulus is not ``hypot``'s to the last bit, and the proof's bits stay those
+    it had)."""
     a = pa[:, _DR] + 1j * pa[:, _DI]
     e = pb[:, _DR] + 1j * pb[:, _DI] - a
     e2 = np.abs(e) ** 2
@@ -70,38 +88,39 @@ def _gap(pa: np.ndarray, pb: np.ndarray) -> np.ndarray:
     return np.abs(a + t * e)
 
 
-def _upper(N: QuasiPolynomial, Delta: QuasiPolynomial, majors: tuple, d: np.ndarray,
-           pa: np.ndarray, pb: np.ndarray) -> np.ndarray:
-    """Upper bounds of ``(w |N| / |Delta|)^2`` on the intervals (inf where ``Delta`` may
-    vanish): the smaller of ``(wb sup |N| / inf |Delta|)^2`` and, second order, the larger
-    end value plus ``h^2/8 sup |(u/v)''|`` with ``u = w^2 |N|^2``, ``v = |Delta|^2``."""
-    h, W = pb[:, _W] - pa[:, _W], pb[:, _W]
-
-    def sups(c0: int, bound3: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        c = 0.5 * (pa[:, c0 + 1] + pb[:, c0 + 1] + h * rows_at(bound3, d, W))
-        return 0.5 * (pa[:, c0] + pb[:, c0] + h * c), c  # sup |Q'|, sup |Q''|
-
-    S, C = sups(_N1, N.bound3_coeffs)
-    SD, CD = sups(_D1, Delta.bound3_coeffs)
-    errN, errD = (EVAL_ROUNDING * rows_at(m, d, W) for m in majors)
-    aD, bD = np.hypot(pa[:, _DR], pa[:, _DI]), np.hypot(pb[:, _DR], pb[:, _DI])
-    X = np.minimum(0.5 * (pa[:, _N0] + pb[:, _N0] + h * S),
-                   np.maximum(pa[:, _N0], pb[:, _N0]) + 0.125 * h * h * C) + errN
-    Y = np.minimum(0.5 * (aD + bD + h * SD), np.maximum(aD, bD) + 0.125 * h * h * CD) + errD
-    m = np.maximum(0.5 * (aD + bD - h * SD), _gap(pa, pb) - 0.125 * h * h * CD) - errD
-    # sups of u, u', u'' and v', v'' (v >= m^2)
-    u0, u1 = (W * X) ** 2, 2 * W * X * (X + W * S)
-    u2 = 2 * X * X + 8 * W * X * S + 2 * W * W * (S * S + X * C)
-    v1, v2 = 2 * Y * SD, 2 * (SD * SD + Y * CD)
-    with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
+@njit(cache=True, nogil=True, error_model="numpy")
+def _upper_rows(pa, pb, d, b3N, b3D, majN, majD, gap):  # pragma: no cover - compiled
+    """:func:`_upper` row by row, in the operations and order of its numpy form (the same
+    bits: ``tests/test_jitter.py``)."""
+    out = np.empty(d.size)
+    for i in range(d.size):
+        h, W = pb[i, _W] - pa[i, _W], pb[i, _W]
+        # sups of |Q'| and |Q''| from the ends and the third-derivative bound
+        C = 0.5 * (pa[i, _N2] + pb[i, _N2] + h * horner_row(b3N, d[i], W))
+        S = 0.5 * (pa[i, _N1] + pb[i, _N1] + h * C)
+        CD = 0.5 * (pa[i, _D2] + pb[i, _D2] + h * horner_row(b3D, d[i], W))
+        SD = 0.5 * (pa[i, _D1] + pb[i, _D1] + h * CD)
+        errN = EVAL_ROUNDING * horner_row(majN, d[i], W)
+        errD = EVAL_ROUNDING * horner_row(majD, d[i], W)
+        aD, bD = math.hypot(pa[i, _DR], pa[i, _DI]), math.hypot(pb[i, _DR], pb[i, _DI])
+        X = np_minimum(0.5 * (pa[i, _N0] + pb[i, _N0] + h * S),
+                 np_maximum(pa[i, _N0], pb[i, _N0]) + 0.125 * h * h * C) + errN
+        Y = np_minimum(0.5 * (aD + bD + h * SD), np_maximum(aD, bD) + 0.125 * h * h * CD) + errD
+        m = np_maximum(0.5 * (aD + bD - h * SD), gap[i] - 0.125 * h * h * CD) - errD
+        # sups of u, u', u'' and v', v'' (v >= m^2)
+        u0, u1 = (W * X) ** 2, 2 * W * X * (X + W * S)
+        u2 = 2 * X * X + 8 * W * X * S + 2 * W * W * (S * S + X * C)
+        v1, v2 = 2 * Y * SD, 2 * (SD * SD + Y * CD)
         m2 = m * m
         curv = u2 / m2 + (2 * u1 * v1 + u0 * v2) / (m2 * m2) + 2 * u0 * v1 * v1 / (m2 * m2 * m2)
         # the ends' values, their rounding included
-        ends = np.maximum(pa[:, _W] * (pa[:, _N0] + errN) / (aD - errD),
-                          W * (pb[:, _N0] + errN) / (bD - errD))
-        ends = np.where((aD > errD) & (bD > errD), ends, np.inf)
+        ends = np_maximum(pa[i, _W] * (pa[i, _N0] + errN) / (aD - errD),
+                    W * (pb[i, _N0] + errN) / (bD - errD))
+        if not (aD > errD and bD > errD):
+            ends = np.inf
         second = ends * ends + 0.125 * h * h * curv
-        return np.where(m > 0, np.minimum(u0 / m2, second), np.inf)
+        out[i] = np_minimum(u0 / m2, second) if m > 0 else np.inf
+    return out
 
 
 TAIL_SLACK = 1e-2
