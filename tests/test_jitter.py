@@ -292,8 +292,9 @@ def test_compiled_interval_bound_is_the_numpy_form_bit_for_bit():
         p[rows, rng.integers(1, 9, 300)] = rng.choice([0.0, -0.0, np.inf, np.nan], 300)
     b3N, b3D, mN, mD = (np.abs(rng.normal(size=(designs, k))) for k in (4, 6, 5, 7))
     d = rng.integers(0, designs, n)
-    with np.errstate(all="ignore"):
+    with np.errstate(all="ignore"):  # (the infinities and NaN planted above)
         ref = _upper_numpy(b3N, b3D, (mN, mD), d, pa, pb)
-    got = _supremum._upper(NS(bound3_coeffs=b3N), NS(bound3_coeffs=b3D), (mN, mD), d, pa, pb)
+        got = _supremum._upper(NS(bound3_coeffs=b3N), NS(bound3_coeffs=b3D), (mN, mD), d,
+                               pa, pb)
     assert np.isfinite(ref).sum() > 5000 and np.isinf(ref).sum() > 100
     np.testing.assert_array_equal(got, ref)
