@@ -225,11 +225,6 @@ def _div(a, b):  # pragma: no cover - compiled
     return a / b
 
 
-@njit(cache=True)
-def _angle(z):  # pragma: no cover - compiled
-    return math.atan2(z.imag, z.real)
-
-
 @njit(cache=True, error_model="numpy", inline="always")
 def _certified(P, a, b, bN, bD, stability_only, no_loop, final):  # pragma: no cover - compiled
     """``(Delta certified, no unseen gain crossing, no unseen phase crossing)`` for the
@@ -302,11 +297,9 @@ def _tube_misses_axis(P, a, b, gN, rN, gD, rD):  # pragma: no cover - compiled
     argument stays within the chord's angular span widened by ``asin(r / g)``."""
     if not (gN > rN and gD > rD):  # (a tube around 0: any turn)
         return False
-    turnN, turnD, _, _ = atan2_4(  # (_chord_turn of both in one call: _vecmath)
-        P[a, RE_N] * P[b, IM_N] - P[a, IM_N] * P[b, RE_N],
-        P[a, RE_D] * P[b, IM_D] - P[a, IM_D] * P[b, RE_D], 0.0, 0.0,
-        P[a, RE_N] * P[b, RE_N] + P[a, IM_N] * P[b, IM_N],
-        P[a, RE_D] * P[b, RE_D] + P[a, IM_D] * P[b, IM_D], 1.0, 1.0)
+    yN, xN = _chord_turn_args(P[a, RE_N], P[a, IM_N], P[b, RE_N], P[b, IM_N])
+    yD, xD = _chord_turn_args(P[a, RE_D], P[a, IM_D], P[b, RE_D], P[b, IM_D])
+    turnN, turnD, _, _ = atan2_4(yN, yD, 0.0, 0.0, xN, xD, 1.0, 1.0)  # (both in one call)
     loN, hiN = _widened(turnN, gN, rN)
     loD, hiD = _widened(turnD, gD, rD)
     pa = P[a, ARG_L]
@@ -317,8 +310,15 @@ def _tube_misses_axis(P, a, b, gN, rN, gD, rD):  # pragma: no cover - compiled
 def _tube_turn(ar, ai, br, bi, g, r):  # pragma: no cover - compiled
     """Range of the continuous change of ``arg z`` from ``a`` along a path that stays
     within ``r`` of the chord from ``a`` to ``b`` (``g``: the chord's distance to 0)."""
-    turn = atan2_4(ar * bi - ai * br, 0.0, 0.0, 0.0, ar * br + ai * bi, 1.0, 1.0, 1.0)[0]
-    return _widened(turn, g, r)
+    y, x = _chord_turn_args(ar, ai, br, bi)
+    return _widened(atan2_4(y, 0.0, 0.0, 0.0, x, 1.0, 1.0, 1.0)[0], g, r)
+
+
+@njit(cache=True, inline="always")
+def _chord_turn_args(ar, ai, br, bi):  # pragma: no cover - compiled
+    """atan2's arguments for the turn from ``a`` to ``b``: ``Im`` and ``Re`` of
+    ``b conj(a)``."""
+    return ar * bi - ai * br, ar * br + ai * bi
 
 
 @njit(cache=True, error_model="numpy")

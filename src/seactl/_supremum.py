@@ -104,7 +104,7 @@ def _upper_rows(pa, pb, d, b3N, b3D, majN, majD, gap):  # pragma: no cover - com
         errD = EVAL_ROUNDING * horner_row(majD, d[i], W)
         aD, bD = math.hypot(pa[i, _DR], pa[i, _DI]), math.hypot(pb[i, _DR], pb[i, _DI])
         X = np_minimum(0.5 * (pa[i, _N0] + pb[i, _N0] + h * S),
-                 np_maximum(pa[i, _N0], pb[i, _N0]) + 0.125 * h * h * C) + errN
+                       np_maximum(pa[i, _N0], pb[i, _N0]) + 0.125 * h * h * C) + errN
         Y = np_minimum(0.5 * (aD + bD + h * SD), np_maximum(aD, bD) + 0.125 * h * h * CD) + errD
         m = np_maximum(0.5 * (aD + bD - h * SD), gap[i] - 0.125 * h * h * CD) - errD
         # sups of u, u', u'' and v', v'' (v >= m^2)
@@ -115,7 +115,7 @@ def _upper_rows(pa, pb, d, b3N, b3D, majN, majD, gap):  # pragma: no cover - com
         curv = u2 / m2 + (2 * u1 * v1 + u0 * v2) / (m2 * m2) + 2 * u0 * v1 * v1 / (m2 * m2 * m2)
         # the ends' values, their rounding included
         ends = np_maximum(pa[i, _W] * (pa[i, _N0] + errN) / (aD - errD),
-                    W * (pb[i, _N0] + errN) / (bD - errD))
+                          W * (pb[i, _N0] + errN) / (bD - errD))
         if not (aD > errD and bD > errD):
             ends = np.inf
         second = ends * ends + 0.125 * h * h * curv
