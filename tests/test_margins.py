@@ -212,7 +212,7 @@ def test_close_pair_of_crossings_is_found_on_any_grid(per_decade):
 def test_compiled_scan_evaluates_the_quasi_polynomial_like_numpy():
     """The certified scan's compiled kernel (seactl._certify) against the numpy Horner
     pass of QuasiPolynomial.with_derivative (oracle) on random designs and frequencies:
-    Q(jw), dQ/dw = j dQ/ds and d2Q/dw2 = -d2Q/ds2, and L = N / D."""
+    Q(jw), dQ/dw = j dQ/ds and d2Q/dw2 = -d2Q/ds2, L = N / D and Delta = N + D."""
     from seactl import _certify
 
     d = sea(np.linspace(10, 40, 7), ms=(np.linspace(0.5, 3, 7), 8.0, 1.5, 50.0, 100.0))
@@ -230,13 +230,16 @@ def test_compiled_scan_evaluates_the_quasi_polynomial_like_numpy():
                              _certify.descending(D.coeffs), D.delays, np.arange(7), w)
     np.testing.assert_allclose(L, N(1j * w[:, None])[:, 0] / D(1j * w[:, None])[:, 0],
                                rtol=1e-12)
+    delta = _certify.delta_values(_certify.descending(N.coeffs), N.delays,
+                                  _certify.descending(D.coeffs), D.delays, w)
+    np.testing.assert_allclose(delta, (N + D)(1j * w[:, None])[:, 0], rtol=1e-12)
 
 
 def test_compiled_evaluation_with_more_delay_terms_than_a_phasor_call():
     """The kernels compute delay phasors four at a time (seactl._vecmath.cis4): random
     quasi-polynomials with 5 terms in N and 4 in D (three and two calls) against the
     numpy Horner pass (oracle), through the single evaluation (derivatives), the pair
-    (loop_values) and the scan's point (N, D and their derivatives' moduli)."""
+    (loop_values, delta_values) and the scan's point (N, D and their derivatives' moduli)."""
     from seactl import _certify
     from seactl.blockdiagram import QuasiPolynomial
 
@@ -261,6 +264,8 @@ def test_compiled_evaluation_with_more_delay_terms_than_a_phasor_call():
     L = _certify.loop_values(Nc, N.delays, Dc, D.delays, np.arange(n), w)
     np.testing.assert_allclose(L, N(1j * w[:, None])[:, 0] / D(1j * w[:, None])[:, 0],
                                rtol=1e-12)
+    np.testing.assert_allclose(_certify.delta_values(Nc, N.delays, Dc, D.delays, w),
+                               (N + D)(1j * w[:, None])[:, 0], rtol=1e-12)
     P = np.empty((1, _certify._F))
     bounds = np.zeros((n, 3, 1))
     refN, refD = (q.with_derivative(1j * w[:, None], second=True) for q in (N, D))

@@ -571,6 +571,16 @@ def loop_values(Nc, Nt, Dc, Dt, idx, w):  # pragma: no cover - compiled
     return out
 
 
+@njit(cache=True)
+def delta_values(Nc, Nt, Dc, Dt, w):  # pragma: no cover - compiled
+    """``N(jw) + D(jw)`` of each design ``d`` at ``w[d]``."""
+    out = np.empty(w.size, np.complex128)
+    for d in range(w.size):
+        N, _, _, D, _, _ = _eval_pair(Nc, Nt, Dc, Dt, Dc.shape[0], d, w[d], 0)
+        out[d] = N + D
+    return out
+
+
 @njit(cache=True, nogil=True, error_model="numpy")
 def horner_rows(c, idx, w):  # pragma: no cover - compiled
     """Row ``idx[i]`` of ``c`` (ascending powers) at ``w[i]``, by Horner in numpy

@@ -515,6 +515,10 @@ class _CertifiedScan:
         self.rows = rows[~bad[rows[:, 0].astype(int)]]  # (a stand-in grid: no crossings)
         self.uncertain |= bad
 
+    def delta_at(self, w: np.ndarray) -> np.ndarray:
+        """``Delta(jw) = N(jw) + D(jw)`` of every design at its ``w``."""
+        return _certify.delta_values(*self.arrays, np.asarray(w, float))
+
     def loop_at(self, idx: np.ndarray, w: np.ndarray) -> np.ndarray:
         return _certify.loop_values(*self.arrays, np.asarray(idx, np.intp),
                                     np.asarray(w, float))
@@ -523,7 +527,8 @@ class _CertifiedScan:
         """Designs and frequencies of the crossings: compiled safeguarded Newton on each
         bracket, :func:`_rebracket` where its ends no longer bracket."""
         code = _certify.GAIN if kind == "gain" else _certify.PHASE
-        rows = self.rows[self.rows[:, 1] % _certify.TOUCH == code]
+        k = self.rows[:, 1]  # (compared, not taken modulo TOUCH: float % is 0.5 ms per 1e4)
+        rows = self.rows[(k == code) | (k == code + _certify.TOUCH)]
         b, x = rows[:, 0].astype(int), np.empty(len(rows))
         touch = rows[:, 1] != code  # (a point: its frequency is the touch)
         x[touch] = np.log(rows[touch, 2])
@@ -636,7 +641,7 @@ def certified_margins(loop: Transfer, design: Any, w_ref: np.ndarray | float, *,
                                    lambda top: _base_grid_count(w_ref, tau_max, top))
     scan = _CertifiedScan(N, D, stability_only)
     scan.run(w_ref, tau_max, top)
-    Z, uncertain = _stepan_count(delta, top, scan.winding)
+    Z, uncertain = _stepan_count(delta, top, scan.winding, scan.delta_at(top))
     Z = np.maximum(Z, 1 * (uncertain & (Z == 0)))
     stable = (Z == 0) & ~uncertain & ~scan.uncertain & ~unresolved
     if stability_only:
@@ -644,14 +649,14 @@ def certified_margins(loop: Transfer, design: Any, w_ref: np.ndarray | float, *,
     return _assemble(shape, stable, Z, scan.solve("gain"), scan.solve("phase"), scan.loop_at)
 
 
-def _stepan_count(delta: QuasiPolynomial, top: np.ndarray, winding: np.ndarray
-                  ) -> tuple[np.ndarray, np.ndarray]:
+def _stepan_count(delta: QuasiPolynomial, top: np.ndarray, winding: np.ndarray,
+                  end: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Right-half-plane roots from the winding of ``Delta`` on ``[0, top]`` plus the
-    tail beyond ``top`` (step 5 of :func:`certified_margins`)."""
+    tail beyond ``top`` (step 5 of :func:`certified_margins`); ``end``: ``Delta(j top)``
+    (:meth:`_CertifiedScan.delta_at`: compiled, a seventh of the time of numpy's)."""
     n = delta.degree
     rows = np.arange(n.size)
     lead = delta.coeffs[0, rows, n]
-    end = delta(1j * top[:, None])[:, 0]
     tail = -np.angle(end / (lead * (1j * top) ** n))
     z = n / 2.0 - (winding + tail) / np.pi
     Z = np.round(z).astype(int)
@@ -776,7 +781,7 @@ def count_right_roots(q: QuasiPolynomial, w_ref: np.ndarray) -> tuple[np.ndarray
     scan = _CertifiedScan(q, zero, stability_only=True)
     top = cauchy_bound(q)
     scan.run(np.asarray(w_ref, float), q.delays.max(axis=0), top)
-    Z, odd = _stepan_count(q, top, scan.winding)
+    Z, odd = _stepan_count(q, top, scan.winding, scan.delta_at(top))
     return Z, ~odd & ~scan.uncertain
 
 
