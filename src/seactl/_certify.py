@@ -260,6 +260,10 @@ def _certified(P, a, b, bN, bD, stability_only, no_loop, final):  # pragma: no c
         max(0.5 * (P[a, A_D] + P[b, A_D] - h * sD), gD - rD)
     xN, xD = min(0.5 * (P[a, A_N] + P[b, A_N] + h * sN), max(P[a, A_N], P[b, A_N]) + rN), \
         min(0.5 * (P[a, A_D] + P[b, A_D] + h * sD), max(P[a, A_D], P[b, A_D]) + rD)
+    # outside the band throughout: |N|, |D| apart (no gain crossing) and no phase
+    # crossing that matters; decided before the paths' lengths (3 % of the scan)
+    if xN < BAND_LO * mD or mN > BAND_HI * xD:
+        return ok, True, True
     # sup |Q'' Q - Q'^2| from its ends and (Q'' Q - Q'^2)' = Q''' Q - Q'' Q'
     fN = _sup(h, P[a, F_N], P[b, F_N], bN * xN + cN * sN)
     fD = _sup(h, P[a, F_D], P[b, F_D], bD * xD + cD * sD)
@@ -275,11 +279,10 @@ def _certified(P, a, b, bN, bD, stability_only, no_loop, final):  # pragma: no c
         (same and min(abs(fa), abs(fb)) > bow) or _monotone(P[a, RE_G], P[b, RE_G], hc)
     if not (gain_ok or final):
         return ok, False, False
-    # outside the band on the whole interval (a NaN anywhere leaves it relevant)
-    outside = (fa + gain_len < LOG_BAND_LO and fb + gain_len < LOG_BAND_LO) or \
-        (fa - gain_len > LOG_BAND_HI and fb - gain_len > LOG_BAND_HI) or \
-        xN < BAND_LO * mD or mN > BAND_HI * xD
-    relevant = not outside
+    # outside the band on the whole interval by the path of log |L| (a NaN anywhere
+    # leaves it relevant)
+    relevant = not ((fa + gain_len < LOG_BAND_LO and fb + gain_len < LOG_BAND_LO) or
+                    (fa - gain_len > LOG_BAND_HI and fb - gain_len > LOG_BAND_HI))
     # (arg L monotone over less than half a turn: on_axis sees its one crossing, if any;
     # the tube, with its four inverse trigonometric functions, is tried last)
     phase_ok = (not relevant) or (phase_len < to_axis) or \
