@@ -1,4 +1,5 @@
-"""Four cosines, sines or arctangents in one call, for the margin scan's compiled kernel.
+"""Four cosines, sines, arctangents or square roots in one call, for the margin scan's
+compiled kernel.
 
 A design's loop has a few delay terms, and every frequency point of the margin scan needs
 ``e^{-j w tau}`` of each (three sine-cosine pairs for the SEA loop) and ``arg L``, which
@@ -24,6 +25,9 @@ Each function is called from libmvec where libmvec has it (``atan2`` since glibc
 and the kernels are compiled for AVX2 (numba's target features, which its on-disk cache
 is keyed on), and as four scalar calls otherwise (other C libraries, other processors,
 ``NUMBA_CPU_NAME``): the same values to a few ulps, as between two BLAS builds.
+
+:func:`sqrt4` is LLVM's vector square root, correctly rounded like the scalar one on
+every target (no library): the scan's moduli four at a time.
 
 numba keys a kernel's on-disk cache on the kernel's own source file: after editing this
 module, touch :mod:`seactl._certify` (or clear its ``__pycache__``) so that its kernels
@@ -122,3 +126,22 @@ def atan2_4(typingctx, y0, y1, y2, y3, x0, x1, x2, x3):  # pragma: no cover - co
         return context.make_tuple(builder, sig.return_type, out)
 
     return types.UniTuple(_F8, 4)(*([_F8] * 8)), codegen
+
+
+@intrinsic
+def sqrt4(typingctx, x0, x1, x2, x3):  # pragma: no cover - compiled
+    """``(sqrt x0, .., sqrt x3)`` in one vector instruction (``llvm.sqrt.v4f64``):
+    correctly rounded, as the scalar square root, on every target."""
+    def codegen(context, builder, sig, args):
+        dbl, i32 = ir.DoubleType(), ir.IntType(32)
+        v4 = ir.VectorType(dbl, 4)
+        v = ir.Constant(v4, None)
+        for i, x in enumerate(args):
+            v = builder.insert_element(v, x, ir.Constant(i32, i))
+        fn = cgutils.get_or_insert_function(builder.module, ir.FunctionType(v4, [v4]),
+                                            "llvm.sqrt.v4f64")
+        y = builder.call(fn, [v])
+        out = [builder.extract_element(y, ir.Constant(i32, i)) for i in range(4)]
+        return context.make_tuple(builder, sig.return_type, out)
+
+    return types.UniTuple(_F8, 4)(_F8, _F8, _F8, _F8), codegen
