@@ -317,6 +317,10 @@ def _tube_misses_axis(P, a, b, gN, rN, gD, rD):  # pragma: no cover - compiled
     argument stays within the chord's angular span widened by ``asin(r / g)``."""
     if not (gN > rN and gD > rD):  # (a tube around 0: any turn)
         return False
+    # the range holds arg L at the start widened by asin(r/g) >= r/g on each side: where
+    # that alone reaches the axis, the turns are not needed (1 % of the scan)
+    if not abs(P[a, ARG_L]) + rN / gN + rD / gD < np.pi:
+        return False
     yN, xN = _chord_turn_args(P[a, RE_N], P[a, IM_N], P[b, RE_N], P[b, IM_N])
     yD, xD = _chord_turn_args(P[a, RE_D], P[a, IM_D], P[b, RE_D], P[b, IM_D])
     turnN, turnD, _, _ = atan2_4(yN, yD, 0.0, 0.0, xN, xD, 1.0, 1.0)  # (both in one call)
