@@ -92,3 +92,42 @@ def test_rounding_majorant_covers_the_phase_error_of_long_delays():
 
     assert np.all(err <= EVAL_ROUNDING * at(rounding_majorant(q.abs_coeffs, delays.max(axis=0))))
     assert np.any(err > EVAL_ROUNDING * at(q.abs_coeffs))
+
+
+def test_third_derivative_majorant():
+    """QuasiPolynomial.bound3_coeffs (compiled, seactl._majorants) on random
+    quasi-polynomials with 1-4 terms, up to degree 8, batch shapes (), (5,) and (3, 4):
+    (a) the polynomial equals the definition summed term by term in Python,
+    sum_kji |c_kj| C(3, i) j!/(j - i)! w^(j - i) tau_k^(3 - i) (oracle), at random w;
+    (b) it bounds |d^3 Q(jw)/dw^3|, taken as the central difference of the numpy Horner
+    pass's second derivative (a second oracle), at 200 frequencies."""
+    from math import comb, factorial
+
+    from numpy.polynomial.polynomial import polyval
+
+    rng = np.random.default_rng(8)
+    for K, shape, P in [(1, (), 1), (2, (5,), 3), (3, (3, 4), 7), (4, (5,), 9)]:
+        size = (K,) + shape + (P,)
+        c = rng.standard_normal(size) * 10.0 ** rng.uniform(-3, 3, size)
+        tau = rng.uniform(0.0, 0.02, (K,) + shape)
+        tau[0] = 0.0
+        q = QuasiPolynomial(c, tau)
+        b3 = q.bound3_coeffs
+        assert b3.shape == shape + (P,)
+        flat_c, flat_t, flat_b = c.reshape(K, -1, P), tau.reshape(K, -1), b3.reshape(-1, P)
+        w = rng.uniform(0.0, 300.0, flat_b.shape[0])
+        ref = [sum(abs(flat_c[k, d, j]) * comb(3, i) * factorial(j) / factorial(j - i)
+                   * w[d] ** (j - i) * flat_t[k, d] ** (3 - i)
+                   for k in range(K) for j in range(P) for i in range(min(3, j) + 1))
+               for d in range(w.size)]
+        got = [polyval(w[d], flat_b[d]) for d in range(w.size)]
+        np.testing.assert_allclose(got, ref, rtol=1e-12)
+        w = np.linspace(0.1, 300.0, 200)
+        h = 1e-4 * w
+        s = np.broadcast_to(1j * np.stack([w + h, w - h]), shape + (2, w.size))
+        d2 = q.with_derivative(s.reshape(shape + (-1,)), second=True)[2]
+        d2 = d2.reshape(shape + (2, w.size))
+        third = np.abs(d2[..., 0, :] - d2[..., 1, :]) / (2 * h)
+        bound = polyval(w, b3[..., None, :].reshape(-1, P).T, tensor=True).reshape(
+            shape + (w.size,))
+        assert np.all(third <= 1.000001 * bound + 1e-9 * np.abs(d2).max())

@@ -557,14 +557,12 @@ class QuasiPolynomial:
         ``|d^3 Q(jw)/dw^3|`` that increases with ``w >= 0``:
         ``sum_kj |c_kj| |d^3/dw^3 (w^j e^{-j w tau_k})|`` majorized term by term (product
         rule with ``|e^{-j w tau}| = 1``)."""
-        A = np.abs(self.coeffs)
-        tau = self.delays[..., None]
-        j = np.arange(A.shape[-1])
-        c = (A * tau**3).sum(axis=0)  # sum_i C(3, i) |(w^j)^(i)| tau^(3 - i)
-        c[..., :-1] += 3 * ((A * tau**2).sum(axis=0) * j)[..., 1:]
-        c[..., :-2] += 3 * ((A * tau).sum(axis=0) * j * (j - 1))[..., 2:]
-        c[..., :-3] += (A.sum(axis=0) * j * (j - 1) * (j - 2))[..., 3:]
-        return c
+        from ._majorants import bound3  # (compiled: numba loads on first use)
+
+        k, n1 = self.coeffs.shape[0], self.coeffs.shape[-1]
+        tau = np.ascontiguousarray(self.delays, float).reshape(k, -1)
+        c = bound3(np.ascontiguousarray(self.coeffs, float).reshape(k, -1, n1), tau, tau**3)
+        return c.reshape(self.shape + (n1,))
 
 
 _DELAY_SEP = "+"
