@@ -627,17 +627,24 @@ class QuasiForm:
         """Blocks that are not design-independent constants (their denominators multiply)."""
         return tuple(b for b in self.diagram.blocks if _constant_gain(b) is None)
 
-    def evaluate(self, design: Any) -> QuasiPolynomial:
+    def evaluate(self, design: Any, shared: dict | None = None) -> QuasiPolynomial:
+        """The quasi-polynomial of ``design``; ``shared``: a dict kept between the
+        forms of one diagram evaluated for the same design (a loop's ``N`` and ``D``),
+        whose blocks' coefficients and partial products they then compute once."""
         shape = tuple(getattr(design, "shape", ()))
+        shared = {} if shared is None else shared
         # (powers first while multiplying: each power's coefficients are contiguous)
-        factors: dict[tuple[str, bool], np.ndarray] = {}
+        factors: dict[tuple[str, bool], np.ndarray] = shared.setdefault("factors", {})
         for b in self.dynamic:
+            if (b.name, True) in factors:
+                continue
             num, den = b.coefficients(design)
             factors[b.name, True] = _powers_first(num, shape)
             if len(den) > 1 or np.any(np.asarray(den[0]) != 1):  # (1: nothing to multiply)
                 factors[b.name, False] = _powers_first(den, shape)
         groups: dict[tuple[str, ...], np.ndarray] = {}
-        products: dict[tuple, np.ndarray] = {}  # terms share their leading factors
+        # terms share their leading factors
+        products: dict[tuple, np.ndarray] = shared.setdefault("products", {})
         for coef, blocks in self.terms:
             poly, key = np.ones((1,) + shape), ()
             for b in self.dynamic:

@@ -530,7 +530,8 @@ def _prove_passive(p: Any, w: np.ndarray, load: bool, tol: float
     designs ``p`` between the points ``w`` [rad/s]."""
     from ._realpart import certify_positive
 
-    N, D = (q.evaluate(p).flat() for q in _impedance_forms())
+    shared: dict = {}  # (N and D share blocks and partial products)
+    N, D = (q.evaluate(p, shared).flat() for q in _impedance_forms())
     n = N.shape[0]
     b = np.broadcast_to(np.asarray(p.bj_load, float), p.shape).reshape(n) if load \
         else np.zeros(n)

@@ -171,7 +171,8 @@ def _proven_peak(loop: Transfer, design: Any, w_ref: np.ndarray, peak: np.ndarra
     margin is guaranteed."""
     from ._supremum import certify_peak
 
-    N, D = (f.evaluate(design).flat() for f in
+    shared: dict = {}  # (N and D share blocks and partial products)
+    N, D = (f.evaluate(design, shared).flat() for f in
             loop.diagram.return_difference(loop.input, loop.cut))
     delta = N + D
     out, w_peak = np.full(peak.shape, np.inf), np.array(w_peak, float)

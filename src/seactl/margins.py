@@ -630,7 +630,8 @@ def certified_margins(loop: Transfer, design: Any, w_ref: np.ndarray | float, *,
     """
     shape = tuple(getattr(design, "shape", ()))
     n = int(np.prod(shape, dtype=int))
-    N, D = (f.evaluate(design).flat() for f in
+    shared: dict = {}  # (N and D share blocks and partial products)
+    N, D = (f.evaluate(design, shared).flat() for f in
             loop.diagram.return_difference(loop.input, loop.cut))
     delta = N + D
     delta.require_retarded(f"loop of {loop.diagram.name!r} broken at {loop.input!r}")
