@@ -134,19 +134,19 @@ def test_third_derivative_majorant():
 
 
 def test_forms_share_blocks_and_products_bit_for_bit():
-    """A loop's N and D evaluated with one shared dict (as the margins, jitter and
-    passivity proofs do) equal each evaluated alone, bit for bit (oracle: the unshared
-    evaluation), on the SEA loop and the impedance forms."""
+    """A loop's N and D evaluated together (blockdiagram.evaluate_forms, sharing their
+    blocks' coefficients and partial products, as the margins, jitter and passivity
+    proofs do) equal each evaluated alone, bit for bit (oracle: the unshared evaluation),
+    on the SEA loop and the impedance forms."""
     from seactl.bench.core import random_designs
+    from seactl.blockdiagram import evaluate_forms
     from seactl.impedance import _impedance_forms
     from seactl.loops import outer_loop
 
     _, d = random_designs(50, seed=3)
     loop = outer_loop()
     for forms in (loop.diagram.return_difference(loop.input, loop.cut), _impedance_forms()):
-        shared: dict = {}
-        for f in forms:
-            a, b = f.evaluate(d, shared), f.evaluate(d)
+        for a, f in zip(evaluate_forms(forms, d), forms):
+            b = f.evaluate(d).flat()
             np.testing.assert_array_equal(a.coeffs, b.coeffs)
             np.testing.assert_array_equal(a.delays, b.delays)
-        assert shared["products"] and shared["factors"]  # (kept between the two forms)

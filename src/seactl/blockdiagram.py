@@ -671,6 +671,14 @@ class QuasiForm:
         return QuasiPolynomial(np.ascontiguousarray(np.moveaxis(coeffs, 1, -1)), delays)
 
 
+def evaluate_forms(forms: Sequence[QuasiForm], design: Any) -> tuple[QuasiPolynomial, ...]:
+    """Each of ``forms`` (of one diagram, e.g. a loop's ``N`` and ``D``) for ``design``,
+    flat, sharing their blocks' coefficients and partial products, which are freed on
+    return (held any longer, they would add to the peak memory of what follows)."""
+    shared: dict = {}
+    return tuple(f.evaluate(design, shared).flat() for f in forms)
+
+
 def _powers_first(coeffs: Sequence[np.ndarray], shape: tuple[int, ...]) -> np.ndarray:
     """Coefficients (descending powers, each broadcastable to ``shape``) as one array of
     ascending powers on the first axis (filled by assignment, which broadcasts: a third of

@@ -41,7 +41,14 @@ from typing import Any
 import numpy as np
 
 from ._parallel import chunk_size, map_in_threads
-from .blockdiagram import Block, BlockDiagram, DesignSubset, QuasiForm, Transfer
+from .blockdiagram import (
+    Block,
+    BlockDiagram,
+    DesignSubset,
+    QuasiForm,
+    Transfer,
+    evaluate_forms,
+)
 from .errors import InfeasibleDesignError, InputError
 
 MODELS = ("block-diagram", "paper")
@@ -530,8 +537,7 @@ def _prove_passive(p: Any, w: np.ndarray, load: bool, tol: float
     designs ``p`` between the points ``w`` [rad/s]."""
     from ._realpart import certify_positive
 
-    shared: dict = {}  # (N and D share blocks and partial products)
-    N, D = (q.evaluate(p, shared).flat() for q in _impedance_forms())
+    N, D = evaluate_forms(_impedance_forms(), p)
     n = N.shape[0]
     b = np.broadcast_to(np.asarray(p.bj_load, float), p.shape).reshape(n) if load \
         else np.zeros(n)

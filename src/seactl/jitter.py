@@ -53,7 +53,7 @@ from typing import Any
 
 import numpy as np
 
-from .blockdiagram import DesignSubset, Transfer
+from .blockdiagram import DesignSubset, Transfer, evaluate_forms
 from .latency import LoopModel, sea_split_diagram
 from .margins import default_grid
 from .sea import sea_margins, sea_reference_frequency
@@ -171,9 +171,7 @@ def _proven_peak(loop: Transfer, design: Any, w_ref: np.ndarray, peak: np.ndarra
     margin is guaranteed."""
     from ._supremum import certify_peak
 
-    shared: dict = {}  # (N and D share blocks and partial products)
-    N, D = (f.evaluate(design, shared).flat() for f in
-            loop.diagram.return_difference(loop.input, loop.cut))
+    N, D = evaluate_forms(loop.diagram.return_difference(loop.input, loop.cut), design)
     delta = N + D
     out, w_peak = np.full(peak.shape, np.inf), np.array(w_peak, float)
     i = np.nonzero(~delta.neutral)[0]  # (a neutral design leaves the others proven)

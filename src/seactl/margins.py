@@ -39,6 +39,7 @@ from .blockdiagram import (
     DesignSubset,
     QuasiPolynomial,
     Transfer,
+    evaluate_forms,
     padded_sum,
     rounding_majorant,
 )
@@ -630,9 +631,7 @@ def certified_margins(loop: Transfer, design: Any, w_ref: np.ndarray | float, *,
     """
     shape = tuple(getattr(design, "shape", ()))
     n = int(np.prod(shape, dtype=int))
-    shared: dict = {}  # (N and D share blocks and partial products)
-    N, D = (f.evaluate(design, shared).flat() for f in
-            loop.diagram.return_difference(loop.input, loop.cut))
+    N, D = evaluate_forms(loop.diagram.return_difference(loop.input, loop.cut), design)
     delta = N + D
     delta.require_retarded(f"loop of {loop.diagram.name!r} broken at {loop.input!r}")
     tau_max = np.concatenate([N.delays, D.delays]).max(axis=0)
