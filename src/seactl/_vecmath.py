@@ -84,25 +84,38 @@ def vector_functions() -> list[str]:
     return [n for n in _FUNCTIONS if _vectorized(cpu_target.target_context, n)]
 
 
+_V4 = ir.VectorType(ir.DoubleType(), 4)
+
+
+def _vector(builder, values) -> ir.Value:
+    """Four doubles as one ``<4 x double>``."""
+    v = ir.Constant(_V4, None)
+    for i, x in enumerate(values):
+        v = builder.insert_element(v, x, ir.Constant(ir.IntType(32), i))
+    return v
+
+
+def _lanes(builder, v) -> list:
+    """The four doubles of a ``<4 x double>``."""
+    return [builder.extract_element(v, ir.Constant(ir.IntType(32), i)) for i in range(4)]
+
+
+def _call_vector(builder, symbol: str, vectors: list) -> list:
+    """The lanes of ``symbol`` (a function of ``<4 x double>`` arguments) at ``vectors``."""
+    fn = cgutils.get_or_insert_function(builder.module,
+                                        ir.FunctionType(_V4, [_V4] * len(vectors)), symbol)
+    return _lanes(builder, builder.call(fn, vectors))
+
+
 def _call4(context, builder, name: str, args: list) -> list:
     """``name`` of four lanes (``args``: the arguments' four values each, in order)."""
-    dbl, i32 = ir.DoubleType(), ir.IntType(32)
+    dbl = ir.DoubleType()
     symbol, scalar, arity = _FUNCTIONS[name]
     if not _vectorized(context, name):
         fn = cgutils.get_or_insert_function(builder.module,
                                             ir.FunctionType(dbl, [dbl] * arity), scalar)
         return [builder.call(fn, [a[i] for a in args]) for i in range(4)]
-    v4 = ir.VectorType(dbl, 4)
-    vectors = []
-    for values in args:
-        v = ir.Constant(v4, None)
-        for i, x in enumerate(values):
-            v = builder.insert_element(v, x, ir.Constant(i32, i))
-        vectors.append(v)
-    fn = cgutils.get_or_insert_function(builder.module, ir.FunctionType(v4, [v4] * arity),
-                                        symbol)
-    y = builder.call(fn, vectors)
-    return [builder.extract_element(y, ir.Constant(i32, i)) for i in range(4)]
+    return _call_vector(builder, symbol, [_vector(builder, values) for values in args])
 
 
 _F8 = types.float64
@@ -133,15 +146,7 @@ def sqrt4(typingctx, x0, x1, x2, x3):  # pragma: no cover - compiled
     """``(sqrt x0, .., sqrt x3)`` in one vector instruction (``llvm.sqrt.v4f64``):
     correctly rounded, as the scalar square root, on every target."""
     def codegen(context, builder, sig, args):
-        dbl, i32 = ir.DoubleType(), ir.IntType(32)
-        v4 = ir.VectorType(dbl, 4)
-        v = ir.Constant(v4, None)
-        for i, x in enumerate(args):
-            v = builder.insert_element(v, x, ir.Constant(i32, i))
-        fn = cgutils.get_or_insert_function(builder.module, ir.FunctionType(v4, [v4]),
-                                            "llvm.sqrt.v4f64")
-        y = builder.call(fn, [v])
-        out = [builder.extract_element(y, ir.Constant(i32, i)) for i in range(4)]
+        out = _call_vector(builder, "llvm.sqrt.v4f64", [_vector(builder, args)])
         return context.make_tuple(builder, sig.return_type, out)
 
     return types.UniTuple(_F8, 4)(_F8, _F8, _F8, _F8), codegen
