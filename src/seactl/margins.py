@@ -641,7 +641,7 @@ def certified_margins(loop: Transfer, design: Any, w_ref: np.ndarray | float, *,
                                    lambda top: _base_grid_count(w_ref, tau_max, top))
     scan = _CertifiedScan(N, D, stability_only)
     scan.run(w_ref, tau_max, top)
-    Z, uncertain = _stepan_count(delta, top, scan.winding, scan.delta_at(top))
+    Z, uncertain = _stepan_count(delta, top, scan)
     Z = np.maximum(Z, 1 * (uncertain & (Z == 0)))
     stable = (Z == 0) & ~uncertain & ~scan.uncertain & ~unresolved
     if stability_only:
@@ -649,16 +649,17 @@ def certified_margins(loop: Transfer, design: Any, w_ref: np.ndarray | float, *,
     return _assemble(shape, stable, Z, scan.solve("gain"), scan.solve("phase"), scan.loop_at)
 
 
-def _stepan_count(delta: QuasiPolynomial, top: np.ndarray, winding: np.ndarray,
-                  end: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Right-half-plane roots from the winding of ``Delta`` on ``[0, top]`` plus the
-    tail beyond ``top`` (step 5 of :func:`certified_margins`); ``end``: ``Delta(j top)``
-    (:meth:`_CertifiedScan.delta_at`: compiled, a seventh of the time of numpy's)."""
+def _stepan_count(delta: QuasiPolynomial, top: np.ndarray, scan: _CertifiedScan
+                  ) -> tuple[np.ndarray, np.ndarray]:
+    """Right-half-plane roots from the winding of ``Delta`` on ``[0, top]`` (``scan``'s)
+    plus the tail beyond ``top`` (step 5 of :func:`certified_margins`), ``Delta(j top)``
+    from the scan's compiled evaluation (:meth:`_CertifiedScan.delta_at`: a seventh of
+    the time of numpy's)."""
     n = delta.degree
     rows = np.arange(n.size)
     lead = delta.coeffs[0, rows, n]
-    tail = -np.angle(end / (lead * (1j * top) ** n))
-    z = n / 2.0 - (winding + tail) / np.pi
+    tail = -np.angle(scan.delta_at(top) / (lead * (1j * top) ** n))
+    z = n / 2.0 - (scan.winding + tail) / np.pi
     Z = np.round(z).astype(int)
     return Z, np.abs(z - Z) > 0.25
 
@@ -781,7 +782,7 @@ def count_right_roots(q: QuasiPolynomial, w_ref: np.ndarray) -> tuple[np.ndarray
     scan = _CertifiedScan(q, zero, stability_only=True)
     top = cauchy_bound(q)
     scan.run(np.asarray(w_ref, float), q.delays.max(axis=0), top)
-    Z, odd = _stepan_count(q, top, scan.winding, scan.delta_at(top))
+    Z, odd = _stepan_count(q, top, scan)
     return Z, ~odd & ~scan.uncertain
 
 
