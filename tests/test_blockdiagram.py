@@ -150,3 +150,27 @@ def test_forms_share_blocks_and_products_bit_for_bit():
             b = f.evaluate(d).flat()
             np.testing.assert_array_equal(a.coeffs, b.coeffs)
             np.testing.assert_array_equal(a.delays, b.delays)
+
+
+def test_degrees_and_columnwise_reductions_by_definition():
+    """``degree``, ``delayed_degree`` (the last nonzero power, column by column) and
+    :func:`~seactl.blockdiagram.columnwise`.  Oracle: the definitions, element by element
+    in Python, on random sparse coefficients (batch shapes (7,) and (3, 4); rows all zero,
+    NaN and inf among them) and numpy's reductions over the last axis."""
+    from seactl.blockdiagram import QuasiPolynomial, columnwise
+
+    rng = np.random.default_rng(11)
+    for shape in ((7,), (3, 4)):
+        for powers in (1, 3, 8):
+            c = rng.normal(size=(3, *shape, powers)) * (rng.random((3, *shape, powers)) < 0.4)
+            c.flat[rng.integers(0, c.size, 3)] = [np.nan, np.inf, -np.inf]
+            q = QuasiPolynomial(c, rng.uniform(0, 0.01, (3, *shape)))
+
+            def last(rows, powers=powers):
+                return max((j for j in range(powers) if any(r[j] != 0 for r in rows)),
+                           default=-1)
+            for idx in np.ndindex(shape):
+                assert q.degree[idx] == last([c[0][idx]])
+                assert q.delayed_degree[idx] == last([c[k][idx] for k in (1, 2)])
+            for ufunc in (np.maximum, np.minimum, np.logical_or):
+                np.testing.assert_array_equal(columnwise(ufunc, c), ufunc.reduce(c, axis=-1))

@@ -46,7 +46,7 @@ import json
 import os
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
-from functools import cached_property, lru_cache
+from functools import cached_property, lru_cache, reduce
 from pathlib import Path
 from typing import Any
 
@@ -522,14 +522,12 @@ class QuasiPolynomial:
     @cached_property
     def degree(self) -> np.ndarray:
         """Degree of the undelayed term per design (trailing zero coefficients dropped)."""
-        nz = self.coeffs[0] != 0
-        return np.where(nz.any(axis=-1), nz.shape[-1] - 1 - np.argmax(nz[..., ::-1], axis=-1), -1)
+        return _last_true(self.coeffs[0] != 0)
 
     @cached_property
     def delayed_degree(self) -> np.ndarray:
         """Highest degree among the delayed terms (terms ``k >= 1``) per design."""
-        nz = (self.coeffs[1:] != 0).any(axis=0)
-        return np.where(nz.any(axis=-1), nz.shape[-1] - 1 - np.argmax(nz[..., ::-1], axis=-1), -1)
+        return _last_true((self.coeffs[1:] != 0).any(axis=0))
 
     @property
     def neutral(self) -> np.ndarray:
@@ -702,6 +700,24 @@ def _polymul(a: np.ndarray, b: np.ndarray) -> np.ndarray:
 def _polyadd(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     """Sum of two polynomials with ascending powers on the first axis."""
     return padded_sum(a, b, axis=0)
+
+
+def _last_true(mask: np.ndarray) -> np.ndarray:
+    """Index of the last ``True`` along the last axis (-1 where none), a few powers one
+    column at a time (numpy's reductions over a short last axis took ten times as long)."""
+    last = np.full(mask.shape[:-1], -1)
+    for j in range(mask.shape[-1]):
+        last = np.where(mask[..., j], j, last)
+    return last
+
+
+def columnwise(ufunc: np.ufunc, a: np.ndarray) -> np.ndarray:
+    """``ufunc.reduce(a, axis=-1)`` for a few columns, one column at a time (numpy's
+    reduction over a short last axis took ten times as long); for idempotent ``ufunc``
+    (``maximum``, ``minimum``, ``logical_or``, ...), whose result does not depend on the
+    order (the first column enters twice: a new array of the reduction's type)."""
+    columns = np.moveaxis(a, -1, 0)
+    return reduce(ufunc, columns, columns[0])
 
 
 def pad_powers(x: np.ndarray, n: int, axis: int = -1) -> np.ndarray:

@@ -39,6 +39,7 @@ from .blockdiagram import (
     DesignSubset,
     QuasiPolynomial,
     Transfer,
+    columnwise,
     evaluate_forms,
     padded_sum,
     rounding_majorant,
@@ -363,7 +364,8 @@ def cauchy_bound(q: QuasiPolynomial, majorant: np.ndarray | None = None,
     below = j[None, :] < n[:, None]
     with np.errstate(divide="ignore", invalid="ignore"):
         fuji = np.where(below, (np.abs(c) / lead[:, None]) ** (1.0 / (n[:, None] - j)), 0.0)
-    best = _certify.cauchy_newton(np.ascontiguousarray(c), 2.0 * fuji.max(axis=1) + 1e-300)
+    start = 2.0 * columnwise(np.maximum, fuji) + 1e-300
+    best = _certify.cauchy_newton(np.ascontiguousarray(c), start)
     # At R itself the dominance holds only by rounding (a root with |s| = R on the axis,
     # e.g. (s^2 + 100)(s + 1), sits there): 1 % beyond it the margin is solid.
     return 1.01 * best
@@ -484,7 +486,8 @@ class _CertifiedScan:
         self.stability_only = stability_only
         self.winding = np.zeros(N.shape[0])
         self.uncertain = np.zeros(N.shape[0], bool)
-        self.no_loop = (N.coeffs == 0).all(axis=(0, 2))  # L = 0: no crossing to certify
+        # L = 0: no crossing to certify (a sum of moduli is 0 only where all are)
+        self.no_loop = ~columnwise(np.logical_or, N.abs_coeffs != 0)
         self.rows = np.empty((0, _certify.ROW))  # brackets (see _certify.scan)
         self.arrays = (*_certify.compact(N), *_certify.compact(D))
 
@@ -512,8 +515,9 @@ class _CertifiedScan:
                     return out[:count]
                 out = np.empty((count, _certify.ROW))  # more brackets than room: once more
 
-        rows = np.concatenate(in_threads(part, n, min_per_thread=32))
-        self.rows = rows[~bad[rows[:, 0].astype(int)]]  # (a stand-in grid: no crossings)
+        self.rows = np.concatenate(in_threads(part, n, min_per_thread=32))
+        if bad.any():  # (a stand-in grid: no crossings)
+            self.rows = self.rows[~bad[self.rows[:, 0].astype(int)]]
         self.uncertain |= bad
 
     def delta_at(self, w: np.ndarray) -> np.ndarray:
