@@ -281,6 +281,56 @@ def test_compiled_evaluation_with_more_delay_terms_than_a_phasor_call():
                                            refD[2][i, 0]]), rtol=1e-12)
 
 
+def test_base_grid_points_four_at_a_time_are_the_single_points_bits():
+    """The scan evaluates its base grid four points at a time (vector operations across
+    the points, ``_certify._points4``): every column of every row the bits of the single
+    point (``_point``, itself checked against numpy above), batches of 1 to 4 points.
+    Oracle: ``_point`` on the benchmark's SEA loop (2,000 designs) and on random
+    quasi-polynomials with 5 and 4 terms (grouped phasors), frequencies over 8 decades,
+    a zero frequency and coefficients with NaN and infinities among them."""
+    from numba import njit
+
+    from seactl import _certify
+    from seactl._vecmath import v4
+    from seactl.bench.core import random_designs
+    from seactl.blockdiagram import QuasiPolynomial, padded_sum, rounding_majorant
+
+    point, points4 = _certify._point, _certify._points4
+
+    @njit(error_model="numpy")  # (the kernels' division semantics, inlined here)
+    def both_ways(P1, P4, ws, Nc, Nt, Dc, Dt, bounds):
+        for d in range(ws.shape[0]):
+            for k in range(4):
+                point(P1, 4 * d + k, ws[d, k], Nc, Nt, Dc, Dt, bounds, d)
+            count = 1 + d % 4  # (a batch of 1 to 4 points, the spare lanes repeating one)
+            w = v4(ws[d, 0], ws[d, min(1, count - 1)], ws[d, min(2, count - 1)],
+                   ws[d, min(3, count - 1)])
+            points4(P4, 4 * d, count, w, Nc, Nt, Dc, Dt, bounds, d)
+
+    rng = np.random.default_rng(23)
+    _, d = random_designs(2000, seed=3)
+    loop = outer_loop()
+    sea = (f.evaluate(d).flat() for f in loop.diagram.return_difference(loop.input, loop.cut))
+    n = 300
+    delays = rng.uniform(1e-3, 2e-2, (9, n))
+    delays[[0, 5]] = 0.0
+    c = rng.normal(size=(9, n, 6)) * 10.0 ** rng.uniform(-3, 3, (9, n, 1))
+    c.flat[rng.integers(0, c.size, 20)] = [np.nan, np.inf, -np.inf, 0.0] * 5
+    rand = QuasiPolynomial(c[:5], delays[:5]), QuasiPolynomial(c[5:, :, :4], delays[5:])
+    for N, D in (tuple(sea), rand):
+        m = N.shape[0]
+        tau = np.concatenate([N.delays, D.delays]).max(axis=0)
+        bounds = _certify.bound_table(rounding_majorant(padded_sum(N.abs_coeffs, D.abs_coeffs),
+                                                        tau), N.bound3_coeffs, D.bound3_coeffs)
+        ws = 10.0 ** rng.uniform(-2, 6, (m, 4))
+        ws[0, 0] = 0.0
+        P1, P4 = (np.full((4 * m, _certify._F), -1.0) for _ in range(2))
+        both_ways(P1, P4, ws, *_certify.compact(N), *_certify.compact(D), bounds)
+        filled = (np.arange(4 * m) % 4) < 1 + (np.arange(4 * m) // 4) % 4
+        np.testing.assert_array_equal(P4[filled].view(np.int64), P1[filled].view(np.int64))
+        assert (P4[~filled] == -1.0).all()
+
+
 @pytest.mark.parametrize("delay_s", [0.0, 0.01])
 def test_a_root_on_the_axis_is_never_counted_certain(delay_s):
     """Oracle: by construction Q(s) = (s^2 + 100)(s + 1) + 0 * e^{-s tau} has roots

@@ -16,7 +16,7 @@ import numpy as np
 from numba import njit
 
 from ._borrow import borrowed
-from ._vecmath import atan2_4, cis4, sqrt4
+from ._vecmath import all_within, atan2_4, atan2_v4, cis4, cis_v4, lane, splat, sqrt4, sqrt_v4, v4
 from .blockdiagram import EVAL_ROUNDING, pad_powers
 
 # Limits (documented in seactl.margins, which re-exports them).
@@ -197,6 +197,134 @@ def _point(P, i, w, Nc, Nt, Dc, Dt, bounds, d):  # pragma: no cover - compiled
     P[i, RE_G], P[i, IM_G] = g.real, g.imag
     P[i, LOG_L], P[i, RE_L], P[i, IM_L] = np.log(aN / aD), L.real, L.imag
     P[i, ARG_L] = atan2_4(L.imag, 0.0, 0.0, 0.0, L.real, 1.0, 1.0, 1.0)[0]  # (_vecmath)
+
+
+@njit(cache=True, error_model="numpy", inline="always")
+def _points4(P, i, count, w, Nc, Nt, Dc, Dt, bounds, d):  # pragma: no cover - compiled
+    """:func:`_point` at the four frequencies of the V4 ``w`` into rows ``i`` to
+    ``i + count - 1`` of ``P``, bit for bit: the same operations in the same order, four
+    lanes at once (:class:`seactl._vecmath.V4`) where they are arithmetic, lane by lane
+    where they branch (divisions, logarithms); the base grid, which knows its points
+    ahead, takes them four at a time."""
+    Nr, Ni, dNr, dNi, d2Nr, d2Ni, Dr, Di, dDr, dDi, d2Dr, d2Di = _eval_pair4(Nc, Nt, Dc, Dt, d, w)
+    aN, aD, adN, adD = _mag_v4(Nr, Ni), _mag_v4(Dr, Di), _mag_v4(dNr, dNi), _mag_v4(dDr, dDi)
+    cN, cD = _mag_v4(d2Nr, d2Ni), _mag_v4(d2Dr, d2Di)
+    adelta, addelta = _mag_v4(Nr + Dr, Ni + Di), _mag_v4(dNr + dDr, dNi + dDi)
+    ad2delta = _mag_v4(d2Nr + d2Dr, d2Ni + d2Di)
+    fNr, fNi = _cmul_v4(d2Nr, d2Ni, Nr, Ni)
+    gNr, gNi = _cmul_v4(dNr, dNi, dNr, dNi)
+    fDr, fDi = _cmul_v4(d2Dr, d2Di, Dr, Di)
+    gDr, gDi = _cmul_v4(dDr, dDi, dDr, dDi)
+    fN, fD = _mag_v4(fNr - gNr, fNi - gNi), _mag_v4(fDr - gDr, fDi - gDi)
+    major, b3N, b3D = _bounds4(bounds, d, w)
+    err = ROUNDING * major
+    margin = adelta - err
+    # (log L)' = (N' D - D' N) / (N D) and L = N / D: divided lane by lane
+    ar, ai = _cmul_v4(dNr, dNi, Dr, Di)
+    br, bi = _cmul_v4(dDr, dDi, Nr, Ni)
+    nr, ni = _cmul_v4(Nr, Ni, Dr, Di)
+    ratio = aN / aD
+    for k in range(count):
+        L = _div(complex(lane(Nr, k), lane(Ni, k)), complex(lane(Dr, k), lane(Di, k)))
+        g = _div(complex(lane(ar, k) - lane(br, k), lane(ai, k) - lane(bi, k)),
+                 complex(lane(nr, k), lane(ni, k)))
+        r = i + k
+        P[r, RE_L], P[r, IM_L], P[r, RE_G], P[r, IM_G] = L.real, L.imag, g.real, g.imag
+        P[r, LOG_L] = np.log(lane(ratio, k))
+        P[r, A_DELTA] = max(lane(margin, k), 0.0)
+    Lr = v4(P[i, RE_L], P[i + min(1, count - 1), RE_L], P[i + min(2, count - 1), RE_L],
+            P[i + min(3, count - 1), RE_L])
+    Li = v4(P[i, IM_L], P[i + min(1, count - 1), IM_L], P[i + min(2, count - 1), IM_L],
+            P[i + min(3, count - 1), IM_L])
+    arg = atan2_v4(Li, Lr)
+    for k in range(count):
+        r = i + k
+        P[r, W], P[r, ARG_L], P[r, ERR] = lane(w, k), lane(arg, k), lane(err, k)
+        P[r, CN], P[r, CD], P[r, A_DDELTA] = lane(cN, k), lane(cD, k), lane(addelta, k)
+        P[r, A_D2DELTA], P[r, F_N], P[r, F_D] = lane(ad2delta, k), lane(fN, k), lane(fD, k)
+        P[r, B3N], P[r, B3D] = lane(b3N, k), lane(b3D, k)
+        P[r, RE_N], P[r, IM_N], P[r, RE_D], P[r, IM_D] = \
+            lane(Nr, k), lane(Ni, k), lane(Dr, k), lane(Di, k)
+        P[r, A_N], P[r, A_D], P[r, A_DN], P[r, A_DD] = \
+            lane(aN, k), lane(aD, k), lane(adN, k), lane(adD, k)
+
+
+@njit(cache=True, inline="always")
+def _eval_pair4(Nc, Nt, Dc, Dt, d, w):  # pragma: no cover - compiled
+    """:func:`_eval_pair` (order 2, all of ``D``) at the V4 ``w``, its terms grouped as
+    there (the sums' order, hence their bits): real and imaginary parts of ``N``,
+    ``N'``, ``N''``, then ``D``'s."""
+    kn, kd = Nc.shape[0], Dc.shape[0]
+    if kn + kd <= 4:
+        return _terms4(Nc, Nt, 0, kn, d, w) + _terms4(Dc, Dt, 0, kd, d, w)
+    z = splat(0.0)
+    Nr = Ni = dNr = dNi = d2Nr = d2Ni = Dr = Di = dDr = dDi = d2Dr = d2Di = z
+    for k0 in range(0, kn + kd, 4):
+        a = _terms4(Nc, Nt, k0, min(kn, k0 + 4), d, w)
+        Nr, Ni, dNr, dNi, d2Nr, d2Ni = Nr + a[0], Ni + a[1], dNr + a[2], dNi + a[3], \
+            d2Nr + a[4], d2Ni + a[5]
+        b = _terms4(Dc, Dt, max(kn, k0) - kn, min(kn + kd, k0 + 4) - kn, d, w)
+        Dr, Di, dDr, dDi, d2Dr, d2Di = Dr + b[0], Di + b[1], dDr + b[2], dDi + b[3], \
+            d2Dr + b[4], d2Di + b[5]
+    return Nr, Ni, dNr, dNi, d2Nr, d2Ni, Dr, Di, dDr, dDi, d2Dr, d2Di
+
+
+@njit(cache=True, inline="always")
+def _terms4(coeffs, delays, lo, hi, d, w):  # pragma: no cover - compiled
+    """:func:`_terms` (order 2) at the V4 ``w``: ``Re, Im`` of ``Q``, ``dQ/dw``,
+    ``d^2 Q/dw^2``."""
+    z = splat(0.0)
+    qr = qi = d1r = d1i = d2r = d2i = z
+    for k in range(lo, hi):
+        tau = delays[k, d]
+        er, ei = splat(1.0), z
+        if tau != 0:
+            c, s = cis_v4(w * tau)
+            er, ei = c, -s
+        pr, pi_ = splat(coeffs[k, d, 0]), z
+        dpr = dpi = d2pr = d2pi = z
+        for j in range(1, coeffs.shape[2]):
+            d2pr, d2pi = -d2pi * w + 2 * dpr, d2pr * w + 2 * dpi
+            dpr, dpi = -dpi * w + pr, dpr * w + pi_
+            pr, pi_ = -pi_ * w + coeffs[k, d, j], pr * w
+        qr += pr * er - pi_ * ei
+        qi += pr * ei + pi_ * er
+        ar, ai = dpr - tau * pr, dpi - tau * pi_
+        d1r += ar * er - ai * ei
+        d1i += ar * ei + ai * er
+        br = d2pr - 2 * tau * dpr + tau * tau * pr
+        bi = d2pi - 2 * tau * dpi + tau * tau * pi_
+        d2r += br * er - bi * ei
+        d2i += br * ei + bi * er
+    return qr, qi, -d1i, d1r, -d2r, -d2i
+
+
+@njit(cache=True, inline="always")
+def _bounds4(B, d, w):  # pragma: no cover - compiled
+    """:func:`_bounds` at the V4 ``w``."""
+    a0, a1, a2 = splat(B[d, 0, 0]), splat(B[d, 1, 0]), splat(B[d, 2, 0])
+    for j in range(1, B.shape[2]):
+        a0 = a0 * w + B[d, 0, j]
+        a1 = a1 * w + B[d, 1, j]
+        a2 = a2 * w + B[d, 2, j]
+    return a0, a1, a2
+
+
+@njit(cache=True, inline="always")
+def _cmul_v4(ar, ai, br, bi):  # pragma: no cover - compiled
+    """numba's complex product (CPython's) of V4 parts."""
+    return ar * br - ai * bi, ar * bi + ai * br
+
+
+@njit(cache=True, inline="always")
+def _mag_v4(re, im):  # pragma: no cover - compiled
+    """:func:`_mag` lane by lane; the square roots in one instruction where every sum of
+    squares is safe (:func:`_mag4`'s range, so :func:`_mag`'s bits)."""
+    s = re * re + im * im
+    if all_within(s, 1e-290, 1e290):
+        return sqrt_v4(s)
+    return v4(_mag(complex(lane(re, 0), lane(im, 0))), _mag(complex(lane(re, 1), lane(im, 1))),
+              _mag(complex(lane(re, 2), lane(im, 2))), _mag(complex(lane(re, 3), lane(im, 3))))
 
 
 @njit(cache=True, error_model="numpy")
@@ -520,22 +648,25 @@ def scan(Nc, Nt, Dc, Dt, bounds, w_lo, per_decade, step, top, stability_only,
     room).  Needs ``0 < w_lo < top < inf`` and ``step > 0``.
     """
     cap = MAX_EVALUATIONS + 2 * MAX_BISECTIONS + 2
-    P = np.empty((cap, _F))          # points of the current interval stack
+    P = np.empty((cap + 4, _F))      # the interval stack's points (rows 1-4: a batch)
     stack = np.empty((MAX_BISECTIONS + 2, 3), np.int64)  # (left, right, depth)
     return _scan(Nc, Nt, Dc, Dt, bounds, w_lo, per_decade, step, top, stability_only,
-                 no_loop, winding, uncertain, out, d0, d1, P, stack, decade_powers(per_decade))
+                 no_loop, winding, uncertain, out, d0, d1, P, stack, decade_powers(per_decade),
+                 np.empty(4))
 
 
 @njit(cache=True, nogil=True, error_model="numpy")
 def _scan(Nc, Nt, Dc, Dt, bounds, w_lo, per_decade, step, top, stability_only,
-          no_loop, winding, uncertain, out, d0, d1, P, stack, powers):  # pragma: no cover
-    """:func:`scan` with its work arrays ``P`` and ``stack``; every array borrowed
-    (:mod:`seactl._borrow`: 20 % of the scan was reference counting)."""
+          no_loop, winding, uncertain, out, d0, d1, P, stack, powers, ws):  # pragma: no cover
+    """:func:`scan` with its work arrays ``P``, ``stack`` and ``ws``; every array borrowed
+    (:mod:`seactl._borrow`: 20 % of the scan was reference counting).  The base grid's
+    points are evaluated four at a time (:func:`_points4`) into rows 1 to 4 of ``P``."""
     Nc, Nt, Dc, Dt, bounds = borrowed(Nc), borrowed(Nt), borrowed(Dc), borrowed(Dt), \
         borrowed(bounds)
     w_lo, step, top, no_loop = borrowed(w_lo), borrowed(step), borrowed(top), borrowed(no_loop)
     winding, uncertain, out = borrowed(winding), borrowed(uncertain), borrowed(out)
-    P, stack, powers = borrowed(P), borrowed(stack), borrowed(powers)
+    P, stack, powers, ws = borrowed(P), borrowed(stack), borrowed(powers), borrowed(ws)
+    batch = 1
     nout = 0
     for d in range(w_lo.size):
         if not d0 <= d < d1:  # (a loop from 0 keeps d provably >= 0: indexing twice as fast)
@@ -544,12 +675,25 @@ def _scan(Nc, Nt, Dc, Dt, bounds, w_lo, per_decade, step, top, stability_only,
         _point(P, 0, 0.0, Nc, Nt, Dc, Dt, bounds, d)
         winding[d] -= _delta_arg(P, 0)   # (plus 2 pi per cut crossing, plus the last arg)
         k, base, m, w = 0, 0.0, 0, 0.0
+        filled = used = 0
         while w < top[d]:
-            w, k, base, m = grid_point(w_lo[d], per_decade, powers, step[d], top[d], k, base, m)
-            # the base interval is [point 0, point 1]; its bisection points from row 2 on
-            _point(P, 1, w, Nc, Nt, Dc, Dt, bounds, d)
-            stack[0, 0], stack[0, 1], stack[0, 2] = 0, 1, 0
-            sp, free = 1, 2
+            if used == filled:  # the next (up to) four points of the base grid
+                filled, used, x = 0, 0, w
+                while filled < 4 and x < top[d]:
+                    x, k, base, m = grid_point(w_lo[d], per_decade, powers, step[d], top[d],
+                                               k, base, m)
+                    ws[filled] = x
+                    filled += 1
+                for j in range(filled, 4):  # (spare lanes: a copy of the last point)
+                    ws[j] = x
+                _points4(P, batch, filled, v4(ws[0], ws[1], ws[2], ws[3]), Nc, Nt, Dc, Dt,
+                         bounds, d)
+            # the base interval is [point 0, a batch row]; its bisection points from row 5
+            right = batch + used
+            used += 1
+            w = P[right, W]
+            stack[0, 0], stack[0, 1], stack[0, 2] = 0, right, 0
+            sp, free = 1, 5
             while sp > 0:
                 sp -= 1
                 ia, ib, depth = stack[sp, 0], stack[sp, 1], stack[sp, 2]
@@ -576,7 +720,7 @@ def _scan(Nc, Nt, Dc, Dt, bounds, w_lo, per_decade, step, top, stability_only,
                     nout = _brackets(out, nout, d, P, ia, ib, gain, gain_ok, GAIN)
                     nout = _brackets(out, nout, d, P, ia, ib, phase, phase_ok, PHASE)
             for c in range(_F):  # (a row copy, no view: see _certified)
-                P[0, c] = P[1, c]
+                P[0, c] = P[right, c]
         winding[d] += _delta_arg(P, 0)
     return nout
 

@@ -38,12 +38,13 @@ from __future__ import annotations
 
 import ctypes
 import ctypes.util
+import operator
 
 import llvmlite.binding as llvm
 from llvmlite import ir
 from numba import types
 from numba.core import cgutils
-from numba.extending import intrinsic
+from numba.extending import intrinsic, models, overload, register_model
 
 # name: (libmvec's AVX2 symbol, the scalar function, number of arguments)
 _FUNCTIONS = {"cos": ("_ZGVdN4v_cos", "llvm.cos.f64", 1),
@@ -118,6 +119,12 @@ def _call4(context, builder, name: str, args: list) -> list:
     return _call_vector(builder, symbol, [_vector(builder, values) for values in args])
 
 
+def _call_v4(context, builder, name: str, vectors: list) -> ir.Value:
+    """:func:`_call4` of ``<4 x double>`` arguments, as one."""
+    return _vector(builder, _call4(context, builder, name,
+                                   [_lanes(builder, v) for v in vectors]))
+
+
 _F8 = types.float64
 
 
@@ -150,3 +157,145 @@ def sqrt4(typingctx, x0, x1, x2, x3):  # pragma: no cover - compiled
         return context.make_tuple(builder, sig.return_type, out)
 
     return types.UniTuple(_F8, 4)(_F8, _F8, _F8, _F8), codegen
+
+
+# ------------------------------------------------------------------ four lanes as a value
+# numba keeps tuples of four doubles as four scalars (and its SLP vectorizer is off), so a
+# chain of operations on them stays scalar; a value of type V4 is one ``<4 x double>``:
+# the scan's points that are known ahead (its base grid) are evaluated four at a time.
+
+class V4Type(types.Type):
+    """Four doubles in one vector register (``<4 x double>``); arithmetic with ``+``,
+    ``-`` (also unary), ``*`` and ``/``, with V4 or float operands (a float stands for four
+    copies): lane by lane the scalar operations' bits."""
+
+    def __init__(self):
+        super().__init__(name="V4")
+
+
+V4 = V4Type()
+
+
+@register_model(V4Type)
+class _V4Model(models.PrimitiveModel):
+    def __init__(self, dmm, fe_type):
+        super().__init__(dmm, fe_type, _V4)
+
+
+@intrinsic
+def v4(typingctx, x0, x1, x2, x3):  # pragma: no cover - compiled
+    """The V4 of four floats."""
+    def codegen(context, builder, sig, args):
+        return _vector(builder, args)
+
+    return V4(_F8, _F8, _F8, _F8), codegen
+
+
+@intrinsic
+def splat(typingctx, x):  # pragma: no cover - compiled
+    """The V4 of four copies of ``x``."""
+    def codegen(context, builder, sig, args):
+        return _vector(builder, [args[0]] * 4)
+
+    return V4(_F8), codegen
+
+
+@intrinsic
+def lane(typingctx, v, i):  # pragma: no cover - compiled
+    """Lane ``i`` of a V4."""
+    def codegen(context, builder, sig, args):
+        return builder.extract_element(args[0], args[1])
+
+    return _F8(V4, types.intp), codegen
+
+
+@intrinsic
+def sqrt_v4(typingctx, v):  # pragma: no cover - compiled
+    """:func:`sqrt4` of a V4."""
+    def codegen(context, builder, sig, args):
+        fn = cgutils.get_or_insert_function(builder.module, ir.FunctionType(_V4, [_V4]),
+                                            "llvm.sqrt.v4f64")
+        return builder.call(fn, args)
+
+    return V4(V4), codegen
+
+
+@intrinsic
+def cis_v4(typingctx, v):  # pragma: no cover - compiled
+    """``(cos v, sin v)`` of a V4 (:func:`cis4`'s functions)."""
+    def codegen(context, builder, sig, args):
+        return context.make_tuple(builder, sig.return_type,
+                                  [_call_v4(context, builder, "cos", args),
+                                   _call_v4(context, builder, "sin", args)])
+
+    return types.UniTuple(V4, 2)(V4), codegen
+
+
+@intrinsic
+def atan2_v4(typingctx, y, x):  # pragma: no cover - compiled
+    """:func:`atan2_4` of two V4s."""
+    def codegen(context, builder, sig, args):
+        return _call_v4(context, builder, "atan2", args)
+
+    return V4(V4, V4), codegen
+
+
+@intrinsic
+def all_within(typingctx, v, lo, hi):  # pragma: no cover - compiled
+    """Every lane of ``v`` strictly between ``lo`` and ``hi`` (false for NaN)."""
+    def codegen(context, builder, sig, args):
+        ok = None
+        for x in _lanes(builder, args[0]):
+            inside = builder.and_(builder.fcmp_ordered(">", x, args[1]),
+                                  builder.fcmp_ordered("<", x, args[2]))
+            ok = inside if ok is None else builder.and_(ok, inside)
+        return ok
+
+    return types.boolean(V4, _F8, _F8), codegen
+
+
+def _binary(op: str):
+    @intrinsic
+    def vector_op(typingctx, a, b):  # pragma: no cover - compiled
+        def codegen(context, builder, sig, args):
+            return getattr(builder, op)(args[0], args[1])
+
+        return V4(V4, V4), codegen
+
+    return vector_op
+
+
+def _operator(fn, vector_op) -> None:
+    @overload(fn, inline="always")
+    def impl(a, b):
+        scalar = (types.Float, types.Integer)
+        if isinstance(a, V4Type) and isinstance(b, V4Type):
+            return lambda a, b: vector_op(a, b)
+        if isinstance(a, V4Type) and isinstance(b, scalar):
+            return lambda a, b: vector_op(a, splat(float(b)))
+        if isinstance(a, scalar) and isinstance(b, V4Type):
+            return lambda a, b: vector_op(splat(float(a)), b)
+        return None
+
+
+for _fns, _op in (((operator.add, operator.iadd), "fadd"),
+                  ((operator.sub, operator.isub), "fsub"),
+                  ((operator.mul, operator.imul), "fmul"),
+                  ((operator.truediv, operator.itruediv), "fdiv")):
+    for _fn in _fns:
+        _operator(_fn, _binary(_op))
+
+
+@intrinsic
+def _negate(typingctx, v):  # pragma: no cover - compiled
+    def codegen(context, builder, sig, args):
+        return builder.fneg(args[0])  # (a sign flip, -0 of +0, as the scalar minus)
+
+    return V4(V4), codegen
+
+
+@overload(operator.neg, inline="always")
+def _neg(v):
+    if isinstance(v, V4Type):
+        return lambda v: _negate(v)
+    return None
