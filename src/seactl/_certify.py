@@ -17,7 +17,7 @@ from numba import njit
 
 from ._borrow import borrowed
 from ._vecmath import all_within, atan2_4, atan2_v4, cis4, cis_v4, lane, splat, sqrt4, sqrt_v4, v4
-from .blockdiagram import EVAL_ROUNDING, pad_powers
+from .blockdiagram import EVAL_ROUNDING
 
 # Limits (documented in seactl.margins, which re-exports them).
 MAX_BISECTIONS = 48
@@ -130,8 +130,12 @@ def bound_table(major: np.ndarray, b3N: np.ndarray, b3D: np.ndarray) -> np.ndarr
     majorant of ``N`` and ``D`` together (:func:`seactl.blockdiagram.rounding_majorant`)
     and the third-derivative bounds of ``N`` and of ``D``
     (:attr:`~seactl.blockdiagram.QuasiPolynomial.bound3_coeffs`), all ascending."""
-    n = max(x.shape[-1] for x in (major, b3N, b3D))
-    return descending(np.stack([pad_powers(x, n) for x in (major, b3N, b3D)], axis=1))
+    parts = (major, b3N, b3D)
+    n = max(x.shape[-1] for x in parts)
+    out = np.zeros((major.shape[0], 3, n))  # (one pass per part, no padded copies)
+    for i, x in enumerate(parts):
+        out[:, i, n - x.shape[-1]:] = x[:, ::-1]
+    return out
 
 
 def descending(c: np.ndarray) -> np.ndarray:

@@ -662,11 +662,13 @@ class QuasiForm:
             keys.insert(0, ())
             groups[()] = np.zeros((1,) + shape)
         n1 = max(g.shape[0] for g in groups.values())
-        coeffs = np.stack([_polyadd(groups[k], np.zeros((n1,) + shape)) for k in keys])
+        coeffs = np.zeros((len(keys),) + shape + (n1,))  # (terms, designs, powers)
+        for i, k in enumerate(keys):  # (+ 0: no -0 coefficients, as a sum always gave)
+            np.add(np.moveaxis(groups[k], 0, -1), 0.0, out=coeffs[i, ..., :groups[k].shape[0]])
         delays = np.stack([np.broadcast_to(sum((np.asarray(getattr(design, d), float)
                                                 for d in k), np.zeros(shape)), shape)
                            for k in keys])
-        return QuasiPolynomial(np.ascontiguousarray(np.moveaxis(coeffs, 1, -1)), delays)
+        return QuasiPolynomial(coeffs, delays)
 
 
 def evaluate_forms(forms: Sequence[QuasiForm], design: Any) -> tuple[QuasiPolynomial, ...]:
@@ -750,7 +752,8 @@ def rounding_majorant(abs_coeffs: np.ndarray, tau_max: np.ndarray) -> np.ndarray
 def padded_sum(a: np.ndarray, b: np.ndarray, axis: int = -1) -> np.ndarray:
     """Sum of two coefficient arrays (ascending powers along ``axis``) of different lengths."""
     n = max(a.shape[axis], b.shape[axis])
-    return pad_powers(a, n, axis) + pad_powers(b, n, axis)
+    return (a if a.shape[axis] == n else pad_powers(a, n, axis)) + \
+        (b if b.shape[axis] == n else pad_powers(b, n, axis))
 
 
 @lru_cache(maxsize=64)
