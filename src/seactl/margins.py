@@ -536,11 +536,14 @@ class _CertifiedScan:
         rows = self.rows[(k == code) | (k == code + _certify.TOUCH)]
         b, x = rows[:, 0].astype(int), np.empty(len(rows))
         touch = rows[:, 1] != code  # (a point: its frequency is the touch)
-        x[touch] = np.log(rows[touch, 2])
-        brackets, xb = rows[~touch], np.empty(int((~touch).sum()))
+        brackets, xb = rows, x  # (the usual case, no touch: no copies)
+        if touch.any():
+            x[touch] = np.log(rows[touch, 2])
+            brackets, xb = rows[~touch], np.empty(int((~touch).sum()))
         in_threads(lambda k: _certify.refine(*self.arrays, brackets[k], _TOL["xatol"],
                                              _TOL["xrtol"], xb[k]), len(xb), min_per_thread=256)
-        x[~touch] = xb
+        if xb is not x:
+            x[~touch] = xb
         failed = np.nonzero(np.isnan(x))[0]
         if failed.size:
             x[failed] = _rebracket(_crossing_fn(self.loop_at, kind), b[failed],
