@@ -129,7 +129,8 @@ def check_range(name: str, value: float, kind: str) -> float:
 
 # ------------------------------------------------------------------ estimates
 BYTES_PER_DESIGN = 27e3
-"""Peak memory of one design's gains and margins (measured in the sweep: 27 kB/point)."""
+"""Peak memory of one design's gains and margins, an upper bound for refusing work up
+front (measured in the sweep: 27 kB/point when it was set, 5.3 kB/point on 2026-11-26)."""
 SIM_SECONDS_PER_STEP = 40e-6
 """Time of one simulation step, plus :data:`SIM_SECONDS_PER_DESIGN_STEP` per design
 (measured: 26-46 us per step for one design, 2 us per extra design; rounded up)."""

@@ -103,8 +103,8 @@ class SweepSpec:
     seed : int
         Seed of the sampling modes (chunk ``i`` draws from ``(seed, i)``).
     chunk_size : int
-        Points per chunk (bounds memory: about 27 kB per point at peak, i.e.
-        about 130 MB of arrays per worker for the default 5000).
+        Points per chunk (bounds memory: about 5 kB of arrays per point at peak, i.e.
+        about 27 MB per chunk for the default 5000, measured by ``seactl bench``).
     z_freqs_hz : tuple of float
         Frequencies [Hz] at which to report the impedance magnitude ``|Z|``.
     """

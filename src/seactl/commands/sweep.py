@@ -116,7 +116,7 @@ def _spec_from_options(opts: dict[str, Any], *, actuator: str, sampling: str, n_
 @click.option("--seed", type=click.IntRange(min=0), default=0, show_default=True,
               help="Sampling seed (an integer >= 0).")
 @click.option("--chunk-size", type=int, default=5_000, show_default=True,
-              help="Points per chunk (one Parquet file each; about 27 kB per point at peak).")
+              help="Points per chunk (one Parquet file each; about 5 kB per point at peak).")
 @click.option("--unc-points", type=click.IntRange(2, 101), default=3, show_default=True,
               help="Grid values per P% actuator uncertainty.")
 @click.option("--z-freq", multiple=True,
