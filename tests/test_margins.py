@@ -350,6 +350,47 @@ def test_a_root_on_the_axis_is_never_counted_certain(delay_s):
     assert certain[0] and Z[0] == 0
 
 
+def test_the_root_count_takes_its_tail_where_the_scan_ends():
+    """Stepan's count adds the winding of ``Delta`` up to where the scan's grid ends and
+    the tail beyond it; the grid ends at the Cauchy radius ``R`` or, where the frequency
+    scale puts its start a decade above ``R``, further out (the tail was taken at ``R``
+    all the same, which counted the turn between the two twice: 405 of 30,000 such counts
+    came out uncertain).  Oracles: for ``s^2 + 0.0488 s + 15.7 + 5.42 e^{-0.0437 s}``, the
+    winding of ``Delta`` unwrapped by numpy on 4 million points up to ``1e4 R`` (two roots
+    right of the axis); for 400 random quasi-polynomials with lightly damped or unstable
+    pairs and up to four delays, the count whose grid ends at ``R`` itself."""
+    from seactl.blockdiagram import QuasiPolynomial
+    from seactl.margins import cauchy_bound, count_right_roots
+
+    c = np.array([[[15.70403196, 0.04881618, 1.0]], [[5.42092207, 0.0, 0.0]]])
+    q = QuasiPolynomial(c, np.array([[0.0], [0.04370939237311953]]))
+    R = cauchy_bound(q)[0]
+    w = np.linspace(0.0, 1e4 * R, 4_000_001)
+    phase = np.unwrap(np.angle(q(1j * w[None, :])[0]))
+    tail = -np.angle(q(1j * w[None, -1:])[0, 0] / (1j * w[-1]) ** 2)
+    assert round(1.0 - (phase[-1] - phase[0] + tail) / np.pi) == 2
+    for scale in (1.0, 100.0, 1000.0):
+        Z, certain = count_right_roots(q, np.array([scale * R]))
+        assert certain[0] and Z[0] == 2, scale
+
+    rng = np.random.default_rng(7)
+    n, deg = 400, 4
+    c = np.zeros((4, n, deg + 1))
+    for i in range(n):
+        wn, zeta = 10 ** rng.uniform(-1, 1), 10 ** rng.uniform(-3, 0) * rng.choice([1, -1])
+        pair = [1, 2 * zeta * wn, wn * wn]
+        c[0, i] = np.polymul(pair, np.poly(-10 ** rng.uniform(-2, 1, 2)))[::-1]
+    c[1:, :, :deg] = rng.normal(size=(3, n, deg)) * 10 ** rng.uniform(-2, 0.5, (3, n, deg))
+    q = QuasiPolynomial(c, np.r_[np.zeros((1, n)), rng.uniform(0, 0.3, (3, n))])
+    R = cauchy_bound(q)
+    Z_ref, certain_ref = count_right_roots(q, R)  # (the grid from 0.01 R ends at R)
+    assert certain_ref.sum() > 350 and Z_ref.max() >= 2
+    for f in (1.02, 1.3, 5.0):  # the grid's end f R beyond the radius
+        Z, certain = count_right_roots(q, 10 * f * R)
+        np.testing.assert_array_equal(certain[certain_ref], True)
+        np.testing.assert_array_equal(Z[certain_ref], Z_ref[certain_ref])
+
+
 @pytest.mark.parametrize("fn,ms", [
     # |L| near 1: the phase dips 0.5-2.3 deg below -180 between crossings 3-6 Hz apart
     (23.952, (0.9177, np.array([13.05, 13.1, 13.2, 13.3, 13.5]), 1.3246, 50.0, 100.0)),

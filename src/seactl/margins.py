@@ -489,6 +489,7 @@ class _CertifiedScan:
         # L = 0: no crossing to certify (a sum of moduli is 0 only where all are)
         self.no_loop = ~columnwise(np.logical_or, N.abs_coeffs != 0)
         self.rows = np.empty((0, _certify.ROW))  # brackets (see _certify.scan)
+        self.top = np.full(N.shape[0], np.nan)  # where each design's scan ends
         self.arrays = (*_certify.compact(N), *_certify.compact(D))
 
     def run(self, w_ref: np.ndarray, tau_max: np.ndarray, top: np.ndarray) -> None:
@@ -502,6 +503,7 @@ class _CertifiedScan:
         # (no finite grid: not scanned, and uncertain)
         bad = ~((0 < w_lo) & (w_lo < top) & (top < np.inf) & (step > 0))
         w_lo[bad], step[bad], top[bad] = 1.0, np.inf, 10.0
+        self.top = top  # (where the scan ends: Stepan's tail is taken there)
         args = (*self.arrays, _certify.bound_table(major, self.N.bound3_coeffs,
                                                    self.D.bound3_coeffs),
                 w_lo, PER_DECADE, step, top, self.stability_only, self.no_loop)
@@ -602,7 +604,9 @@ def certified_margins(loop: Transfer, design: Any, w_ref: np.ndarray | float, *,
        are bisected until the bound resolves it.
     4. **Beyond R** (taken 1 % beyond the tightest radius, so the dominance does not hang
        on rounding) the leading term of ``Delta`` outweighs all others, so ``arg Delta(jw)``
-       changes from ``R`` to infinity by exactly ``-arg(Delta(jR) / (a_n (jR)^n))``; and
+       changes from ``R`` to infinity by exactly ``-arg(Delta(jR) / (a_n (jR)^n))``, and so
+       from any point beyond ``R`` (the scan's grid ends at ``R`` or, where that is
+       further out, a decade above its start: the tail is taken where it ends); and
        ``L`` stays off the unit circle and off the band's phase crossovers
        (:func:`_scan_radius`): ``|L| < 0.05`` for a strictly proper loop, ``|L| > 20``
        for an improper one, ``|L - L_inf| < eps`` for a biproper one (``L_inf`` the ratio
@@ -648,7 +652,7 @@ def certified_margins(loop: Transfer, design: Any, w_ref: np.ndarray | float, *,
                                    lambda top: _base_grid_count(w_ref, tau_max, top))
     scan = _CertifiedScan(N, D, stability_only)
     scan.run(w_ref, tau_max, top)
-    Z, uncertain = _stepan_count(delta, top, scan)
+    Z, uncertain = _stepan_count(delta, scan)
     Z = np.maximum(Z, 1 * (uncertain & (Z == 0)))
     stable = (Z == 0) & ~uncertain & ~scan.uncertain & ~unresolved
     if stability_only:
@@ -656,13 +660,15 @@ def certified_margins(loop: Transfer, design: Any, w_ref: np.ndarray | float, *,
     return _assemble(shape, stable, Z, scan.solve("gain"), scan.solve("phase"), scan.loop_at)
 
 
-def _stepan_count(delta: QuasiPolynomial, top: np.ndarray, scan: _CertifiedScan
+def _stepan_count(delta: QuasiPolynomial, scan: _CertifiedScan
                   ) -> tuple[np.ndarray, np.ndarray]:
-    """Right-half-plane roots from the winding of ``Delta`` on ``[0, top]`` (``scan``'s)
-    plus the tail beyond ``top`` (step 5 of :func:`certified_margins`), ``Delta(j top)``
-    from the scan's compiled evaluation (:meth:`_CertifiedScan.delta_at`: a seventh of
-    the time of numpy's)."""
-    n = delta.degree
+    """Right-half-plane roots from the winding of ``Delta`` on ``[0, top]`` plus the tail
+    beyond ``top`` (step 5 of :func:`certified_margins`), ``top`` where the scan ended:
+    the Cauchy radius, or a decade above the grid's start where that is further out (the
+    tail taken at the radius then counted the turn between the two twice, up to a root's
+    worth); ``Delta(j top)`` from the scan's compiled evaluation
+    (:meth:`_CertifiedScan.delta_at`: a seventh of the time of numpy's)."""
+    n, top = delta.degree, scan.top
     rows = np.arange(n.size)
     lead = delta.coeffs[0, rows, n]
     tail = -np.angle(scan.delta_at(top) / (lead * (1j * top) ** n))
@@ -789,7 +795,7 @@ def count_right_roots(q: QuasiPolynomial, w_ref: np.ndarray) -> tuple[np.ndarray
     scan = _CertifiedScan(q, zero, stability_only=True)
     top = cauchy_bound(q)
     scan.run(np.asarray(w_ref, float), q.delays.max(axis=0), top)
-    Z, odd = _stepan_count(q, top, scan)
+    Z, odd = _stepan_count(q, scan)
     return Z, ~odd & ~scan.uncertain
 
 
