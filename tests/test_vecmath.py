@@ -1,4 +1,4 @@
-"""The margin kernel's four-lane functions (seactl._vecmath: cis4, atan2_4, sqrt4).
+"""The margin kernel's four-lane functions (seactl._vecmath: cis4, atan2_4, V4 and its sqrt).
 
 Oracle: mpmath's sine, cosine and arctangent at 120 bits; for the square root, the scalar
 one (both correctly rounded).  The bound asserted, 4 ulps, is
@@ -16,7 +16,17 @@ import pytest
 from numba import njit
 
 from seactl._certify import _mag, _mag4
-from seactl._vecmath import all_within, atan2_4, atan2_v4, cis4, cis_v4, lane, sqrt4, sqrt_v4, v4
+from seactl._vecmath import (
+    all_within,
+    atan2_4,
+    atan2_v4,
+    cis4,
+    cis_v4,
+    lane,
+    sqrt_v4,
+    v4,
+    with_lane,
+)
 
 
 @njit
@@ -106,7 +116,8 @@ def test_special_values():
 def _sqrt_all(x):
     out = np.empty(x.size)
     for i in range(0, x.size, 4):
-        out[i], out[i + 1], out[i + 2], out[i + 3] = sqrt4(x[i], x[i + 1], x[i + 2], x[i + 3])
+        r = sqrt_v4(v4(x[i], x[i + 1], x[i + 2], x[i + 3]))
+        out[i], out[i + 1], out[i + 2], out[i + 3] = lane(r, 0), lane(r, 1), lane(r, 2), lane(r, 3)
     return out
 
 
@@ -123,7 +134,7 @@ def _moduli(z):
 
 
 def test_four_square_roots_are_the_scalar_ones():
-    """sqrt4 is IEEE's correctly rounded square root: numpy's bits over forty decades,
+    """sqrt_v4 is IEEE's correctly rounded square root: numpy's bits over forty decades,
     with 0, -0, infinities, NaN and a negative number."""
     rng = np.random.default_rng(3)
     x = np.concatenate([10.0 ** rng.uniform(-300, 300, 3992),
@@ -154,14 +165,14 @@ def test_four_moduli_are_the_scalar_ones():
 @njit
 def _v4_ops(a, b):
     """Each V4 operation over 4-lane slices of ``a`` and ``b``, back to arrays."""
-    out = np.empty((9, a.size))
+    out = np.empty((10, a.size))
     for i in range(0, a.size, 4):
         x = v4(a[i], a[i + 1], a[i + 2], a[i + 3])
         y = v4(b[i], b[i + 1], b[i + 2], b[i + 3])
         c, s = cis_v4(x)
         rows = (x + y, x - y, x * y, x / y, -x, 2.0 * x - b[i], sqrt_v4(x * x + y * y), c,
-                atan2_v4(y, x))
-        for r in range(9):
+                atan2_v4(y, x), with_lane(x, i // 4 % 4, b[i + 1]))
+        for r in range(10):
             for k in range(4):
                 out[r, i + k] = lane(rows[r], k)
     return out
@@ -172,7 +183,8 @@ def test_four_lane_values_are_the_scalar_operations_bits():
     operations gives, lane by lane, numpy's bits for the same scalar operation (the
     correctly rounded IEEE ones; the cosine and arctangent the lane functions' of
     cis4 and atan2_4); on 4,000 pairs over 600 decades with zeros of both signs, NaN,
-    infinities and subnormals; ``all_within`` is the lanes' strict bounds."""
+    infinities and subnormals; ``all_within`` is the lanes' strict bounds, ``with_lane``
+    replaces one lane and keeps the others."""
     rng = np.random.default_rng(13)
     a, b = (rng.normal(size=4000) * 10.0 ** rng.uniform(-300, 300, 4000) for _ in range(2))
     a[:8] = [0.0, -0.0, np.inf, -np.inf, np.nan, 5e-324, -5e-324, 1.0]
@@ -187,6 +199,10 @@ def test_four_lane_values_are_the_scalar_operations_bits():
         assert np.isnan(g[np.isnan(r)]).all()
     np.testing.assert_array_equal(got[7], _cis_all(a)[0])
     np.testing.assert_array_equal(got[8], _atan2_all(b, a))
+    replaced = a.copy()
+    at = np.arange(0, a.size, 4)
+    replaced[at + at // 4 % 4] = b[at + 1]
+    np.testing.assert_array_equal(got[9], replaced)
     assert [_within(np.array(x)) for x in ([1.0, 2, 3, 4], [1.0, 2, 3, 5], [0.5, 2, 3, 4],
                                            [1.5, np.nan, 3, 4])] == [True, False, False, False]
 

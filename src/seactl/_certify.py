@@ -16,7 +16,18 @@ import numpy as np
 from numba import njit
 
 from ._borrow import borrowed
-from ._vecmath import all_within, atan2_4, atan2_v4, cis4, cis_v4, lane, splat, sqrt4, sqrt_v4, v4
+from ._vecmath import (
+    all_within,
+    atan2_4,
+    atan2_v4,
+    cis4,
+    cis_v4,
+    lane,
+    splat,
+    sqrt_v4,
+    v4,
+    with_lane,
+)
 from .blockdiagram import EVAL_ROUNDING
 
 # Limits (documented in seactl.margins, which re-exports them).
@@ -228,6 +239,7 @@ def _points4(P, i, count, w, Nc, Nt, Dc, Dt, bounds, d):  # pragma: no cover - c
     br, bi = _cmul_v4(dDr, dDi, Nr, Ni)
     nr, ni = _cmul_v4(Nr, Ni, Dr, Di)
     ratio = aN / aD
+    Lr, Li = Dr, Di  # (lanes past count: any finite values)
     for k in range(count):
         L = _div(complex(lane(Nr, k), lane(Ni, k)), complex(lane(Dr, k), lane(Di, k)))
         g = _div(complex(lane(ar, k) - lane(br, k), lane(ai, k) - lane(bi, k)),
@@ -236,10 +248,7 @@ def _points4(P, i, count, w, Nc, Nt, Dc, Dt, bounds, d):  # pragma: no cover - c
         P[r, RE_L], P[r, IM_L], P[r, RE_G], P[r, IM_G] = L.real, L.imag, g.real, g.imag
         P[r, LOG_L] = np.log(lane(ratio, k))
         P[r, A_DELTA] = max(lane(margin, k), 0.0)
-    Lr = v4(P[i, RE_L], P[i + min(1, count - 1), RE_L], P[i + min(2, count - 1), RE_L],
-            P[i + min(3, count - 1), RE_L])
-    Li = v4(P[i, IM_L], P[i + min(1, count - 1), IM_L], P[i + min(2, count - 1), IM_L],
-            P[i + min(3, count - 1), IM_L])
+        Lr, Li = with_lane(Lr, k, L.real), with_lane(Li, k, L.imag)
     arg = atan2_v4(Li, Lr)
     for k in range(count):
         r = i + k
@@ -322,8 +331,10 @@ def _cmul_v4(ar, ai, br, bi):  # pragma: no cover - compiled
 
 @njit(cache=True, inline="always")
 def _mag_v4(re, im):  # pragma: no cover - compiled
-    """:func:`_mag` lane by lane; the square roots in one instruction where every sum of
-    squares is safe (:func:`_mag4`'s range, so :func:`_mag`'s bits)."""
+    """:func:`_mag` lane by lane, the square roots in one vector instruction
+    (:func:`seactl._vecmath.sqrt_v4`) where every sum of squares is safe:
+    ``1e-290 < |z|^2 < 1e290`` puts ``max(|Re|, |Im|)`` in :func:`_mag`'s range, so the
+    bits are :func:`_mag`'s (which takes the rest, NaN too)."""
     s = re * re + im * im
     if all_within(s, 1e-290, 1e290):
         return sqrt_v4(s)
@@ -339,17 +350,17 @@ def _dlog(N, dN, D, dD):  # pragma: no cover - compiled
 
 @njit(cache=True, inline="always")
 def _mag4(z0, z1, z2, z3):  # pragma: no cover - compiled
-    """:func:`_mag` of four numbers, the square roots in one vector instruction
-    (:func:`seactl._vecmath.sqrt4`; a point's eleven moduli were 3 % of the scan) where
-    every sum of squares is safe: ``1e-290 < |z|^2 < 1e290`` puts ``max(|Re|, |Im|)`` in
-    :func:`_mag`'s range, so the bits are :func:`_mag`'s (which takes the rest, NaN too)."""
+    """:func:`_mag_v4` of four complex numbers (a point's eleven moduli one at a time were
+    3 % of the scan), its range test on the four scalar sums (through :func:`_mag_v4`'s
+    vectors, the scan was 0.7 % slower)."""
     s0 = z0.real * z0.real + z0.imag * z0.imag
     s1 = z1.real * z1.real + z1.imag * z1.imag
     s2 = z2.real * z2.real + z2.imag * z2.imag
     s3 = z3.real * z3.real + z3.imag * z3.imag
     if (1e-290 < s0 < 1e290) & (1e-290 < s1 < 1e290) & (1e-290 < s2 < 1e290) & \
             (1e-290 < s3 < 1e290):
-        return sqrt4(s0, s1, s2, s3)
+        m = sqrt_v4(v4(s0, s1, s2, s3))
+        return lane(m, 0), lane(m, 1), lane(m, 2), lane(m, 3)
     return _mag(z0), _mag(z1), _mag(z2), _mag(z3)
 
 

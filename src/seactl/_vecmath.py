@@ -26,7 +26,7 @@ and the kernels are compiled for AVX2 (numba's target features, which its on-dis
 is keyed on), and as four scalar calls otherwise (other C libraries, other processors,
 ``NUMBA_CPU_NAME``): the same values to a few ulps, as between two BLAS builds.
 
-:func:`sqrt4` is LLVM's vector square root, correctly rounded like the scalar one on
+:func:`sqrt_v4` is LLVM's vector square root, correctly rounded like the scalar one on
 every target (no library): the scan's moduli four at a time.
 
 numba keys a kernel's on-disk cache on the kernel's own source file: after editing this
@@ -101,28 +101,30 @@ def _lanes(builder, v) -> list:
     return [builder.extract_element(v, ir.Constant(ir.IntType(32), i)) for i in range(4)]
 
 
-def _call_vector(builder, symbol: str, vectors: list) -> list:
-    """The lanes of ``symbol`` (a function of ``<4 x double>`` arguments) at ``vectors``."""
+def _call_vector(builder, symbol: str, vectors: list) -> ir.Value:
+    """``symbol`` (a function of ``<4 x double>`` arguments) at ``vectors``."""
     fn = cgutils.get_or_insert_function(builder.module,
                                         ir.FunctionType(_V4, [_V4] * len(vectors)), symbol)
-    return _lanes(builder, builder.call(fn, vectors))
+    return builder.call(fn, vectors)
+
+
+def _call_v4(context, builder, name: str, vectors: list) -> ir.Value:
+    """``name`` of the lanes of ``<4 x double>`` arguments: libmvec's function where the
+    kernel uses it (:func:`_vectorized`), else four scalar calls."""
+    symbol, scalar, arity = _FUNCTIONS[name]
+    if _vectorized(context, name):
+        return _call_vector(builder, symbol, vectors)
+    dbl = ir.DoubleType()
+    fn = cgutils.get_or_insert_function(builder.module, ir.FunctionType(dbl, [dbl] * arity),
+                                        scalar)
+    lanes = [_lanes(builder, v) for v in vectors]
+    return _vector(builder, [builder.call(fn, [x[i] for x in lanes]) for i in range(4)])
 
 
 def _call4(context, builder, name: str, args: list) -> list:
     """``name`` of four lanes (``args``: the arguments' four values each, in order)."""
-    dbl = ir.DoubleType()
-    symbol, scalar, arity = _FUNCTIONS[name]
-    if not _vectorized(context, name):
-        fn = cgutils.get_or_insert_function(builder.module,
-                                            ir.FunctionType(dbl, [dbl] * arity), scalar)
-        return [builder.call(fn, [a[i] for a in args]) for i in range(4)]
-    return _call_vector(builder, symbol, [_vector(builder, values) for values in args])
-
-
-def _call_v4(context, builder, name: str, vectors: list) -> ir.Value:
-    """:func:`_call4` of ``<4 x double>`` arguments, as one."""
-    return _vector(builder, _call4(context, builder, name,
-                                   [_lanes(builder, v) for v in vectors]))
+    return _lanes(builder, _call_v4(context, builder, name,
+                                    [_vector(builder, values) for values in args]))
 
 
 _F8 = types.float64
@@ -146,17 +148,6 @@ def atan2_4(typingctx, y0, y1, y2, y3, x0, x1, x2, x3):  # pragma: no cover - co
         return context.make_tuple(builder, sig.return_type, out)
 
     return types.UniTuple(_F8, 4)(*([_F8] * 8)), codegen
-
-
-@intrinsic
-def sqrt4(typingctx, x0, x1, x2, x3):  # pragma: no cover - compiled
-    """``(sqrt x0, .., sqrt x3)`` in one vector instruction (``llvm.sqrt.v4f64``):
-    correctly rounded, as the scalar square root, on every target."""
-    def codegen(context, builder, sig, args):
-        out = _call_vector(builder, "llvm.sqrt.v4f64", [_vector(builder, args)])
-        return context.make_tuple(builder, sig.return_type, out)
-
-    return types.UniTuple(_F8, 4)(_F8, _F8, _F8, _F8), codegen
 
 
 # ------------------------------------------------------------------ four lanes as a value
@@ -210,12 +201,20 @@ def lane(typingctx, v, i):  # pragma: no cover - compiled
 
 
 @intrinsic
-def sqrt_v4(typingctx, v):  # pragma: no cover - compiled
-    """:func:`sqrt4` of a V4."""
+def with_lane(typingctx, v, i, x):  # pragma: no cover - compiled
+    """``v`` with lane ``i`` replaced by ``x``."""
     def codegen(context, builder, sig, args):
-        fn = cgutils.get_or_insert_function(builder.module, ir.FunctionType(_V4, [_V4]),
-                                            "llvm.sqrt.v4f64")
-        return builder.call(fn, args)
+        return builder.insert_element(args[0], args[2], args[1])
+
+    return V4(V4, types.intp, _F8), codegen
+
+
+@intrinsic
+def sqrt_v4(typingctx, v):  # pragma: no cover - compiled
+    """The square roots of a V4's lanes in one instruction (``llvm.sqrt.v4f64``):
+    correctly rounded, as the scalar square root, on every target."""
+    def codegen(context, builder, sig, args):
+        return _call_vector(builder, "llvm.sqrt.v4f64", args)
 
     return V4(V4), codegen
 
