@@ -315,6 +315,75 @@ def test_local_cluster_gives_the_same_result(reference, cluster, tmp_path, capsy
     assert {k: printed[k] for k in ref_summary} == ref_summary  # (tables sent here)
 
 
+def _worker_state():
+    """In a worker: are the sweep's kernels in memory (a numba dispatcher of the certified
+    scan with a loaded overload), is SIGINT ignored, and its parent's pid."""
+    import os
+    import signal
+
+    cert = sys.modules.get("seactl._certify")
+    loaded = cert is not None and any(getattr(v, "overloads", None) for v in vars(cert).values())
+    return loaded, signal.getsignal(signal.SIGINT) == signal.SIG_IGN, os.getppid()
+
+
+@pytest.mark.parametrize("method", ["forkserver", "spawn"])
+def test_local_workers_start_warm_and_ignore_ctrl_c(method, reference, tmp_path,
+                                                     monkeypatch):
+    """Oracle: each worker's own state read in it before any chunk (kernels loaded,
+    SIGINT ignored, forked from the template server rather than started by this
+    process), then the in-process reference run's table.  ``spawn`` is the path of
+    platforms without a fork server, forced here."""
+    import multiprocessing
+    import os
+
+    from distributed import Client
+
+    from seactl.sweep import _local_cluster
+
+    if method not in multiprocessing.get_all_start_methods():
+        pytest.skip(f"no {method} here")
+    if method == "spawn":
+        monkeypatch.setattr(multiprocessing, "get_all_start_methods", lambda: ["spawn"])
+    cluster = _local_cluster(2)
+    try:
+        with Client(cluster) as client:
+            state = client.run(_worker_state)
+            res = run_sweep(SPEC, tmp_path / "local", client=client)
+    finally:
+        cluster.close()
+    assert len(state) == 2 and res.workers == 2
+    for loaded, ignored, parent in state.values():
+        assert loaded and ignored
+        assert (parent != os.getpid()) == (method == "forkserver")
+    assert read_sweep(tmp_path / "local").equals(reference[2])
+
+
+def test_a_failed_warm_up_is_left_to_the_first_chunk(monkeypatch):
+    """Oracle: a warm-up that raises is swallowed, not marked done, and SIGINT's handler is
+    the one before it; the workers' preload ``dask_setup`` leaves SIGINT ignored."""
+    import signal
+
+    from seactl import _sweep_worker
+
+    calls = []
+
+    def broken(*args):
+        calls.append(args)
+        raise RuntimeError("kernel cache unreadable")
+
+    monkeypatch.setattr(sys.modules["seactl.sweep"], "evaluate_chunk", broken)
+    monkeypatch.setattr(_sweep_worker, "_warm", False)
+    before = signal.getsignal(signal.SIGINT)
+    assert _sweep_worker.warm() is None
+    assert len(calls) == 1 and not _sweep_worker._warm
+    assert signal.getsignal(signal.SIGINT) is before
+    try:
+        _sweep_worker.dask_setup(None)
+        assert signal.getsignal(signal.SIGINT) == signal.SIG_IGN and len(calls) == 2
+    finally:
+        signal.signal(signal.SIGINT, before)
+
+
 def _report_peak(q):
     from seactl.sweep import _peak_rss_mb
 
