@@ -281,8 +281,9 @@ for _fns, _op in (((operator.add, operator.iadd), "fadd"),
                   ((operator.sub, operator.isub), "fsub"),
                   ((operator.mul, operator.imul), "fmul"),
                   ((operator.truediv, operator.itruediv), "fdiv")):
+    _vector_op = _binary(_op)  # (one intrinsic for ``a op b`` and ``a op= b``)
     for _fn in _fns:
-        _operator(_fn, _binary(_op))
+        _operator(_fn, _vector_op)
 
 
 @intrinsic
