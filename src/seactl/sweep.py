@@ -640,7 +640,7 @@ def _local_cluster(workers: int):
     from distributed import LocalCluster
 
     environ = _worker_environ()
-    method = _start_worker_template()
+    method = _start_worker_template(environ)
     # Ctrl-C while the cluster starts would leave it half built (tracebacks from Dask's
     # exit handler and the workers).  Spawned workers inherit an ignored SIGINT (it
     # survives exec), so there it is ignored; forked workers ignore it from the template,
@@ -681,7 +681,7 @@ def _worker_environ() -> dict[str, str]:
             if k != "MALLOC_TRIM_THRESHOLD_"}
 
 
-def _start_worker_template() -> str:
+def _start_worker_template(environ: dict[str, str]) -> str:
     """Start the template that local workers fork from, and wait until it is ready; the
     start method to give Dask.
 
@@ -697,8 +697,8 @@ def _start_worker_template() -> str:
     - a forked worker spends neither;
     - the server's own start takes about 1 s, once per process.
 
-    The server gets the workers' environment (:func:`_worker_environ`, which the nanny
-    also sets before each worker), so its BLAS starts no threads to fork.  A fork server
+    The server gets the workers' environment ``environ`` (:func:`_worker_environ`, which
+    the nanny also sets before each worker), so its BLAS starts no threads to fork.  A fork server
     already running in this process is used as it is: if other code started it without
     the template, each worker warms itself as it starts (its Dask preload,
     :func:`seactl._sweep_worker.dask_setup`)."""
@@ -713,7 +713,7 @@ def _start_worker_template() -> str:
     with dask.config.set({"distributed.worker.multiprocessing-method": "forkserver"}):
         get_mp_context()  # Dask sets its own preload list once per process: before ours
     multiprocessing.set_forkserver_preload(["seactl._sweep_template"])
-    os.environ.update(_worker_environ())
+    os.environ.update(environ)
     forkserver.ensure_running()
     # wait until it has warmed (8 ms once it has): here Ctrl-C still stops cleanly
     ready = multiprocessing.get_context("forkserver").Process(target=os.getpid)

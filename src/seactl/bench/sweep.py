@@ -10,7 +10,7 @@ Reports (target: 1e6 points in under 60 s on two cores, start-up included):
   difference [deg] between the dataset and the one-by-one results.
 * ``sweep-scaling``: the same sweep on 2 workers against 1 worker, on started workers
   (``max_error``: largest difference between the two datasets).  The workers fork from
-  a template that has loaded the sweep's modules and kernels (``seactl._sweep_worker``),
+  a template that has loaded the sweep's modules and kernels (``seactl._sweep_template``),
   started once per process; its start, and the cluster's start and close, are reported
   apart in the note, with the whole runs' speed-up.  Where the platform cannot fork
   (Windows) each worker loads them on its first chunk, about 0.55 s, inside the timing.
@@ -54,16 +54,17 @@ def bench_spec(n_points: int, chunk_size: int = 5000):
 def _template_start_s() -> float:
     """Seconds until the workers' template is started and ready to fork (a few ms once
     done in this process; :func:`seactl.sweep._start_worker_template`)."""
-    from ..sweep import _start_worker_template
+    from ..sweep import _start_worker_template, _worker_environ
 
     t0 = time.perf_counter()
-    _start_worker_template()
+    _start_worker_template(_worker_environ())
     return time.perf_counter() - t0
 
 
 def _timed_run(spec, workers: int, root: Path) -> tuple[float, float, float, object]:
     """Wall time of a whole run (LocalCluster start and close included), the start-up
-    part, and the run on the started workers alone (their imports included)."""
+    part, and the run on the started workers alone (where they spawn instead of forking
+    from the template, their imports included)."""
     from distributed import Client
 
     from ..sweep import _local_cluster, run_sweep
