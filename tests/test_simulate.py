@@ -176,14 +176,21 @@ def test_sampled_converges_to_continuous_with_effective_delay():
     assert errs[2] < 1e-4
 
 
-def test_sampled_buffers_reproduce_half_sample_rule():
-    # Oracle: n = round((T - T_s/2)/T_s) worked by hand in the comments.
+def test_sampled_buffers_never_shorten_a_delay():
+    # Oracle: n = ceil((T - T_s/2)/T_s), effective T_s/2 + n T_s, worked by hand in the
+    # comments; the effective delay is the shortest realizable one >= T.
     d = SEADesign(UT_SEA, G14, Timing.from_ms(0.5, 2.0, 1.0, 50, 100))
     r = sea_step(d, t_end_s=0.05, mode="sampled")
     eff = r.result.info["effective_delays_s"]
-    assert eff["tau_delay"] == pytest.approx(0.5e-3)   # T_s/2, no buffer
-    assert eff["Kq_fb"] == pytest.approx(1.5e-3)  # n = (2 - 0.5)/1 = 1.5 -> 1 (tie: shorter)
-    assert eff["Bq_fb"] == pytest.approx(0.5e-3)       # (1 - 0.5)/1 = 0.5 -> 0
+    assert eff["tau_delay"] == pytest.approx(0.5e-3)   # (0.5 - 0.5)/1 = 0 -> 0: exact
+    assert eff["Kq_fb"] == pytest.approx(2.5e-3)       # (2 - 0.5)/1 = 1.5 -> 2
+    assert eff["Bq_fb"] == pytest.approx(1.5e-3)       # (1 - 0.5)/1 = 0.5 -> 1
+    d = SEADesign(UT_SEA, G14, Timing.from_ms(1.0, 2.2, 1.5, 50, 100))
+    r = sea_step(d, t_end_s=0.01, mode="sampled", rate_hz=500.0)   # T_s = 2 ms
+    eff = r.result.info["effective_delays_s"]
+    assert eff["tau_delay"] == pytest.approx(1e-3)     # (1 - 1)/2 = 0 -> 0: exact
+    assert eff["Kq_fb"] == pytest.approx(3e-3)         # (2.2 - 1)/2 = 0.6 -> 1
+    assert eff["Bq_fb"] == pytest.approx(3e-3)         # (1.5 - 1)/2 = 0.25 -> 1
 
 
 def test_saturation_limits_current():
@@ -364,9 +371,9 @@ def test_generic_diagram_sine():
 
 def test_cli_step_and_impulse(tmp_path, capsys):
     # Oracle: P_CL(0) = 1 (final value), 301 samples for 0.3 s at 1 kHz, the CLI error
-    # contract.
+    # contract.  The delays are realizable at 1 kHz (T_s/2 + n T_s): sampled = requested.
     png, csvf = tmp_path / "s.png", tmp_path / "s.csv"
-    assert main(["step", "--fn", "14", "--t-tau", "1", "--t-qs", "1", "--t-qd", "1", "--f-qd",
+    assert main(["step", "--fn", "14", "--t-tau", "0.5", "--t-qs", "1.5", "--t-qd", "0.5", "--f-qd",
                  "50", "--f-taud", "100", "--gs", "2", "--mode", "sampled", "--t-end", "0.3",
                  "--plot", str(png), "--csv", str(csvf), "--json"]) == 0
     out = json.loads(capsys.readouterr().out)

@@ -394,8 +394,8 @@ def step_experiment(actuator: RigidParams = UT_LINEAR, fn_hz=(4.0, 8.0, 12.0), *
     step = float(x_to_m) - float(x_from_m)
     if step == 0 or not math.isfinite(step):
         raise InputError("step [m]", step, "a finite, nonzero displacement")
-    # the simulator maps a delay T to n = round((T - Ts/2)/Ts) samples: pass the effective
-    # delay of an n-sample buffer
+    # the paper's delays count buffer samples: pass the effective delay of that buffer,
+    # T_s/2 + n T_s (never shorter than the request), which the simulator maps back to n
     period = 1.0 / rate
     eff = np.round(dl * 1e-3 / period) * period + period / 2
     d = RigidDesign.from_fn(actuator, fn[None, :], T_s=eff[:, :1], T_d=eff[:, 1:],

@@ -51,11 +51,11 @@ Modes
     (which keeps unfiltered derivatives proper).  Sensors sample the plant at
     the tick, the actuation is computed at once and held (zero-order hold), so
     every feedback path sees ``T_s/2`` of effective delay; a block with delay
-    ``T`` reads a buffer ``n = round((T - T_s/2)/T_s)`` samples old (ties
-    to the shorter buffer, ``n >= 0``; e.g. 1 ms at 1 kHz gives 0.5 ms, at 500 Hz or
-    1.5 kHz exactly 1 ms) so that the effective delay ``T_s/2 + n T_s`` of the
-    paper reproduces ``T`` (the effective delays used are returned in
-    :attr:`SimResult.info`).  Optional: saturation of actuation signals
+    ``T`` reads a buffer ``n = max(ceil((T - T_s/2)/T_s), 0)`` samples old
+    (:func:`buffer_samples`), so that the effective delay ``T_s/2 + n T_s`` of the paper
+    is the shortest realizable one that is not shorter than ``T`` (e.g. 1 ms at 1 kHz gives
+    1.5 ms, at 500 Hz or 2 kHz exactly 1 ms); a delay is never shortened.  The effective
+    delays used are returned in :attr:`SimResult.info`.  Optional: saturation of actuation signals
     (``saturation``), quantization of sampled plant signals (``quantization``)
     and Coulomb plus viscous friction (:class:`Friction`), integrated with a
     fixed sub-step ``T_s / friction_substeps`` with the friction force held
@@ -1047,6 +1047,21 @@ def _plant_network(diagram: BlockDiagram, design: Any, shape: tuple[int, ...], n
     return _PlantNet(pnet, {s: i for i, s in enumerate(p_signals)}, actuation, p_exo, sensed)
 
 
+def buffer_samples(delay_s: Any, period_s: float) -> np.ndarray:
+    """Whole samples ``n >= 0`` a delayed signal waits so that its effective delay
+    ``T_s/2 + n T_s`` (zero-order hold plus buffer) is the shortest realizable one that is not
+    shorter than ``delay_s``: ``n = max(ceil((T - T_s/2)/T_s), 0)``.
+
+    A request within ``1e-9`` of a sample of a realizable delay counts as that delay, so
+    that ``T = 1.5 ms`` at 1 kHz is one sample, not two, despite rounding in ``T``.
+
+    >>> buffer_samples(np.array([0.0, 0.5e-3, 1e-3, 1.5e-3, 2.2e-3]), 1e-3).tolist()
+    [0, 0, 1, 1, 2]
+    """
+    T = np.asarray(delay_s, float)
+    return np.maximum(np.ceil((T - period_s / 2) / period_s - 1e-9), 0).astype(int)
+
+
 def _buffers(delayed: Sequence[Block], design: Any, shape: tuple[int, ...], n: int,
              period: Mapping[str, float], ticks: Mapping[str, int]
              ) -> tuple[dict[str, np.ndarray], dict[str, np.ndarray]]:
@@ -1055,8 +1070,7 @@ def _buffers(delayed: Sequence[Block], design: Any, shape: tuple[int, ...], n: i
     for b in delayed:
         T = _delay_attr(design, b, shape, n)
         Ts = period[b.name]
-        # nearest whole number of samples, ties to the shorter buffer
-        nb = np.maximum(np.ceil((T - Ts / 2) / Ts - 0.5 - 1e-9), 0).astype(int)
+        nb = buffer_samples(T, Ts)
         nbuf[b.name] = nb * ticks.get(b.process, 1)  # in base ticks
         eff[b.name] = (Ts / 2 + nb * Ts).reshape(shape)
     return nbuf, eff
@@ -1560,7 +1574,7 @@ def sampled_unstable_modes(plan: SampledPlan) -> np.ndarray:
     >>> from seactl.design import critically_damped_gains
     >>> from seactl.loops import SEADesign, Timing, sea_diagram
     >>> d = SEADesign(UT_SEA, critically_damped_gains(UT_SEA, np.array([30.05, 30.2])),
-    ...               Timing.from_ms(0.5, 10.53, 0.5, 50, 100))
+    ...               Timing.from_ms(0.5, 10.5, 0.5, 50, 100))
     >>> plan = compile_sampled(sea_diagram(True), d, {"q_des": Step(1.0)}, 0.1, ("q_j",))
     >>> sampled_unstable_modes(plan).tolist()
     [0, 2]

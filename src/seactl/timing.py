@@ -10,8 +10,8 @@ latencies) and may be lost (:class:`Bernoulli` independent loss,
 :class:`GilbertElliott` bursts).  The
 latency plays the role of the fixed delay ``T`` of the deterministic sampled
 mode (:mod:`seactl.simulate`): with zero-order hold the message is used
-``n = round((T - T_s/2)/T_s)`` samples after it was taken (effective delay
-``T_s/2 + n T_s``).  At each tick the receiver uses the newest message that has
+``n = max(ceil((T - T_s/2)/T_s), 0)`` samples after it was taken (effective delay
+``T_s/2 + n T_s``, never shorter than ``T``).  At each tick the receiver uses the newest message that has
 arrived (older ones arriving later are ignored) and holds the last value when
 nothing new arrived.
 
@@ -42,7 +42,7 @@ from typing import Any
 import numpy as np
 
 from .errors import InputError
-from .simulate import Impulse, SimResult, Step, simulate
+from .simulate import Impulse, SimResult, Step, buffer_samples, simulate
 from .timing_models import (  # noqa: F401  (re-exported: the models live in timing_models)
     Bernoulli,
     Constant,
@@ -64,10 +64,9 @@ SEA_LINKS: dict[str, str] = {"stiffness": "Kq_fb", "damping": "Bq_fb", "torque":
 # ----------------------------------------------------------------------------- schedules
 def buffer_ticks(latency_s: np.ndarray, period_s: float, ticks: int = 1) -> np.ndarray:
     """Whole samples a message waits (in base ticks) for latency ``latency_s``: the rule of
-    the deterministic sampled mode, ``max(round((T - T_s/2)/T_s), 0)`` ties to the shorter,
-    at the block's period ``T_s`` (``ticks`` base ticks)."""
-    nb = np.maximum(np.ceil((latency_s - period_s / 2) / period_s - 0.5 - 1e-9), 0)
-    return nb.astype(int) * ticks
+    the deterministic sampled mode (:func:`seactl.simulate.buffer_samples`, never shorter
+    than the latency) at the block's period ``T_s`` (``ticks`` base ticks)."""
+    return buffer_samples(latency_s, period_s) * ticks
 
 
 def arrival_schedule(wait_ticks: np.ndarray, lost: np.ndarray | None = None) -> np.ndarray:
