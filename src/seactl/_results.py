@@ -241,19 +241,43 @@ class ResponseResult(_Wrapped):
     right_roots : callable, optional
         Returns the simulated loop's certified count of right-half-plane roots per design
         (continuous mode; used by :meth:`verdict`).
+    links : mapping, optional
+        Loop name -> delayed block name (e.g. ``{"stiffness": "Kq_fb"}``): the keys of
+        :attr:`requested_delays_s` and :attr:`effective_delays_s` (default: block names).
 
     Examples
     --------
     >>> import seactl as sc
     >>> r = sc.design([14, 20], filters_hz=(50, 100)).step(t_end_s=0.3)
     >>> r.position.shape[0], sorted(r.to_dict())[:3]
-    (2, ['current', 'final_value', 'kind'])
+    (2, ['current', 'effective_delays_ms', 'final_value'])
     """
 
-    def __init__(self, response: Any, labels: list[str], right_roots: Any = None):
+    def __init__(self, response: Any, labels: list[str], right_roots: Any = None,
+                 links: Any = None):
         self._inner = response
         self.labels = labels
         self._right_roots = right_roots
+        self._links = dict(links) if links is not None else None
+
+    def _delays(self, key: str) -> dict[str, np.ndarray]:
+        info = self._inner.result.info.get(key, {})
+        if self._links is None:
+            return dict(info)
+        return {loop: info[block] for loop, block in self._links.items() if block in info}
+
+    @property
+    def requested_delays_s(self) -> dict[str, np.ndarray]:
+        """Per loop, the delay asked for [s] (batch shape)."""
+        return self._delays("requested_delays_s")
+
+    @property
+    def effective_delays_s(self) -> dict[str, np.ndarray]:
+        """Per loop, the delay the simulated loop has [s]: the requested one in continuous
+        mode; in sampled mode the hold's half period plus whole-sample buffers,
+        ``T_s/2 + n T_s``, the shortest realizable delay not shorter than the request.
+        """
+        return self._delays("effective_delays_s")
 
     def verdict(self, band: float | None = None) -> Any:
         """Settled, not settled, unstable, limit cycle or saturated, per design, with the
@@ -307,12 +331,17 @@ class ResponseResult(_Wrapped):
         Returns
         -------
         dict
-            ``kind``, ``mode``, ``t_s``, ``position``, ``current``, ``stable`` and the
+            ``kind``, ``mode``, ``t_s``, ``position``, ``current``,
+            ``requested_delays_ms``, ``effective_delays_ms`` (per loop), ``stable`` and the
             metrics' fields (e.g. ``overshoot_pct``).
         """
         r = self._inner
         out = {"kind": r.kind, "mode": r.result.mode, "t_s": json_array(r.t_s),
-               "position": json_array(r.position), "current": json_array(r.current)}
+               "position": json_array(r.position), "current": json_array(r.current),
+               "requested_delays_ms": {k: json_array(1e3 * np.asarray(v))
+                                       for k, v in self.requested_delays_s.items()},
+               "effective_delays_ms": {k: json_array(1e3 * np.asarray(v))
+                                       for k, v in self.effective_delays_s.items()}}
         for name, value in vars(r.metrics).items():
             out[name] = json_array(value)
         return out
