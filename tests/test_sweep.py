@@ -315,6 +315,35 @@ def test_local_cluster_gives_the_same_result(reference, cluster, tmp_path, capsy
     assert {k: printed[k] for k in ref_summary} == ref_summary  # (tables sent here)
 
 
+def test_the_parents_work_does_not_grow_with_the_chunks(cluster, tmp_path, monkeypatch):
+    """Local workers compute and write their chunks; the parent only hands them out and
+    counts.  Oracle: the calls, in this process, of the spec's identity (its JSON, which
+    the hash digests and which names every task) over a run of 2 chunks and one of 24
+    chunks of the same points: equal counts (it once cost a hash per task)."""
+    from distributed import Client
+
+    calls = []
+    as_json = SweepSpec.as_json
+    monkeypatch.setattr(SweepSpec, "as_json", lambda self: calls.append(1) or as_json(self))
+    counts = {}
+    with Client(cluster) as client:
+        for size in (12, 1):
+            spec = replace(SPEC, chunk_size=size)
+            calls.clear()
+            res = run_sweep(spec, tmp_path / f"c{size}", client=client)
+            counts[spec.n_chunks] = len(calls)
+            assert res.chunks_computed == spec.n_chunks
+    assert set(counts) == {2, 24} and counts[2] == counts[24]
+
+
+def test_a_run_reports_this_processs_cpu_time(reference):
+    # Oracle: in process (workers=0) the chunks' CPU time, measured around each chunk, is
+    # part of this process's CPU time over the run.
+    _, res, _ = reference
+    assert res.parent_cpu_seconds >= res.worker_cpu_seconds > 0
+    assert res.summary["run"]["parent_cpu_seconds"] == round(res.parent_cpu_seconds, 3)
+
+
 def _worker_state():
     """In a worker: are the sweep's kernels in memory (a numba dispatcher of the certified
     scan with a loaded overload), is SIGINT ignored, and its parent's pid."""
