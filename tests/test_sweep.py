@@ -387,6 +387,28 @@ def test_local_workers_start_warm_and_ignore_ctrl_c(method, reference, tmp_path,
     assert read_sweep(tmp_path / "local").equals(reference[2])
 
 
+@pytest.mark.parametrize("marked", [False, True])
+def test_the_template_prepares_only_the_fork_server_seactl_starts(marked):
+    """Importing ``seactl._sweep_template`` prepares the process (kernels loaded, SIGINT
+    ignored) only with the marker that ``_start_worker_template`` gives its fork server;
+    elsewhere (pytest's doctest collection) it only defines things.  Oracle: a fresh
+    interpreter's own state after the import."""
+    import os
+    import subprocess
+
+    from seactl.sweep import TEMPLATE_MARKER
+
+    code = ("import os, signal, sys, seactl._sweep_template; "
+            "print(signal.getsignal(signal.SIGINT) == signal.SIG_IGN, "
+            "'seactl._certify' in sys.modules, os.environ.get(sys.argv[1]))")
+    env = {k: v for k, v in os.environ.items() if k != TEMPLATE_MARKER}
+    if marked:
+        env[TEMPLATE_MARKER] = "1"
+    out = subprocess.run([sys.executable, "-c", code, TEMPLATE_MARKER], env=env, text=True,
+                         capture_output=True, timeout=300, check=True).stdout.split()
+    assert out == [str(marked), str(marked), "None"]
+
+
 def test_a_failed_warm_up_is_left_to_the_first_chunk(monkeypatch):
     """Oracle: a warm-up that raises is swallowed, not marked done, and SIGINT's handler is
     the one before it; the workers' preload ``dask_setup`` leaves SIGINT ignored."""

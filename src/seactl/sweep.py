@@ -62,6 +62,11 @@ from .outputs import TEMP_TAG
 
 FORMAT = "seactl-sweep/1"
 
+TEMPLATE_MARKER = "SEACTL_SWEEP_TEMPLATE"
+"""Environment variable that is ``"1"`` only while :func:`_start_worker_template` starts
+the fork server: it tells :mod:`seactl._sweep_template`, imported by that server, to
+prepare the workers' template (imported anywhere else, it only defines things)."""
+
 
 
 OUTPUTS: dict[str, str] = {
@@ -703,8 +708,9 @@ def _start_worker_template(environ: dict[str, str]) -> str:
     """Start the template that local workers fork from, and wait until it is ready; the
     start method to give Dask.
 
-    ``"forkserver"``: multiprocessing's fork server is started (once per process), and
-    imports :mod:`seactl._sweep_template`, which loads the sweep's modules and kernels.
+    ``"forkserver"``: multiprocessing's fork server is started (once per process), with
+    :data:`TEMPLATE_MARKER` in its environment, and imports :mod:`seactl._sweep_template`,
+    which then loads the sweep's modules and kernels.
     Every worker forked from it starts with them loaded.  ``"spawn"``: the platform
     has no fork server (Windows).
 
@@ -732,7 +738,11 @@ def _start_worker_template(environ: dict[str, str]) -> str:
         get_mp_context()  # Dask sets its own preload list once per process: before ours
     multiprocessing.set_forkserver_preload(["seactl._sweep_template"])
     os.environ.update(environ)
-    forkserver.ensure_running()
+    os.environ[TEMPLATE_MARKER] = "1"  # (the server copies this process's environment)
+    try:
+        forkserver.ensure_running()
+    finally:
+        os.environ.pop(TEMPLATE_MARKER, None)
     # wait until it has warmed (8 ms once it has): here Ctrl-C still stops cleanly
     ready = multiprocessing.get_context("forkserver").Process(target=os.getpid)
     ready.start()
