@@ -453,11 +453,11 @@ def write_chunk(out: Path, i: int, table: Any) -> None:
 
 
 def _chunk_done(spec: SweepSpec, out: Path, i: int) -> bool:
-    import pyarrow.parquet as pq
-
     p = part_path(out, i)
     if not p.is_file():
         return False
+    import pyarrow.parquet as pq
+
     try:
         meta = pq.read_metadata(p)
     except Exception:  # unreadable: recompute
@@ -807,8 +807,11 @@ def run_sweep(spec: SweepSpec, out: Path | str, *, resume: bool = False,
             own_client.close()
 
 
-def _run(spec: SweepSpec, out: Path, workers: int | None, client: Any, own_client: Any,
-         console: Any, _on_chunk: Callable[[int], None] | None) -> SweepResult:
+def _progress(console: Any) -> Any:
+    """The sweep's progress bar on ``console``; ``None`` without a console (rich's progress
+    is then not even imported)."""
+    if console is None:
+        return None
     from rich.progress import (
         BarColumn,
         MofNCompleteColumn,
@@ -818,21 +821,29 @@ def _run(spec: SweepSpec, out: Path, workers: int | None, client: Any, own_clien
         TimeRemainingColumn,
     )
 
+    return Progress(TextColumn("[bold]sweep"), BarColumn(), MofNCompleteColumn(),
+                    TextColumn("chunks"), TimeElapsedColumn(), TimeRemainingColumn(),
+                    console=console, transient=False)
+
+
+def _run(spec: SweepSpec, out: Path, workers: int | None, client: Any, own_client: Any,
+         console: Any, _on_chunk: Callable[[int], None] | None) -> SweepResult:
+    import contextlib
+
     todo = missing_chunks(spec, out)
     own_cluster = None
     t0, c0 = time.perf_counter(), time.process_time()
     peak = 0.0
     done = spec.n_chunks - len(todo)
     n_workers = 0
-    progress = Progress(TextColumn("[bold]sweep"), BarColumn(), MofNCompleteColumn(),
-                        TextColumn("chunks"), TimeElapsedColumn(), TimeRemainingColumn(),
-                        console=console, disable=console is None, transient=False)
+    progress = _progress(console)
     computed = points = 0
     cpu = 0.0
     parts: dict[int, dict[str, Any]] = {}
     try:
-        with progress:
-            task = progress.add_task("sweep", total=spec.n_chunks, completed=done)
+        with progress or contextlib.nullcontext():
+            if progress is not None:
+                task = progress.add_task("sweep", total=spec.n_chunks, completed=done)
 
             def finish(i: int, rows: int, part: dict[str, Any], stats: dict[str, float]
                        ) -> None:
@@ -844,7 +855,8 @@ def _run(spec: SweepSpec, out: Path, workers: int | None, client: Any, own_clien
                 points += rows
                 peak = max(peak, stats["peak_rss_mb"])
                 computed += 1
-                progress.advance(task)
+                if progress is not None:
+                    progress.advance(task)
                 if _on_chunk is not None:
                     _on_chunk(i)
 
