@@ -29,12 +29,17 @@ def rational_loop(num, den):
 
 # python-control's margin table, control/tests/margin_test.py (fixture `tsys`) of the
 # repository python-control/python-control: 0.01 (10 - s) / ((2 + s)(1 + s)), gain margin
-# 300 (49.54 dB) at 5.6569 rad/s; and 1 / (1 + s), which has no phase crossover.
-PC_CASES = [([-0.01, 0.1], [1.0, 3.0, 2.0]), ([1.0], [1.0, 1.0])]
+# 300 (49.54 dB) at 5.6569 rad/s; 1 / (1 + s) and 3 (10 + s) / (2 + s), which have no phase
+# crossover.  Then, on the certified path (a loop without delay: every phase crossover),
+# two far beyond 234 dB: 1e-13 / (s + 1)^3 (278 dB at sqrt 3) and
+# 1e-20 / (s (s + 1)(s + 2)(s + 3)) (420 dB at 1 rad/s).
+PC_CASES = [([-0.01, 0.1], [1.0, 3.0, 2.0]), ([1.0], [1.0, 1.0]), ([3.0, 30.0], [1.0, 2.0])]
+FAR = [([1e-13], [1.0, 3.0, 3.0, 1.0]), ([1e-20], [1.0, 6.0, 11.0, 6.0, 0.0])]
+CASES = [(n, d, path) for n, d in PC_CASES for path in ("certified", "opaque")] + \
+    [(n, d, "certified") for n, d in FAR]
 
 
-@pytest.mark.parametrize("num,den", PC_CASES)
-@pytest.mark.parametrize("path", ["certified", "opaque"])
+@pytest.mark.parametrize("num,den,path", CASES)
 def test_python_control_margin_table(num, den, path):
     # Oracle: control.stability_margins on the same transfer function.
     gm, _pm, _sm, w180, _wc, _ws = control.stability_margins(control.tf(num, den))

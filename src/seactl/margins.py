@@ -8,7 +8,7 @@ of a block diagram), :func:`loop_margins` returns, per design:
   (the MATLAB / python-control convention);
 * the gain margin: at the phase crossovers (``L`` on the negative real axis),
   the ``1/|L|`` closest to 1 in the log sense, as python-control reports it, whatever
-  its size (within +-234 dB: :data:`BAND_SCANS`);
+  its size (within +-234 dB, :data:`BAND_SCANS`; without delay, any);
 * the delay margin: the smallest extra loop latency that puts ``L`` through
   -1, ``min_i ((PM_i mod 360) pi/180) / w_i`` over all crossovers;
 * ``stable``: the closed loop's stability from the Nyquist criterion on the
@@ -82,7 +82,9 @@ class Margins:
         within +-234 dB is the one closest to 0 dB, and ``inf`` means no phase crossover
         with ``|L|`` within ``0.05 / 3000^3`` to ``20 * 3000^3`` (except where such a scan
         would exceed :data:`MAX_EVALUATIONS` base points or is not certified: the
-        crossovers found before stand).
+        crossovers found before stand).  A loop of a block diagram without delay has
+        finitely many phase crossovers, all found whatever their size
+        (:func:`_rational_phase_crossovers`): ``inf`` means none.
     phase_crossover_hz : frequency of that gain margin [Hz], NaN where none.
     delay_margin_s : smallest extra latency that destabilizes the loop [s];
         0 for an unstable loop, ``inf`` without crossover.
@@ -661,7 +663,8 @@ def certified_margins(loop: Transfer, design: Any, w_ref: np.ndarray | float, *,
        infinity: it is never reported stable.
     5. **Far phase crossovers.**  A design without a phase crossover in the band is
        scanned again (steps 2-4) with the band widened (:func:`_far_phase_crossovers`),
-       so its gain margin, beyond +-26 dB, is still the one closest to 0 dB.
+       so its gain margin, beyond +-26 dB, is still the one closest to 0 dB; without
+       delay, up to the bound of the roots of ``Im(N conj D)``, every phase crossover.
     6. **Count.**  For a retarded quasi-polynomial of degree ``n`` with no imaginary
        root, ``arg Delta`` increases over ``[0, inf)`` by ``pi (n/2 - Z)``, ``Z`` the
        number of roots with ``Re s > 0`` (Stepan's formula; the delayed terms have lower
@@ -766,8 +769,66 @@ def _far_phase_crossovers(phase: tuple[np.ndarray, np.ndarray], N: QuasiPolynomi
         found = np.zeros(skip.size, bool)
         found[sb[inside]] = True
         todo = redone[~found[redone]]
+    b, w, L = _rational_phase_crossovers((b, w, L), N, D, grid, loop_at, todo)
     order = np.argsort(b, kind="stable")
     return b[order], w[order], L[order]
+
+
+def _rational_phase_crossovers(phase: tuple[np.ndarray, np.ndarray, np.ndarray],
+                               N: QuasiPolynomial, D: QuasiPolynomial,
+                               grid: tuple[np.ndarray, np.ndarray],
+                               loop_at: Callable[[np.ndarray, np.ndarray], np.ndarray],
+                               todo: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Phase crossovers ``(design, w, L)``, those of the designs ``todo`` that have no delay
+    replaced by all there are: ``L = N / D`` is on the real axis only where the polynomial
+    ``Im(N(jw) conj D(jw))`` vanishes, so none lies beyond its roots' bound
+    (:func:`_phase_polynomial_radius`), and a scan up to it certifying phase crossings of
+    any ``|L|`` finds them all (none: the gain margin is ``inf``)."""
+    w_ref, tau_max = grid
+    todo = todo[tau_max[todo] == 0]
+    if todo.size == 0:
+        return phase
+    top = _phase_polynomial_radius(N.take(todo), D.take(todo))
+    fits = np.isfinite(top) & (_base_grid_count(w_ref[todo], tau_max[todo], top)
+                               <= MAX_EVALUATIONS)
+    todo, top = todo[fits], top[fits]
+    if todo.size == 0:
+        return phase
+    scan = _CertifiedScan(N.take(todo), D.take(todo), False, (0.0, np.inf))
+    scan.run(w_ref[todo], tau_max[todo], top)
+    sb, sw = scan.solve("phase")
+    certain = ~scan.uncertain[sb]
+    sb, sw = todo[sb[certain]], sw[certain]
+    Ls = loop_at(sb, sw) if sb.size else np.empty(0, complex)
+    return _replace_designs(phase, todo[~scan.uncertain], (sb, sw, Ls))
+
+
+def _phase_polynomial_radius(N: QuasiPolynomial, D: QuasiPolynomial) -> np.ndarray:
+    """Per design of a loop ``N / D`` without delay, 1 % beyond Fujiwara's bound on the
+    positive roots of ``p(w) = Im(N(jw) conj D(jw)) = sum_m p_m w^m``; ``inf`` where every
+    coefficient is within its rounding error of 0 (``L`` real at every frequency).  The
+    coefficients are exact sums of ``+-n_j d_k`` (``j + k = m``, the sign from
+    ``Im(j^(j+k)) (-1)^k``); one within its rounding error of 0 is taken as 0."""
+    n, d = N.coeffs.sum(axis=0), D.coeffs.sum(axis=0)      # (designs, powers) ascending
+    size = n.shape[-1] + d.shape[-1] - 1
+    p, mag = np.zeros((n.shape[0], size)), np.zeros((n.shape[0], size))
+    for j in range(n.shape[-1]):
+        for k in range(d.shape[-1]):
+            sign = (-1) ** k * (0, 1, 0, -1)[(j + k) % 4]
+            if sign:
+                p[:, j + k] += sign * n[:, j] * d[:, k]
+                mag[:, j + k] += np.abs(n[:, j] * d[:, k])
+    p = np.where(np.abs(p) > 8 * np.finfo(float).eps * size * mag, p, 0.0)
+    nonzero = p != 0
+    top_m = np.where(nonzero.any(axis=1), size - 1 - np.argmax(nonzero[:, ::-1], axis=1), -1)
+    rows = np.arange(p.shape[0])
+    lead = np.abs(p[rows, np.maximum(top_m, 0)])
+    m = np.arange(size)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        ratio = np.where(m < top_m[:, None],
+                         (np.abs(p) / lead[:, None]) ** (1.0 / (top_m[:, None] - m)), 0.0)
+    bound = 2.0 * ratio.max(axis=1, initial=0.0)
+    return np.where(top_m > 0, 1.01 * bound, np.inf)
 
 
 def _replace_designs(old: tuple[np.ndarray, ...], designs: np.ndarray,

@@ -55,7 +55,8 @@ def gains(spec: DesignSpec, as_json: bool) -> None:
 
     A margin printed as 'none' (null in JSON) means the loop has no such crossing:
     no gain crossover (phase and delay margin), or no phase crossover (gain margin;
-    every phase crossover with a gain margin within +-234 dB is resolved).
+    every phase crossover with a gain margin within +-234 dB is resolved, and without
+    delays every one).
     An unstable design's PM is marked '(unstable)' (JSON keeps the number and
     "stable": false).  'abscissa' is the largest real part of the closed-loop roots
     [1/s]: negative when stable, and then the slowest decay rate.
