@@ -41,6 +41,10 @@ RADII = 10.0 ** -np.arange(9.0, -0.25, -0.25)
 """Ladder of disc radii, relative to the root's scale ``max(|s|, scale)``: from 1e-9 (a
 simple root polished to rounding) by quarter decades to 1."""
 
+CLUSTER_RADII = 10.0 ** -np.arange(3.0, -0.0625, -0.125)
+"""Ladder of a re-centred cluster's radii, relative to its first disc's: from 1e-3 by
+eighth decades to 1."""
+
 ROUNDING = 1e-13
 """Evaluation error of ``T`` relative to the sum of the moduli of its terms."""
 
@@ -138,11 +142,12 @@ def inclusion_discs(q: QuasiPolynomial, roots: np.ndarray, scale: np.ndarray
 
 def _smallest_discs(q: QuasiPolynomial, design: np.ndarray, centre: np.ndarray,
                     size: np.ndarray, radius: np.ndarray, count: np.ndarray,
-                    todo: np.ndarray, wanted: np.ndarray | None = None) -> None:
-    """For discs ``todo``: the smallest radius of :data:`RADII` times ``size`` whose disc
+                    todo: np.ndarray, wanted: np.ndarray | None = None,
+                    ladder: np.ndarray = RADII) -> None:
+    """For discs ``todo``: the smallest radius of ``ladder`` times ``size`` whose disc
     about ``centre`` certifiably holds a root (or exactly ``wanted`` roots), written into
     ``radius`` and ``count``."""
-    for rel in RADII:
+    for rel in ladder:
         if todo.size == 0:
             break
         r = rel * size[todo]
@@ -157,7 +162,8 @@ def _recentre(q: QuasiPolynomial, centre: np.ndarray, radius: np.ndarray,
     """Clusters (``head`` entries holding more than one root): centred again at the mean of
     the roots of their Taylor polynomial in the disc (a cluster's mean is well conditioned
     where each root is not), and given the smallest disc there that holds the same number
-    of roots, where that is smaller; the cluster's entries follow (in place)."""
+    of roots (:data:`CLUSTER_RADII`), where that is no larger; the cluster's entries
+    follow (in place)."""
     rows, cols = np.nonzero(head & (count > 1))
     if rows.size == 0:
         return
@@ -166,8 +172,8 @@ def _recentre(q: QuasiPolynomial, centre: np.ndarray, radius: np.ndarray,
     mean = np.array([_mean_root_inside(a[k], r[k], m[k]) for k in range(rows.size)]) + c
     new_r, new_m = np.full(rows.size, np.nan), np.zeros(rows.size, int)
     ok = np.isfinite(mean)
-    _smallest_discs(q, rows, mean, r, new_r, new_m, np.nonzero(ok)[0], m)
-    better = np.isfinite(new_r) & (new_r < r)
+    _smallest_discs(q, rows, mean, r, new_r, new_m, np.nonzero(ok)[0], m, CLUSTER_RADII)
+    better = np.isfinite(new_r) & (new_r <= r)
     for k in np.nonzero(better)[0]:
         same = (centre[rows[k]] == c[k]) & (radius[rows[k]] == r[k])
         centre[rows[k], same], radius[rows[k], same] = mean[k], new_r[k]

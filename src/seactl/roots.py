@@ -180,6 +180,9 @@ def characteristic_roots(diagram: BlockDiagram, design: Any, *, count: int = 6,
         out[idx], nodes[idx], ok[idx] = r, nd, conv
     centre, radius, size = inclusion_discs(q, out, scale)
     ok &= ~(np.isfinite(out) & np.isnan(radius)).any(axis=1)
+    # (a conjugate-symmetric cluster's centre: on the axis, its imaginary part rounding)
+    centre = np.where(np.abs(centre.imag) <= 1e-10 * np.abs(centre), centre.real + 0j, centre)
+    centre = np.where(centre.imag < 0, np.conj(centre), centre)
     out = np.where(size > 1, centre, out)  # (a cluster's points locate none of its roots)
     order = np.argsort(np.where(np.isfinite(out), -out.real, np.inf), axis=1, kind="stable")
     out, centre, radius, size = (np.take_along_axis(x, order, axis=1)
