@@ -462,12 +462,31 @@ class JitterResult(_Columns):
         return ax
 
 
+def _root_records(roots: np.ndarray, centre: np.ndarray, radius: np.ndarray,
+                  count: np.ndarray) -> tuple[list[dict[str, Any]], list[dict[str, Any]]]:
+    """One design's roots ``{"re", "im", "radius", "count"}`` and clusters (the discs
+    holding more than one root, once each, with their real-part interval)."""
+    rows, clusters, seen = [], [], set()
+    for z, c, r, m in zip(roots, centre, radius, count):
+        if not np.isfinite(z):
+            continue
+        rows.append({"re": json_value(z.real), "im": json_value(z.imag),
+                     "radius": json_value(r), "count": int(m)})
+        if m > 1 and (c, r) not in seen:
+            seen.add((c, r))
+            clusters.append({"re": json_value(c.real), "im": json_value(c.imag),
+                             "radius": json_value(r), "count": int(m),
+                             "re_min": json_value(c.real - r), "re_max": json_value(c.real + r)})
+    return rows, clusters
+
+
 class RootsResult(_Wrapped):
     """Rightmost characteristic roots of a design batch.
 
     Every attribute of :class:`seactl.roots.Roots` is available (``roots`` [rad/s] of
-    shape ``batch + (count,)``, ``spectral_abscissa`` [1/s], ``stable``, ``nodes``,
-    ``converged``).
+    shape ``batch + (count,)``, ``spectral_abscissa`` [1/s], ``stable``, ``uncertain``,
+    ``nodes``, ``converged``; each root's error bound: ``cluster_centre`` and
+    ``cluster_radius`` [rad/s], ``cluster_count``, ``real_interval`` [1/s]).
 
     Parameters
     ----------
@@ -497,8 +516,14 @@ class RootsResult(_Wrapped):
         ``spectral_abscissa`` [1/s] and ``roots``, a list of ``{"re", "im"}`` [rad/s]
         sorted by decreasing real part (conjugates once, ``im >= 0``); ``complete`` (no
         root is missing from the list: the discretizations agreed and the argument
-        principle found no other), ``stable`` and ``right_half_plane_roots`` (the
-        certified count, None where uncertain).
+        principle found no other), ``stable``, ``uncertain`` (no verdict: the count is not
+        certain, or a root's disc reaches across the imaginary axis) and
+        ``right_half_plane_roots`` (the certified count, None where uncertain).  Each root
+        also has ``radius`` [rad/s] and ``count``: the disc about ``(re, im)`` of that
+        radius holds ``count`` roots (1: a simple root); ``clusters`` lists the discs
+        holding more than one root, ``{"re", "im", "radius", "count", "re_min",
+        "re_max"}`` (centre and radius [rad/s], the real-part interval [1/s]): the error
+        bound of the roots listed in it.
 
         Returns
         -------
@@ -512,15 +537,18 @@ class RootsResult(_Wrapped):
         absc = np.ravel(r.spectral_abscissa)
         roots = np.reshape(r.roots, (absc.size, -1))
         conv, stable = np.ravel(r.converged), np.ravel(r.stable)
+        uncertain = np.ravel(r.uncertain)
         rhp = np.ravel(r.right_half_plane_roots)
+        discs = [np.reshape(x, roots.shape) for x in
+                 (r.cluster_centre, r.cluster_radius, r.cluster_count)]
         out = []
         for i in range(absc.size):
             row = {k: json_value(v[i]) for k, v in cols.items()}
             row["spectral_abscissa"] = json_value(absc[i])
-            row["roots"] = [{"re": json_value(z.real), "im": json_value(z.imag)}
-                            for z in roots[i] if np.isfinite(z)]
+            row["roots"], row["clusters"] = _root_records(roots[i], *(x[i] for x in discs))
             row["complete"] = bool(conv[i])
             row["stable"] = bool(stable[i])
+            row["uncertain"] = bool(uncertain[i])
             row["right_half_plane_roots"] = int(rhp[i]) if rhp[i] >= 0 else None
             out.append(row)
         return out

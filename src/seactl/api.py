@@ -279,8 +279,9 @@ class Design:
         """Rightmost roots of the closed loop (exact delays), per design.
 
         Chebyshev collocation of the delay equation gives candidates, Newton on the exact
-        characteristic quasi-polynomial polishes them, and the argument principle checks
-        that none is missing (:func:`seactl.roots.characteristic_roots`).
+        characteristic quasi-polynomial polishes them, the argument principle checks
+        that none is missing and bounds each by a disc that holds it, multiplicity
+        counted (:func:`seactl.roots.characteristic_roots`).
 
         Parameters
         ----------
@@ -291,7 +292,9 @@ class Design:
         -------
         RootsResult
             ``roots`` [rad/s] of shape ``shape + (count,)`` sorted by decreasing real part,
-            ``spectral_abscissa`` [1/s], ``records()``.
+            ``spectral_abscissa`` [1/s], each root's disc (``cluster_centre``,
+            ``cluster_radius`` [rad/s], ``cluster_count``; ``real_interval`` [1/s]),
+            ``stable``, ``uncertain``, ``records()``.
 
         Examples
         --------
