@@ -187,6 +187,52 @@ def _scalar(v: Any) -> Any:
     return v if v is None or np.ndim(v) else float(v)
 
 
+def rate_option(func: Callable) -> Callable:
+    """``--rate HZ``: also analyse the sampled-data loop at that servo rate; the command
+    receives ``rate_hz`` (None without the option), checked against its range."""
+
+    @functools.wraps(func)
+    def wrapper(*args, rate_hz, **kwargs):
+        if rate_hz is not None:
+            from ..limits import check_range
+
+            check_range("--rate [Hz]", rate_hz, "rate_hz")
+        return func(*args, rate_hz=rate_hz, **kwargs)
+
+    return click.option(
+        "--rate", "rate_hz", type=float, default=None,
+        help="Also analyse the loop sampled at this servo rate [Hz] (both processes), as "
+             "step --mode sampled runs it: Tustin controllers, whole-sample delays, the held "
+             "plant; certified verdict (stable, unstable, uncertain) and margins up to "
+             "Nyquist.")(wrapper)
+
+
+SAMPLED_KEYS = ("rate_hz", "verdict", "unstable_modes", "phase_margin_deg", "crossover_hz",
+                "gain_margin_db", "phase_crossover_hz", "delay_margin_ms",
+                "delay_margin_samples")
+"""JSON keys of the sampled loop (``"sampled": {...}`` beside the continuous values)."""
+
+
+def sampled_callout(rows: Sequence[dict[str, Any]], stable_key: str = "stable") -> list[str]:
+    """One line per design whose sampled verdict differs from the continuous one, or is
+    uncertain (:func:`seactl.sampled.sampled_verdict_text`)."""
+    from ..sampled import sampled_verdict_text
+
+    out = []
+    for r in rows:
+        sm = r["sampled"]
+        if sm["verdict"] == "stable" and r[stable_key]:
+            continue
+        out.append(f"f_n={r['fn_hz']:g} Hz, GS={r.get('gs', 1):g}: " + sampled_verdict_text(
+            bool(r[stable_key]), sm["verdict"], sm["unstable_modes"], f"{sm['rate_hz']:g} Hz"))
+    return out
+
+
+def verdict_text(verdict: str) -> str:
+    """A sampled verdict for a table cell (red unless stable)."""
+    return verdict if verdict == "stable" else f"[red]{verdict}[/red]"
+
+
 def json_option(func: Callable) -> Callable:
     return click.option("--json", "as_json", is_flag=True,
                         help="Print machine-readable JSON instead of a table.")(func)

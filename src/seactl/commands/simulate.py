@@ -278,6 +278,7 @@ def _output(spec: DesignSpec, resp: Any, mode: str, zero: bool, extra: dict[str,
                      "left_bounds_s": finite_or_none(left[i]),
                      "peak_current_a": finite_or_none(np.max(np.abs(cur[i]))),
                      "metrics": _metrics_json(m, i)})
+    loop_lines = _sampled_loop(spec, res, runs, zero)
     warnings = [f"f_n={r['fn_hz']:g} Hz, GS={r['gs']:g}: {w}" for r in runs
                 for w in r["warnings"]] + _notes(spec, mode, extra)
     common = {"mode": mode, "zero": zero, **extra, "warnings": warnings}
@@ -316,8 +317,35 @@ def _output(spec: DesignSpec, resp: Any, mode: str, zero: bool, extra: dict[str,
     if eff:
         console.print(escape("effective delays [ms]: " + ", ".join(
             f"{k} {v:g}" for k, v in eff.items())), highlight=False)
+    for line in loop_lines:
+        console.print(escape(f"sampled loop: {line}"), highlight=False)
     for w in warnings:
         console.print(escape(f"warning: {w}"), highlight=False)
+
+
+def _sampled_loop(spec: DesignSpec, res: Any, runs: list[dict[str, Any]], zero: bool
+                  ) -> list[str]:
+    """Sampled mode: the loop's certified verdict beside each run (``"sampled_loop"``:
+    ``verdict``, ``unstable_modes``, ``continuous_stable``, ``text``) and the lines the
+    table prints, one per design (a design stable in continuous time and not sampled is
+    called out in words)."""
+    if "sampled_verdict" not in res.info:
+        return []
+    from ..sampled import sampled_verdict_text
+    from ..sea import sea_right_roots
+
+    cont = np.ravel(sea_right_roots(spec.designs(), zero))
+    verdicts = np.ravel(res.info["sampled_verdict"])
+    modes = np.ravel(res.info["sampled_unstable_modes"])
+    lines = []
+    for i, r in enumerate(runs):
+        c = None if cont[i] < 0 else bool(cont[i] == 0)
+        text = sampled_verdict_text(c, str(verdicts[i]), int(modes[i]),
+                                    res.info["sampled_rate"])
+        r["sampled_loop"] = {"verdict": str(verdicts[i]), "unstable_modes": int(modes[i]),
+                             "continuous_stable": c, "text": text}
+        lines.append(f"f_n={r['fn_hz']:g} Hz, GS={r['gs']:g}: {text}")
+    return lines
 
 
 def _notes(spec: DesignSpec, mode: str, extra: dict[str, Any]) -> list[str]:
