@@ -9,6 +9,7 @@ certificate, and the simulation of the same loop for the 27.5 Hz tutorial design
 from __future__ import annotations
 
 import json
+from pathlib import Path
 from types import SimpleNamespace
 
 import numpy as np
@@ -209,3 +210,19 @@ def test_cli_gains_roots_jitter_step_show_the_sampled_verdict(capsys):
         "stable in continuous time, UNSTABLE sampled at 27.5 Hz")
     bad = cli_run(["gains", *args, "--rate", "5"], capsys, code=2)
     assert bad.stderr.startswith("error:") and "--rate" in bad.stderr
+
+
+def test_loop_file_of_the_paper_sea_gives_the_design_api_sampled_margins():
+    # Oracle: a second, independent description of the same loop (examples/loops/
+    # paper-sea.toml, compiled from TOML) broken at its "outer" break must give the
+    # sampled margins of sc.design's diagram at the file's rates (1 kHz).
+    loop = sc.load_loop(Path(__file__).resolve().parents[1] / "examples" / "loops"
+                        / "paper-sea.toml")
+    m = loop.margins(rate_hz={})
+    d = sc.design(14, delays_ms=(0.5, 2, 0.5), filters_hz=(50, 100)).margins(rate_hz=1000)
+    assert set(m) == set(loop.breaks)
+    for key in ("phase_margin_deg", "crossover_hz", "gain_margin", "delay_margin_s"):
+        assert float(getattr(m["outer"], key)) == pytest.approx(float(getattr(d, key)),
+                                                                rel=1e-9)
+    assert str(m["outer"].verdict) == str(m["torque"].verdict) == "stable"
+    assert loop.margins().breaks[0].name == "torque"     # rate_hz None: the continuous loop

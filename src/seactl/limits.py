@@ -196,7 +196,7 @@ def check_simulation(n_designs: int, mode: str, rate_hz: float, t_end_s: float,
                               "min(0.1 ms, the smallest positive delay))"))
 
 
-SAMPLED_SECONDS_PER_STATE3 = 2e-8
+SAMPLED_SECONDS_PER_STATE3 = 1e-7
 """Time per design and cubed state of the sampled loop's verdict (period map,
 eigenvalues, Stein certificate), and per frequency of its margin scan
 (:mod:`seactl.sampled`); rounded up."""

@@ -87,10 +87,14 @@ def sea_sampled_roots(design: Any, rate_hz: Any, zero: bool = True) -> Any:
 
 def _sampled_info(res: SimResult, design: Any, rate_hz: Any, zero: bool) -> None:
     """The sampled loop's certified verdict in ``res.info`` (``sampled_verdict``,
-    ``sampled_unstable_modes``, ``sampled_rate``) beside the response."""
+    ``sampled_unstable_modes``, ``sampled_rate``) beside the response; where it is
+    certified it also replaces the simulation's own count (``unstable_modes``) that
+    :func:`seactl.verdict.judge_response` reads."""
     r = sea_sampled_roots(design, rate_hz, zero)
     res.info.update(sampled_verdict=r.verdict, sampled_unstable_modes=r.unstable_modes,
                     sampled_rate=r.rate_label)
+    own = np.asarray(res.info.get("unstable_modes", r.unstable_modes))
+    res.info["unstable_modes"] = np.where(r.unstable_modes >= 0, r.unstable_modes, own)
 
 
 def _sea_kwargs(design, mode, rate_hz, saturation_a):
