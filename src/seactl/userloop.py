@@ -888,8 +888,15 @@ class UserLoop:
             raise LoopFileError(self.file, "input", inp, "an exogenous input: "
                                 + ", ".join(self.diagram.inputs))
         self._signal(out, "output")
+        rates = self._rates(rates_hz)
         res = simulate(self.diagram, self.design, {inp: excitation}, t_end_s, mode=mode,
-                       outputs=(out,), rates_hz=self._rates(rates_hz), record_dt=record_dt)
+                       outputs=(out,), rates_hz=rates, record_dt=record_dt)
+        if mode == "sampled":   # the simulated loop's certified verdict beside it
+            from .sampled import sampled_roots
+
+            r = sampled_roots(self.diagram, self.design, rates)
+            res.info.update(sampled_verdict=r.verdict, sampled_unstable_modes=r.unstable_modes,
+                            sampled_rate=r.rate_label)
         step = which == "reference"
         res.info["excitation"] = {"kind": "step" if step else "impulse",
                                   "size": float(excitation.amplitude if step
