@@ -226,3 +226,47 @@ def test_loop_file_of_the_paper_sea_gives_the_design_api_sampled_margins():
                                                                 rel=1e-9)
     assert str(m["outer"].verdict) == str(m["torque"].verdict) == "stable"
     assert loop.margins().breaks[0].name == "torque"     # rate_hz None: the continuous loop
+
+
+def _python_control_sea_poles(d, ns: int) -> np.ndarray:
+    """|closed-loop poles| of the SEA loop sampled at 1 kHz, built with python-control
+    alone: the motor/spring/load state space from the physics (docs/theory/loop.md),
+    c2d(..., 'zoh'); the filtered derivatives c2d(..., 'tustin'); the stiffness path
+    delayed by z^-ns; the controller wired as the paper's Fig. ControlBlock."""
+    import control as ct
+
+    a, g = d.actuator, d.gains
+    k, Im, Ij = a.k, a.Im, a.Ij
+    A = np.array([[0, 1, 0, 0], [-k / Im, -a.bm / Im, k / Im, 0], [0, 0, 0, 1],
+                  [k / Ij, 0, -k / Ij, -a.bj / Ij]])
+    B = np.array([[0], [a.beta / Im], [0], [0]])
+    C = np.array([[k, 0, -k, 0], [0, 0, 1, 0]])
+    P = ct.c2d(ct.ss(A, B, C, 0, inputs="i_m", outputs=["tau_k", "q_j"]), T, "zoh")
+    zi = ct.tf([1.0], [1.0, 0.0], T)
+    D1 = ct.c2d(ct.tf([float(g.Bq), 0.0], [1 / (2 * np.pi * 50), 1.0]), T, "tustin")
+    D2 = ct.c2d(ct.tf([float(g.Btau), 0.0], [1 / (2 * np.pi * 100), 1.0]), T, "tustin")
+    parts = [P, ct.ss(-(float(g.Kq) * zi**ns + D1), inputs="q_j", outputs="tau_des"),
+             ct.ss(ct.tf([1.0], [1.0], T), inputs="tau_k", outputs="tau_meas"),
+             ct.summing_junction(["tau_des", "-tau_meas"], "e", dt=T),
+             ct.ss(float(g.Ktau) + D2, inputs="e", outputs="u_fb"),
+             ct.ss(ct.tf([1 / a.beta], [1.0], T), inputs="tau_des", outputs="u_ff"),
+             ct.summing_junction(["u_fb", "u_ff"], "i_m", dt=T)]
+    cl = ct.interconnect(parts, inplist=["i_m"], outlist=["q_j"], check_unused=False)
+    return np.sort(np.abs(ct.poles(cl)))[::-1]
+
+
+@pytest.mark.parametrize("t_qs_ms, ns, unstable", [(9.5, 9, 0), (10.5, 10, 0), (11.5, 11, 2)])
+def test_sea_loop_poles_match_python_control_near_the_boundary(t_qs_ms, ns, unstable):
+    # Oracle: python-control's own discretization and interconnection of the SEA loop
+    # (_python_control_sea_poles).  f_n = 30 Hz is stable in continuous time up to
+    # T_qs = 10.52 ms; at 1 kHz the requested T_qs = T/2 + nT is realized exactly, and
+    # 10.5 ms leaves the dominant pair 1.3e-4 inside the unit circle.
+    from seactl.loops import SEA_DIAGRAM
+
+    d = sc.design(30, delays_ms=(0.5, t_qs_ms, 0.5), filters_hz=(50, 100))
+    r = sampled_roots(SEA_DIAGRAM, d.sea, RATE)
+    poles = _python_control_sea_poles(d, ns)
+    ours = np.sort(np.abs(r.z))[::-1]
+    np.testing.assert_allclose(ours[:poles.size], poles, atol=1e-8)
+    assert np.all(ours[poles.size:] < 1e-8)
+    assert int(r.unstable_modes) == int(np.sum(poles > 1)) == unstable
