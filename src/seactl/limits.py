@@ -205,7 +205,7 @@ SAMPLED_MAX_STATES = 2000
 
 
 def check_sampled_analysis(n_designs: int, states: int, frequencies: int = 0,
-                           reduced: int = 0) -> None:
+                           reduced: int = 0, rate_hz: float | None = None) -> None:
     """Refuse a sampled-loop analysis whose work, ``n S^3`` for the verdict plus
     ``n x frequencies x r^3`` for the margins (``r`` the reduced system of
     :mod:`seactl.sampled`), exceeds :func:`time_budget_s`, or whose state is longer than
@@ -213,10 +213,10 @@ def check_sampled_analysis(n_designs: int, states: int, frequencies: int = 0,
     from .errors import InputError
 
     if states > SAMPLED_MAX_STATES:
-        raise InputError("rate_hz", "with these delays",
-                         f"a sampled loop of at most {SAMPLED_MAX_STATES} states (this one has "
-                         f"{states}: each delay buffer holds rate x delay samples); lower the "
-                         "rate or the delays")
+        raise InputError("rate_hz", rate_hz,
+                         f"a rate giving a sampled loop of at most {SAMPLED_MAX_STATES} states "
+                         f"(with these delays it has {states}: each delay buffer holds "
+                         "rate x delay samples); lower the rate or the delays")
     per = (float(states) ** 3 + frequencies * float(reduced) ** 3) * SAMPLED_SECONDS_PER_STATE3
     seconds = n_designs * per
     if seconds > time_budget_s():

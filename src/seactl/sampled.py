@@ -203,7 +203,8 @@ def _maps(plan: Any, inputs: bool) -> tuple[np.ndarray, ...]:
     J = plan.nbuf.max(axis=1, initial=0)
     S = _core_size(plan) + int(J.sum())
     check_sampled_analysis(n, S, FREQUENCIES if inputs else 0,
-                           _core_size(plan) + int(np.count_nonzero(J)))
+                           _core_size(plan) + int(np.count_nonzero(J)),
+                           1.0 / plan.base_period_s)
     chunk = max(1, 20_000 // (S + 2))
     parts = [period_map(plan, slice(i, i + chunk), inputs) for i in range(0, n, chunk)]
     out = [np.concatenate([p[j] for p in parts]) for j in range(len(parts[0]) - 1)]
