@@ -270,3 +270,23 @@ def test_sea_loop_poles_match_python_control_near_the_boundary(t_qs_ms, ns, unst
     np.testing.assert_allclose(ours[:poles.size], poles, atol=1e-8)
     assert np.all(ours[poles.size:] < 1e-8)
     assert int(r.unstable_modes) == int(np.sum(poles > 1)) == unstable
+
+
+@pytest.mark.parametrize("t_qs_ms", [8.0, 12.0])
+def test_multi_rate_verdict_matches_the_lifted_map_over_the_buffers(t_qs_ms):
+    # Oracle: simulate.lifted_map, a second construction of the same loop's map (over a
+    # multiple of the slow period covering every buffer, buffers as ring slots), whose
+    # eigenvalues are those of the period map raised to the ratio of the periods.
+    from seactl.loops import SEA_DIAGRAM
+    from seactl.simulate import Step, compile_sampled, lifted_map
+
+    d = sc.design(30, delays_ms=(0.5, t_qs_ms, 0.5), filters_hz=(50, 100))
+    rates = {"embedded": 1000.0, "high-level": 250.0}
+    r = sampled_roots(SEA_DIAGRAM, d.sea, rates)
+    plan = compile_sampled(SEA_DIAGRAM, d.sea, {"q_des": Step(1.0)}, 0.01, ("q_j",),
+                           rates_hz=rates)
+    M, period = lifted_map(plan)
+    lam = np.sort(np.abs(np.linalg.eigvals(M[0])))[::-1]
+    m = round(period / r.period_s)
+    np.testing.assert_allclose(lam[:6], np.abs(r.z[:6]) ** m, rtol=1e-7)
+    assert int(r.unstable_modes) == int(np.sum(lam > 1)) == (0 if t_qs_ms < 10 else 2)

@@ -38,11 +38,8 @@ from .errors import InputError
 from .limits import check_range, check_sampled_analysis
 from .simulate import balance_batched, compile_sampled, period_map
 
-__all__ = ["SampledMargins", "SampledRoots", "VERDICTS", "schur_count", "sampled_margins",
+__all__ = ["SampledMargins", "SampledRoots", "schur_count", "sampled_margins",
            "sampled_roots", "sampled_verdict_text", "rate_text", "verdict_word"]
-
-VERDICTS = {0: "stable", -1: "uncertain"}
-"""Verdict words by certified count (any count > 0: "unstable")."""
 
 MAP_TOLERANCE = 64
 """The certificate must hold for every map within ``MAP_TOLERANCE S u ||A||_F`` of the
