@@ -290,3 +290,14 @@ def test_multi_rate_verdict_matches_the_lifted_map_over_the_buffers(t_qs_ms):
     m = round(period / r.period_s)
     np.testing.assert_allclose(lam[:6], np.abs(r.z[:6]) ** m, rtol=1e-7)
     assert int(r.unstable_modes) == int(np.sum(lam > 1)) == (0 if t_qs_ms < 10 else 2)
+
+
+def test_sampled_jitter_margin_tends_to_kao_lincoln():
+    # Oracle: the continuous Kao-Lincoln jitter margin of the same outer loop (seactl.jitter,
+    # its peak proven); the sampled bound T / max |e^{jwT} - 1| |T(e^{jwT})| tends to it as
+    # the rate grows (|e^{jwT} - 1| / T -> w, effective delays -> requested ones).
+    d = sc.design([12, 16, 20], delays_ms=(0.5, 2, 0.5), filters_hz=(50, 100))
+    cont = d.jitter_margins().ms("overall")
+    s = d.margins(rate_hz=10_000)
+    np.testing.assert_allclose(s.jitter_margin_ms, cont, rtol=5e-3)
+    assert np.all(s.jitter_margin_samples == np.ceil(s.jitter_margin_ms * 10 - 1e-9) - 1)

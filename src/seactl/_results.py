@@ -161,7 +161,8 @@ class MarginsResult(_Columns):
 
 SAMPLED_COLUMNS = ("rate_hz", "verdict", "unstable_modes", "phase_margin_deg", "crossover_hz",
                    "gain_margin_db", "phase_crossover_hz", "delay_margin_ms",
-                   "delay_margin_samples", "stable")
+                   "delay_margin_samples", "jitter_margin_ms", "jitter_margin_samples",
+                   "stable")
 
 
 class SampledMarginsResult(_Columns):
@@ -222,7 +223,7 @@ class SampledMarginsResult(_Columns):
         def value(k: str, x: Any) -> Any:
             if k == "verdict":
                 return str(x)
-            if k == "delay_margin_samples" and np.isfinite(x):
+            if k in ("delay_margin_samples", "jitter_margin_samples") and np.isfinite(x):
                 return int(x)
             return json_value(x)
 

@@ -294,6 +294,13 @@ class SampledMargins:
         the loop is unstable, ``inf`` without crossover.
     delay_margin_samples : whole extra samples of delay the loop tolerates
         (``ceil(delay_margin_s / T) - 1``; -1 when unstable).
+    jitter_margin_s, jitter_margin_samples : a time-varying extra delay of ``0 .. N``
+        whole samples at the break keeps the loop stable for ``N < 1/g``,
+        ``g = max |e^{j w T} - 1| |L/(1+L)|`` (small gain: the delay's deviation from the
+        undelayed signal is at most ``N`` times the signal's one-step differences);
+        ``jitter_margin_samples`` is the largest such ``N`` and ``jitter_margin_s = T/g``
+        the bound in seconds (0 / -1 when unstable).  ``g`` is scanned (the grid, then
+        finer around its peak), not proven.
     unstable_modes, radius : the certified verdict (:func:`schur_count`).
     stable : ``unstable_modes == 0``.
     rates_hz, period_s : process rates and the period of the map.
@@ -306,6 +313,8 @@ class SampledMargins:
     phase_crossover_hz: np.ndarray
     delay_margin_s: np.ndarray
     delay_margin_samples: np.ndarray
+    jitter_margin_s: np.ndarray
+    jitter_margin_samples: np.ndarray
     unstable_modes: np.ndarray
     radius: np.ndarray
     rates_hz: dict[str, float]
@@ -328,6 +337,10 @@ class SampledMargins:
     @property
     def delay_margin_ms(self) -> np.ndarray:
         return self.delay_margin_s * 1e3
+
+    @property
+    def jitter_margin_ms(self) -> np.ndarray:
+        return self.jitter_margin_s * 1e3
 
     @property
     def rate_label(self) -> str:
@@ -462,7 +475,23 @@ def _margins_from(ol: _OpenLoop, T: float, theta_lo: np.ndarray) -> tuple[np.nda
     dm, _ = _pick(n, gi, dm_each, dm_each, wg, np.inf)
     gm_each = 1.0 / np.abs(Lpc)
     gm, wp_best = _pick(n, pi_, np.abs(np.log(gm_each)), gm_each, wp, np.inf)
-    return pm_best, wg_best / (2 * np.pi * T), gm, wp_best / (2 * np.pi * T), dm
+    return (pm_best, wg_best / (2 * np.pi * T), gm, wp_best / (2 * np.pi * T), dm,
+            _jitter_peak(ol, Lg, theta))
+
+
+def _jitter_peak(ol: _OpenLoop, Lg: np.ndarray, theta: np.ndarray) -> np.ndarray:
+    """``max |e^{j theta} - 1| |L/(1+L)|`` per design: the grid's largest point, then a
+    101-point scan of the two grid intervals around it."""
+    with np.errstate(all="ignore"):
+        g = np.abs(np.exp(1j * theta) - 1) * np.abs(Lg / (1 + Lg))
+    i = np.clip(np.nanargmax(np.where(np.isfinite(g), g, -1.0), axis=1), 1,
+                theta.shape[1] - 2)
+    rows = np.arange(theta.shape[0])
+    fine = np.linspace(theta[rows, i - 1], theta[rows, i + 1], 101, axis=1)
+    Lf = ol.response(fine)
+    with np.errstate(all="ignore"):
+        gf = np.abs(np.exp(1j * fine) - 1) * np.abs(Lf / (1 + Lf))
+    return np.maximum(np.nanmax(g, axis=1), np.nanmax(gf, axis=1))
 
 
 def sampled_margins(diagram: BlockDiagram, design: Any, sensor: str, rates_hz: Any,
@@ -490,7 +519,7 @@ def sampled_margins(diagram: BlockDiagram, design: Any, sensor: str, rates_hz: A
     rates = roots.rates_hz
     nan = np.full(shape, np.nan)
     if len(set(rates.values())) > 1:
-        return SampledMargins(nan, nan, nan, nan, nan, np.full(shape, -1), count, radius,
+        return SampledMargins(nan, nan, nan, nan, nan, nan, nan, nan, count, radius,
                               rates, roots.period_s, "multi-rate loop: periodic, not "
                               "time-invariant, so it has no frequency response; verdict only")
     cut, inj, ret = broken(diagram, sensor)
@@ -501,13 +530,17 @@ def sampled_margins(diagram: BlockDiagram, design: Any, sensor: str, rates_hz: A
     w = np.broadcast_to(np.asarray(w_ref, float), shape).reshape(n)
     ol = _OpenLoop(A, B[..., col:col + 1], C, D[..., col:col + 1], _core_size(plan),
                    plan.nbuf.max(axis=1, initial=0))
-    pm, fc, gm, fp, dm = _margins_from(ol, T, w * T / 100)
+    pm, fc, gm, fp, dm, peak = _margins_from(ol, T, w * T / 100)
     flat = count.reshape(n)
     dm = np.where(flat == 0, dm, np.where(flat > 0, 0.0, np.nan))
-    with np.errstate(invalid="ignore"):
+    with np.errstate(invalid="ignore", divide="ignore"):
         samples = np.where(np.isfinite(dm) & (dm > 0), np.ceil(dm / T - 1e-9) - 1,
                            np.where(np.isinf(dm), np.inf, -1.0))
-    return SampledMargins(*(a.reshape(shape) for a in (pm, fc, gm, fp, dm, samples)),
+        jit_n = np.where(flat == 0, np.ceil(1 / peak - 1e-9) - 1,
+                         np.where(flat > 0, -1.0, np.nan))
+    jit = np.where(flat == 0, T / peak, np.where(flat > 0, 0.0, np.nan))
+    return SampledMargins(*(a.reshape(shape) for a in (pm, fc, gm, fp, dm, samples, jit,
+                                                        jit_n)),
                           count, radius, rates, T)
 
 

@@ -209,7 +209,7 @@ def rate_option(func: Callable) -> Callable:
 
 SAMPLED_KEYS = ("rate_hz", "verdict", "unstable_modes", "phase_margin_deg", "crossover_hz",
                 "gain_margin_db", "phase_crossover_hz", "delay_margin_ms",
-                "delay_margin_samples")
+                "delay_margin_samples", "jitter_margin_ms", "jitter_margin_samples")
 """JSON keys of the sampled loop (``"sampled": {...}`` beside the continuous values)."""
 
 

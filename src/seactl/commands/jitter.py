@@ -97,9 +97,10 @@ def jitter(spec: DesignSpec, traces: tuple[str, ...], rate_hz: float | None,
     Example (Table I):
       seactl jitter --fn 12 14 16 18 20 --t-tau 0.5 --t-qs 2 --t-qd 0.5 --f-qd 50 --f-taud 100
 
-    With --rate, the sampled loop's certified verdict and delay margins at that rate
-    beside them (JSON "sampled" per design); the jitter margins stay those of the
-    continuous loop.
+    With --rate, the loop sampled at that rate beside them (JSON "sampled" per design):
+    its certified verdict, delay margin, and outer-loop jitter margin for a delay varying
+    by whole samples (jitter_margin_samples: any variation of 0..N extra samples is
+    tolerated, small gain on the discrete loop, scanned; docs/theory/sampled.md).
     """
     measured = parse_traces(traces)
     rows = jitter_rows(spec)
@@ -120,7 +121,8 @@ def jitter(spec: DesignSpec, traces: tuple[str, ...], rate_hz: float | None,
                            f"(T_tau={spec.t_tau_ms:g} ms, T_qs={spec.t_qs_ms:g} ms, "
                            f"T_qd={spec.t_qd_ms:g} ms)"))
     cols = ["f_n [Hz]", "GS", "outer loop", "stiffness", "damping", "torque", "delay margin",
-            "bottleneck"] + ([f"sampled {rate_hz:g} Hz", "sampled DM"] if rate_hz else [])
+            "bottleneck"] + ([f"sampled {rate_hz:g} Hz", "sampled outer loop",
+                              "sampled DM"] if rate_hz else [])
     for col in cols:
         t.add_column(escape(col), justify="right")
     for r in rows:
@@ -131,8 +133,10 @@ def jitter(spec: DesignSpec, traces: tuple[str, ...], rate_hz: float | None,
         extra = []
         if rate_hz is not None:
             sm = r["sampled"]
-            extra = [verdict_text(sm["verdict"]),
-                     _ms(sm["delay_margin_ms"], sm["verdict"] == "stable")]
+            ok = sm["verdict"] == "stable"
+            extra = [verdict_text(sm["verdict"]), _ms(sm["jitter_margin_ms"], ok)
+                     + ("" if not ok else f" ({sm['jitter_margin_samples']} samples)"),
+                     _ms(sm["delay_margin_ms"], ok)]
         t.add_row(f"{r['fn_hz']:g}", f"{r['gs']:g}", _ms(r["jitter_margin_ms"], stable),
                   *(_ms(v, stable) for v in loops.values()),
                   _ms(r["delay_margin_ms"], stable), worst, *extra)
