@@ -173,8 +173,9 @@ def test_too_large_analyses_are_refused_up_front():
         sc.design(14, delays_ms=(0.5, 100, 0.5)).margins(rate_hz=50_000)
     with pytest.raises(InputError, match="estimate"):
         check_sampled_analysis(10**9, 50, 1200, 10)
-    with pytest.raises(InputError, match="rate"):
-        sc.design(14).margins(rate_hz=5.0)
+    for bad in (5.0, "1000", True, [1000.0], {"embedded": 1000.0}):
+        with pytest.raises(InputError, match="rate"):
+            sc.design(14).margins(rate_hz=bad)
 
 
 def cli_run(args, capsys, code=0):

@@ -19,8 +19,9 @@ when every eigenvalue of ``A`` lies inside the unit circle.
   delay margin ``PM / w_c`` is the continuous extra delay the phase margin allows (exact
   for extra whole samples, ``z^{-k} = e^{-j k w T}``, first order for a fraction of a
   sample); ``delay_margin_samples`` is the number of whole extra samples the loop
-  tolerates.  A multi-rate loop is periodic, not time-invariant, and has no such
-  frequency response: its margins are NaN and ``reason`` says so (the verdict stands).
+  tolerates; the jitter margin bounds a delay varying by whole samples there.  A
+  multi-rate loop is periodic, not time-invariant, and has no such frequency response:
+  its margins are NaN and ``reason`` says so (the verdict stands).
 """
 
 from __future__ import annotations
@@ -167,21 +168,21 @@ def verdict_word(count: Any) -> np.ndarray:
 
 
 # ----------------------------------------------------------------------------- the plan
-def _rates_of(diagram: BlockDiagram, rates_hz: Any) -> dict[str, float] | float:
+def _rate(name: str, value: Any) -> float:
+    if isinstance(value, (bool, np.bool_)) or not isinstance(value, (int, float, np.number)):
+        raise InputError(name, value, "a rate [Hz] or a mapping process -> rate [Hz]")
+    return check_range(name, value, "rate_hz")
+
+
+def _rates_of(rates_hz: Any) -> dict[str, float] | float:
     """``rates_hz`` checked: a number, or a mapping process -> rate, each in range."""
     if isinstance(rates_hz, Mapping):
-        out = {}
-        for p, r in rates_hz.items():
-            out[str(p)] = check_range(f"rate_hz ({p})", r, "rate_hz")
-        return out
-    if isinstance(rates_hz, (bool, np.bool_)) or not np.isscalar(rates_hz):
-        raise InputError("rate_hz", rates_hz, "a rate [Hz] or a mapping process -> rate")
-    return check_range("rate_hz", rates_hz, "rate_hz")
+        return {str(p): _rate(f"rate_hz ({p})", r) for p, r in rates_hz.items()}
+    return _rate("rate_hz", rates_hz)
 
 
 def _plan(diagram: BlockDiagram, design: Any, rates_hz: Any, outputs: tuple[str, ...]) -> Any:
-    return compile_sampled(diagram, design, {}, 1e-6, outputs,
-                           rates_hz=_rates_of(diagram, rates_hz))
+    return compile_sampled(diagram, design, {}, 1e-6, outputs, rates_hz=_rates_of(rates_hz))
 
 
 def _plant_output(diagram: BlockDiagram) -> str:
