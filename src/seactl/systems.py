@@ -234,6 +234,14 @@ class RigidBatch:
         res = simulate(RIGID_DIAGRAM, r, {"x_des": Step(1.0)}, t_end_s, mode=mode,
                        rates_hz=rate_hz, outputs=("x", "F_des"),
                        saturation={"F_des": limit} if limit else None)
+        if mode == "sampled":   # the simulated loop's certified verdict beside it
+            from .sampled import sampled_roots
+
+            sr = sampled_roots(RIGID_DIAGRAM, r, rate_hz)
+            res.info.update(sampled_verdict=sr.verdict, sampled_unstable_modes=sr.unstable_modes,
+                            sampled_rate=sr.rate_label, unstable_modes=np.where(
+                                sr.unstable_modes >= 0, sr.unstable_modes,
+                                res.info.get("unstable_modes", -1)))
         force = res.outputs["F_des"] if limit is None else np.clip(res.outputs["F_des"],
                                                                    -limit, limit)
         res = SimResult(res.mode, res.t_s, {"q_j": res.outputs["x"],
