@@ -302,3 +302,16 @@ def test_sampled_jitter_margin_tends_to_kao_lincoln():
     s = d.margins(rate_hz=10_000)
     np.testing.assert_allclose(s.jitter_margin_ms, cont, rtol=5e-3)
     assert np.all(s.jitter_margin_samples == np.ceil(s.jitter_margin_ms * 10 - 1e-9) - 1)
+
+
+def test_loop_file_sampled_step_carries_the_certified_verdict(capsys):
+    # Oracle: the loop's own sampled margins (UserLoop.margins at the file's rates) and its
+    # continuous certified count, one design each side of the stability boundary.
+    path = Path(__file__).resolve().parents[1] / "examples" / "loops" / "paper-sea.toml"
+    out = json.loads(cli_run(["step", "--loop", str(path), "--mode", "sampled", "--set",
+                              "T_high=2,30", "--json"], capsys).stdout)
+    loop = sc.load_loop(path).with_values(T_high=[2.0, 30.0])
+    expected = np.ravel(loop.margins(rate_hz={})["outer"].verdict).tolist()
+    got = [r["sampled_loop"]["verdict"] for r in out["runs"]]
+    assert got == expected == ["stable", "unstable"]
+    assert [r["sampled_loop"]["continuous_stable"] for r in out["runs"]] == [True, False]

@@ -228,6 +228,29 @@ def sampled_callout(rows: Sequence[dict[str, Any]], stable_key: str = "stable") 
     return out
 
 
+def sampled_loop_lines(info: dict[str, Any], runs: list[dict[str, Any]],
+                       continuous: Any, labels: Sequence[str]) -> list[str]:
+    """Sampled mode: the simulated loop's certified verdict per run (``"sampled_loop"``:
+    ``verdict``, ``unstable_modes``, ``continuous_stable``, ``text``) and the lines printed
+    under the table, one per design, beside the continuous certified count ``continuous``
+    (-1 unknown): a design stable in continuous time and not sampled is called out."""
+    from ..sampled import sampled_verdict_text
+
+    if "sampled_verdict" not in info:
+        return []
+    cont = np.ravel(continuous)
+    verdicts = np.ravel(info["sampled_verdict"])
+    modes = np.ravel(info["sampled_unstable_modes"])
+    lines = []
+    for i, r in enumerate(runs):
+        c = None if cont[i] < 0 else bool(cont[i] == 0)
+        text = sampled_verdict_text(c, str(verdicts[i]), int(modes[i]), info["sampled_rate"])
+        r["sampled_loop"] = {"verdict": str(verdicts[i]), "unstable_modes": int(modes[i]),
+                             "continuous_stable": c, "text": text}
+        lines.append(f"{labels[i]}: {text}")
+    return lines
+
+
 def verdict_text(verdict: str) -> str:
     """A sampled verdict for a table cell (red unless stable)."""
     return verdict if verdict == "stable" else f"[red]{verdict}[/red]"

@@ -18,7 +18,14 @@ from rich.markup import escape
 from rich.table import Table
 
 from ..errors import InputError
-from ._common import cli, console, echo_json, finite_or_none, parse_values
+from ._common import (
+    cli,
+    console,
+    echo_json,
+    finite_or_none,
+    parse_values,
+    sampled_loop_lines,
+)
 
 
 def parse_sets(tokens: tuple[str, ...]) -> dict[str, Any]:
@@ -306,7 +313,8 @@ def loop_response(loop: Any, kind: str, mode: str, t_end: float, size: float,
              "metrics": {k: finite_or_none(np.asarray(getattr(m, k)).reshape(-1)[i])
                          for k in keys},
              out_name: [round(float(v), 12) for v in yf[i]]} for i, lab in enumerate(labels)]
-    lines = _sampled_lines(loop, res, names, runs)
+    lines = sampled_loop_lines(res.info, runs, loop.right_half_plane_roots(), names) \
+        if "sampled_verdict" in res.info else []
     warnings = [(" ".join(f"{k}={x:g}" for k, x in lab.items()) + ": " if lab else "") + w
                 for lab, r in zip(labels, runs) for w in r["warnings"]]
     common = {"loop": loop.name, "mode": mode, "output": out_name, kind == "step" and
@@ -332,28 +340,6 @@ def loop_response(loop: Any, kind: str, mode: str, t_end: float, size: float,
         console.print(escape(f"sampled loop: {line}"), highlight=False)
     for w in warnings:
         console.print(escape(f"warning: {w}"), highlight=False)
-
-
-def _sampled_lines(loop: Any, res: Any, names: list[str], runs: list[dict[str, Any]]
-                   ) -> list[str]:
-    """Sampled mode: the loop's certified verdict per run (``"sampled_loop"``) and the
-    lines printed under the table, calling out designs stable only in continuous time."""
-    if "sampled_verdict" not in res.info:
-        return []
-    from ..sampled import sampled_verdict_text
-
-    cont = np.ravel(loop.right_half_plane_roots())
-    verdicts = np.ravel(res.info["sampled_verdict"])
-    modes = np.ravel(res.info["sampled_unstable_modes"])
-    lines = []
-    for i, r in enumerate(runs):
-        c = None if cont[i] < 0 else bool(cont[i] == 0)
-        text = sampled_verdict_text(c, str(verdicts[i]), int(modes[i]),
-                                    res.info["sampled_rate"])
-        r["sampled_loop"] = {"verdict": str(verdicts[i]), "unstable_modes": int(modes[i]),
-                             "continuous_stable": c, "text": text}
-        lines.append(f"{names[i]}: {text}")
-    return lines
 
 
 def loop_place(loop: Any, as_json: bool) -> None:

@@ -32,7 +32,9 @@ is unstable however slowly they grow: in continuous mode the certified count of
 right-half-plane roots, in sampled mode the eigenvalues of the loop's map over a period
 outside the unit circle, without saturation and quantization); ``stable`` is
 false for unstable and limit cycle.  The top-level
-``warnings`` are the lines the table prints after ``warning:``.
+``warnings`` are the lines the table prints after ``warning:``.  In sampled mode each run
+also has ``sampled_loop`` (``verdict``, ``unstable_modes``, ``continuous_stable``, ``text``):
+the certified verdict of the simulated loop without saturation, printed under the table.
 Metrics that do not exist (unstable response, never settled) are ``null``.
 """
 
@@ -56,7 +58,15 @@ from ..errors import InputError
 from ..limits import check_range
 from ..outputs import CSV_SUFFIXES, FIGURE_SUFFIXES, OutputSet
 from ..verdict import STEP_BAND, judge_response
-from ._common import DesignSpec, cli, console, design_options, echo_json, finite_or_none
+from ._common import (
+    DesignSpec,
+    cli,
+    console,
+    design_options,
+    echo_json,
+    finite_or_none,
+    sampled_loop_lines,
+)
 from .loops import loop_options, loop_response
 
 BAD = ("unstable", "limit cycle")
@@ -325,27 +335,14 @@ def _output(spec: DesignSpec, resp: Any, mode: str, zero: bool, extra: dict[str,
 
 def _sampled_loop(spec: DesignSpec, res: Any, runs: list[dict[str, Any]], zero: bool
                   ) -> list[str]:
-    """Sampled mode: the loop's certified verdict beside each run (``"sampled_loop"``:
-    ``verdict``, ``unstable_modes``, ``continuous_stable``, ``text``) and the lines the
-    table prints, one per design (a design stable in continuous time and not sampled is
-    called out in words)."""
+    """Sampled mode: the loop's certified verdict beside each run (``"sampled_loop"``)
+    and the lines the table prints (:func:`._common.sampled_loop_lines`)."""
     if "sampled_verdict" not in res.info:
         return []
-    from ..sampled import sampled_verdict_text
     from ..sea import sea_right_roots
 
-    cont = np.ravel(sea_right_roots(spec.designs(), zero))
-    verdicts = np.ravel(res.info["sampled_verdict"])
-    modes = np.ravel(res.info["sampled_unstable_modes"])
-    lines = []
-    for i, r in enumerate(runs):
-        c = None if cont[i] < 0 else bool(cont[i] == 0)
-        text = sampled_verdict_text(c, str(verdicts[i]), int(modes[i]),
-                                    res.info["sampled_rate"])
-        r["sampled_loop"] = {"verdict": str(verdicts[i]), "unstable_modes": int(modes[i]),
-                             "continuous_stable": c, "text": text}
-        lines.append(f"f_n={r['fn_hz']:g} Hz, GS={r['gs']:g}: {text}")
-    return lines
+    return sampled_loop_lines(res.info, runs, sea_right_roots(spec.designs(), zero),
+                              [f"f_n={r['fn_hz']:g} Hz, GS={r['gs']:g}" for r in runs])
 
 
 def _notes(spec: DesignSpec, mode: str, extra: dict[str, Any]) -> list[str]:
