@@ -147,6 +147,18 @@ def test_sampled_mode_reaches_the_command_line():
     assert v["step"]["t_ms"][-1] == pytest.approx(model.t_end_s(14.0) * 1e3, abs=2.0)  # 1/rate
 
 
+def test_sampled_step_shows_the_sampled_loop_verdict():
+    # Oracle: the library's certified verdict of the same loop (Design.margins(rate_hz)).
+    from seactl.explore import app
+
+    c = replace(TABLE_I, mode="sampled", rate_hz=190.0)   # the page simulates >= 20 samples
+    v = model.views(c)
+    lib = sc.design(14, delays_ms=(0.5, 2, 0.5), filters_hz=(50, 100)).margins(rate_hz=190)
+    assert v["results"]["sampled_verdict"] == str(lib.verdict) == "unstable"
+    assert "stable in continuous time, UNSTABLE sampled at 190 Hz" in v["results"]["verdict"]
+    assert "unstable at 190 Hz" in app.results_html(v["results"], "N m s/rad")
+
+
 def test_upload_actuator_file_and_errors():
     act, table = model.actuator_from_upload("my-sea.toml", README_TOML)
     assert (act.name, act.spring_stiffness, table) == ("my-sea", 218.75, {})

@@ -24,8 +24,8 @@ _PUBLIC = {
     ".api": ("design", "Design", "UnitWarning", "rightmost_roots"),
     ".actuators": ("SEAParams", "UT_SEA", "load_sea"),
     ".design": ("feasible_fn_range",),
-    "._results": ("MarginsResult", "ImpedanceResult", "ResponseResult", "JitterResult",
-                  "RootsResult"),
+    "._results": ("MarginsResult", "SampledMarginsResult", "ImpedanceResult",
+                  "ResponseResult", "JitterResult", "RootsResult"),
     ".systems": ("rigid", "RigidBatch", "loop_model", "latency_map", "place", "sweep",
                  "read_sweep", "compare_mobile_base", "mobile_base_params",
                  "LatencyMapResult", "PlacementResult"),
@@ -37,8 +37,8 @@ _HOME = {name: module for module, names in _PUBLIC.items() for name in names}
 __all__ = [
     # SEA designs
     "design", "Design", "SEAParams", "UT_SEA", "load_sea", "feasible_fn_range",
-    "MarginsResult", "ImpedanceResult", "ResponseResult", "JitterResult", "rightmost_roots",
-    "RootsResult",
+    "MarginsResult", "SampledMarginsResult", "ImpedanceResult", "ResponseResult",
+    "JitterResult", "rightmost_roots", "RootsResult",
     # other systems
     "rigid", "RigidBatch", "loop_model", "latency_map", "place", "sweep", "read_sweep",
     "compare_mobile_base", "mobile_base_params", "LatencyMapResult", "PlacementResult",

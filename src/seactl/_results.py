@@ -159,6 +159,92 @@ class MarginsResult(_Columns):
         return ax
 
 
+SAMPLED_COLUMNS = ("rate_hz", "verdict", "unstable_modes", "phase_margin_deg", "crossover_hz",
+                   "gain_margin_db", "phase_crossover_hz", "delay_margin_ms",
+                   "delay_margin_samples", "jitter_margin_ms", "jitter_margin_samples",
+                   "stable")
+
+
+class SampledMarginsResult(_Columns):
+    """Certified verdict and margins of the sampled-data loop at its process rates
+    (:func:`seactl.sampled.sampled_margins`; arrays of the batch shape).
+
+    Every attribute of :class:`seactl.sampled.SampledMargins` is available
+    (``verdict``: stable / unstable / uncertain, ``unstable_modes`` (-1 uncertain),
+    ``phase_margin_deg``, ``crossover_hz`` up to Nyquist, ``gain_margin_db``,
+    ``delay_margin_ms``, ``delay_margin_samples``, ``reason`` when margins are NaN).
+    ``rate_hz`` in :meth:`records` is the base (fastest) rate.
+
+    Parameters
+    ----------
+    margins : seactl.sampled.SampledMargins
+        The computed verdict and margins.
+    labels : dict
+        Per-design columns (e.g. ``fn_hz``, ``gs`` and gains) of the batch shape.
+
+    Examples
+    --------
+    >>> import seactl as sc
+    >>> m = sc.design(14, delays_ms=(0.5, 2, 0.5), filters_hz=(50, 100)).margins(rate_hz=1000)
+    >>> r = m.records()[0]
+    >>> r["verdict"], round(r["phase_margin_deg"], 1), r["delay_margin_samples"]
+    ('stable', 42.0, 9)
+    """
+
+    def __init__(self, margins: Any, labels: dict[str, Any]):
+        self._inner = margins
+        self.labels = labels
+
+    def __repr__(self) -> str:
+        pm = np.round(np.asarray(self._inner.phase_margin_deg, float), 2)
+        return f"SampledMarginsResult(rate={self._inner.rate_label!r}, phase_margin_deg=" \
+               f"{pm.tolist()}, verdict={np.asarray(self._inner.verdict).tolist()})"
+
+    def _columns(self) -> dict[str, np.ndarray]:
+        m = self._inner
+        cols = dict(self.labels)
+        cols["rate_hz"] = max(m.rates_hz.values())
+        for name in SAMPLED_COLUMNS[1:]:
+            cols[name] = getattr(m, name)
+        shape = np.shape(m.phase_margin_deg)
+        return {k: np.broadcast_to(np.asarray(v), shape) for k, v in cols.items()}
+
+    def records(self) -> list[dict[str, Any]]:
+        """One JSON-ready dict per design, in C order of the batch.
+
+        Returns
+        -------
+        list of dict
+            Keys as in :meth:`to_dict`; the verdict a word, ``delay_margin_samples`` an
+            integer, a value that is not finite ``None``.
+        """
+        cols = {k: np.ravel(v) for k, v in self._columns().items()}
+        n = len(cols["verdict"])
+        def value(k: str, x: Any) -> Any:
+            if k == "verdict":
+                return str(x)
+            if k in ("delay_margin_samples", "jitter_margin_samples") and np.isfinite(x):
+                return int(x)
+            return json_value(x)
+
+        return [{k: value(k, v[i]) for k, v in cols.items()} for i in range(n)]
+
+    def to_dict(self) -> dict[str, Any]:
+        """Every column as a (nested) list of the batch shape; NaN/inf become ``None``.
+
+        Returns
+        -------
+        dict
+            ``labels`` columns, then ``rate_hz``, ``verdict``, ``unstable_modes`` and the
+            margins, plus ``rates_hz``, ``period_s`` and ``reason``.
+        """
+        out = {k: (np.asarray(v).tolist() if k == "verdict" else json_array(v))
+               for k, v in self._columns().items()}
+        out.update(rates_hz=dict(self._inner.rates_hz), period_s=self._inner.period_s,
+                   reason=self._inner.reason)
+        return out
+
+
 class ImpedanceResult(_Wrapped):
     """Impedance ``Z(j 2 pi f)`` of a design batch.
 
@@ -344,6 +430,10 @@ class ResponseResult(_Wrapped):
                                        for k, v in self.effective_delays_s.items()}}
         for name, value in vars(r.metrics).items():
             out[name] = json_array(value)
+        info = r.result.info
+        if "sampled_verdict" in info:   # the sampled loop's certified verdict
+            out["sampled_verdict"] = np.asarray(info["sampled_verdict"]).tolist()
+            out["sampled_unstable_modes"] = json_array(info["sampled_unstable_modes"])
         return out
 
     def plot(self, ax: Any = None) -> Any:

@@ -27,6 +27,7 @@ from ._results import (
     MarginsResult,
     ResponseResult,
     RootsResult,
+    SampledMarginsResult,
 )
 from ._validate import finite_array
 from .axes import MAX_DELAY_MS
@@ -223,18 +224,29 @@ class Design:
                 "Btau": g.Btau}
 
     # ------------------------------------------------------------ analyses
-    def margins(self) -> MarginsResult:
+    def margins(self, rate_hz: Any = None) -> MarginsResult | SampledMarginsResult:
         """Phase, gain and delay margins of the outer loop, and closed-loop stability.
 
         The loop is the outer impedance loop with the inner torque loop closed and exact
         delays; stability is the Nyquist criterion of the whole cascade
         (:func:`seactl.sea.sea_margins`).
 
+        Parameters
+        ----------
+        rate_hz : float or dict, optional
+            ``None`` (default): the continuous loop.  A rate [Hz] (both processes), or
+            ``{"embedded": ..., "high-level": ...}``: the sampled-data loop that
+            ``step(mode="sampled")`` runs (Tustin controllers, whole-sample delays, the
+            held plant), with a certified verdict and margins from its discrete frequency
+            response up to Nyquist (:func:`seactl.sea.sea_sampled_margins`; the argument is
+            in docs/theory/sampled.md).  A multi-rate loop gets its verdict only.
+
         Returns
         -------
-        MarginsResult
+        MarginsResult or SampledMarginsResult
             Arrays of the batch shape (``phase_margin_deg``, ``delay_margin_ms``,
-            ``stable``, ...), with ``to_dict()``, ``records()`` and ``plot()``.
+            ``stable``, ...), with ``to_dict()``, ``records()`` and ``plot()``; sampled:
+            also ``verdict`` and ``delay_margin_samples``.
 
         Examples
         --------
@@ -243,6 +255,11 @@ class Design:
         >>> d.margins().phase_margin_deg.round(2)
         array([45.13, 43.26, 40.03])
         """
+        if rate_hz is not None:
+            from .sea import sea_sampled_margins
+
+            return SampledMarginsResult(sea_sampled_margins(self.sea, rate_hz),
+                                        self._label_columns())
         from .sea import sea_margins
 
         return MarginsResult(sea_margins(self.sea), self._label_columns())

@@ -194,3 +194,35 @@ def check_simulation(n_designs: int, mode: str, rate_hz: float, t_end_s: float,
                  n_bytes=n_bytes, seconds=seconds,
                  hint=hint + ("" if mode == "sampled" else " (the continuous mode steps at "
                               "min(0.1 ms, the smallest positive delay))"))
+
+
+SAMPLED_SECONDS_PER_STATE3 = 1e-7
+"""Time per design and cubed state of the sampled loop's verdict (period map,
+eigenvalues, Stein certificate), and per frequency of its margin scan
+(:mod:`seactl.sampled`); rounded up."""
+SAMPLED_MAX_STATES = 2000
+"""Largest period-map state of a sampled-loop analysis (a 2 s buffer at 1 kHz)."""
+
+
+def check_sampled_analysis(n_designs: int, states: int, frequencies: int = 0,
+                           reduced: int = 0, rate_hz: float | None = None) -> None:
+    """Refuse a sampled-loop analysis whose work, ``n S^3`` for the verdict plus
+    ``n x frequencies x r^3`` for the margins (``r`` the reduced system of
+    :mod:`seactl.sampled`), exceeds :func:`time_budget_s`, or whose state is longer than
+    :data:`SAMPLED_MAX_STATES`, with the estimate."""
+    from .errors import InputError
+
+    if states > SAMPLED_MAX_STATES:
+        raise InputError("rate_hz", rate_hz,
+                         f"a rate giving a sampled loop of at most {SAMPLED_MAX_STATES} states "
+                         f"(with these delays it has {states}: each delay buffer holds "
+                         "rate x delay samples); lower the rate or the delays")
+    per = (float(states) ** 3 + frequencies * float(reduced) ** 3) * SAMPLED_SECONDS_PER_STATE3
+    seconds = n_designs * per
+    if seconds > time_budget_s():
+        most = max(1, int(time_budget_s() / per))
+        raise InputError("designs", n_designs,
+                         f"at most {most:,} designs for a sampled-loop analysis with "
+                         f"{states} states{' and its margins' if frequencies else ''} "
+                         f"(estimate {human_seconds(seconds)}, limit "
+                         f"{human_seconds(time_budget_s())}, SEACTL_MAX_SECONDS)")

@@ -348,6 +348,8 @@ class StepExperiment:
     linear_stable, linear_pm_deg : Nyquist stability and phase margin of the
         continuous loop with the effective delays (no saturation).
     overshoot_pct, settling_time_s : of the in-control runs (NaN otherwise).
+    sampled_unstable_modes : the simulated loop's certified count of modes outside the unit
+        circle (:func:`seactl.sampled.sampled_roots`, no saturation; -1 uncertain).
     """
 
     t_s: np.ndarray
@@ -366,6 +368,7 @@ class StepExperiment:
     settling_time_s: np.ndarray
     force_limit_n: float | None
     rate_hz: float
+    sampled_unstable_modes: np.ndarray | None = None
 
     def panel_label(self, k: int) -> str:
         ts, td = self.delays_ms[k]
@@ -416,7 +419,10 @@ def step_experiment(actuator: RigidParams = UT_LINEAR, fn_hz=(4.0, 8.0, 12.0), *
     ooc = ~res.stable | (resid > residual_tol)
     met = step_metrics(t_s, y, ~ooc, res.left_bounds_s)
     lin = rigid_margins(d)
+    from .sampled import sampled_roots
+
+    sampled = sampled_roots(RIGID_DIAGRAM, d, rate).unstable_modes
     return StepExperiment(t_s, y, force, fn, tuple(map(tuple, dl.tolist())), eff, sat,
                           resid, residual_tol, ooc, lin.stable, lin.phase_margin_deg,
-                          met.overshoot_pct, met.settling_time_s, limit, rate)
+                          met.overshoot_pct, met.settling_time_s, limit, rate, sampled)
 

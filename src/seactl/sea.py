@@ -26,7 +26,8 @@ from .simulate import (
 )
 from .verdict import RECOVERY_BAND
 
-__all__ = ["sea_impulse", "sea_margins", "sea_reference_frequency", "sea_step"]
+__all__ = ["sea_impulse", "sea_margins", "sea_reference_frequency", "sea_sampled_margins",
+           "sea_sampled_roots", "sea_step"]
 
 
 def sea_reference_frequency(design: Any) -> np.ndarray:
@@ -62,6 +63,38 @@ def sea_margins(design: Any, omega: np.ndarray | None = None) -> Margins:
     if omega is None:
         omega = default_grid(sea_reference_frequency(design))
     return loop_margins(outer_loop(), design, omega)
+
+
+def sea_sampled_margins(design: Any, rate_hz: Any) -> Any:
+    """Certified verdict and margins of the SEA loop sampled at ``rate_hz`` (a rate for
+    both processes, or a mapping ``{"embedded": ..., "high-level": ...}``), broken where
+    :func:`sea_margins` breaks it (``q_sens``, inner loop closed;
+    :func:`seactl.sampled.sampled_margins`)."""
+    from .loops import SEA_DIAGRAM
+    from .sampled import sampled_margins
+
+    return sampled_margins(SEA_DIAGRAM, design, "q_sens", rate_hz,
+                           sea_reference_frequency(design))
+
+
+def sea_sampled_roots(design: Any, rate_hz: Any, zero: bool = True) -> Any:
+    """The sampled SEA loop's z-plane roots and certified verdict
+    (:func:`seactl.sampled.sampled_roots`)."""
+    from .sampled import sampled_roots
+
+    return sampled_roots(sea_diagram(zero), design, rate_hz)
+
+
+def _sampled_info(res: SimResult, design: Any, rate_hz: Any, zero: bool) -> None:
+    """The sampled loop's certified verdict in ``res.info`` (``sampled_verdict``,
+    ``sampled_unstable_modes``, ``sampled_rate``) beside the response; where it is
+    certified it also replaces the simulation's own count (``unstable_modes``) that
+    :func:`seactl.verdict.judge_response` reads."""
+    r = sea_sampled_roots(design, rate_hz, zero)
+    res.info.update(sampled_verdict=r.verdict, sampled_unstable_modes=r.unstable_modes,
+                    sampled_rate=r.rate_label)
+    own = np.asarray(res.info.get("unstable_modes", r.unstable_modes))
+    res.info["unstable_modes"] = np.where(r.unstable_modes >= 0, r.unstable_modes, own)
 
 
 def _sea_kwargs(design, mode, rate_hz, saturation_a):
@@ -108,6 +141,8 @@ def sea_step(design: Any, *, zero: bool = True, mode: str = "continuous",
     res = simulate(sea_diagram(zero), design, {"q_des": Step(amplitude)}, t_end_s, mode=mode,
                    outputs=("q_j", "i_m"), dt=dt, **_sea_kwargs(design, mode, rate_hz,
                                                                  saturation_a), **kwargs)
+    if mode == "sampled" and not set(kwargs) - {"record_dt"}:
+        _sampled_info(res, design, rate_hz, zero)
     pos = res.outputs["q_j"] / amplitude
     res = SimResult(res.mode, res.t_s, {"q_j": pos, "i_m": res.outputs["i_m"]}, res.stable,
                     res.left_bounds_s, res.bound, res.info)
@@ -128,5 +163,7 @@ def sea_impulse(design: Any, *, impulse_nms: float = 0.05, zero: bool = True,
     res = simulate(sea_diagram(zero), design, {"tau_ext": Impulse(impulse_nms)}, t_end_s,
                    mode=mode, outputs=("q_j", "i_m"), dt=dt, bound=bnd,
                    **_sea_kwargs(design, mode, rate_hz, saturation_a), **kwargs)
+    if mode == "sampled" and not set(kwargs) - {"record_dt"}:
+        _sampled_info(res, design, rate_hz, zero)
     m = impulse_metrics(res.t_s, res.outputs["q_j"], res.stable, res.left_bounds_s, band)
     return SEAResponse("impulse", res, m)

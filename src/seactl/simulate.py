@@ -1266,7 +1266,7 @@ def compile_sampled(diagram: BlockDiagram, design: Any, inputs: Mapping[str, Any
         x0[zp["x"]] = np.einsum("nij,j->in", pn.net.B[:, :, cols], imp[cols - na])
     requested = {b.name: _delay_attr(design, b, shape, n).reshape(shape) for b in cn.delayed}
     info = {"rates_hz": rates, "base_period_s": Tb, "requested_delays_s": requested,
-            "effective_delays_s": cn.eff,
+            "effective_delays_s": cn.eff, "controller_inputs": tuple(cn.exo),
             "buffer_samples": {b: v.reshape(shape) for b, v in cn.nbuf.items()},
             "saturation": dict(saturation), "friction_step_s": h if friction else None}
     return SampledPlan(
@@ -1561,6 +1561,95 @@ def _lifted_state(plan: SampledPlan, st: _SampledState, slots: np.ndarray,
             i += k
         st.ring[slots] = set_to[i:]
     return np.concatenate([arr[sl] for arr, sl in parts] + [st.ring[slots]], axis=0)
+
+
+def period_map(plan: SampledPlan, designs: slice = slice(None), inputs: bool = False
+               ) -> tuple[np.ndarray, ...]:
+    """The sampled loop as a discrete-time state space over one period of its slowest
+    process (``plan.phases`` base ticks; one tick when every process runs at one rate).
+
+    The state ``x`` (length ``S``) is what a tick carries over: plant states, the held
+    actuation, controller states, held outputs of slow blocks, then per delayed block the
+    source values of the last ``J`` ticks (``J`` its longest buffer in the batch; a shift
+    register, newest first).  Each column is the run loop itself (:func:`_sense`,
+    :func:`_control`, :func:`_advance_plant`) started from one unit state, with no
+    saturation and no quantization, as in :func:`lifted_map`.  Returns ``(A, period_s)``
+    with ``A`` of shape ``(n, S, S)``; with ``inputs`` (one-rate loops only) also the
+    exogenous controller inputs (``plan.info["controller_inputs"]``) and the recorded
+    outputs (``plan.order``) at the period's first tick: ``(A, B, C, D, period_s)`` with
+    ``x+ = A x + B u``, ``y = C x + D u``.  Without friction only.
+    """
+    if plan.friction:
+        raise InputError("friction", "given", "a loop without friction (it is not linear)")
+    P = plan.phases
+    if inputs and P != 1:
+        raise InputError("rates_hz", plan.info["rates_hz"], "one rate for every process "
+                         "(a multi-rate loop is periodic, not time-invariant)")
+    nbuf = plan.nbuf[:, designs]
+    n = nbuf.shape[1]
+    J = nbuf.max(axis=1, initial=0)
+    parts = [plan.zp["x"], plan.zp["act"], plan.zc["x"], plan.zc["held"]]
+    S0 = sum(sl.stop - sl.start for sl in parts)
+    S = S0 + int(J.sum())
+    nu = (plan.zc["uc"].stop - plan.zc["uc"].start) if inputs else 0
+    K = S + nu
+    L = int(J.max(initial=0)) + P + 1
+
+    def rep(a):  # per-design arrays (batch last), one copy per probe column
+        return np.repeat(a[..., designs], K, axis=-1)
+
+    cin = np.zeros((P + 1, plan.ctrl_inputs.shape[1], n * K))
+    if nu:
+        cin[0][:, (np.arange(n)[:, None] * K + S + np.arange(nu)).ravel()] = \
+            np.tile(np.eye(nu), (1, n))
+    probe = replace(
+        plan, t_s=np.arange(P + 1) * plan.base_period_s, Hp=rep(plan.Hp), CDp=rep(plan.CDp),
+        ABc=[rep(a) for a in plan.ABc], CDc=[rep(a) for a in plan.CDc],
+        HOLD=[[rep(a) for a in row] for row in plan.HOLD],
+        plant_inputs=np.zeros((P * plan.substeps + 1,) + plan.plant_inputs.shape[1:2] + (1,)),
+        ctrl_inputs=cin, x0=np.zeros((plan.x0.shape[0], n * K)),
+        nbuf=np.repeat(nbuf, K, axis=-1), limit=np.full_like(plan.limit, np.inf))
+    st = _SampledState.start(probe, L)
+    unit = np.tile(np.eye(S, K), (1, n))   # column j: design j // K, unit state j % K
+    _shift_state(probe, st, J, 0, unit)
+    y = None
+    for k in range(P):
+        Sp = _sense(probe, st, k)
+        Sc, st.act = _control(probe, st, k, Sp[probe.prow["sensed"]], None)
+        if k == 0:
+            y = np.concatenate([Sp[probe.prow["out"]], Sc[probe.crow["out"]]], axis=0)
+        _advance_plant(probe, st, k)
+    M = _shift_state(probe, st, J, P).reshape(S, n, K).transpose(1, 0, 2)
+    period = P * plan.base_period_s
+    if not inputs:
+        return M, period
+    Y = y.reshape(-1, n, K).transpose(1, 0, 2)
+    return M[..., :S], M[..., S:], Y[..., :S], Y[..., S:], period
+
+
+def _shift_state(plan: SampledPlan, st: _SampledState, J: np.ndarray, k: int,
+                 set_to: np.ndarray | None = None) -> np.ndarray:
+    """The state of :func:`period_map` before tick ``k``, rows ``(S, columns)``: the
+    carried-over vectors, then per link the source values of ticks ``k-1 .. k-J`` (ring
+    slot ``(k - j) % L``); with ``set_to``, set it."""
+    parts = [(st.zp, plan.zp["x"]), (st.act, slice(None)), (st.zc, plan.zc["x"]),
+             (st.zc, plan.zc["held"])]
+    L = st.ring.shape[0]
+    regs = [(j, int(J[j])) for j in range(len(J))]
+    if set_to is not None:
+        i = 0
+        for arr, sl in parts:
+            m = arr[sl].shape[0]
+            arr[sl] = set_to[i:i + m]
+            i += m
+        for link, depth in regs:
+            for j in range(1, depth + 1):
+                st.ring[(k - j) % L, link] = set_to[i]
+                i += 1
+    out = [arr[sl] for arr, sl in parts]
+    out += [st.ring[(k - j) % L, link][None] for link, depth in regs
+            for j in range(1, depth + 1)]
+    return np.concatenate(out, axis=0)
 
 
 def sampled_unstable_modes(plan: SampledPlan) -> np.ndarray:

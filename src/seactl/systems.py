@@ -93,12 +93,20 @@ class RigidBatch:
                       f_v=pick(self.rigid.f_v))
         return RigidBatch(sub, pick(self.fn_hz))
 
-    def margins(self) -> MarginsResult:
+    def margins(self, rate_hz: Any = None) -> Any:
         """Whole-loop phase, gain and delay margins and Nyquist stability.
+
+        Parameters
+        ----------
+        rate_hz : float or dict, optional
+            ``None`` (default): the continuous loop.  A rate [Hz] (both processes) or
+            ``{"embedded": ..., "high-level": ...}``: the sampled-data loop that
+            ``step(mode="sampled")`` runs, with a certified verdict and margins from its
+            discrete frequency response (:func:`seactl.sampled.sampled_margins`).
 
         Returns
         -------
-        MarginsResult
+        MarginsResult or SampledMarginsResult
             Arrays of the batch shape, labelled by ``fn_hz``, ``K`` and ``B``.
 
         Examples
@@ -107,10 +115,18 @@ class RigidBatch:
         >>> round(float(sc.rigid(8, delays_ms=(1.5, 1.5)).margins().phase_margin_deg), 1)
         52.6
         """
+        r = self.rigid
+        labels = {"fn_hz": self.fn_hz, "K": r.K, "B": r.B}
+        if rate_hz is not None:
+            from ._results import SampledMarginsResult
+            from .rigid import RIGID_DIAGRAM
+            from .sampled import sampled_margins
+
+            return SampledMarginsResult(sampled_margins(RIGID_DIAGRAM, r, "x_sens", rate_hz,
+                                                        r.wn), labels)
         from .rigid import rigid_margins
 
-        r = self.rigid
-        return MarginsResult(rigid_margins(r), {"fn_hz": self.fn_hz, "K": r.K, "B": r.B})
+        return MarginsResult(rigid_margins(r), labels)
 
     def roots(self, count: int = 6) -> Any:
         """Rightmost roots of the closed loop (exact delays), per design.
@@ -219,6 +235,14 @@ class RigidBatch:
         res = simulate(RIGID_DIAGRAM, r, {"x_des": Step(1.0)}, t_end_s, mode=mode,
                        rates_hz=rate_hz, outputs=("x", "F_des"),
                        saturation={"F_des": limit} if limit else None)
+        if mode == "sampled":   # the simulated loop's certified verdict beside it
+            from .sampled import sampled_roots
+
+            sr = sampled_roots(RIGID_DIAGRAM, r, rate_hz)
+            res.info.update(sampled_verdict=sr.verdict, sampled_unstable_modes=sr.unstable_modes,
+                            sampled_rate=sr.rate_label, unstable_modes=np.where(
+                                sr.unstable_modes >= 0, sr.unstable_modes,
+                                res.info.get("unstable_modes", -1)))
         force = res.outputs["F_des"] if limit is None else np.clip(res.outputs["F_des"],
                                                                    -limit, limit)
         res = SimResult(res.mode, res.t_s, {"q_j": res.outputs["x"],

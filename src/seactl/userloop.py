@@ -778,6 +778,46 @@ class UserLoop:
                if k.startswith("var__")}
         return LoopAnalysis(self.name, out, out[-1].margins.stable, env)
 
+    def margins(self, rate_hz: Any = None) -> Any:
+        """Margins at every named break: of the continuous loop (``rate_hz`` None, as
+        :meth:`analyze` without jitter), or of the loop sampled at its process rates.
+
+        Parameters
+        ----------
+        rate_hz : float or dict, optional
+            A rate [Hz] for every process, or process -> rate overriding the file's rates
+            (``{}``: the file's own rates).  The sampled loop is the one
+            ``step(mode="sampled")`` runs; its verdict is certified and its margins come
+            from the discrete frequency response up to Nyquist
+            (:func:`seactl.sampled.sampled_margins`; a multi-rate loop: verdict only).
+
+        Returns
+        -------
+        LoopAnalysis or dict
+            Continuous: the :meth:`analyze` result.  Sampled: break name ->
+            :class:`~seactl.SampledMarginsResult` (one verdict, the whole loop's).
+
+        Examples
+        --------
+        >>> import seactl as sc
+        >>> loop = sc.load_loop("examples/loops/rigid.toml")      # doctest: +SKIP
+        >>> m = loop.margins(rate_hz={})                            # doctest: +SKIP
+        """
+        if rate_hz is None:
+            return self._analyze(self.design, False)
+        from ._results import SampledMarginsResult
+        from .sampled import sampled_margins
+
+        rates = self._rates(rate_hz) if isinstance(rate_hz, Mapping) else \
+            {p: rate_hz for p in self.processes} or rate_hz
+        if not self.breaks:
+            raise LoopFileError(self.file, "[[breaks]]", None, "at least one named break")
+        w_ref = 100 * self._grid(self.design)[0]
+        return {name: SampledMarginsResult(
+                    sampled_margins(self.diagram, self.design, sig, rates, w_ref),
+                    dict(self.environment()))
+                for name, sig in self.breaks.items()}
+
     def placements(self, max_options: int = 4096) -> Placements:
         """Every assignment of the blocks whose delay is their process's latency
         (``delay_ms = "process"``) to the declared processes, analysed as one batch.
@@ -848,8 +888,15 @@ class UserLoop:
             raise LoopFileError(self.file, "input", inp, "an exogenous input: "
                                 + ", ".join(self.diagram.inputs))
         self._signal(out, "output")
+        rates = self._rates(rates_hz)
         res = simulate(self.diagram, self.design, {inp: excitation}, t_end_s, mode=mode,
-                       outputs=(out,), rates_hz=self._rates(rates_hz), record_dt=record_dt)
+                       outputs=(out,), rates_hz=rates, record_dt=record_dt)
+        if mode == "sampled":   # the simulated loop's certified verdict beside it
+            from .sampled import sampled_roots
+
+            r = sampled_roots(self.diagram, self.design, rates)
+            res.info.update(sampled_verdict=r.verdict, sampled_unstable_modes=r.unstable_modes,
+                            sampled_rate=r.rate_label)
         step = which == "reference"
         res.info["excitation"] = {"kind": "step" if step else "impulse",
                                   "size": float(excitation.amplitude if step

@@ -187,6 +187,75 @@ def _scalar(v: Any) -> Any:
     return v if v is None or np.ndim(v) else float(v)
 
 
+def rate_option(func: Callable) -> Callable:
+    """``--rate HZ``: also analyse the sampled-data loop at that servo rate; the command
+    receives ``rate_hz`` (None without the option), checked against its range."""
+
+    @functools.wraps(func)
+    def wrapper(*args, rate_hz, **kwargs):
+        if rate_hz is not None:
+            from ..limits import check_range
+
+            check_range("--rate [Hz]", rate_hz, "rate_hz")
+        return func(*args, rate_hz=rate_hz, **kwargs)
+
+    return click.option(
+        "--rate", "rate_hz", type=float, default=None,
+        help="Also analyse the loop sampled at this servo rate [Hz] (both processes), as "
+             "step --mode sampled runs it: Tustin controllers, whole-sample delays, the held "
+             "plant; certified verdict (stable, unstable, uncertain) and margins up to "
+             "Nyquist.")(wrapper)
+
+
+SAMPLED_KEYS = ("rate_hz", "verdict", "unstable_modes", "phase_margin_deg", "crossover_hz",
+                "gain_margin_db", "phase_crossover_hz", "delay_margin_ms",
+                "delay_margin_samples", "jitter_margin_ms", "jitter_margin_samples")
+"""JSON keys of the sampled loop (``"sampled": {...}`` beside the continuous values)."""
+
+
+def sampled_callout(rows: Sequence[dict[str, Any]], stable_key: str = "stable") -> list[str]:
+    """One line per design whose sampled verdict differs from the continuous one, or is
+    uncertain (:func:`seactl.sampled.sampled_verdict_text`)."""
+    from ..sampled import sampled_verdict_text
+
+    out = []
+    for r in rows:
+        sm = r["sampled"]
+        if sm["verdict"] == "stable" and r[stable_key]:
+            continue
+        out.append(f"f_n={r['fn_hz']:g} Hz, GS={r.get('gs', 1):g}: " + sampled_verdict_text(
+            bool(r[stable_key]), sm["verdict"], sm["unstable_modes"], f"{sm['rate_hz']:g} Hz"))
+    return out
+
+
+def sampled_loop_lines(info: dict[str, Any], runs: list[dict[str, Any]],
+                       continuous: Any, labels: Sequence[str]) -> list[str]:
+    """Sampled mode: the simulated loop's certified verdict per run (``"sampled_loop"``:
+    ``verdict``, ``unstable_modes``, ``continuous_stable``, ``text``) and the lines printed
+    under the table, one per design, beside the continuous certified count ``continuous``
+    (-1 unknown): a design stable in continuous time and not sampled is called out."""
+    from ..sampled import sampled_verdict_text
+
+    if "sampled_verdict" not in info:
+        return []
+    cont = np.ravel(continuous)
+    verdicts = np.ravel(info["sampled_verdict"])
+    modes = np.ravel(info["sampled_unstable_modes"])
+    lines = []
+    for i, r in enumerate(runs):
+        c = None if cont[i] < 0 else bool(cont[i] == 0)
+        text = sampled_verdict_text(c, str(verdicts[i]), int(modes[i]), info["sampled_rate"])
+        r["sampled_loop"] = {"verdict": str(verdicts[i]), "unstable_modes": int(modes[i]),
+                             "continuous_stable": c, "text": text}
+        lines.append(f"{labels[i]}: {text}")
+    return lines
+
+
+def verdict_text(verdict: str) -> str:
+    """A sampled verdict for a table cell (red unless stable)."""
+    return verdict if verdict == "stable" else f"[red]{verdict}[/red]"
+
+
 def json_option(func: Callable) -> Callable:
     return click.option("--json", "as_json", is_flag=True,
                         help="Print machine-readable JSON instead of a table.")(func)

@@ -11,6 +11,7 @@ from rich.markup import escape
 from rich.table import Table
 
 from ._common import (
+    SAMPLED_KEYS,
     DesignSpec,
     cli,
     console,
@@ -19,13 +20,17 @@ from ._common import (
     err_console,
     json_option,
     pm_text,
+    rate_option,
+    sampled_callout,
+    verdict_text,
 )
 
 
-def gains_rows(spec: DesignSpec) -> list[dict[str, Any]]:
+def gains_rows(spec: DesignSpec, rate_hz: float | None = None) -> list[dict[str, Any]]:
     """Table I rows (rotary units) with margins, one per design and valid solution: the
     public API's :meth:`seactl.MarginsResult.records` of each solution's (f_n x GS) batch,
-    plus the closed loop's ``spectral_abscissa`` [1/s] (:meth:`seactl.Design.roots`)."""
+    plus the closed loop's ``spectral_abscissa`` [1/s] (:meth:`seactl.Design.roots`), and
+    with ``rate_hz`` the sampled loop's (:data:`SAMPLED_KEYS` under ``"sampled"``)."""
     from ..api import Design
 
     rows = []
@@ -35,6 +40,9 @@ def gains_rows(spec: DesignSpec) -> list[dict[str, Any]]:
         recs = d.margins().records()
         for rec, root in zip(recs, d.roots(count=1).records()):
             rec["spectral_abscissa"] = root["spectral_abscissa"]
+        if rate_hz is not None:
+            for rec, sm in zip(recs, d.margins(rate_hz=rate_hz).records()):
+                rec["sampled"] = {k: sm[k] for k in SAMPLED_KEYS}
         rows += recs
     return rows
 
@@ -45,8 +53,9 @@ def _fmt(x: float | None, spec: str) -> str:
 
 @cli.command()
 @design_options
+@rate_option
 @json_option
-def gains(spec: DesignSpec, as_json: bool) -> None:
+def gains(spec: DesignSpec, rate_hz: float | None, as_json: bool) -> None:
     """Critically-damped gains (Table I units) with phase, gain and delay margins.
 
     \b
@@ -60,25 +69,47 @@ def gains(spec: DesignSpec, as_json: bool) -> None:
     An unstable design's PM is marked '(unstable)' (JSON keeps the number and
     "stable": false).  'abscissa' is the largest real part of the closed-loop roots
     [1/s]: negative when stable, and then the slowest decay rate.
+
+    With --rate, the loop sampled at that rate too (JSON "sampled": rate_hz, verdict,
+    unstable_modes, phase_margin_deg, crossover_hz, gain_margin_db, phase_crossover_hz,
+    delay_margin_ms, delay_margin_samples): its verdict is certified on the loop's
+    one-tick map (docs/theory/sampled.md); its margins come from the discrete frequency
+    response up to Nyquist; its delay margin is the extra delay the phase margin allows,
+    and delay_margin_samples the whole extra samples.
     """
-    rows = gains_rows(spec)
+    rows = gains_rows(spec, rate_hz)
     if as_json:
         echo_json(rows)
         return
     t = Table(title=f"Critically-damped gains, actuator '{spec.actuator.name}' "
               f"(T_tau={spec.t_tau_ms:g} ms, T_qs={spec.t_qs_ms:g} ms, T_qd={spec.t_qd_ms:g} ms,"
               f" f_qd={spec.f_qd_hz or 'none'} Hz, f_taud={spec.f_taud_hz or 'none'} Hz)")
-    for col in ("f_n [Hz]", "GS", "Kq [Nm/rad]", "Bq [Nms/rad]", "Ktau [A/Nm]", "Btau [As/Nm]",
-                "PM [deg]", "crossover [Hz]", "GM [dB]", "DM [ms]", "abscissa [1/s]", "stable"):
+    cols = ["f_n [Hz]", "GS", "Kq [Nm/rad]", "Bq [Nms/rad]", "Ktau [A/Nm]", "Btau [As/Nm]",
+            "PM [deg]", "crossover [Hz]", "GM [dB]", "DM [ms]", "abscissa [1/s]", "stable"]
+    if rate_hz is not None:
+        cols += ["sPM [deg]", "sGM [dB]", "sDM [ms]", "sampled"]
+    for col in cols:
         t.add_column(escape(col), justify="right")
     for r in rows:
-        t.add_row(f"{r['fn_hz']:g}", f"{r['gs']:g}", f"{r['Kq']:.2f}", f"{r['Bq']:.3f}",
-                  f"{r['Ktau']:.3f}", f"{r['Btau']:.4f}",
-                  pm_text(r["phase_margin_deg"], r["stable"]),
-                  _fmt(r["crossover_hz"], ".2f"), _fmt(r["gain_margin_db"], ".2f"),
-                  _fmt(r["delay_margin_ms"], ".3f"), _fmt(r["spectral_abscissa"], ".2f"),
-                  "yes" if r["stable"] else "[red]NO[/red]")
+        cells = [f"{r['fn_hz']:g}", f"{r['gs']:g}", f"{r['Kq']:.2f}", f"{r['Bq']:.3f}",
+                 f"{r['Ktau']:.3f}", f"{r['Btau']:.4f}",
+                 pm_text(r["phase_margin_deg"], r["stable"]),
+                 _fmt(r["crossover_hz"], ".2f"), _fmt(r["gain_margin_db"], ".2f"),
+                 _fmt(r["delay_margin_ms"], ".3f"), _fmt(r["spectral_abscissa"], ".2f"),
+                 "yes" if r["stable"] else "[red]NO[/red]"]
+        if rate_hz is not None:
+            sm = r["sampled"]
+            cells += [pm_text(sm["phase_margin_deg"], sm["verdict"] == "stable"),
+                      _fmt(sm["gain_margin_db"], ".2f"), _fmt(sm["delay_margin_ms"], ".3f"),
+                      verdict_text(sm["verdict"])]
+        t.add_row(*cells)
     console.print(t)
+    if rate_hz is not None:
+        console.print(f"sPM, sGM, sDM, sampled: the loop sampled at {rate_hz:g} Hz (verdict "
+                      "certified; sDM is the extra delay its phase margins allow).",
+                      highlight=False)
+        for line in sampled_callout(rows):
+            console.print(escape(line), highlight=False)
 
 
 @cli.command()

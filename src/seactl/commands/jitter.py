@@ -10,7 +10,18 @@ from rich.markup import escape
 from rich.table import Table
 
 from ..errors import InputError
-from ._common import DesignSpec, cli, console, design_options, echo_json, json_option
+from ._common import (
+    SAMPLED_KEYS,
+    DesignSpec,
+    cli,
+    console,
+    design_options,
+    echo_json,
+    json_option,
+    rate_option,
+    sampled_callout,
+    verdict_text,
+)
 
 LINKS = {"stiffness": "t_qs_ms", "damping": "t_qd_ms", "torque": "t_tau_ms"}
 
@@ -74,8 +85,10 @@ def trace_checks(spec: DesignSpec, rows: list[dict[str, Any]], traces: dict[str,
 @click.option("--trace", "traces", multiple=True, metavar="LINK=FILE.csv",
               help="A measured latency trace of a link (stiffness, damping or torque; e.g. "
                    "seactl run's latency-stiffness.csv): checked against [T, T + J].")
+@rate_option
 @json_option
-def jitter(spec: DesignSpec, traces: tuple[str, ...], as_json: bool) -> None:
+def jitter(spec: DesignSpec, traces: tuple[str, ...], rate_hz: float | None,
+           as_json: bool) -> None:
     """Jitter margins [ms]: the largest time-varying extra delay in [0, J] that each loop
     is guaranteed to tolerate (Kao-Lincoln small-gain bound, exact delays), next to the
     whole outer loop's margin for a constant extra delay.
@@ -83,29 +96,54 @@ def jitter(spec: DesignSpec, traces: tuple[str, ...], as_json: bool) -> None:
     \b
     Example (Table I):
       seactl jitter --fn 12 14 16 18 20 --t-tau 0.5 --t-qs 2 --t-qd 0.5 --f-qd 50 --f-taud 100
+
+    With --rate, the loop sampled at that rate beside them (JSON "sampled" per design):
+    its certified verdict, delay margin, and outer-loop jitter margin for a delay varying
+    by whole samples (jitter_margin_samples: any variation of 0..N extra samples is
+    tolerated, small gain on the discrete loop, scanned; docs/theory/sampled.md).
     """
     measured = parse_traces(traces)
     rows = jitter_rows(spec)
     checks = trace_checks(spec, rows, measured)
+    keys = JSON_KEYS
+    if rate_hz is not None:
+        from ..api import Design
+
+        fn, gs = np.broadcast_arrays(spec.fn_hz[:, None], spec.gs[None, :])
+        for r, sm in zip(rows, Design(spec.designs(), fn, gs).margins(rate_hz).records()):
+            r["sampled"] = {k: sm[k] for k in SAMPLED_KEYS}
+        keys = JSON_KEYS + ("sampled",)
     if as_json:
-        echo_json({"designs": [{k: r[k] for k in JSON_KEYS} for r in rows]}
+        echo_json({"designs": [{k: r[k] for k in keys} for r in rows]}
                   | ({"traces": checks} if checks else {}))
         return
     t = Table(title=escape(f"Jitter margins [ms], actuator '{spec.actuator.name}' "
                            f"(T_tau={spec.t_tau_ms:g} ms, T_qs={spec.t_qs_ms:g} ms, "
                            f"T_qd={spec.t_qd_ms:g} ms)"))
-    for col in ("f_n [Hz]", "GS", "outer loop", "stiffness", "damping", "torque",
-                "delay margin", "bottleneck"):
+    cols = ["f_n [Hz]", "GS", "outer loop", "stiffness", "damping", "torque", "delay margin",
+            "bottleneck"] + ([f"sampled {rate_hz:g} Hz", "sampled outer loop",
+                              "sampled DM"] if rate_hz else [])
+    for col in cols:
         t.add_column(escape(col), justify="right")
     for r in rows:
         stable = bool(r["stable"])
         loops = {k: r[f"{k}_jitter_margin_ms"] for k in ("stiffness", "damping", "torque")}
         finite = {k: v for k, v in loops.items() if v is not None}
         worst = min(finite, key=finite.get) if finite and stable else "-"
+        extra = []
+        if rate_hz is not None:
+            sm = r["sampled"]
+            ok = sm["verdict"] == "stable"
+            extra = [verdict_text(sm["verdict"]), _ms(sm["jitter_margin_ms"], ok)
+                     + ("" if not ok else f" ({sm['jitter_margin_samples']} samples)"),
+                     _ms(sm["delay_margin_ms"], ok)]
         t.add_row(f"{r['fn_hz']:g}", f"{r['gs']:g}", _ms(r["jitter_margin_ms"], stable),
                   *(_ms(v, stable) for v in loops.values()),
-                  _ms(r["delay_margin_ms"], stable), worst)
+                  _ms(r["delay_margin_ms"], stable), worst, *extra)
     console.print(t)
+    if rate_hz is not None:
+        for line in sampled_callout(rows):
+            console.print(escape(line), highlight=False)
     console.print("A loop stays stable under any latency variation within its jitter margin "
                   "(sufficient, not necessary); the delay margin is for a constant extra "
                   "delay.", highlight=False)

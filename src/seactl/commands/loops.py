@@ -18,7 +18,14 @@ from rich.markup import escape
 from rich.table import Table
 
 from ..errors import InputError
-from ._common import cli, console, echo_json, finite_or_none, parse_values
+from ._common import (
+    cli,
+    console,
+    echo_json,
+    finite_or_none,
+    parse_values,
+    sampled_loop_lines,
+)
 
 
 def parse_sets(tokens: tuple[str, ...]) -> dict[str, Any]:
@@ -306,6 +313,8 @@ def loop_response(loop: Any, kind: str, mode: str, t_end: float, size: float,
              "metrics": {k: finite_or_none(np.asarray(getattr(m, k)).reshape(-1)[i])
                          for k in keys},
              out_name: [round(float(v), 12) for v in yf[i]]} for i, lab in enumerate(labels)]
+    lines = sampled_loop_lines(res.info, runs, loop.right_half_plane_roots(), names) \
+        if "sampled_verdict" in res.info else []
     warnings = [(" ".join(f"{k}={x:g}" for k, x in lab.items()) + ": " if lab else "") + w
                 for lab, r in zip(labels, runs) for w in r["warnings"]]
     common = {"loop": loop.name, "mode": mode, "output": out_name, kind == "step" and
@@ -333,6 +342,8 @@ def loop_response(loop: Any, kind: str, mode: str, t_end: float, size: float,
                              "never shorter): " + "; ".join(
                                  f"{k} {_ms_list(req.get(k, v))} -> {_ms_list(v)}"
                                  for k, v in eff.items())), highlight=False)
+    for line in lines:
+        console.print(escape(f"sampled loop: {line}"), highlight=False)
     for w in warnings:
         console.print(escape(f"warning: {w}"), highlight=False)
 

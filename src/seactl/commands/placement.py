@@ -23,6 +23,7 @@ from ._common import (
     json_option,
     parse_values,
     pm_text,
+    verdict_text,
 )
 from .loops import loop_options, loop_place
 
@@ -93,6 +94,8 @@ def _rigid_fn(fn: tuple[str, ...], step: bool) -> np.ndarray:
 
 def _rigid_rows(fn_hz: np.ndarray, d: Any, m: Any, dm: Any, exp: Any) -> list[dict[str, Any]]:
     """One JSON record per f_n: gains, margins, per-loop delay margins, step metrics."""
+    from ..sampled import verdict_word
+
     rows = []
     for i, f in enumerate(fn_hz):
         r = {"fn_hz": float(f), "K": float(d.K[i]), "B": float(d.B[i]),
@@ -109,7 +112,9 @@ def _rigid_rows(fn_hz: np.ndarray, d: Any, m: Any, dm: Any, exp: Any) -> list[di
                          "settling_time_s": finite_or_none(exp.settling_time_s[0, i]),
                          "peak_force_n": float(np.max(np.abs(exp.force[0, i]))),
                          "saturated_fraction": float(exp.saturated_fraction[0, i]),
-                         "buffer_ms": list(exp.delays_ms[0])}
+                         "buffer_ms": list(exp.delays_ms[0]),
+                         "sampled_verdict": str(verdict_word(
+                             exp.sampled_unstable_modes[0, i]))}
         rows.append(r)
     return rows
 
@@ -121,7 +126,7 @@ def _rigid_table(a: Any, rows: list[dict[str, Any]], t_s: float, t_d: float, fv:
     cols = ["f_n [Hz]", "K [N/m]", "B [Ns/m]", "PM [deg]", "crossover [Hz]", "GM [dB]",
             "DM [ms]", "DM stiffness [ms]", "DM damping [ms]", "stable"]
     if with_step:
-        cols += ["step", "overshoot [%]", "settling [s]", "peak force [N]"]
+        cols += ["step", "sampled loop", "overshoot [%]", "settling [s]", "peak force [N]"]
     for c in cols:
         t.add_column(escape(c), justify="right")
     for r in rows:
@@ -134,7 +139,8 @@ def _rigid_table(a: Any, rows: list[dict[str, Any]], t_s: float, t_d: float, fv:
         if with_step:
             s = r["step"]
             cells += ["[red]OUT OF CONTROL[/red]" if s["out_of_control"] else "ok",
-                      _fmt(s["overshoot_pct"], ".1f"), _fmt(s["settling_time_s"], ".3f"),
+                      verdict_text(s["sampled_verdict"]), _fmt(s["overshoot_pct"], ".1f"),
+                      _fmt(s["settling_time_s"], ".3f"),
                       f"{s['peak_force_n']:.0f}"]
         t.add_row(*cells)
     return t
@@ -193,7 +199,8 @@ def rigid(fn, t_s, t_d, f_v, actuator, no_passive_damping, step, as_json) -> Non
         console.print(f"step: sampled at 1 kHz, delay buffers {exp.delays_ms[0][0]:g} / "
                       f"{exp.delays_ms[0][1]:g} ms, force limit {a.max_force:.0f} N; "
                       "'out of control' = diverged or still oscillating (>5% peak-to-peak) in "
-                      "the last quarter of 1 s.")
+                      "the last quarter of 1 s; 'sampled loop' = the certified verdict of the "
+                      "sampled loop without the force limit.")
 
 
 # ---------------------------------------------------------------------- seactl latency-map

@@ -9,7 +9,16 @@ import numpy as np
 from rich.markup import escape
 from rich.table import Table
 
-from ._common import DesignSpec, cli, console, design_options, echo_json, json_option
+from ._common import (
+    DesignSpec,
+    cli,
+    console,
+    design_options,
+    echo_json,
+    json_option,
+    rate_option,
+    verdict_text,
+)
 
 
 def roots_rows(spec: DesignSpec, count: int) -> list[dict[str, Any]]:
@@ -50,12 +59,45 @@ def _verdict_text(r: dict[str, Any]) -> str:
     return "yes" if r["stable"] else "[red]NO[/red]"
 
 
+def sampled_root_rows(spec: DesignSpec, count: int, rate_hz: float) -> list[dict[str, Any]]:
+    """Per design, the sampled loop's ``count`` largest z-plane roots (one tick of
+    ``1/rate_hz``): ``z`` ``{"re", "im"}``, ``abs``, the equivalent ``s = ln(z)/T``
+    ``{"re", "im"}`` [rad/s], with the certified ``verdict`` and ``unstable_modes``."""
+    from ..sea import sea_sampled_roots
+
+    rows = []
+    for design in spec.all_designs():
+        r = sea_sampled_roots(design, rate_hz)
+        z = r.z.reshape(-1, r.z.shape[-1])
+        s = r.s.reshape(z.shape)
+        for i, (f, g) in enumerate((f, g) for f in spec.fn_hz for g in spec.gs):
+            keep = [j for j in range(z.shape[1]) if z[i, j].imag >= 0][:count]
+            rows.append({"fn_hz": float(f), "gs": float(g), "rate_hz": rate_hz,
+                         "period_s": r.period_s,
+                         "verdict": str(r.verdict.flat[i]),
+                         "unstable_modes": int(r.unstable_modes.flat[i]),
+                         "roots": [{"z": {"re": float(z[i, j].real), "im": float(z[i, j].imag)},
+                                    "abs": float(abs(z[i, j])),
+                                    "s_rad_per_s": {"re": float(s[i, j].real),
+                                                    "im": float(s[i, j].imag)}}
+                                   for j in keep]})
+    return rows
+
+
+def _z_text(z: dict[str, Any]) -> str:
+    re_, im = z["z"]["re"], z["z"]["im"]
+    text = f"{re_:.4g}" if im == 0 else f"{re_:.4g} ± {im:.4g}j"
+    text += f" (|z| {z['abs']:.6f})"
+    return f"[red]{escape(text)}[/red]" if z["abs"] > 1 else escape(text)
+
+
 @cli.command()
 @design_options
 @click.option("--count", type=click.IntRange(1, 50), default=6, show_default=True,
               help="Roots per design (a conjugate pair counts once).")
+@rate_option
 @json_option
-def roots(spec: DesignSpec, count: int, as_json: bool) -> None:
+def roots(spec: DesignSpec, count: int, rate_hz: float | None, as_json: bool) -> None:
     """Rightmost closed-loop roots [rad/s] with exact delays, and the spectral abscissa.
 
     \b
@@ -72,10 +114,16 @@ def roots(spec: DesignSpec, count: int, as_json: bool) -> None:
     disc); roots that gather in one disc (a multiple root) are shown as that cluster,
     with its count and the interval of its real parts.  'uncertain': no verdict, as a
     cluster's interval reaches across the imaginary axis or a root lies on it.
+
+    With --rate, also the sampled loop's roots: the eigenvalues z of its one-tick map
+    (largest |z| first; |z| > 1 grows), with the equivalent s = ln(z)/T [rad/s] in JSON
+    ("sampled": [{"rate_hz", "period_s", "verdict", "unstable_modes", "roots": [{"z",
+    "abs", "s_rad_per_s"}]}]); the verdict is certified (docs/theory/sampled.md).
     """
     rows = roots_rows(spec, count)
+    srows = sampled_root_rows(spec, count, rate_hz) if rate_hz is not None else None
     if as_json:
-        echo_json({"designs": rows})
+        echo_json({"designs": rows} | ({"sampled": srows} if srows is not None else {}))
         return
     t = Table(title=f"Rightmost closed-loop roots \\[rad/s], actuator '{spec.actuator.name}' "
               f"(T_tau={spec.t_tau_ms:g} ms, T_qs={spec.t_qs_ms:g} ms, T_qd={spec.t_qd_ms:g} ms,"
@@ -89,6 +137,15 @@ def roots(spec: DesignSpec, count: int, as_json: bool) -> None:
                   + ("" if r["complete"] else " [yellow](incomplete: roots may be missing)"
                      "[/yellow]"))
     console.print(t)
+    if srows is not None:
+        ts = Table(title=f"Sampled loop at {rate_hz:g} Hz: roots z of its one-tick map "
+                   "(|z| > 1 grows; s = ln(z)/T in --json)")
+        for col in ("f_n [Hz]", "GS", "verdict", "roots z"):
+            ts.add_column(escape(col), justify="left" if col == "roots z" else "right")
+        for r in srows:
+            ts.add_row(f"{r['fn_hz']:g}", f"{r['gs']:g}", verdict_text(r["verdict"]),
+                       ", ".join(_z_text(z) for z in r["roots"]))
+        console.print(ts)
     if not all(r["complete"] for r in rows):
         console.print("incomplete: the discretizations did not agree, or the argument "
                       "principle counted roots the list does not hold; 'stable' is the "

@@ -32,7 +32,9 @@ is unstable however slowly they grow: in continuous mode the certified count of
 right-half-plane roots, in sampled mode the eigenvalues of the loop's map over a period
 outside the unit circle, without saturation and quantization); ``stable`` is
 false for unstable and limit cycle.  The top-level
-``warnings`` are the lines the table prints after ``warning:``.
+``warnings`` are the lines the table prints after ``warning:``.  In sampled mode each run
+also has ``sampled_loop`` (``verdict``, ``unstable_modes``, ``continuous_stable``, ``text``):
+the certified verdict of the simulated loop without saturation, printed under the table.
 Metrics that do not exist (unstable response, never settled) are ``null``.
 """
 
@@ -56,7 +58,15 @@ from ..errors import InputError
 from ..limits import check_range
 from ..outputs import CSV_SUFFIXES, FIGURE_SUFFIXES, OutputSet
 from ..verdict import STEP_BAND, judge_response
-from ._common import DesignSpec, cli, console, design_options, echo_json, finite_or_none
+from ._common import (
+    DesignSpec,
+    cli,
+    console,
+    design_options,
+    echo_json,
+    finite_or_none,
+    sampled_loop_lines,
+)
 from .loops import loop_options, loop_response
 
 BAD = ("unstable", "limit cycle")
@@ -278,6 +288,7 @@ def _output(spec: DesignSpec, resp: Any, mode: str, zero: bool, extra: dict[str,
                      "left_bounds_s": finite_or_none(left[i]),
                      "peak_current_a": finite_or_none(np.max(np.abs(cur[i]))),
                      "metrics": _metrics_json(m, i)})
+    loop_lines = _sampled_loop(spec, res, runs, zero)
     warnings = [f"f_n={r['fn_hz']:g} Hz, GS={r['gs']:g}: {w}" for r in runs
                 for w in r["warnings"]] + _notes(spec, mode, extra)
     common = {"mode": mode, "zero": zero, **extra, "warnings": warnings}
@@ -321,8 +332,22 @@ def _output(spec: DesignSpec, resp: Any, mode: str, zero: bool, extra: dict[str,
     elif eff:
         console.print(escape("delays [ms] (exact): " + ", ".join(
             f"{k} {v:g}" for k, v in eff.items())), highlight=False)
+    for line in loop_lines:
+        console.print(escape(f"sampled loop: {line}"), highlight=False)
     for w in warnings:
         console.print(escape(f"warning: {w}"), highlight=False)
+
+
+def _sampled_loop(spec: DesignSpec, res: Any, runs: list[dict[str, Any]], zero: bool
+                  ) -> list[str]:
+    """Sampled mode: the loop's certified verdict beside each run (``"sampled_loop"``)
+    and the lines the table prints (:func:`._common.sampled_loop_lines`)."""
+    if "sampled_verdict" not in res.info:
+        return []
+    from ..sea import sea_right_roots
+
+    return sampled_loop_lines(res.info, runs, sea_right_roots(spec.designs(), zero),
+                              [f"f_n={r['fn_hz']:g} Hz, GS={r['gs']:g}" for r in runs])
 
 
 def _notes(spec: DesignSpec, mode: str, extra: dict[str, Any]) -> list[str]:

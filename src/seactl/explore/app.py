@@ -157,6 +157,9 @@ def results_html(r: dict[str, Any], unit: str) -> str:
         ("spectral abscissa [1/s]", "sa-value",
          _fmt(r["spectral_abscissa_per_s"]) if "spectral_abscissa_per_s" in r else "..."),
         ("closed loop", "stable-value", "stable" if r["stable"] else "UNSTABLE"),
+        ("sampled loop", "sampled-value",
+         f"{r['sampled_verdict']} at {r['sampled_rate']}" if r.get("sampled_verdict")
+         else "(continuous mode)"),
         (f"Z(jw) [{unit}]", "passive-value", "passive" if r["passive"] else "not passive"),
     ]
     body = "".join(f"<tr><td>{html.escape(k)}</td><td id='{i}' style='text-align:right'>"

@@ -324,7 +324,8 @@ def response_views(d: sc.Design, c: Controls) -> dict[str, Any]:
             "impulse": {"t_ms": im.t_s * 1e3, "y": np.degrees(np.reshape(im.position, -1))},
             "step_metrics": st.metrics, "impulse_metrics": im.metrics,
             "requested_delays_ms": {k: float(v) * 1e3 for k, v in st.requested_delays_s.items()},
-            "effective_delays_ms": {k: float(v) * 1e3 for k, v in st.effective_delays_s.items()}}
+            "effective_delays_ms": {k: float(v) * 1e3 for k, v in st.effective_delays_s.items()},
+            "info": st.result.info}
 
 
 def _ms(x: Any) -> float | None:
@@ -351,7 +352,13 @@ def response_results(resp: dict[str, Any]) -> dict[str, Any]:
     from .._results import json_value
 
     sm, im = resp["step_metrics"], resp["impulse_metrics"]
-    return {
+    info = resp.get("info") or {}
+    sampled = {}
+    if "sampled_verdict" in info:   # the sampled loop's certified verdict
+        sampled = {"sampled_verdict": str(np.ravel(info["sampled_verdict"])[0]),
+                   "sampled_unstable_modes": int(np.ravel(info["sampled_unstable_modes"])[0]),
+                   "sampled_rate": info["sampled_rate"]}
+    return {**sampled,
         "step_rise_ms": json_value(_ms(sm.rise_time_s) or math.nan),
         "step_overshoot_pct": json_value(sm.overshoot_pct),
         "step_settling_ms": json_value(_ms(sm.settling_time_s) or math.nan),
@@ -387,6 +394,12 @@ def verdict(r: dict[str, Any], bands: np.ndarray) -> str:
                  "pole(s). Lower f_n or GS, or shorten the delays (see the latency map)."]
         if r.get("spectral_abscissa_per_s") is not None:
             words.append(_roots_words(r))
+        if r.get("sampled_verdict") is not None:
+            from ..sampled import sampled_verdict_text
+
+            words.append("The loop as simulated: " + sampled_verdict_text(
+                False, r["sampled_verdict"], r["sampled_unstable_modes"],
+                r["sampled_rate"]) + ".")
         return " ".join(words)
     pm = r["phase_margin_deg"]
     grade = ("no gain crossover" if pm is None else "thin" if pm < PM_THIN_DEG
@@ -414,6 +427,12 @@ def verdict(r: dict[str, Any], bands: np.ndarray) -> str:
         b = ", ".join(f"{lo:.3g}-{hi:.3g} Hz" for lo, hi in bands[:3])
         words.append(f"Z(jw) is not passive in {b}{' ...' if bands.shape[0] > 3 else ''} "
                      "(the actuator can inject energy there).")
+    if r.get("sampled_verdict") is not None:
+        from ..sampled import sampled_verdict_text
+
+        words.append("The loop as simulated: " + sampled_verdict_text(
+            bool(r["stable"]), r["sampled_verdict"], r["sampled_unstable_modes"],
+            r["sampled_rate"]) + ".")
     if r.get("step_overshoot_pct") is not None:
         words.append(f"Step: {r['step_overshoot_pct']:.1f} % overshoot, settles (2 %) in "
                      f"{_f(r['step_settling_ms'], '.0f', ' ms')}.")
