@@ -48,15 +48,16 @@ def test_jitter_lowers_fn_to_the_binding_margin_and_monte_carlo_agrees():
     for o, r in zip(a.options, ref.options):
         assert o.fn_hz <= r.fn_hz * (1 + 1e-4)
     best = a.option("distributed")
-    assert best.bottleneck == "stiffness jitter"
-    # recomputed independently at the answer: the stiffness jitter margin equals the
-    # high-level jitter (bisection tolerance), and is short of it just above
+    assert best.bottleneck.startswith("stiffness jitter at ")
+    # recomputed independently where it binds: at the score the stiffness jitter margin
+    # covers the high-level jitter at the reported latencies, and just above it does not
     need = timing["high-level"].jitter_s
-    j = model_jitter_margins(m, m.design(best.fn_hz, best.T_s, best.T_d))
-    assert float(j.stiffness_s) == pytest.approx(need, rel=2e-3)
-    j_up = model_jitter_margins(m, m.design(best.fn_hz * 1.01, best.T_s, best.T_d))
+    lat = best.limit["latencies_s"]
+    j = model_jitter_margins(m, m.design(best.fn_hz, lat["T_s"], lat["T_d"]))
+    assert float(j.stiffness_s) >= need
+    j_up = model_jitter_margins(m, m.design(best.fn_hz * 1.001, lat["T_s"], lat["T_d"]))
     assert float(j_up.stiffness_s) < need
-    assert "bottleneck" in a.reason
+    assert "limited by stiffness jitter" in a.reason
     mc = verify_placement(m, best, timing, runs=100, seed=0)
     assert float(mc.fraction_stable) == 1.0
 

@@ -11,8 +11,8 @@ latencies) and may be lost (:class:`Bernoulli` independent loss,
 latency plays the role of the fixed delay ``T`` of the deterministic sampled
 mode (:mod:`seactl.simulate`): with zero-order hold the message is used
 ``n = max(ceil((T - T_s/2)/T_s), 0)`` samples after it was taken (effective delay
-``T_s/2 + n T_s``, never shorter than ``T``).  At each tick the receiver uses the newest message that has
-arrived (older ones arriving later are ignored) and holds the last value when
+``T_s/2 + n T_s``, never shorter than ``T``).  At each tick the receiver uses the newest
+message that has arrived (older ones arriving later are ignored) and holds the last value when
 nothing new arrived.
 
 A link whose model is deterministic (constant latency, a one-bin histogram) and
@@ -396,13 +396,13 @@ def verify_placement(model: Any, option: Any, timing: Mapping[str, Any], *, runs
     -------
     MonteCarloSummary or None
     """
-    from .placement import _process_of
+    from .placement import process_of
 
     if option.fn_hz is None:
         return None
     extra = {"T_tau": option.T_inner} if model.kind == "sea" else {}
     design = model.design(option.fn_hz, option.T_s, option.T_d, **extra)
-    proc = _process_of(model, option.placement)
+    proc = process_of(model, option.placement)
     latency = {k: timing[p].latency for k, p in proc.items() if p in timing}
     loss = {k: timing[p].loss for k, p in proc.items()
             if p in timing and timing[p].loss is not None}
