@@ -633,15 +633,15 @@ def place(high_latency_ms: float, low_latency_ms: float, *, kind: str = "rigid",
         Whole-loop phase margin [deg] required at every latency of the box.
     stiffness_embeddable : bool
         Whether the stiffness loop may run on the embedded process too.
+    timing : dict, optional
+        ``"high-level"`` / ``"embedded"`` -> :class:`seactl.placement.ProcessTiming`
+        (latency distribution and loss): the nominal latency replaces the constant one and
+        every loop's jitter margin must cover its process's jitter.
     latency_margin : float
         Fraction of its latency each loop must tolerate on top of it: placements are
         ranked by the largest ``f_n`` that is stable with ``min_pm_deg`` for every loop
         latency from 0 to ``1 + latency_margin`` times its own
         (:mod:`seactl.latency_box`); a longer latency never raises that score.
-    timing : dict, optional
-        ``"high-level"`` / ``"embedded"`` -> :class:`seactl.placement.ProcessTiming`
-        (latency distribution and loss): the nominal latency replaces the constant one and
-        every loop's jitter margin must cover its process's jitter.
 
     Returns
     -------

@@ -107,8 +107,9 @@ def gain_scale(ctx: Context) -> Section:
             "pass" if holds else "fail",
             "" if holds else f"the maximum {o.pm_deg:.2f} deg is at GS = {o.gs:.4f} "
                              f"({o.method}); GS = 1 gives {o.pm_at_1_deg:.2f} deg "
-                             f"({o.pm_deg - o.pm_at_1_deg:.2f} deg less); "
-                             f"{o.plateau_text()}; {o.cliff_text()}"))
+                             f"({o.pm_deg - o.pm_at_1_deg:.2f} deg less); within "
+                             f"{PLATEAU_DEG:g} deg of the best for {o.plateau_text()}; just "
+                             f"outside: {o.cliff_text()}"))
     sec.tables.append((f"Where the phase margin peaks (ideal loop; GS {GS_RANGE[0]:g}-"
                        f"{GS_RANGE[1]:g}: scan step {GS_SCAN_STEP:g}, then a bounded Brent "
                        "search between the scan's neighbours)",
