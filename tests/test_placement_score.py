@@ -12,6 +12,7 @@ import numpy as np
 import pytest
 
 from seactl.cli import main
+from seactl.errors import InputError
 from seactl.latency import rigid_model, sea_model
 from seactl.latency_box import latency_lattice_s, robust_max_fn
 from seactl.placement import PLACEMENTS, advise, upper_bound
@@ -156,3 +157,13 @@ def test_cli_place_states_its_criterion_and_units(capsys):
     assert "never raises" in " ".join(capsys.readouterr().out.split())
     assert main(["place", "--latency-margin", "-1"]) == 2
     assert "--latency-margin" in capsys.readouterr().err
+
+
+def test_a_box_beyond_the_longest_delay_is_refused(capsys):
+    # Oracle: the delay range (at most 1 s) and the error contract: one line naming the
+    # flag, exit 2.
+    assert main(["place", "--high-latency", "800", "--latency-margin", "1"]) == 2
+    err = capsys.readouterr().err
+    assert err.startswith("error: invalid --latency-margin") and err.count("\n") == 1
+    with pytest.raises(InputError, match="latency_margin"):
+        advise(rigid_model(), 0.9, 0.5e-3, latency_margin=0.5)

@@ -34,6 +34,9 @@ LATTICE_RATIO = 2.0 ** (1.0 / 4.0)
 """Ratio between neighbouring non-zero lattice latencies (four points per doubling)."""
 CHUNK_DESIGNS = 20_000
 """Designs evaluated in one batch (bounds the memory of one margin computation)."""
+SECONDS_PER_POINT = 1e-3
+"""Estimated time per latency combination of a score (about 50 margin evaluations of
+20 us), for refusing work up front."""
 
 
 def latency_lattice_s(upper_s: float) -> np.ndarray:
@@ -71,6 +74,14 @@ class RobustFn:
     box_upper_s: dict[str, float]
     n_points: int
     limit: dict[str, Any] | None
+
+
+def box_size(latencies_s: dict[str, float], latency_margin: float) -> int:
+    """Number of latency combinations :func:`robust_max_fn` checks."""
+    n = 1
+    for t in latencies_s.values():
+        n *= latency_lattice_s((1.0 + latency_margin) * float(t)).size
+    return n
 
 
 def box_points(latencies_s: dict[str, float], latency_margin: float) -> dict[str, np.ndarray]:

@@ -54,7 +54,7 @@ import numpy as np
 from ._validate import finite_array
 from .jitter import model_jitter_margins
 from .latency import LoopModel
-from .latency_box import RobustFn, robust_max_fn
+from .latency_box import CHUNK_DESIGNS, SECONDS_PER_POINT, RobustFn, box_size, robust_max_fn
 from .timing_models import QUANTILE
 
 PLACEMENTS = ("centralized", "distributed", "embedded")
@@ -272,7 +272,22 @@ def evaluate_placements(model: LoopModel, high_latency_s: float, low_latency_s: 
 
     Placements are scored from the least latency to the most; when a placement's latency
     box contains an already scored one's, that score caps its ``f_n`` scan."""
+    from .errors import InputError
+    from .latency_box import latency_lattice_s
+    from .limits import BYTES_PER_DESIGN, RANGES, check_budget
+
     lat = {p: placement_latencies(model, p, high_latency_s, low_latency_s) for p in PLACEMENTS}
+    longest = RANGES["delay_ms"][1] * 1e-3
+    top = latency_lattice_s((1 + latency_margin) * max(high_latency_s, low_latency_s))[-1]
+    if top > longest:
+        raise InputError("latency_margin", latency_margin,
+                         f"such that (1 + margin) x the longest latency "
+                         f"({max(high_latency_s, low_latency_s):g} s), rounded up to the "
+                         f"lattice ({top:.4g} s here), is <= {longest:g} s")
+    points = sum(box_size(v, latency_margin) for v in lat.values())
+    check_budget(f"the placement scores ({points:,} latency combinations)",
+                 n_bytes=CHUNK_DESIGNS * BYTES_PER_DESIGN, seconds=points * SECONDS_PER_POINT,
+                 hint="give shorter latencies or a smaller latency margin")
     scores: dict[str, RobustFn] = {}
     for p in sorted(PLACEMENTS, key=lambda q: sum(lat[q].values())):
         need = _jitter_need(model, p, timing)
@@ -353,13 +368,13 @@ def advise(model: LoopModel, high_latency_s: float, low_latency_s: float, *,
     high = float(finite_array("high latency [s]", high_latency_s, minimum=0.0))
     low = float(finite_array("low latency [s]", low_latency_s, minimum=0.0))
     pm = float(finite_array("min phase margin [deg]", min_pm_deg, minimum=0.0))
-    margin = float(finite_array("latency margin", latency_margin, minimum=0.0))
+    margin = float(finite_array("latency_margin", latency_margin, minimum=0.0))
     from .errors import InputError
 
     if pm >= 180:
         raise InputError("min phase margin [deg]", pm, "< 180")
     if margin > MAX_LATENCY_MARGIN:
-        raise InputError("latency margin", margin, f"<= {MAX_LATENCY_MARGIN:g}")
+        raise InputError("latency_margin", margin, f"<= {MAX_LATENCY_MARGIN:g}")
     options = evaluate_placements(model, high, low, pm, timing, margin)
     allowed = [o for o in options if stiffness_embeddable or o.placement != "embedded"]
     feasible = [o for o in allowed if o.fn_hz is not None]
