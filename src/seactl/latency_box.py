@@ -96,7 +96,7 @@ Check = Callable[[Any, Any], np.ndarray]
 
 
 def _failures(model: Any, fn: np.ndarray, pts: dict[str, np.ndarray], min_pm_deg: float,
-              check: Check | None, check_name: str) -> np.ndarray:
+              check: Check | None) -> np.ndarray:
     """Failure code per (f_n, point): 0 ok, 1 unstable, 2 phase margin, 3 ``check``."""
     fn = np.asarray(fn, float)
     n = next(iter(pts.values())).size
@@ -143,7 +143,7 @@ def robust_max_fn(model: Any, latencies_s: dict[str, float], *, min_pm_deg: floa
     n = next(iter(pts.values())).size
 
     def codes(fn):
-        return _failures(model, fn, pts, min_pm_deg, check, check_name)
+        return _failures(model, fn, pts, min_pm_deg, check)
 
     first = codes(np.array([lo]))[0]
     if np.any(first):

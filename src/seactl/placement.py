@@ -244,8 +244,7 @@ def _jitter_check(model: LoopModel, need: dict[str, float]):
     return ok
 
 
-def _bottleneck(model: LoopModel, r: RobustFn, extra: dict[str, float],
-                need: dict[str, float] | None) -> str | None:
+def _bottleneck(model: LoopModel, r: RobustFn, need: dict[str, float] | None) -> str | None:
     """The failing constraint in words, with the latencies where it fails."""
     if r.limit is None:
         return None
@@ -312,7 +311,7 @@ def _option(model: LoopModel, placement: str, lat: dict[str, float], r: RobustFn
     """One placement's row: the score, and the design's nominal margins at it."""
     extra = {k: v for k, v in lat.items() if k not in ("T_s", "T_d")}
     t_inner = extra.get("T_tau")
-    bottleneck = _bottleneck(model, r, extra, need)
+    bottleneck = _bottleneck(model, r, need)
     if r.status == "none":
         return PlacementOption(placement, lat["T_s"], lat["T_d"], t_inner, None, "none", {},
                                None, None, None, None, None, need, None, bottleneck,
