@@ -134,7 +134,10 @@ def robust_max_fn(model: Any, latencies_s: dict[str, float], *, min_pm_deg: floa
     ``latencies_s``: ``{"T_s": .., "T_d": ..}`` plus ``"T_tau"`` for the SEA [s].  ``f_n``
     is scanned on ``n_scan`` log-spaced values from the model's lowest to ``fn_hi``
     (default the model's highest), in ascending batches until the first failure, then
-    bisected to ``rtol``; the answer is the top of the first passing range.
+    bisected to ``rtol``; the answer is the top of the first passing range.  A longer
+    latency adds lattice points, so it fails at every ``f_n`` where the shorter one fails:
+    its first failing scan value is no later and, in a shared bracket, the bisection ends
+    no higher.
     """
     lo = float(model.fn_limits[0])
     hi = float(model.fn_limits[1] if fn_hi is None else fn_hi)
@@ -151,17 +154,17 @@ def robust_max_fn(model: Any, latencies_s: dict[str, float], *, min_pm_deg: floa
     if hi <= lo:
         return RobustFn(lo, "capped", upper, n, None)
     scan = np.geomspace(lo, hi, n_scan)
-    a_f = b_f = None
+    a_f = b_f = last = None
     for s in range(1, n_scan, 4):
         fs = scan[s:s + 4]
-        bad = np.any(codes(fs) != 0, axis=1)
+        cs = codes(fs)
+        bad = np.any(cs != 0, axis=1)
         if bad.any():
             k = int(np.argmax(bad))
-            a_f, b_f = scan[s + k - 1], fs[k]
+            a_f, b_f, last = scan[s + k - 1], fs[k], cs[k]
             break
     if a_f is None:
         return RobustFn(hi, "capped", upper, n, None)
-    last = codes(np.array([b_f]))[0]
     while b_f / a_f > 1 + rtol:
         mid = np.sqrt(a_f * b_f)
         c = codes(np.array([mid]))[0]
