@@ -18,7 +18,9 @@ at the nominal latencies alone can (on the rigid actuator a longer stiffness del
 it while that loop's delay margin falls), so it is not the ranking.  With the embedded
 latency at most the high-level one, every latency box of ``embedded`` lies inside that
 of ``distributed``, and that inside ``centralized``'s: ``embedded`` scores at least as
-high as the others.  The stiffness loop usually needs the high-level process (task-space
+high as the others, and is called the upper bound only where its score shows it
+(:func:`upper_bound`; with a timing spec the processes' jitter differs between
+placements).  The stiffness loop usually needs the high-level process (task-space
 impedance uses the global model), so by default the recommendation is made between
 ``centralized`` and ``distributed``; ``stiffness_embeddable=True`` lets ``embedded``
 compete.
