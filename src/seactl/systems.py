@@ -643,7 +643,8 @@ class PlacementResult:
 
 def place(high_latency_ms: float, low_latency_ms: float, *, kind: str = "rigid",
           actuator: Any = None, min_pm_deg: float = 45.0,
-          stiffness_embeddable: bool = False, timing: Any = None) -> PlacementResult:
+          stiffness_embeddable: bool = False, timing: Any = None,
+          latency_margin: float = 0.5) -> PlacementResult:
     """Recommend where the stiffness and damping loops should run.
 
     Parameters
@@ -655,18 +656,23 @@ def place(high_latency_ms: float, low_latency_ms: float, *, kind: str = "rigid",
     actuator : str or path or parameters, optional
         Default: the UT linear actuator (rigid) or the UT-SEA.
     min_pm_deg : float
-        Required whole-loop phase margin [deg].
+        Whole-loop phase margin [deg] required at every latency of the box.
     stiffness_embeddable : bool
         Whether the stiffness loop may run on the embedded process too.
     timing : dict, optional
         ``"high-level"`` / ``"embedded"`` -> :class:`seactl.placement.ProcessTiming`
         (latency distribution and loss): the nominal latency replaces the constant one and
         every loop's jitter margin must cover its process's jitter.
+    latency_margin : float
+        Fraction of its latency each loop must tolerate on top of it: placements are
+        ranked by the largest ``f_n`` that is stable with ``min_pm_deg`` for every loop
+        latency from 0 to ``1 + latency_margin`` times its own
+        (:mod:`seactl.latency_box`); a longer latency never raises that score.
 
     Returns
     -------
     PlacementResult
-        ``recommended`` and, per placement, the highest admissible ``f_n`` and gains.
+        ``recommended`` and, per placement, its score ``f_n``, gains and bottleneck.
 
     Examples
     --------
@@ -680,7 +686,8 @@ def place(high_latency_ms: float, low_latency_ms: float, *, kind: str = "rigid",
     from .placement import advise
 
     return PlacementResult(advise(model, float(high), float(low), min_pm_deg=min_pm_deg,
-                                  stiffness_embeddable=stiffness_embeddable, timing=timing))
+                                  stiffness_embeddable=stiffness_embeddable, timing=timing,
+                                  latency_margin=latency_margin))
 
 
 # ------------------------------------------------------------------ sweeps

@@ -396,13 +396,13 @@ def verify_placement(model: Any, option: Any, timing: Mapping[str, Any], *, runs
     -------
     MonteCarloSummary or None
     """
-    from .placement import _process_of
+    from .placement import process_of
 
     if option.fn_hz is None:
         return None
     extra = {"T_tau": option.T_inner} if model.kind == "sea" else {}
     design = model.design(option.fn_hz, option.T_s, option.T_d, **extra)
-    proc = _process_of(model, option.placement)
+    proc = process_of(model, option.placement)
     latency = {k: timing[p].latency for k, p in proc.items() if p in timing}
     loss = {k: timing[p].loss for k, p in proc.items()
             if p in timing and timing[p].loss is not None}

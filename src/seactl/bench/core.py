@@ -15,9 +15,11 @@ from ._harness import BenchResult, benchmark, median_time
 MATLAB_X0 = np.log([1e4, 1e3, 1.0, 0.1])
 
 
-def fsolve_gains(actuator, fn_hz: float, x0: np.ndarray = MATLAB_X0):
-    """The baseline: scipy.optimize.fsolve on the four equations in linear space, from the
-    MATLAB initial guess.  Returns (rotary gains or None, converged)."""
+def fsolve_gains(actuator, fn_hz: float, x0: np.ndarray = MATLAB_X0, formulation: str = "log"):
+    """The baseline: scipy.optimize.fsolve on the four equations (linear units), from the
+    MATLAB initial guess.  ``formulation``: ``"log"``, the unknowns are the logarithms of
+    the gains (the MATLAB script's); ``"plain"``, the unknowns are the gains themselves
+    (started from ``exp(x0)``).  Returns (rotary gains, converged)."""
     from scipy.optimize import fsolve
 
     from ..design import characteristic_coefficients, target_polynomial
@@ -32,15 +34,18 @@ def fsolve_gains(actuator, fn_hz: float, x0: np.ndarray = MATLAB_X0):
         bm, bj = lin["motor_damping"], lin["joint_damping"]
         k, beta = lin["spring_stiffness"], lin["current_to_force"]
 
+    gains = np.exp if formulation == "log" else np.asarray
+
     def resid(x):
-        Kq, Bq, Kt, Bt = np.exp(x)
+        Kq, Bq, Kt, Bt = gains(x)
         return np.array(characteristic_coefficients(_Lin, Kq, Bq, Kt, Bt)) / target - 1.0
 
+    start = x0 if formulation == "log" else np.exp(x0)
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
-        x, _info, ier, _msg = fsolve(resid, x0, full_output=True)
+        x, _info, ier, _msg = fsolve(resid, start, full_output=True)
     ok = ier == 1 and np.max(np.abs(resid(x))) < 1e-6
-    Kq, Bq, Kt, Bt = np.exp(x)
+    Kq, Bq, Kt, Bt = gains(x)
     return (Kq * r**2, Bq * r**2, Kt / r, Bt / r), bool(ok)
 
 
@@ -68,10 +73,13 @@ def bench_gain_design(repeat: int) -> BenchResult:
                          ours_sub.Btau[i, j]])
         err = max(err, float(np.max(np.abs(np.array(g) - mine) / np.abs(mine))))
     assert np.all(sols.valid[np.arange(fn.size), ref_idx])
+    plain = sum(not fsolve_gains(UT_SEA, f, formulation="plain")[1] for f in sub)
     return BenchResult(
         "gain-design", fn.size / t_ours, "scipy fsolve (MATLAB x0)", sub.size / t_base, err,
-        note=f"fsolve from the MATLAB initial guess failed to converge for {failures}/{sub.size} "
-             f"f_n in [10, 200] Hz ({100 * failures / sub.size:.0f}%); max_error = max relative "
+        note=f"fsolve from the MATLAB initial guess, unknowns the log-gains (the MATLAB "
+             f"script's formulation), failed to converge for {failures}/{sub.size} f_n in "
+             f"[10, 200] Hz ({100 * failures / sub.size:.0f}%); the same fsolve with the gains "
+             f"themselves as unknowns failed for {plain}/{sub.size}; max_error = max relative "
              "gain difference where it converged",
         max_error_text=f"{err:.2g} rel")
 

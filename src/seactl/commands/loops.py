@@ -81,7 +81,8 @@ def loop_options(func: Callable) -> Callable:
 
 SEA_ONLY = ("fn", "gs", "zeta1", "zeta2", "ratio", "t_tau", "t_qs", "t_qd", "f_qd", "f_taud",
             "actuator", "model", "load", "units", "rate_hz", "saturation", "no_zero",
-            "high_latency", "low_latency", "min_pm", "f_v", "stiffness_embeddable",
+            "high_latency", "low_latency", "min_pm", "latency_margin", "f_v",
+            "stiffness_embeddable",
             "high_timing", "low_timing", "high_loss", "low_loss", "latency", "loss", "runs",
             "seed", "system", "rigid_actuator", "t_s", "t_d")
 """Options of the built-in loops that a loop file defines itself."""

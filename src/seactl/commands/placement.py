@@ -374,33 +374,42 @@ def _check_latency_budget(jobs, n: int, max_fn: bool) -> None:
 
 
 # ---------------------------------------------------------------------------- seactl place
+def _ms_or_none(x: float | None) -> float | None:
+    return None if x is None else finite_or_none(x * 1e3)
+
+
 def advice_json(a, checks: dict[str, Any] | None = None) -> dict[str, Any]:
+    from ..placement import GAIN_UNITS
+
     def opt(o):
         return {"placement": o.placement, "stiffness_delay_ms": o.T_s * 1e3,
                 "damping_delay_ms": o.T_d * 1e3,
                 "torque_delay_ms": None if o.T_inner is None else o.T_inner * 1e3,
                 "max_fn_hz": None if o.fn_hz is None else finite_or_none(o.fn_hz),
                 "status": o.status, "gains": {k: finite_or_none(v) for k, v in o.gains.items()},
+                "gain_units": {k: GAIN_UNITS[k] for k in o.gains},
                 "static_stiffness": None if o.static_stiffness is None
                 else finite_or_none(o.static_stiffness),
                 "phase_margin_deg": None if o.phase_margin_deg is None
                 else finite_or_none(o.phase_margin_deg),
                 "crossover_hz": None if o.crossover_hz is None else finite_or_none(o.crossover_hz),
-                "stiffness_delay_margin_ms": None if o.stiffness_dm_s is None
-                else finite_or_none(o.stiffness_dm_s * 1e3),
-                "damping_delay_margin_ms": None if o.damping_dm_s is None
-                else finite_or_none(o.damping_dm_s * 1e3),
+                "stiffness_delay_margin_ms": _ms_or_none(o.stiffness_dm_s),
+                "damping_delay_margin_ms": _ms_or_none(o.damping_dm_s),
+                "latency_box_upper_ms": {k: v * 1e3 for k, v in (o.box_upper_s or {}).items()},
+                "bottleneck": o.bottleneck,
                 **({} if o.jitter_s is None else {
                     "jitter_ms": {k: v * 1e3 for k, v in o.jitter_s.items()},
                     "jitter_margin_ms": None if o.jitter_margin_s is None else
                     {k: finite_or_none(v * 1e3) for k, v in o.jitter_margin_s.items()},
-                    "bottleneck": o.bottleneck,
                     "monte_carlo": (checks or {}).get(o.placement)})}
+
+    from ..placement import upper_bound
 
     return {"actuator": a.actuator, "kind": a.kind, "high_latency_ms": a.high_latency_s * 1e3,
             "low_latency_ms": a.low_latency_s * 1e3, "min_pm_deg": a.min_pm_deg,
+            "latency_margin": a.latency_margin, "criterion": a.criterion,
             "stiffness_embeddable": a.stiffness_embeddable, "stiffness_unit": a.stiffness_unit,
-            "recommended": a.recommended,
+            "recommended": a.recommended, "upper_bound": upper_bound(a.options),
             "stiffness_gain_vs_centralized": None if a.stiffness_gain_vs_centralized is None
             else finite_or_none(a.stiffness_gain_vs_centralized),
             "fraction_of_embedded": None if a.fraction_of_embedded is None
@@ -418,12 +427,15 @@ def advice_json(a, checks: dict[str, Any] | None = None) -> dict[str, Any]:
 @click.option("--actuator", default="ut-linear", show_default=True,
               help="Preset (ut-linear, ut-sea) or TOML file.")
 @click.option("--min-pm", type=float, default=45.0, show_default=True,
-              help="Required phase margin [deg].")
+              help="Phase margin [deg] required at every latency of the box.")
+@click.option("--latency-margin", type=float, default=0.5, show_default=True,
+              help="Fraction of its latency each loop must tolerate on top of it: the box of "
+                   "latencies checked runs from 0 to (1 + this) x each loop's latency.")
 @click.option("--f-v", "f_v", default="50", show_default=True,
               help="Velocity filter cut-off [Hz] (f_qd for the SEA), or 'none'.")
 @click.option("--stiffness-embeddable", is_flag=True,
               help="Allow the stiffness loop on the embedded process (default: it needs the "
-                   "high-level process; 'embedded' is then only the upper bound).")
+                   "high-level process; 'embedded' is then shown for comparison only).")
 @click.option("--high-timing", default=None, metavar="MODEL",
               help="Latency distribution of the high-level process [ms]: uniform:LOW:HIGH, "
                    "exp:SHIFT:MEAN, hist:TRACE.csv, or a constant.")
@@ -441,7 +453,8 @@ def advice_json(a, checks: dict[str, Any] | None = None) -> dict[str, Any]:
               help="Monte Carlo seed.")
 @json_option
 @loop_options
-def place(high_latency, low_latency, actuator, min_pm, f_v, stiffness_embeddable,
+def place(high_latency, low_latency, actuator, min_pm, latency_margin, f_v,
+          stiffness_embeddable,
           high_timing, low_timing, high_loss, low_loss, rate_hz, runs, seed,
           as_json, loop) -> None:
     """Which process should run the stiffness and damping loops?
@@ -452,13 +465,19 @@ def place(high_latency, low_latency, actuator, min_pm, f_v, stiffness_embeddable
     With jitter and loss (a measured trace for the high-level process):
       seactl place --high-timing hist:trace.csv --low-timing uniform:0.5:1 --low-loss 0.01
 
-    For each placement (centralized: all loops high-level; distributed: stiffness
-    high-level, damping embedded; embedded: all embedded) it finds the highest
-    critically-damped f_n whose loop is stable with PM >= --min-pm (and every
-    lower f_n too), and recommends the best allowed placement.  With a timing
-    spec, every loop's jitter margin must also cover its process's jitter; the
-    tightest constraint is the bottleneck, and a Monte Carlo simulation checks
-    each placement with the full latency distributions and losses.
+    Placements (centralized: all loops high-level; distributed: stiffness
+    high-level, damping embedded; embedded: all embedded) are ranked by a score:
+    the largest critically-damped f_n such that at every f_n up to it the loop
+    is stable with PM >= --min-pm for every combination of loop latencies from
+    0 to (1 + --latency-margin) x the latency each loop gets (checked on a
+    lattice of 4 points per doubling, upper end rounded up). A longer latency
+    on any loop never raises the score, so all-embedded scores at least as high
+    as the others whenever the embedded latency is the lower one. With a timing
+    spec, every loop's jitter margin must also cover its process's jitter at
+    every latency of the box; 'limited by' names the constraint that fails just
+    above the score and where, and a Monte Carlo simulation checks each
+    placement with the full latency distributions and losses. PM and DM columns
+    are the nominal-latency margins at the score.
     """
     from ..placement import advise
 
@@ -469,9 +488,13 @@ def place(high_latency, low_latency, actuator, min_pm, f_v, stiffness_embeddable
     lo = _ms("--low-latency", 0.5 if low_latency is None else low_latency)
     if not 0 <= min_pm < 180:
         raise InputError("--min-pm [deg]", min_pm, ">= 0 and < 180")
+    from ..placement import MAX_LATENCY_MARGIN
+
+    if not 0 <= latency_margin <= MAX_LATENCY_MARGIN:
+        raise InputError("--latency-margin", latency_margin, f">= 0 and <= {MAX_LATENCY_MARGIN:g}")
     model = load_model(actuator, _f_v(f_v))
     a = advise(model, hi, lo, min_pm_deg=min_pm, stiffness_embeddable=stiffness_embeddable,
-               timing=timing)
+               timing=timing, latency_margin=latency_margin)
     checks = _monte_carlo_checks(model, a, timing, runs, seed)
     if as_json:
         echo_json(advice_json(a, checks))
@@ -516,18 +539,22 @@ def _monte_carlo_checks(model, advice, timing, runs, seed) -> dict[str, Any]:
 
 
 def _print_advice(a, checks: dict[str, Any]) -> None:
+    from ..placement import GAIN_UNITS
+
     t = Table(title=escape(f"Loop placement for '{a.actuator}': high-level "
                            f"{a.high_latency_s * 1e3:g} ms, embedded {a.low_latency_s * 1e3:g} "
-                           f"ms, PM >= {a.min_pm_deg:g} deg"
+                           f"ms, PM >= {a.min_pm_deg:g} deg over latencies "
+                           f"0..{1 + a.latency_margin:g}x"
                            + (" (+ jitter)" if a.timing else "")))
     gnames = list(next((o.gains for o in a.options if o.gains), {}))
     cols = ["placement", "T_s [ms]", "T_d [ms]"] + (["T_tau [ms]"] if a.kind == "sea" else []) \
-        + ["max f_n [Hz]"] + gnames + [f"stiffness [{a.stiffness_unit}]", "PM [deg]",
-                                        "DM stiff. [ms]", "DM damp. [ms]"]
+        + ["score f_n [Hz]"] + [f"{g} [{GAIN_UNITS[g]}]" for g in gnames] \
+        + [f"stiffness [{a.stiffness_unit}]", "PM [deg]", "DM stiff. [ms]", "DM damp. [ms]",
+           "limited by"]
     if a.timing:
-        cols += ["bottleneck", "MC stable"]
+        cols += ["MC stable [%]"]
     for c in cols:
-        t.add_column(escape(c), justify="right" if c != "placement" else "left")
+        t.add_column(escape(c), justify="left" if c in ("placement", "limited by") else "right")
     for o in a.options:
         mark = " *" if o.placement == a.recommended else ""
         cells = [o.placement + mark, f"{o.T_s * 1e3:g}", f"{o.T_d * 1e3:g}"]
@@ -538,11 +565,14 @@ def _print_advice(a, checks: dict[str, Any]) -> None:
         cells += [f"{o.gains[g]:.4g}" if g in o.gains else "-" for g in gnames]
         cells += [_fmt(o.static_stiffness, ".4g"), _fmt(o.phase_margin_deg, ".1f"),
                   _fmt(None if o.stiffness_dm_s is None else o.stiffness_dm_s * 1e3, ".2f"),
-                  _fmt(None if o.damping_dm_s is None else o.damping_dm_s * 1e3, ".2f")]
+                  _fmt(None if o.damping_dm_s is None else o.damping_dm_s * 1e3, ".2f"),
+                  escape(o.bottleneck or "-")]
         if a.timing:
             mc = checks.get(o.placement)
-            cells += [o.bottleneck or "-",
-                      "-" if mc is None else f"{100 * mc['fraction_stable']:.1f}%"]
+            cells += ["-" if mc is None else f"{100 * mc['fraction_stable']:.1f}"]
         t.add_row(*cells)
     console.print(t)
+    console.print(escape(a.criterion[0].upper() + a.criterion[1:] + "."))
+    console.print("PM, DM: margins at the score with the nominal latencies; limited by: the "
+                  "constraint that fails just above the score, and the latencies where it does.")
     console.print(escape(a.reason))

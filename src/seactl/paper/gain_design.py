@@ -3,6 +3,8 @@ study of Fig. GainScale(a), and the feasibility of the gain design."""
 
 from __future__ import annotations
 
+from dataclasses import dataclass
+
 import numpy as np
 
 from ..actuators import UT_SEA
@@ -93,58 +95,126 @@ def gain_scale(ctx: Context) -> Section:
                                     "GS = 0.4 at f_n = 14 Hz gives a 34 degree phase margin",
                                     34.0, float(pm[i14, j04]), 0.5))
     rows = []
-    for i, f in enumerate(fn):
-        j1 = int(np.argmin(np.abs(gs - 1.0)))
-        jbest = int(np.nanargmax(pm[i]))
-        gs_best, pm_best, pm1 = float(gs[jbest]), float(pm[i, jbest]), float(pm[i, j1])
-        rows.append([f"{f:g}", f"{pm1:.2f}", f"{gs_best:.2f}", f"{pm_best:.2f}",
-                     f"{pm_best - pm1:.2f}"])
-        holds = abs(gs_best - 1.0) <= 0.02 + 1e-9
+    for f in fn:
+        o = gs_optimum(float(f))
+        rows.append([f"{f:g}", f"{o.pm_at_1_deg:.2f}", f"{o.gs:.4f}", f"{o.pm_deg:.2f}",
+                     f"{o.pm_deg - o.pm_at_1_deg:.2f}", o.plateau_text(), o.cliff_text()])
+        holds = abs(o.gs - 1.0) <= 0.02 + 1e-9
         sec.claims.append(Claim(
             f"gainscale.gs1_max.fn{f:g}", "Fig. GainScale",
-            f"GS = 1 maximizes the phase margin (f_n = {f:g} Hz)", 1.0, gs_best, 0.02,
+            f"GS = 1 maximizes the phase margin (f_n = {f:g} Hz, ideal loop, GS "
+            f"{GS_RANGE[0]:g}-{GS_RANGE[1]:g})", 1.0, round(o.gs, 4), 0.02,
             "pass" if holds else "fail",
-            "" if holds else f"the maximum {pm_best:.2f} deg is at GS = {gs_best:.2f}; GS = 1 "
-                             f"gives {pm1:.2f} deg ({pm_best - pm1:.2f} deg less)"))
-    sec.tables.append(("Where the phase margin peaks (GS grid step 0.02)",
+            "" if holds else f"the maximum {o.pm_deg:.2f} deg is at GS = {o.gs:.4f} "
+                             f"({o.method}); GS = 1 gives {o.pm_at_1_deg:.2f} deg "
+                             f"({o.pm_deg - o.pm_at_1_deg:.2f} deg less); within "
+                             f"{PLATEAU_DEG:g} deg of the best for {o.plateau_text()}; just "
+                             f"outside: {o.cliff_text()}"))
+    sec.tables.append((f"Where the phase margin peaks (ideal loop; GS {GS_RANGE[0]:g}-"
+                       f"{GS_RANGE[1]:g}: scan step {GS_SCAN_STEP:g}, then a bounded Brent "
+                       "search between the scan's neighbours)",
                        ["f_n [Hz]", "PM at GS = 1 [deg]", "best GS", "best PM [deg]",
-                        "gain over GS = 1 [deg]"], rows))
+                        "gain over GS = 1 [deg]", "within 1 deg of the best",
+                        "just outside"], rows))
     sec.notes.append("Finding: in the ideal loop the critically-damped design (GS = 1) is "
                      "close to, but not exactly at, the phase-margin optimum: the best GS is "
                      "below 1 at low f_n and above 1 at high f_n. The loss at GS = 1 is "
-                     "reported per f_n above.")
+                     "reported per f_n above. Where the phase margin drops steeply just "
+                     "outside the optimum's plateau (a gain crossover appears or vanishes), "
+                     "'just outside' says so.")
     _table_i_optimum(sec)
     return sec
 
 
-def best_gain_scale(fn_hz: float, timing: Timing) -> tuple[float, float, float]:
-    """``(best GS, its PM, PM at GS = 1)`` [deg]: a 0.01 grid over 0.3-3, then Brent's
-    method around the grid maximum."""
+GS_RANGE = (0.05, 3.0)
+"""Gain scales searched for the phase-margin optimum."""
+GS_SCAN_STEP = 0.001
+"""Step of the dense scan that brackets the optimum before the bounded search."""
+PLATEAU_DEG = 1.0
+"""The optimum's neighbourhood: the scanned GS whose PM is within this of the best."""
+
+
+@dataclass(frozen=True)
+class GSOptimum:
+    """Phase-margin optimum over GS at one f_n, with its neighbourhood.
+
+    Attributes
+    ----------
+    gs, pm_deg : the maximizing gain scale and its phase margin [deg].
+    pm_at_1_deg : the phase margin at GS = 1 [deg].
+    plateau : (lowest, highest) scanned GS whose PM is within :data:`PLATEAU_DEG` of the
+        best, connected to the optimum.
+    outside : PM [deg] at the scan points just below and just above the plateau (NaN at
+        the range's ends).
+    method : how the optimum was found.
+    """
+
+    gs: float
+    pm_deg: float
+    pm_at_1_deg: float
+    plateau: tuple[float, float]
+    outside: tuple[float, float]
+    method: str
+
+    def plateau_text(self) -> str:
+        return f"GS {self.plateau[0]:.3f}-{self.plateau[1]:.3f}"
+
+    def cliff_text(self) -> str:
+        lo, hi = self.outside
+        parts = []
+        if np.isfinite(lo):
+            parts.append(f"{lo:.1f} deg at GS {self.plateau[0] - GS_SCAN_STEP:.3f}")
+        if np.isfinite(hi):
+            parts.append(f"{hi:.1f} deg at GS {self.plateau[1] + GS_SCAN_STEP:.3f}")
+        return "; ".join(parts) or "the whole range"
+
+
+def gs_optimum(fn_hz: float, timing: Timing | None = None,
+               gs_range: tuple[float, float] = GS_RANGE) -> GSOptimum:
+    """The gain scale maximizing the phase margin at ``fn_hz``: a dense scan of
+    ``gs_range`` (step :data:`GS_SCAN_STEP`), then a bounded Brent search between the
+    scan maximum's neighbours (scipy ``minimize_scalar``, ``xatol`` 1e-6)."""
     from scipy.optimize import minimize_scalar
 
     def pm(gs):
-        d = SEADesign(UT_SEA, critically_damped_gains(UT_SEA, fn_hz, gs=gs), timing)
+        g = critically_damped_gains(UT_SEA, fn_hz, gs=gs)
+        d = SEADesign(UT_SEA, g) if timing is None else SEADesign(UT_SEA, g, timing)
         return sea_margins(d).phase_margin_deg
 
-    grid = np.round(np.arange(0.3, 3.0001, 0.01), 10)
-    j = int(np.nanargmax(pm(grid)))
+    n = int(round((gs_range[1] - gs_range[0]) / GS_SCAN_STEP)) + 1
+    grid = np.round(np.linspace(gs_range[0], gs_range[1], n), 10)
+    p = np.asarray(pm(grid), float)
+    j = int(np.nanargmax(p))
     lo, hi = grid[max(j - 1, 0)], grid[min(j + 1, grid.size - 1)]
     res = minimize_scalar(lambda g: -float(pm(g)), bounds=(lo, hi), method="bounded",
-                          options={"xatol": 1e-5})
-    return float(res.x), float(-res.fun), float(pm(1.0))
+                          options={"xatol": 1e-6})
+    best_gs, best_pm = (float(res.x), float(-res.fun)) if -res.fun >= p[j] else \
+        (float(grid[j]), float(p[j]))
+    near = np.nan_to_num(p, nan=-np.inf) >= best_pm - PLATEAU_DEG
+    a = b = j
+    while a > 0 and near[a - 1]:
+        a -= 1
+    while b < grid.size - 1 and near[b + 1]:
+        b += 1
+    outside = (float(p[a - 1]) if a > 0 else np.nan,
+               float(p[b + 1]) if b < grid.size - 1 else np.nan)
+    return GSOptimum(best_gs, best_pm, float(pm(1.0)), (float(grid[a]), float(grid[b])),
+                     outside, f"scan step {GS_SCAN_STEP:g} + bounded Brent")
 
 
 def _table_i_optimum(sec: Section) -> None:
     """"GS = 1 is optimal" with Table I's delays and filters: at 14 Hz, and at 30 Hz."""
     timing = Timing.from_ms(**TABLE_I_TIMING)
     for fn in (14.0, 30.0):
-        gs_best, pm_best, pm1 = best_gain_scale(fn, timing)
+        o = gs_optimum(fn, timing)
+        gs_best, pm_best, pm1 = o.gs, o.pm_deg, o.pm_at_1_deg
         holds = abs(gs_best - 1.0) <= 0.02
         sec.claims.append(Claim(
             f"gainscale.gs1_max_table_i.fn{fn:g}", "Fig. GainScale",
             f"GS = 1 maximizes the phase margin with Table I's delays and filters "
             f"(f_n = {fn:g} Hz)", 1.0, round(gs_best, 4), 0.02, "pass" if holds else "fail",
-            f"best GS {gs_best:.4f}: {pm_best:.2f} deg vs {pm1:.2f} deg at GS = 1"
+            f"best GS {gs_best:.4f} (GS {GS_RANGE[0]:g}-{GS_RANGE[1]:g}, {o.method}): "
+            f"{pm_best:.2f} deg vs {pm1:.2f} deg at GS = 1"
             + ("" if holds else f" ({pm_best - pm1:+.1f} deg)")))
     sec.notes.append("With Table I's delays (0.5/2/0.5 ms) and filters (50/100 Hz), GS = 1 is "
                      "the optimum at f_n = 14 Hz (to 0.01), but not at other f_n: the claim "
