@@ -194,3 +194,32 @@ def check_simulation(n_designs: int, mode: str, rate_hz: float, t_end_s: float,
                  n_bytes=n_bytes, seconds=seconds,
                  hint=hint + ("" if mode == "sampled" else " (the continuous mode steps at "
                               "min(0.1 ms, the smallest positive delay))"))
+
+
+# ------------------------------------------------------------------ loop files
+MAX_LOOP_BLOCKS = 64
+"""Most blocks a loop file may declare (the examples use 7 to 14)."""
+MAX_LOOP_SIGNALS = 80
+"""Most signals of a compiled loop (a block's signed inputs and a disturbance observer add
+internal ones; the examples have 8 to 17): its transfers are derived symbolically, at a
+cost that grows as the cube of this count (:data:`DERIVE_SECONDS_PER_SIGNAL3`)."""
+DERIVE_SECONDS_PER_SIGNAL3 = 2.5e-5
+"""Time to derive a loop's transfers, per signal cubed (a chain of filters, the simplest
+structure: a lower bound for denser loops)."""
+MAX_LOOP_ORDER = 32
+"""Highest order of a loop (the sum over its blocks of the larger of numerator and
+denominator degree; the examples: 3 to 10).  Its characteristic quasi-polynomial is
+evaluated from expanded coefficients in double precision, which blurs clustered roots as
+the order grows (a chain of equal filters of order 50 is judged wrongly, of order 40
+rightly) and overflows near order 100."""
+MAX_EXPR_CHARS = 1000
+"""Longest expression of a loop file, in characters."""
+MAX_EXPR_DEPTH = 32
+"""Deepest nesting of an expression (operators, parentheses and calls)."""
+MAX_NESTING = 16
+"""Deepest nesting of a loop file's arrays and tables (the examples: 2)."""
+
+
+def derive_seconds(n_signals: int) -> float:
+    """Estimated time to derive the transfers of a loop of ``n_signals`` signals [s]."""
+    return DERIVE_SECONDS_PER_SIGNAL3 * float(n_signals) ** 3

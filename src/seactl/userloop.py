@@ -23,11 +23,14 @@ from typing import Any
 import numpy as np
 
 from ._parallel import eigvals
+from ._validate import frequencies_hz
 from .blockdiagram import Transfer
 from .errors import InputError, LoopFileError
+from .limits import MAX_NESTING
 from .loopfile import (
     CompiledLoop,
     check_name,
+    check_toml_nesting,
     compile_loop,
     has_loop,
     parse_block,
@@ -423,13 +426,23 @@ def load_loop(path: str | Path, **values: Any) -> UserLoop:
     >>> m.phase_margin_deg.round(4).tolist(), (90 - np.degrees([0.05, 0.1])).round(4).tolist()
     ([87.1352, 84.2704], [87.1352, 84.2704])
     """
+    if not isinstance(path, (str, Path)):
+        raise InputError("path", type(path).__name__, "a path to a .toml loop file")
     p = Path(path)
     if not p.is_file():
         raise LoopFileError(str(path), "file", None, "an existing .toml loop file")
     try:
-        data = tomllib.loads(p.read_text())
+        text = p.read_text()
+        check_toml_nesting(text, str(path))
+        data = tomllib.loads(text)
     except (tomllib.TOMLDecodeError, UnicodeDecodeError) as exc:
         raise LoopFileError(str(path), "file", None, f"valid TOML ({exc})") from None
+    except RecursionError:
+        raise LoopFileError(str(path), "file", None, f"arrays and tables nested at most "
+                            f"{MAX_NESTING} deep") from None
+    except OSError as exc:
+        raise LoopFileError(str(path), "file", None, f"a readable file ({exc.strerror})"
+                            ) from None
     loop = UserLoop(compile_loop(data, str(path)))
     return loop.with_values(**values) if values else loop
 
@@ -559,7 +572,7 @@ class UserLoop:
                 if k.startswith("var__")}
 
     # ------------------------------------------------------------ code and processes
-    def _rates(self, rates_hz: Any) -> Any:
+    def _export_rates(self, rates_hz: Any) -> Any:
         return rates_hz if rates_hz is not None else {
             name: float(p.rate_hz) for name, p in self.processes.items()}
 
@@ -598,7 +611,7 @@ class UserLoop:
         from .export import export_design
 
         return export_design(self.diagram, self.design, out, languages=lang,
-                             rates_hz=self._rates(rates_hz), verify_export=verify, step=0.01)
+                             rates_hz=self._export_rates(rates_hz), verify_export=verify, step=0.01)
 
     @run_doc
     def run(self, *, duration_s: float = 2.0, rates_hz: Any = None, step: float = 0.01,
@@ -634,7 +647,7 @@ class UserLoop:
         from .runtime import run_distributed
 
         return run_distributed(self.diagram, self.design, saturation=None, step=step,
-                               duration_s=duration_s, rates_hz=self._rates(rates_hz),
+                               duration_s=duration_s, rates_hz=self._export_rates(rates_hz),
                                transport=transport, extra_latency_s=extra_latency_s,
                                loss=loss, seed=seed)
 
@@ -696,7 +709,7 @@ class UserLoop:
         output, input : str
             Signal names.
         f_hz : array_like
-            Frequencies [Hz] (last axis of the result).
+            Frequencies [Hz], finite and > 0 (last axis of the result).
         cut : sequence of str
             Signals held at zero (or imposed, if ``input`` is one of them).
 
@@ -707,7 +720,9 @@ class UserLoop:
         """
         self._signal(output, "output")
         self._signal(input, "input")
-        s = 2j * np.pi * np.atleast_1d(np.asarray(f_hz, float))
+        for c in cut:
+            self._signal(c, "cut")
+        s = 2j * np.pi * frequencies_hz("f_hz", f_hz)
         return self.diagram.transfer(output, input, cut=tuple(cut))(self.design, s)
 
     def impedance(self, f_hz: Any, port: str | None = None) -> np.ndarray:
@@ -717,7 +732,7 @@ class UserLoop:
         Parameters
         ----------
         f_hz : array_like
-            Frequencies [Hz].
+            Frequencies [Hz], finite and > 0.
         port : str, optional
             Port name (default: the first).
 
@@ -732,7 +747,7 @@ class UserLoop:
         if name not in self.ports:
             raise LoopFileError(self.file, "port", name, "one of " + ", ".join(self.ports))
         p = self.ports[name]
-        f = np.atleast_1d(np.asarray(f_hz, float))
+        f = frequencies_hz("f_hz", f_hz)
         T = self.frequency_response(p.force, p.position, f, cut=(p.position,))
         return p.sign * T / (2j * np.pi * f)
 
