@@ -20,8 +20,9 @@ def float_array(name: str, value) -> np.ndarray:
     try:
         return np.asarray(value, dtype=float)
     except (TypeError, ValueError, OverflowError):
-        raise InputError(name, value if np.ndim(value) == 0 else type(value).__name__,
-                         "a number or an array of numbers") from None
+        shown = value if isinstance(value, (int, float)) or value is None else \
+            type(value).__name__
+        raise InputError(name, shown, "a number or an array of numbers") from None
 
 
 def frequencies_hz(name: str, value) -> np.ndarray:
@@ -38,13 +39,17 @@ def frequencies_hz(name: str, value) -> np.ndarray:
 
 
 def finite_array(name: str, value, *, minimum: float | None = None,
-                 strict: bool = False, allow_inf: bool = False) -> np.ndarray:
+                 strict: bool = False, allow_inf: bool = False,
+                 nonempty: bool = False) -> np.ndarray:
     """Return ``value`` as a float array after range checks.
 
     ``minimum`` with ``strict`` means ``> minimum``, otherwise ``>= minimum``.
-    ``allow_inf`` admits ``+inf`` (used for "no filter" cut-offs).
+    ``allow_inf`` admits ``+inf`` (used for "no filter" cut-offs); ``nonempty`` refuses an
+    empty array (a batch of no designs).
     """
     arr = float_array(name, value)
+    if nonempty and arr.size == 0:
+        raise InputError(name, f"an array of shape {arr.shape}", "at least one value")
     valid = "a finite number"
     if minimum is not None:
         valid = f"{'>' if strict else '>='} {minimum:g}" + (" (inf allowed)" if allow_inf else "")

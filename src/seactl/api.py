@@ -84,7 +84,7 @@ def delays_from_ms(delays_ms: Sequence[Any], names: Sequence[str]) -> list[np.nd
                          f"a sequence of {len(names)} delays ({', '.join(names)}) [ms]")
     out = []
     for name, value in zip(names, delays_ms):
-        v = finite_array(f"{name} [ms]", value, minimum=0.0)
+        v = finite_array(f"{name} [ms]", value, minimum=0.0, nonempty=True)
         if np.any(v > MAX_DELAY_MS):
             raise InputError(f"{name} [ms]", float(v[v > MAX_DELAY_MS].flat[0]),
                              f"<= {MAX_DELAY_MS:g} ms (delays_ms takes milliseconds)")
@@ -103,7 +103,7 @@ def _filters(filters_hz: Sequence[Any], names: Sequence[str]) -> list[Any]:
                          f"a sequence of {len(names)} cut-offs ({', '.join(names)}) [Hz], "
                          "None for no filter")
     return [None if f is None else finite_array(f"{n} [Hz]", f, minimum=0.0, strict=True,
-                                                allow_inf=True)
+                                                allow_inf=True, nonempty=True)
             for n, f in zip(names, filters_hz)]
 
 
@@ -715,8 +715,8 @@ def design(fn_hz: Any, *, actuator: Any = "ut-sea", gs: Any = 1.0, zeta1: Any = 
     from .design import critically_damped_gains
 
     act = resolve_actuator(actuator, load_sea, SEAParams)
-    fn = finite_array("fn_hz [Hz]", fn_hz, minimum=0.0, strict=True)
-    g = finite_array("gs", gs, minimum=0.0, strict=True)
+    fn = finite_array("fn_hz [Hz]", fn_hz, minimum=0.0, strict=True, nonempty=True)
+    g = finite_array("gs", gs, minimum=0.0, strict=True, nonempty=True)
     t_tau, t_qs, t_qd = delays_from_ms(delays_ms, ("T_tau", "T_qs", "T_qd"))
     f_qd, f_taud = _filters(filters_hz, ("f_qd", "f_taud"))
     fn_b, g_b = np.broadcast_arrays(fn, g)

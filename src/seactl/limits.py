@@ -118,7 +118,11 @@ def check_range(name: str, value: float, kind: str) -> float:
     from .errors import InputError
 
     lo, hi, what = RANGES[kind]
-    v = float(value)
+    try:
+        v = float(value)
+    except (TypeError, ValueError, OverflowError):
+        raise InputError(name, value, f"a number (no units: the name says them), {what}"
+                         ) from None
     inclusive = kind in ("delay_ms", "rate_hz", "fn_hz", "freq_hz")
     ok = (lo <= v <= hi) if inclusive else (lo < v <= hi)
     if math.isnan(v) or not ok:

@@ -29,6 +29,7 @@ from typing import Any
 import numpy as np
 from pydantic import BaseModel, ConfigDict, Field, ValidationError
 
+from ._validate import float_array
 from .blockdiagram import Block, BlockDiagram, DesignBatch
 from .errors import LoopFileError
 from .limits import (
@@ -716,11 +717,20 @@ class CompiledLoop:
         if unknown:
             raise LoopFileError(self.file, f"--set {unknown[0]}", None,
                                 "a variable or parameter of the loop: " + ", ".join(self.names))
+        given = {n: float_array(f"{n}", v) for n, v in values.items()}
+        for n, v in given.items():
+            if v.size == 0:
+                raise LoopFileError(self.file, f"--set {n}", None, "at least one value")
+        try:
+            np.broadcast_shapes(*(v.shape for v in given.values()))
+        except ValueError:
+            raise LoopFileError(self.file, "--set", {n: v.shape for n, v in given.items()},
+                                "values whose shapes broadcast together") from None
         env: dict[str, np.ndarray] = {}
         for n, v in self.variables.items():
-            env[n] = np.asarray(values.get(n, v), float)
+            env[n] = given.get(n, np.asarray(v, float))
         for n, e in self.parameters.items():
-            env[n] = np.asarray(values[n], float) if n in values else e(env)
+            env[n] = given[n] if n in given else e(env)
         for n, v in env.items():
             if not np.all(np.isfinite(v)):
                 raise LoopFileError(self.file, f"variable or parameter {n!r}",
@@ -779,7 +789,11 @@ class CompiledLoop:
         for p, m in self.model.processes.items():
             expr = parse_expr(m.latency_ms, self.file, f"process {p!r}, field 'latency_ms'",
                               self.names)
-            out[p] = np.asarray((latency_ms or {}).get(p, expr(env)), float)
+            given = (latency_ms or {}).get(p)
+            out[p] = expr(env) if given is None else float_array(f"latency_ms {p}", given)
+            if out[p].size == 0:
+                raise LoopFileError(self.file, f"process {p!r}, latency", None,
+                                    "at least one value")
         return out
 
     def design(self, values: Mapping[str, Any] = {},

@@ -286,6 +286,10 @@ class LoopBuilder:
         LoopBuilder
             This builder.
         """
+        if not isinstance(input, str) and not (isinstance(input, Sequence) and all(
+                isinstance(x, str) for x in input)):
+            raise LoopFileError(_BUILDER, f"block {name!r}, field 'input'", input,
+                                "a signal name or a sequence of signed signal names")
         data = {"name": name, "kind": kind, "input": input if isinstance(input, str)
                 else list(input), "output": output, **params}
         for key, val in (("process", process), ("delay_ms", delay_ms),

@@ -174,7 +174,7 @@ def sweep(actuator, sampling, n_samples, seed, chunk_size, unc_points, z_freq, o
     Runs on local worker processes (all cores) unless --workers or --scheduler
     say otherwise; Dask schedules the chunks and retries failed ones.
     """
-    if loop_file or sets:
+    if loop_file is not None or sets:
         return _loop_sweep(loop_file, sets, out, chunk_size, overwrite, as_json, sampling,
                            n_samples, seed, yes)
     if sampling != "grid" and n_samples is None:
@@ -288,7 +288,7 @@ def _loop_sweep(loop_file, sets, out, chunk_size, overwrite, as_json, sampling, 
     from ..userloop import load_loop
     from .loops import parse_sets
 
-    if not loop_file:
+    if loop_file is None:
         raise InputError("--set", sets[0], "used with --loop FILE")
     _refuse_built_in_options()
     if sampling != "grid" and n_samples is None:
