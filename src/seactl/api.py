@@ -724,6 +724,9 @@ def design(fn_hz: Any, *, actuator: Any = "ut-sea", gs: Any = 1.0, zeta1: Any = 
                                     solution=solution)
     sea = SEADesign(act, gains, Timing(t_tau, t_qs, t_qd, f_qd, f_taud))
     shape = sea.shape
+    if 0 in shape:
+        raise InputError("fn_hz, gs, zeta1, zeta2, ratio, delays_ms, filters_hz",
+                         f"a batch of shape {shape}", "arrays with at least one value")
     return Design(sea, np.broadcast_to(fn_b, shape), np.broadcast_to(g_b, shape))
 
 

@@ -208,14 +208,14 @@ MAX_LOOP_SIGNALS = 80
 internal ones; the examples have 8 to 17): its transfers are derived symbolically, at a
 cost that grows as the cube of this count (:data:`DERIVE_SECONDS_PER_SIGNAL3`)."""
 DERIVE_SECONDS_PER_SIGNAL3 = 2.5e-5
-"""Time to derive a loop's transfers, per signal cubed (a chain of filters, the simplest
-structure: a lower bound for denser loops)."""
+"""Time to derive a loop's transfers, per signal cubed (fitted on chains of filters, the
+simplest structure: a lower bound for denser loops)."""
 MAX_LOOP_ORDER = 32
 """Highest order of a loop (the sum over its blocks of the larger of numerator and
 denominator degree; the examples: 3 to 10).  Its characteristic quasi-polynomial is
 evaluated from expanded coefficients in double precision, which blurs clustered roots as
-the order grows (a chain of equal filters of order 50 is judged wrongly, of order 40
-rightly) and overflows near order 100."""
+the order grows (the limit keeps a margin below the lowest order at which a chain of equal
+filters was judged wrongly) and overflows near order 100."""
 MAX_EXPR_CHARS = 1000
 """Longest expression of a loop file, in characters."""
 MAX_EXPR_DEPTH = 32

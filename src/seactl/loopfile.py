@@ -717,7 +717,7 @@ class CompiledLoop:
         if unknown:
             raise LoopFileError(self.file, f"--set {unknown[0]}", None,
                                 "a variable or parameter of the loop: " + ", ".join(self.names))
-        given = {n: float_array(f"{n}", v) for n, v in values.items()}
+        given = {n: float_array(n, v) for n, v in values.items()}
         for n, v in given.items():
             if v.size == 0:
                 raise LoopFileError(self.file, f"--set {n}", None, "at least one value")

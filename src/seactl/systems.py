@@ -430,6 +430,9 @@ def rigid(fn_hz: Any, *, actuator: Any = "ut-linear", delays_ms: Sequence[Any] =
     t_s, t_d = delays_from_ms(delays_ms, ("T_s", "T_d"))
     d = RigidDesign.from_fn(act, fn, T_s=t_s, T_d=t_d, f_v=velocity_filter_hz,
                             passive_damping=passive_damping)
+    if 0 in d.shape:
+        raise InputError("fn_hz, delays_ms, velocity_filter_hz", f"a batch of shape "
+                         f"{d.shape}", "arrays with at least one value")
     return RigidBatch(d, np.broadcast_to(fn, d.shape))
 
 
