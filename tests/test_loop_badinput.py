@@ -256,6 +256,7 @@ def test_a_huge_loop_sweep_needs_yes(tmp_path, capsys, monkeypatch):
     (["--out", "sw", "--z-freq", "10"], "--z-freq"), (["--out", "sw", "--resume"], "--resume"),
     (["--out", "sw", "--fn", "14"], "--fn"), (["--out", "sw", "--plot-file", "p.png"],
                                               "--plot-file"),
+    (["--out", "sw", "--n", "5"], "--n"), (["--out", "sw", "--seed", "3"], "--seed"),
 ])
 def test_a_loop_sweep_refuses_what_it_cannot_do(extra, flag, tmp_path, capsys, monkeypatch):
     monkeypatch.chdir(tmp_path)
@@ -286,3 +287,23 @@ def test_a_latin_hypercube_loop_sweep(tmp_path, capsys):
     capsys.readouterr()
     b, c = (sc.read_sweep(tmp_path / x).to_pydict()["fn"] for x in "bc")
     assert b == t["fn"] and c != t["fn"]
+
+
+def test_a_loop_sweep_without_ranges_is_one_point(tmp_path, capsys):
+    """Once a 0-d index error (found by tests/test_userloop.py's fuzz).  Oracle: the loop
+    analysed at the file's values."""
+    assert main(["sweep", "--loop", RIGID, "--set", "fn=6", "--out", str(tmp_path / "a"),
+                 "--json"]) == 0
+    assert json.loads(capsys.readouterr().out)["n_points"] == 1
+    t = sc.read_sweep(tmp_path / "a").to_pydict()
+    ref = sc.load_loop(RIGID, fn=6.0).analyze(jitter=False)["position"].margins
+    assert t["position_phase_margin_deg"] == pytest.approx([float(ref.phase_margin_deg)],
+                                                           abs=1e-9)
+
+
+def test_an_empty_loop_path_is_refused_not_a_built_in_sweep(tmp_path, capsys, monkeypatch):
+    """--loop '' once started a built-in sweep (found by tests/test_userloop.py's fuzz)."""
+    monkeypatch.chdir(tmp_path)
+    assert main(["sweep", "--loop", "", "--out", "out"]) == 2
+    assert "an existing .toml loop file" in _one_line(capsys)
+    assert list(tmp_path.iterdir()) == []

@@ -267,13 +267,18 @@ LOOP_SWEEP_OPTIONS = frozenset({"loop_file", "sets", "sampling", "n_samples", "s
 progress bar, impedance columns, plots or resumption): the others are refused."""
 
 
-def _refuse_built_in_options() -> None:
+def _given(name: str) -> bool:
+    """Whether the user gave option ``name`` (not its default)."""
     from click.core import ParameterSource
 
+    return click.get_current_context().get_parameter_source(name) in (
+        ParameterSource.COMMANDLINE, ParameterSource.ENVIRONMENT)
+
+
+def _refuse_built_in_options() -> None:
     ctx = click.get_current_context()
     for p in ctx.command.params:
-        if p.name not in LOOP_SWEEP_OPTIONS and ctx.get_parameter_source(p.name) in (
-                ParameterSource.COMMANDLINE, ParameterSource.ENVIRONMENT):
+        if p.name not in LOOP_SWEEP_OPTIONS and _given(p.name):
             raise InputError(max(p.opts, key=len), "given", "absent with --loop (a loop "
                              "sweep runs in this process over the file's variables given "
                              "with --set; it has no " + ("plots" if "plot" in p.name else
@@ -293,6 +298,9 @@ def _loop_sweep(loop_file, sets, out, chunk_size, overwrite, as_json, sampling, 
     _refuse_built_in_options()
     if sampling != "grid" and n_samples is None:
         raise InputError("--n", None, f"given with --sample {sampling} (number of points)")
+    if sampling == "grid" and (n_samples is not None or _given("seed")):
+        raise InputError("--n" if n_samples is not None else "--seed", "given", "absent with "
+                         "--sample grid (every combination of the --set values is a point)")
     if not out.strip():
         raise InputError("--out", out, "a directory path")
     values = parse_sets(sets)
