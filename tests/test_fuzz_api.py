@@ -230,19 +230,24 @@ def small():
 @st.composite
 def api_call(draw):
     """(description, thunk) of one public call and one of its views."""
-    which = draw(st.sampled_from(["design", "rigid", "loop", "builder"]))
+    which = draw(st.sampled_from(["design", "rigid", "loop", "builder", "other"]))
     v = draw(value())
+    if which == "other":
+        name = draw(st.sampled_from(sorted(OTHER)))
+        return f"{name}({v!r})", lambda: OTHER[name](v)
     if which == "design":
         kw = draw(st.sampled_from(["fn_hz", "gs", "delays_ms", "filters_hz", "actuator",
                                    "zeta1"]))
         args = {"fn_hz": 14.0, kw: v} if kw != "delays_ms" else {
             "fn_hz": 14.0, "delays_ms": (0.5, v, 0.5)}
-        view = draw(st.sampled_from(["margins", "impedance", "step"]))
+        view = draw(st.sampled_from(["margins", "impedance", "step", "jitter", "roots",
+                                     "reshape"]))
         return f"design({args}).{view}", lambda: _design_view(args, view, draw)
     if which == "rigid":
         args = draw(st.sampled_from([{"fn_hz": v}, {"fn_hz": 8.0, "delays_ms": (v, 1.0)},
                                      {"fn_hz": 8.0, "velocity_filter_hz": v}]))
-        view = draw(st.sampled_from(["margins", "impedance", "step"]))
+        view = draw(st.sampled_from(["margins", "impedance", "step", "roots",
+                                     "delay_margins"]))
         return f"rigid({args}).{view}", lambda: _design_view(args, view, draw, sc.rigid)
     if which == "loop":
         name = draw(st.sampled_from(["fn", "f_v", "m", "K", "nope"]))
@@ -259,9 +264,27 @@ def _design_view(args, view, draw, make=sc.design):
         return d.margins()
     if view == "impedance":
         return d.impedance(draw(value()))
+    if view == "jitter":
+        return d.jitter_margins()
+    if view == "roots":
+        return d.roots(count=draw(st.sampled_from([1, 3, 0, -1, 2.5, "3", None, True])))
+    if view == "reshape":
+        return d.reshape(*draw(st.sampled_from([(1,), (-1,), (2, 3), (0,), ("a",), ()])))
+    if view == "delay_margins":
+        return d.delay_margins()
     return d.step(t_end_s=draw(small()), mode=draw(st.sampled_from(["continuous", "sampled",
                                                                      "x", None])))
 
+
+OTHER = {
+    "load_sea": lambda v: sc.load_sea(v),
+    "feasible_fn_range": lambda v: sc.feasible_fn_range(sc.UT_SEA, zeta1=v),
+    "design_actuator": lambda v: sc.design(14, actuator=v).margins(),
+    "rigid_actuator": lambda v: sc.rigid(8, actuator=v).margins(),
+    "rightmost_roots": lambda v: sc.rightmost_roots(v),
+    "load_loop_path": lambda v: sc.load_loop(v),
+}
+"""Other public calls, each with one drawn argument."""
 
 _RIGID_LOOP = None
 
@@ -338,6 +361,13 @@ def _rigid_file():
     lambda: sc.LoopBuilder().process("cpu").block("c", "gain", input=0.0, output="u",
                                                   gain=1.0),
     lambda: sc.load_loop(3.5),
+    lambda: sc.feasible_fn_range(sc.UT_SEA, zeta1=np.zeros(0)),  # broadcast mismatch
+    lambda: sc.rightmost_roots([1.0, 2.0]),                      # AttributeError
+    lambda: sc.design(14).roots(count=2.5),                      # TypeError in np.empty
+    lambda: sc.rigid(8).roots(count=None),
+    lambda: sc.rigid(8, velocity_filter_hz=2.2e-311).roots(count=1),  # LinAlgError
+    lambda: sc.design(14).reshape("a"),                          # TypeError
+    lambda: sc.load_loop(EXAMPLES / "rigid.toml", m=1e-308).analyze(),  # LinAlgError
 ])
 def test_found_calls_raise_a_seactl_error(call):
     """Each once ended in another exception type (named in the comment)."""
@@ -350,3 +380,13 @@ def test_a_loop_exports_at_one_rate_for_every_process(tmp_path):
     method, for mappings, shadowed the export's).  Oracle: the rate asked for."""
     res = _rigid_file().export(tmp_path / "ex", lang="json", rates_hz=2000.0)
     assert {p.rate_hz for p in res.controllers.processes} == {2000.0}
+
+
+
+def test_a_single_design_reshapes():
+    """Design.reshape of a single design once raised IndexError (it indexed it with
+    None).  Oracle: the margins of the same design."""
+    d = sc.design(14)
+    r = d.reshape(1, 1)
+    assert r.shape == (1, 1)
+    assert r.margins().phase_margin_deg[0, 0] == float(d.margins().phase_margin_deg)

@@ -178,7 +178,8 @@ class Design:
 
     def __getitem__(self, idx: Any) -> Design:
         shape = self.shape
-        if not shape and idx != () and idx is not Ellipsis:
+        if not shape and not (idx is None or idx is Ellipsis
+                              or (isinstance(idx, tuple) and idx == ())):
             raise IndexError(f"index {idx!r} of a single design (its shape is (); "
                              "d[()] is the design itself)")
 
@@ -648,7 +649,12 @@ class Design:
         ((3, 2), (6,))
         """
         base = self if self.shape else self[None]
-        idx = np.arange(int(np.prod(base.shape))).reshape(*shape)
+        n = int(np.prod(base.shape))
+        try:
+            idx = np.arange(n).reshape(*shape)
+        except (TypeError, ValueError):
+            raise InputError("shape", shape, f"integers whose product is {n} (the number of "
+                             "designs), one of them -1 at most") from None
         return base[np.unravel_index(idx, base.shape)]
 
 
@@ -753,4 +759,7 @@ def rightmost_roots(system: Any, count: int = 6) -> RootsResult:
     >>> bool(r.spectral_abscissa > 0)            # 15 ms on the damping loop: unstable
     True
     """
+    if not callable(getattr(system, "roots", None)):
+        raise InputError("system", type(system).__name__, "a design batch from sc.design or "
+                         "sc.rigid")
     return system.roots(count=count)

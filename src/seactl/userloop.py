@@ -1085,6 +1085,10 @@ def open_loop_rhp_poles(compiled: CompiledLoop, design: Any) -> np.ndarray:
     if sum(r[0].shape[1] for r in reals) == 0:
         return np.zeros(shape, int)
     net = _assemble(n, signals, blocks, reals, [], {b.name: np.ones(n) for b in blocks}, {})
+    if not np.all(np.isfinite(net.A)):
+        raise LoopFileError(compiled.file, "values", None, "values whose plant has a finite "
+                            "state-space realization (a coefficient ratio overflows: an "
+                            "inertia, stiffness or leading coefficient near 0 or 1e308)")
     ev = eigvals(net.A)
     mag = np.abs(ev)
     # A multiple pole at the origin splits numerically (+-1e-7 for a double one): poles
@@ -1119,9 +1123,12 @@ def _roots_magnitudes(coeffs: Sequence[Any], shape: tuple[int, ...]) -> np.ndarr
         if q < 1:
             continue
         comp = np.zeros((rows.shape[0], q, q))
-        comp[:, 0, :] = -rows[:, 1:] / rows[:, :1]
+        with np.errstate(over="ignore"):
+            comp[:, 0, :] = -rows[:, 1:] / rows[:, :1]
         comp[:, np.arange(1, q), np.arange(q - 1)] = 1.0
-        out.append(np.abs(eigvals(comp)).ravel())
+        comp = comp[np.isfinite(comp).all(axis=(1, 2))]  # roots beyond double range: none
+        if comp.shape[0]:
+            out.append(np.abs(eigvals(comp)).ravel())
     mags = np.concatenate(out) if out else np.empty(0)
     return mags[np.isfinite(mags) & (mags > 1e-12)]
 
