@@ -174,6 +174,16 @@ def test_a_chain_at_the_order_limit_is_analysed_exactly(tmp_path):
     assert bool(m.stable)
 
 
+def test_a_huge_loop_impedance_is_refused_with_its_estimate(capsys):
+    """9,901 designs x 1e6 frequencies x 640 B (limits.FREQ_BYTES_PER_POINT) = 5.76 TiB."""
+    t0 = time.perf_counter()
+    assert main(["impedance", "--loop", RIGID, "--set", "fn=1:100:0.01", "--freq",
+                 "1:1000:1000000"]) == 2
+    assert time.perf_counter() - t0 < 10
+    assert "9,901 design(s) of the loop at 1,000,000 frequencies needs about 5.76 TiB" in \
+        _one_line(capsys)
+
+
 def test_overflowing_coefficients_are_named_not_a_pole_at_inf(tmp_path, capsys):
     path = tmp_path / "huge.toml"
     path.write_text(chain([200.0], gain=1e300).replace("den = [1, 1]", "den = [1e-300, 1]"))

@@ -204,8 +204,12 @@ def _write_outputs(outs: Any, plot: Any, csv_path: Any, fig_fn: Callable[[], Any
 
 def _bode(loop: Any, a: Any):
     """Bode figure of every break's loop transfer (one curve per design, up to 12)."""
+    from ..limits import FREQ_BYTES_PER_POINT, check_budget
     from ..plots import loop_bode_figure
 
+    n = int(np.prod(loop.shape, dtype=float))
+    check_budget(f"a Bode plot of {n:,} design(s)", n_bytes=n * 600 * FREQ_BYTES_PER_POINT,
+                 hint="give fewer --set values with --plot (it draws the first 12)")
     om = loop.grid()
     f = np.logspace(np.log10(om[0] / (2 * np.pi)), np.log10(om[-1] / (2 * np.pi)), 600)
     labels = _labels(loop)[:12]
@@ -223,6 +227,12 @@ def _bode(loop: Any, a: Any):
 def loop_impedance(loop: Any, f: np.ndarray, port: str | None, as_json: bool, outs: Any,
                    plot: Any = None, csv_path: Any = None) -> None:
     """``seactl impedance --loop``: Z at a port over ``f``."""
+    from ..limits import FREQ_BYTES_PER_POINT, check_budget
+
+    n = int(np.prod(loop.shape, dtype=float))
+    check_budget(f"{n:,} design(s) of the loop at {f.size:,} frequencies",
+                 n_bytes=n * f.size * FREQ_BYTES_PER_POINT,
+                 hint="give fewer --freq points or fewer --set values")
     z = loop.impedance(f, port)
     name = port or next(iter(loop.ports))
     labels = _labels(loop)
