@@ -216,6 +216,11 @@ denominator degree; the examples: 3 to 10).  Its characteristic quasi-polynomial
 evaluated from expanded coefficients in double precision, which blurs clustered roots as
 the order grows (the limit keeps a margin below the lowest order at which a chain of equal
 filters was judged wrongly) and overflows near order 100."""
+MAX_LOOP_NAMES = 256
+"""Most variables and parameters of a loop file (ordering the parameters grows as the
+cube of their count)."""
+MAX_LOOP_FILE_BYTES = 1 << 20
+"""Largest loop file read (a loop at every other limit fits in a few dozen kB)."""
 MAX_EXPR_CHARS = 1000
 """Longest expression of a loop file, in characters."""
 MAX_EXPR_DEPTH = 32

@@ -36,6 +36,7 @@ from .limits import (
     MAX_EXPR_CHARS,
     MAX_EXPR_DEPTH,
     MAX_LOOP_BLOCKS,
+    MAX_LOOP_NAMES,
     MAX_LOOP_ORDER,
     MAX_LOOP_SIGNALS,
     MAX_NESTING,
@@ -836,6 +837,11 @@ def compile_loop(data: Mapping[str, Any], file: str) -> CompiledLoop:
     check_nesting(data, file)
     if isinstance(data.get("blocks"), list):
         check_size(file, len(data["blocks"]))
+    names = sum(len(data[k]) for k in ("variables", "parameters")
+                if isinstance(data.get(k), Mapping))
+    if names > MAX_LOOP_NAMES:
+        raise LoopFileError(file, "[variables] and [parameters]", None, f"at most "
+                            f"{MAX_LOOP_NAMES} names (this loop has {names})")
     try:
         model = LoopModel.model_validate(dict(data))
     except ValidationError as exc:

@@ -26,7 +26,7 @@ from ._parallel import eigvals
 from ._validate import frequencies_hz
 from .blockdiagram import Transfer
 from .errors import InputError, LoopFileError
-from .limits import MAX_NESTING
+from .limits import MAX_LOOP_FILE_BYTES, MAX_NESTING, human_bytes
 from .loopfile import (
     CompiledLoop,
     check_name,
@@ -436,6 +436,10 @@ def load_loop(path: str | Path, **values: Any) -> UserLoop:
     if not p.is_file():
         raise LoopFileError(str(path), "file", None, "an existing .toml loop file")
     try:
+        if p.stat().st_size > MAX_LOOP_FILE_BYTES:
+            raise LoopFileError(str(path), "file", None, f"a loop file of at most "
+                                f"{human_bytes(MAX_LOOP_FILE_BYTES)} (this one has "
+                                f"{human_bytes(p.stat().st_size)})")
         text = p.read_text()
         check_toml_nesting(text, str(path))
         data = tomllib.loads(text)
