@@ -171,8 +171,10 @@ def test_roots_cli_json(capsys):
     rows = out["designs"]
     assert [r["fn_hz"] for r in rows] == [15.93, 14.0]
     for r in rows:
-        assert set(r) == {"fn_hz", "gs", "spectral_abscissa", "roots", "complete", "stable",
-                          "right_half_plane_roots"}
+        assert set(r) == {"fn_hz", "gs", "spectral_abscissa", "roots", "clusters", "complete",
+                          "stable", "uncertain", "right_half_plane_roots"}
+        # simple roots: each its own disc holding one root, no cluster
+        assert r["clusters"] == [] and all(z["count"] == 1 for z in r["roots"])
         assert r["complete"] and r["stable"] is (r["right_half_plane_roots"] == 0)
         re_ = [z["re"] for z in r["roots"]]
         assert re_ == sorted(re_, reverse=True) and all(z["im"] >= 0 for z in r["roots"])

@@ -12,6 +12,7 @@ import numpy as np
 import pytest
 from scipy import signal
 
+import seactl as sc
 from seactl.actuators import UT_SEA
 from seactl.blockdiagram import Block, BlockDiagram
 from seactl.cli import main
@@ -481,3 +482,44 @@ def test_a_simulation_larger_than_the_machine_is_refused_up_front(mode, monkeypa
         sea_step(d, t_end_s=0.5, mode=mode, rate_hz=1e5)
     assert time.perf_counter() - start < 5.0
     assert "50,000 steps" in str(err.value)
+
+
+def test_buffer_samples_is_the_shortest_realizable_delay_not_below_the_request():
+    # Oracle: the definition, by enumeration: of the realizable delays T_s/2 + n T_s
+    # (n = 0, 1, ...), the smallest one >= T.
+    from seactl.simulate import buffer_samples
+
+    rng = np.random.default_rng(3)
+    for Ts in (1e-3, 2e-3, 1 / 1500, 1 / 27.5):
+        T = np.concatenate([rng.uniform(0, 20 * Ts, 400), Ts / 2 + np.arange(12) * Ts])
+        n = buffer_samples(T, Ts)
+        realizable = Ts / 2 + np.arange(40) * Ts
+        ref = np.array([np.nonzero(realizable >= t - 1e-9 * Ts)[0][0] for t in T])
+        assert np.array_equal(n, ref)
+        assert np.all(Ts / 2 + n * Ts >= T - 1e-12)
+
+
+def test_requested_and_effective_delays_side_by_side(capsys):
+    # Oracle: n = ceil((T - T_s/2)/T_s) by hand: at 1 kHz 1 -> 1.5, 2.2 -> 2.5, 0.5 -> 0.5 ms;
+    # continuous mode runs the requested delays exactly.
+    d = sc.design(14, delays_ms=(1.0, 2.2, 0.5), filters_hz=(50, 100))
+    r = d.step(mode="sampled", t_end_s=0.05)
+    req = {k: float(v) * 1e3 for k, v in r.requested_delays_s.items()}
+    eff = {k: float(v) * 1e3 for k, v in r.effective_delays_s.items()}
+    assert req == pytest.approx({"torque": 1.0, "stiffness": 2.2, "damping": 0.5})
+    assert eff == pytest.approx({"torque": 1.5, "stiffness": 2.5, "damping": 0.5})
+    assert r.to_dict()["effective_delays_ms"]["stiffness"] == pytest.approx(2.5)
+    c = d.step(t_end_s=0.05)
+    assert {k: float(v) for k, v in c.effective_delays_s.items()} == \
+        pytest.approx({k: float(v) for k, v in c.requested_delays_s.items()})
+    assert main(["step", "--fn", "14", "--t-tau", "1", "--t-qs", "2.2", "--t-qd", "0.5",
+                 "--f-qd", "50", "--f-taud", "100", "--mode", "sampled", "--t-end", "0.05",
+                 "--json"]) == 0
+    out = json.loads(capsys.readouterr().out)
+    assert out["requested_delays_ms"] == pytest.approx(req)
+    assert out["effective_delays_ms"] == pytest.approx(eff)
+    assert any("torque 1 -> 1.5" in w and "stiffness 2.2 -> 2.5" in w for w in out["warnings"])
+    assert main(["step", "--fn", "14", "--t-tau", "1", "--t-qs", "2.2", "--t-qd", "0.5",
+                 "--mode", "sampled", "--t-end", "0.05"]) == 0
+    text = capsys.readouterr().out
+    assert "requested -> simulated at 1000 Hz" in text and "damping 0.5 -> 0.5" in text

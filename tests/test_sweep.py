@@ -315,6 +315,35 @@ def test_local_cluster_gives_the_same_result(reference, cluster, tmp_path, capsy
     assert {k: printed[k] for k in ref_summary} == ref_summary  # (tables sent here)
 
 
+def test_the_parents_work_does_not_grow_with_the_chunks(cluster, tmp_path, monkeypatch):
+    """Local workers compute and write their chunks; the parent only hands them out and
+    counts.  Oracle: the calls, in this process, of the spec's identity (its JSON, which
+    the hash digests and which names every task) over a run of 2 chunks and one of 24
+    chunks of the same points: equal counts (it once cost a hash per task)."""
+    from distributed import Client
+
+    calls = []
+    as_json = SweepSpec.as_json
+    monkeypatch.setattr(SweepSpec, "as_json", lambda self: calls.append(1) or as_json(self))
+    counts = {}
+    with Client(cluster) as client:
+        for size in (12, 1):
+            spec = replace(SPEC, chunk_size=size)
+            calls.clear()
+            res = run_sweep(spec, tmp_path / f"c{size}", client=client)
+            counts[spec.n_chunks] = len(calls)
+            assert res.chunks_computed == spec.n_chunks
+    assert set(counts) == {2, 24} and counts[2] == counts[24]
+
+
+def test_a_run_reports_this_processs_cpu_time(reference):
+    # Oracle: in process (workers=0) the chunks' CPU time, measured around each chunk, is
+    # part of this process's CPU time over the run.
+    _, res, _ = reference
+    assert res.parent_cpu_seconds >= res.worker_cpu_seconds > 0
+    assert res.summary["run"]["parent_cpu_seconds"] == round(res.parent_cpu_seconds, 3)
+
+
 def _worker_state():
     """In a worker: are the sweep's kernels in memory (a numba dispatcher of the certified
     scan with a loaded overload), is SIGINT ignored, and its parent's pid."""
@@ -356,6 +385,28 @@ def test_local_workers_start_warm_and_ignore_ctrl_c(method, reference, tmp_path,
         assert loaded and ignored
         assert (parent != os.getpid()) == (method == "forkserver")
     assert read_sweep(tmp_path / "local").equals(reference[2])
+
+
+@pytest.mark.parametrize("marked", [False, True])
+def test_the_template_prepares_only_the_fork_server_seactl_starts(marked):
+    """Importing ``seactl._sweep_template`` prepares the process (kernels loaded, SIGINT
+    ignored) only with the marker that ``_start_worker_template`` gives its fork server;
+    elsewhere (pytest's doctest collection) it only defines things.  Oracle: a fresh
+    interpreter's own state after the import."""
+    import os
+    import subprocess
+
+    from seactl.sweep import TEMPLATE_MARKER
+
+    code = ("import os, signal, sys, seactl._sweep_template; "
+            "print(signal.getsignal(signal.SIGINT) == signal.SIG_IGN, "
+            "'seactl._certify' in sys.modules, os.environ.get(sys.argv[1]))")
+    env = {k: v for k, v in os.environ.items() if k != TEMPLATE_MARKER}
+    if marked:
+        env[TEMPLATE_MARKER] = "1"
+    out = subprocess.run([sys.executable, "-c", code, TEMPLATE_MARKER], env=env, text=True,
+                         capture_output=True, timeout=300, check=True).stdout.split()
+    assert out == [str(marked), str(marked), "None"]
 
 
 def test_a_failed_warm_up_is_left_to_the_first_chunk(monkeypatch):

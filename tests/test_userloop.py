@@ -634,13 +634,15 @@ def test_rigid_file_equals_builtin_impedance_and_step():
 def test_each_process_runs_at_its_rate_in_sampled_mode():
     """sea-velocity.toml: 10 kHz drive, 1 kHz embedded, 500 Hz high-level.  Each delayed
     block reads a whole-sample buffer of its own process: effective delay T_s/2 + n T_s
-    with n = round((T - T_s/2) / T_s), ties to the shorter (seactl.simulate's rule)."""
+    with n = ceil((T - T_s/2) / T_s), never shorter than T (seactl.simulate's rule): by hand,
+    2 ms at 500 Hz -> n = 1, 3 ms; 0.5 ms at 1 kHz -> n = 0; 0.1 ms at 10 kHz -> n = 1,
+    0.15 ms."""
     loop = sc.load_loop(EXAMPLES / "sea-velocity.toml")
     s = loop.step(0.3, mode="sampled")
     assert s.info["rates_hz"] == {"drive": 1e4, "embedded": 1e3, "high-level": 500.0}
     eff = {k: float(v) for k, v in s.info["effective_delays_s"].items()}
-    assert eff == pytest.approx({"Kq_fb": 1e-3, "Bq_fb": 0.5e-3, "tau_delay": 0.5e-3,
-                                 "velocity_fb": 0.05e-3}, abs=1e-15)
+    assert eff == pytest.approx({"Kq_fb": 3e-3, "Bq_fb": 0.5e-3, "tau_delay": 0.5e-3,
+                                 "velocity_fb": 0.15e-3}, abs=1e-15)
     c = loop.step(0.3, record_dt=1e-4)
     diff = np.abs(np.interp(c.t_s, s.t_s, s.outputs["q_j"]) - c.outputs["q_j"])
     assert bool(s.stable) and np.max(diff) < 0.06   # 3.9 % of the step, from the 500 Hz loop

@@ -126,11 +126,13 @@ def test_a_slowly_unstable_design_is_called_unstable(capsys):
     assert out["evidence"]["right_half_plane_roots"] == 2
     assert out["evidence"]["growth_rate_per_s"] < np.log(2) / 0.25  # no growth to see
     assert any("2 closed-loop root(s) in the right half-plane" in w for w in out["warnings"])
-    # the sampled controller is another system (whole-sample buffers: T_qs 10.5 ms, stable);
-    # its own count is 0 and decides nothing: the window's verdict
+    # the sampled controller is another system: whole-sample buffers lengthen T_qs to
+    # 11.5 ms at 1 kHz (never shorter), well past the boundary (10.52 ms): its own count of
+    # growing modes is 2 and the window shows the growth
     assert main(["step", *SLOW, "--mode", "sampled", "--json"]) == 0
     out = json.loads(capsys.readouterr().out)
-    assert out["evidence"]["right_half_plane_roots"] == 0 and out["verdict"] == "not settled"
+    assert out["effective_delays_ms"]["stiffness"] == pytest.approx(11.5)
+    assert out["evidence"]["right_half_plane_roots"] == 2 and out["verdict"] == "unstable"
 
 
 def test_sampled_growing_modes_match_a_long_simulation():
@@ -142,7 +144,7 @@ def test_sampled_growing_modes_match_a_long_simulation():
 
     fn = np.array([29.9, 30.05, 30.2, 30.3])
     d = SEADesign(UT_SEA, critically_damped_gains(UT_SEA, fn),
-                  Timing.from_ms(0.5, 10.53, 0.5, 50, 100))
+                  Timing.from_ms(0.5, 10.5, 0.5, 50, 100))
     plan = compile_sampled(sea_diagram(True), d, {"q_des": Step(1.0)}, 0.5, ("q_j",),
                            rates_hz=1000.0)
     M, period_s = lifted_map(plan)
@@ -160,7 +162,7 @@ def test_sampled_growing_modes_match_a_long_simulation():
 
 def test_a_slowly_unstable_sampled_design_is_called_unstable(capsys):
     # Oracle: the test above (f_n 30.2 Hz grows at 0.105 /s, 30.05 Hz decays at 0.073 /s).
-    args = ["--t-tau", "0.5", "--t-qs", "10.53", "--t-qd", "0.5", "--f-qd", "50",
+    args = ["--t-tau", "0.5", "--t-qs", "10.5", "--t-qd", "0.5", "--f-qd", "50",
             "--f-taud", "100", "--mode", "sampled", "--json"]
     assert main(["step", "--fn", "30.2", *args]) == 0
     out = json.loads(capsys.readouterr().out)

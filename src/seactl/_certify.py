@@ -37,7 +37,7 @@ ROUNDING = EVAL_ROUNDING
 """Evaluation error of ``Q(jw)`` relative to :func:`seactl.blockdiagram.rounding_majorant`
 (the first row of the scan's ``bounds``, :func:`bound_table`)."""
 BAND_LO, BAND_HI = 0.05, 20.0
-LOG_BAND_LO, LOG_BAND_HI = math.log(BAND_LO), math.log(BAND_HI)
+"""The band of ``|L|`` whose phase crossings the first scan certifies (:func:`band_table`)."""
 
 GAIN, PHASE = 0, 1
 TOUCH = 2
@@ -147,6 +147,15 @@ def bound_table(major: np.ndarray, b3N: np.ndarray, b3D: np.ndarray) -> np.ndarr
     for i, x in enumerate(parts):
         out[:, i, n - x.shape[-1]:] = x[:, ::-1]
     return out
+
+
+def band_table(lo: np.ndarray, hi: np.ndarray) -> np.ndarray:
+    """Per design, the band ``lo < |L| < hi`` whose phase crossings the scan certifies
+    (outside it, an interval may hold phase crossings unseen), as rows
+    ``(lo, hi, log lo, log hi)``: the logarithms taken once, not per interval."""
+    lo, hi = (np.asarray(x, float) for x in np.broadcast_arrays(lo, hi))
+    with np.errstate(divide="ignore"):
+        return np.ascontiguousarray(np.stack([lo, hi, np.log(lo), np.log(hi)], axis=-1))
 
 
 def descending(c: np.ndarray) -> np.ndarray:
@@ -388,13 +397,15 @@ def _div(a, b):  # pragma: no cover - compiled
 
 
 @njit(cache=True, error_model="numpy", inline="always")
-def _certified(P, a, b, bN, bD, stability_only, no_loop, final):  # pragma: no cover - compiled
+def _certified(P, a, b, bN, bD, stability_only, no_loop, final, band):  # pragma: no cover
     """``(Delta certified, no unseen gain crossing, no unseen phase crossing)`` for the
     interval between the points in rows ``a`` and ``b`` of ``P`` (step 3 of
-    :func:`seactl.margins.certified_margins`).  The points are passed as row numbers, not
-    as rows: each row view costs numba an atomic reference count (the scan spent 20 % of
-    its time in them).  Unless ``final`` (the interval cannot be bisected further), the
-    first certificate that fails ends the work: the interval is bisected anyway."""
+    :func:`seactl.margins.certified_margins`); ``band``: the design's row of
+    :func:`band_table`, the band of ``|L|`` whose phase crossings are certified.  The
+    points are passed as row numbers, not as rows: each row view costs numba an atomic
+    reference count (the scan spent 20 % of its time in them).  Unless ``final`` (the
+    interval cannot be bisected further), the first certificate that fails ends the work:
+    the interval is bisected anyway."""
     h = P[b, W] - P[a, W]
     cN = _sup(h, P[a, CN], P[b, CN], bN)  # sup |N''|, |D''|
     cD = _sup(h, P[a, CD], P[b, CD], bD)
@@ -424,7 +435,7 @@ def _certified(P, a, b, bN, bD, stability_only, no_loop, final):  # pragma: no c
         min(0.5 * (P[a, A_D] + P[b, A_D] + h * sD), max(P[a, A_D], P[b, A_D]) + rD)
     # outside the band throughout: |N|, |D| apart (no gain crossing) and no phase
     # crossing that matters; decided before the paths' lengths (3 % of the scan)
-    if xN < BAND_LO * mD or mN > BAND_HI * xD:
+    if xN < band[0] * mD or mN > band[1] * xD:
         return ok, True, True
     # sup |Q'' Q - Q'^2| from its ends and (Q'' Q - Q'^2)' = Q''' Q - Q'' Q'
     fN = _sup(h, P[a, F_N], P[b, F_N], bN * xN + cN * sN)
@@ -443,8 +454,8 @@ def _certified(P, a, b, bN, bD, stability_only, no_loop, final):  # pragma: no c
         return ok, False, False
     # outside the band on the whole interval by the path of log |L| (a NaN anywhere
     # leaves it relevant)
-    relevant = not ((fa + gain_len < LOG_BAND_LO and fb + gain_len < LOG_BAND_LO) or
-                    (fa - gain_len > LOG_BAND_HI and fb - gain_len > LOG_BAND_HI))
+    relevant = not ((fa + gain_len < band[2] and fb + gain_len < band[2]) or
+                    (fa - gain_len > band[3] and fb - gain_len > band[3]))
     # (arg L monotone over less than half a turn: on_axis sees its one crossing, if any;
     # the tube, with its four inverse trigonometric functions, is tried last)
     phase_ok = (not relevant) or (phase_len < to_axis) or \
@@ -653,32 +664,34 @@ def grid_point(w_lo, per_decade, powers, step, top, k, base, m):  # pragma: no c
 
 @njit(cache=True, nogil=True)
 def scan(Nc, Nt, Dc, Dt, bounds, w_lo, per_decade, step, top, stability_only,
-         no_loop, winding, uncertain, out, d0, d1):  # pragma: no cover - compiled
+         no_loop, band, winding, uncertain, out, d0, d1):  # pragma: no cover - compiled
     """Certify the base-grid intervals of designs ``d0`` to ``d1 - 1`` (design ``d``'s
     points are 0 and :func:`grid_point` from ``w_lo[d]`` to ``top[d]``), bisecting
-    depth-first; ``bounds``: :func:`bound_table`.  Writes ``winding`` and ``uncertain``
-    per design and the brackets into ``out`` (rows: design, kind, w_lo, w_hi, the
-    crossing function at both, :func:`_crossing_value`, and its derivative in ``log w``
-    at both); returns the number of brackets (more than ``len(out)``: call again with
-    room).  Needs ``0 < w_lo < top < inf`` and ``step > 0``.
+    depth-first; ``bounds``: :func:`bound_table`; ``band``: :func:`band_table`.  Writes
+    ``winding`` and ``uncertain`` per design and the brackets into ``out`` (rows: design,
+    kind, w_lo, w_hi, the crossing function at both, :func:`_crossing_value`, and its
+    derivative in ``log w`` at both); returns the number of brackets (more than
+    ``len(out)``: call again with room).  Needs ``0 < w_lo < top < inf`` and ``step > 0``.
     """
     cap = MAX_EVALUATIONS + 2 * MAX_BISECTIONS + 2
     P = np.empty((cap + 4, _F))      # the interval stack's points (rows 1-4: a batch)
     stack = np.empty((MAX_BISECTIONS + 2, 3), np.int64)  # (left, right, depth)
     return _scan(Nc, Nt, Dc, Dt, bounds, w_lo, per_decade, step, top, stability_only,
-                 no_loop, winding, uncertain, out, d0, d1, P, stack, decade_powers(per_decade),
-                 np.empty(4))
+                 no_loop, band, winding, uncertain, out, d0, d1, P, stack,
+                 decade_powers(per_decade), np.empty(4))
 
 
 @njit(cache=True, nogil=True, error_model="numpy")
 def _scan(Nc, Nt, Dc, Dt, bounds, w_lo, per_decade, step, top, stability_only,
-          no_loop, winding, uncertain, out, d0, d1, P, stack, powers, ws):  # pragma: no cover
+          no_loop, band, winding, uncertain, out, d0, d1, P, stack, powers,
+          ws):  # pragma: no cover - compiled
     """:func:`scan` with its work arrays ``P``, ``stack`` and ``ws``; every array borrowed
     (:mod:`seactl._borrow`: 20 % of the scan was reference counting).  The base grid's
     points are evaluated four at a time (:func:`_points4`) into rows 1 to 4 of ``P``."""
     Nc, Nt, Dc, Dt, bounds = borrowed(Nc), borrowed(Nt), borrowed(Dc), borrowed(Dt), \
         borrowed(bounds)
     w_lo, step, top, no_loop = borrowed(w_lo), borrowed(step), borrowed(top), borrowed(no_loop)
+    band = borrowed(band)
     winding, uncertain, out = borrowed(winding), borrowed(uncertain), borrowed(out)
     P, stack, powers, ws = borrowed(P), borrowed(stack), borrowed(powers), borrowed(ws)
     batch = 1
@@ -716,7 +729,7 @@ def _scan(Nc, Nt, Dc, Dt, bounds, w_lo, per_decade, step, top, stability_only,
                 final = depth >= MAX_BISECTIONS or evals >= MAX_EVALUATIONS
                 ok, gain_ok, phase_ok = _certified(P, ia, ib, P[ib, B3N],
                                                    P[ib, B3D], stability_only,
-                                                   no_loop[d], final)
+                                                   no_loop[d], final, band[d])
                 if not (ok and gain_ok and phase_ok or final):
                     _point(P, free, 0.5 * (wa + wb), Nc, Nt, Dc, Dt, bounds, d)
                     evals += 1

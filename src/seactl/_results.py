@@ -241,19 +241,43 @@ class ResponseResult(_Wrapped):
     right_roots : callable, optional
         Returns the simulated loop's certified count of right-half-plane roots per design
         (continuous mode; used by :meth:`verdict`).
+    links : mapping, optional
+        Loop name -> delayed block name (e.g. ``{"stiffness": "Kq_fb"}``): the keys of
+        :attr:`requested_delays_s` and :attr:`effective_delays_s` (default: block names).
 
     Examples
     --------
     >>> import seactl as sc
     >>> r = sc.design([14, 20], filters_hz=(50, 100)).step(t_end_s=0.3)
     >>> r.position.shape[0], sorted(r.to_dict())[:3]
-    (2, ['current', 'final_value', 'kind'])
+    (2, ['current', 'effective_delays_ms', 'final_value'])
     """
 
-    def __init__(self, response: Any, labels: list[str], right_roots: Any = None):
+    def __init__(self, response: Any, labels: list[str], right_roots: Any = None,
+                 links: Any = None):
         self._inner = response
         self.labels = labels
         self._right_roots = right_roots
+        self._links = dict(links) if links is not None else None
+
+    def _delays(self, key: str) -> dict[str, np.ndarray]:
+        info = self._inner.result.info.get(key, {})
+        if self._links is None:
+            return dict(info)
+        return {loop: info[block] for loop, block in self._links.items() if block in info}
+
+    @property
+    def requested_delays_s(self) -> dict[str, np.ndarray]:
+        """Per loop, the delay asked for [s] (batch shape)."""
+        return self._delays("requested_delays_s")
+
+    @property
+    def effective_delays_s(self) -> dict[str, np.ndarray]:
+        """Per loop, the delay the simulated loop has [s]: the requested one in continuous
+        mode; in sampled mode the hold's half period plus whole-sample buffers,
+        ``T_s/2 + n T_s``, the shortest realizable delay not shorter than the request.
+        """
+        return self._delays("effective_delays_s")
 
     def verdict(self, band: float | None = None) -> Any:
         """Settled, not settled, unstable, limit cycle or saturated, per design, with the
@@ -307,12 +331,17 @@ class ResponseResult(_Wrapped):
         Returns
         -------
         dict
-            ``kind``, ``mode``, ``t_s``, ``position``, ``current``, ``stable`` and the
+            ``kind``, ``mode``, ``t_s``, ``position``, ``current``,
+            ``requested_delays_ms``, ``effective_delays_ms`` (per loop), ``stable`` and the
             metrics' fields (e.g. ``overshoot_pct``).
         """
         r = self._inner
         out = {"kind": r.kind, "mode": r.result.mode, "t_s": json_array(r.t_s),
-               "position": json_array(r.position), "current": json_array(r.current)}
+               "position": json_array(r.position), "current": json_array(r.current),
+               "requested_delays_ms": {k: json_array(1e3 * np.asarray(v))
+                                       for k, v in self.requested_delays_s.items()},
+               "effective_delays_ms": {k: json_array(1e3 * np.asarray(v))
+                                       for k, v in self.effective_delays_s.items()}}
         for name, value in vars(r.metrics).items():
             out[name] = json_array(value)
         return out
@@ -433,12 +462,31 @@ class JitterResult(_Columns):
         return ax
 
 
+def _root_records(roots: np.ndarray, centre: np.ndarray, radius: np.ndarray,
+                  count: np.ndarray) -> tuple[list[dict[str, Any]], list[dict[str, Any]]]:
+    """One design's roots ``{"re", "im", "radius", "count"}`` and clusters (the discs
+    holding more than one root, once each, with their real-part interval)."""
+    rows, clusters, seen = [], [], set()
+    for z, c, r, m in zip(roots, centre, radius, count):
+        if not np.isfinite(z):
+            continue
+        rows.append({"re": json_value(z.real), "im": json_value(z.imag),
+                     "radius": json_value(r), "count": int(m)})
+        if m > 1 and (c, r) not in seen:
+            seen.add((c, r))
+            clusters.append({"re": json_value(c.real), "im": json_value(c.imag),
+                             "radius": json_value(r), "count": int(m),
+                             "re_min": json_value(c.real - r), "re_max": json_value(c.real + r)})
+    return rows, clusters
+
+
 class RootsResult(_Wrapped):
     """Rightmost characteristic roots of a design batch.
 
     Every attribute of :class:`seactl.roots.Roots` is available (``roots`` [rad/s] of
-    shape ``batch + (count,)``, ``spectral_abscissa`` [1/s], ``stable``, ``nodes``,
-    ``converged``).
+    shape ``batch + (count,)``, ``spectral_abscissa`` [1/s], ``stable``, ``uncertain``,
+    ``nodes``, ``converged``; each root's error bound: ``cluster_centre`` and
+    ``cluster_radius`` [rad/s], ``cluster_count``, ``real_interval`` [1/s]).
 
     Parameters
     ----------
@@ -468,8 +516,14 @@ class RootsResult(_Wrapped):
         ``spectral_abscissa`` [1/s] and ``roots``, a list of ``{"re", "im"}`` [rad/s]
         sorted by decreasing real part (conjugates once, ``im >= 0``); ``complete`` (no
         root is missing from the list: the discretizations agreed and the argument
-        principle found no other), ``stable`` and ``right_half_plane_roots`` (the
-        certified count, None where uncertain).
+        principle found no other), ``stable``, ``uncertain`` (no verdict: the count is not
+        certain, or a root's disc reaches across the imaginary axis) and
+        ``right_half_plane_roots`` (the certified count, None where uncertain).  Each root
+        also has ``radius`` [rad/s] and ``count``: the disc about ``(re, im)`` of that
+        radius holds ``count`` roots (1: a simple root); ``clusters`` lists the discs
+        holding more than one root, ``{"re", "im", "radius", "count", "re_min",
+        "re_max"}`` (centre and radius [rad/s], the real-part interval [1/s]): the error
+        bound of the roots listed in it.
 
         Returns
         -------
@@ -483,15 +537,18 @@ class RootsResult(_Wrapped):
         absc = np.ravel(r.spectral_abscissa)
         roots = np.reshape(r.roots, (absc.size, -1))
         conv, stable = np.ravel(r.converged), np.ravel(r.stable)
+        uncertain = np.ravel(r.uncertain)
         rhp = np.ravel(r.right_half_plane_roots)
+        discs = [np.reshape(x, roots.shape) for x in
+                 (r.cluster_centre, r.cluster_radius, r.cluster_count)]
         out = []
         for i in range(absc.size):
             row = {k: json_value(v[i]) for k, v in cols.items()}
             row["spectral_abscissa"] = json_value(absc[i])
-            row["roots"] = [{"re": json_value(z.real), "im": json_value(z.imag)}
-                            for z in roots[i] if np.isfinite(z)]
+            row["roots"], row["clusters"] = _root_records(roots[i], *(x[i] for x in discs))
             row["complete"] = bool(conv[i])
             row["stable"] = bool(stable[i])
+            row["uncertain"] = bool(uncertain[i])
             row["right_half_plane_roots"] = int(rhp[i]) if rhp[i] >= 0 else None
             out.append(row)
         return out

@@ -280,8 +280,9 @@ class Design:
         """Rightmost roots of the closed loop (exact delays), per design.
 
         Chebyshev collocation of the delay equation gives candidates, Newton on the exact
-        characteristic quasi-polynomial polishes them, and the argument principle checks
-        that none is missing (:func:`seactl.roots.characteristic_roots`).
+        characteristic quasi-polynomial polishes them, the argument principle checks
+        that none is missing and bounds each by a disc that holds it, multiplicity
+        counted (:func:`seactl.roots.characteristic_roots`).
 
         Parameters
         ----------
@@ -292,7 +293,9 @@ class Design:
         -------
         RootsResult
             ``roots`` [rad/s] of shape ``shape + (count,)`` sorted by decreasing real part,
-            ``spectral_abscissa`` [1/s], ``records()``.
+            ``spectral_abscissa`` [1/s], each root's disc (``cluster_centre``,
+            ``cluster_radius`` [rad/s], ``cluster_count``; ``real_interval`` [1/s]),
+            ``stable``, ``uncertain``, ``records()``.
 
         Examples
         --------
@@ -373,11 +376,13 @@ class Design:
         (True, 1.0)
         """
         from .sea import sea_right_roots, sea_step
+        from .timing import SEA_LINKS
 
         self._check_simulation(mode, rate_hz, t_end_s)
         return ResponseResult(sea_step(self.sea, zero=zero, mode=mode, rate_hz=rate_hz,
                                        t_end_s=t_end_s, saturation_a=saturation_a),
-                              self.labels(), functools.partial(sea_right_roots, self.sea, zero))
+                              self.labels(), functools.partial(sea_right_roots, self.sea, zero),
+                              links=SEA_LINKS)
 
     def _check_simulation(self, mode: str, rate_hz: float, t_end_s: float) -> None:
         """Ranges, samples, memory and time of a simulation (errors name the parameters)."""
@@ -421,12 +426,14 @@ class Design:
         (True, True)
         """
         from .sea import sea_impulse, sea_right_roots
+        from .timing import SEA_LINKS
 
         self._check_simulation(mode, rate_hz, t_end_s)
         return ResponseResult(sea_impulse(self.sea, impulse_nms=impulse_nms, mode=mode,
                                           rate_hz=rate_hz, t_end_s=t_end_s,
                                           saturation_a=saturation_a), self.labels(),
-                              functools.partial(sea_right_roots, self.sea, True))
+                              functools.partial(sea_right_roots, self.sea, True),
+                              links=SEA_LINKS)
 
     def monte_carlo(self, kind: str = "step", *, latency: Any = None, loss: Any = None,
                     runs: int = 100, seed: int = 0, rate_hz: float = 1000.0,

@@ -7,7 +7,8 @@ of a block diagram), :func:`loop_margins` returns, per design:
   (-180, 180]; the reported phase margin is the one smallest in absolute value
   (the MATLAB / python-control convention);
 * the gain margin: at the phase crossovers (``L`` on the negative real axis),
-  the ``1/|L|`` closest to 1 in the log sense, as python-control reports it;
+  the ``1/|L|`` closest to 1 in the log sense, as python-control reports it, whatever
+  its size (within +-234 dB, :data:`BAND_SCANS`; without delay, any);
 * the delay margin: the smallest extra loop latency that puts ``L`` through
   -1, ``min_i ((PM_i mod 360) pi/180) / w_i`` over all crossovers;
 * ``stable``: the closed loop's stability from the Nyquist criterion on the
@@ -76,15 +77,22 @@ class Margins:
     crossover_hz : gain-crossover frequency of that margin [Hz], NaN where none
         (see ``has_crossover``).
     gain_margin : gain margin (absolute), ``inf`` where the phase never reaches -180.
-        Phase crossovers are resolved wherever ``0.05 < |L| < 20``; a gain margin
-        beyond +-26 dB comes from the crossings the grid found and means "> 26 dB"
-        (or "< -26 dB").
+        Phase crossovers are resolved wherever ``0.05 < |L| < 20``; a design with none
+        there is scanned again with the band widened :data:`BAND_STEP`-fold at both ends,
+        up to :data:`BAND_SCANS` times, until one lies in it, so every gain margin
+        within +-234 dB is the one closest to 0 dB, and ``inf`` means no phase crossover
+        with ``|L|`` within ``0.05 / 3000^3`` to ``20 * 3000^3`` (except where such a scan
+        would exceed :data:`MAX_EVALUATIONS` base points or is not certified: the
+        crossovers found before stand).  A loop of a block diagram without delay has
+        finitely many phase crossovers, all found whatever their size
+        (:func:`_rational_phase_crossovers`): ``inf`` means none.
     phase_crossover_hz : frequency of that gain margin [Hz], NaN where none.
     delay_margin_s : smallest extra latency that destabilizes the loop [s];
         0 for an unstable loop, ``inf`` without crossover.
     stable : closed-loop stability (Nyquist criterion).
     unstable_poles : number of closed-loop right-half-plane poles.
-    gain_crossovers, phase_crossovers : every crossing found.
+    gain_crossovers, phase_crossovers : every crossing found (per design, the phase
+        crossovers of its last scan).
     """
 
     phase_margin_deg: np.ndarray
@@ -270,20 +278,54 @@ def _heuristic_margins(loop: LoopFn, design: Any, omega: np.ndarray,
     if stability_only:
         return _stability_only(shape, Z == 0, Z)
     at = _subset_loop(loop, design, shape)
-    return _assemble(shape, Z == 0, Z, scan.solve("gain"), scan.solve("phase"), at)
+    phase = _far_phase_scan(loop, design, shape, omega, max_depth, scan.solve("phase"), at)
+    return _assemble(shape, Z == 0, Z, scan.solve("gain"), phase, at)
 
 
-def _extend_upwards(scan: _Scan, L0: np.ndarray, omega: np.ndarray, max_depth: int) -> None:
-    """Scan above the grid while the loop is still large at its top."""
+def _far_phase_scan(loop: LoopFn, design: Any, shape: tuple[int, ...], omega: np.ndarray,
+                    max_depth: int, phase: tuple[np.ndarray, np.ndarray],
+                    at: Callable[[np.ndarray, np.ndarray], np.ndarray]
+                    ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Phase crossovers ``(design, w, L)`` of the grid scan of an opaque loop; designs with
+    none in the band ``0.05 < |L| < 20`` are scanned again for phase crossings, the band
+    widened as in :func:`_far_phase_crossovers` until one lies in it: the grid refined
+    wherever ``|L|`` is in the band, extended upwards while ``|L|`` at its top is above
+    the band's low end; their crossovers are those of their last scan."""
+    b, w = phase
+    L = at(b, w) if b.size else np.empty(0, complex)
+    inside = (L.real < 0) & (np.abs(L) > _certify.BAND_LO) & (np.abs(L) < _certify.BAND_HI)
+    todo = np.setdiff1d(np.arange(omega.shape[0]), b[inside])
+    if todo.size == 0:
+        return b, w, L
+    for k in range(1, BAND_SCANS + 1):
+        if todo.size == 0:
+            break
+        band = (_certify.BAND_LO / BAND_STEP ** k, _certify.BAND_HI * BAND_STEP ** k)
+        scan = _Scan(loop, design, shape, False, band)
+        L0 = scan.segments(todo, omega[todo], max_depth)
+        _extend_upwards(scan, L0, omega[todo], max_depth, band[0], todo)
+        sb, sw = scan.solve("phase")
+        Ls = at(sb, sw) if sb.size else np.empty(0, complex)
+        b, w, L = _replace_designs((b, w, L), todo, (sb, sw, Ls))
+        inside = (Ls.real < 0) & (np.abs(Ls) > band[0]) & (np.abs(Ls) < band[1])
+        todo = np.setdiff1d(todo, sb[inside])
+    order = np.argsort(b, kind="stable")
+    return b[order], w[order], L[order]
+
+
+def _extend_upwards(scan: _Scan, L0: np.ndarray, omega: np.ndarray, max_depth: int,
+                    level: float = 0.5, designs: np.ndarray | None = None) -> None:
+    """Scan above the grid while ``|L|`` at its top is above ``level``; ``designs``: the
+    designs of the rows of ``L0`` and ``omega`` (default: row ``i`` is design ``i``)."""
     top, w_top = np.abs(L0[:, -1]), omega[:, -1].copy()  # omega may be a broadcast view
-    todo = np.nonzero(top > 0.5)[0]
+    todo = np.nonzero(top > level)[0]
     for _ in range(max_depth):
         if todo.size == 0:
             break
         ext = w_top[todo, None] * np.logspace(0, 2, 61)
-        Lx = scan.segments(todo, ext, max_depth)
+        Lx = scan.segments(todo if designs is None else designs[todo], ext, max_depth)
         w_top[todo] = ext[:, -1]
-        todo = todo[np.abs(Lx[:, -1]) > 0.5]
+        todo = todo[np.abs(Lx[:, -1]) > level]
 
 
 def _stability_only(shape: tuple[int, ...], stable: np.ndarray, Z: np.ndarray) -> Margins:
@@ -295,14 +337,15 @@ def _stability_only(shape: tuple[int, ...], stable: np.ndarray, Z: np.ndarray) -
 
 
 def _assemble(shape: tuple[int, ...], stable: np.ndarray, Z: np.ndarray,
-              gain: tuple[np.ndarray, np.ndarray], phase: tuple[np.ndarray, np.ndarray],
+              gain: tuple[np.ndarray, np.ndarray],
+              phase: tuple[np.ndarray, np.ndarray, np.ndarray],
               at: Callable[[np.ndarray, np.ndarray], np.ndarray]) -> Margins:
-    """Margins from the solved crossings ``(design index, omega)`` of every design."""
+    """Margins from the solved crossings ``(design index, omega)`` of every design (the
+    phase crossovers with ``L`` there)."""
     n = int(np.prod(shape, dtype=int))
     b, wc = gain
     pm = _wrap180(180.0 + np.degrees(np.angle(at(b, wc)))) if b.size else np.empty(0)
-    bp, w180 = phase
-    L180 = at(bp, w180) if bp.size else np.empty(0, complex)
+    bp, w180, L180 = phase
     keep = np.real(L180) < 0
     bp, w180 = bp[keep], w180[keep]
     with np.errstate(divide="ignore"):
@@ -373,36 +416,38 @@ def cauchy_bound(q: QuasiPolynomial, majorant: np.ndarray | None = None,
 
 
 def _scan_radius(N: QuasiPolynomial, D: QuasiPolynomial, delta: QuasiPolynomial,
-                 stability_only: bool, grid_count: Callable[[np.ndarray], np.ndarray]
+                 stability_only: bool, grid_count: Callable[[np.ndarray], np.ndarray],
+                 band: tuple[float, float] = (_certify.BAND_LO, _certify.BAND_HI)
                  ) -> tuple[np.ndarray, np.ndarray]:
     """Per design, the ``R`` of step 4 of :func:`certified_margins`, and whether the
     crossings beyond it are unresolved.  Beyond ``R`` the leading term of ``Delta``
     dominates and (crossings wanted) ``|L|`` stays off 1 and off the band's phase
-    crossovers: ``|L| < BAND_LO`` for a strictly proper loop (``20 |N| < |D|``),
-    ``|L| > BAND_HI`` for an improper one, and for a biproper one ``|L - L_inf| < eps``,
+    crossovers: ``|L| < lo`` for a strictly proper loop (``|N| < lo |D|``),
+    ``|L| > hi`` for an improper one, and for a biproper one ``|L - L_inf| < eps``,
     ``L_inf`` the (real) ratio of the leading coefficients, ``eps`` half its distance to
     the unit circle and to the phase crossovers in the band.  Unresolved: ``eps = 0``
     (``|L_inf| = 1``, or ``L_inf`` on the negative real axis in the band), or ``R`` so far
     out that the base grid would exceed the evaluation budget (``grid_count``);
-    ``delta = N + D``."""
+    ``delta = N + D``; ``band``: ``(lo, hi)``, the band of ``|L|`` whose phase crossings
+    are wanted."""
     if stability_only:
         return cauchy_bound(delta), np.zeros(delta.degree.size, bool)
+    lo, hi = band
     n = delta.degree
     nl, dl = _lead(N, n), _lead(D, n)
     aN, aD = N.abs_coeffs, D.abs_coeffs
-    # Delta dominates beyond this radius, and a strictly proper L has 20 |N| < |D| there
-    top = cauchy_bound(delta, padded_sum(aN / _certify.BAND_LO, aD))
+    # Delta dominates beyond this radius, and a strictly proper L has |N| < lo |D| there
+    top = cauchy_bound(delta, padded_sum(aN / lo, aD))
     unresolved = np.zeros(n.size, bool)
-    i = np.nonzero((nl != 0) & (dl == 0))[0]  # improper: |N| > 20 |D|
+    i = np.nonzero((nl != 0) & (dl == 0))[0]  # improper: |N| > hi |D|
     if i.size:
         top[i] = np.maximum(top[i], cauchy_bound(
-            N.take(i), padded_sum(aN[i], aD[i] / _certify.BAND_LO)))
+            N.take(i), padded_sum(aN[i], aD[i] / (1.0 / hi))))
     i = np.nonzero((nl != 0) & (dl != 0))[0]  # biproper: |N - L_inf D| < eps |D|
     if i.size:
         l_inf = nl[i] / dl[i]
         mag = np.abs(l_inf)
-        off_axis = np.where(l_inf > 0, l_inf, np.maximum(_certify.BAND_LO - mag,
-                                                         mag - _certify.BAND_HI).clip(0.0))
+        off_axis = np.where(l_inf > 0, l_inf, np.maximum(lo - mag, mag - hi).clip(0.0))
         eps = np.minimum(0.5 * np.minimum(np.abs(mag - 1.0), off_axis), 1.0)
         safe = np.where(eps > 0, eps, 1.0)[:, None]
         major = padded_sum(aN[i] / safe, (mag[:, None] / safe + 1.0) * aD[i])
@@ -487,9 +532,11 @@ class _CertifiedScan:
     """Certifies every base-grid interval by bisection (compiled: :mod:`seactl._certify`;
     see :func:`certified_margins`); keeps the winding of ``Delta`` and the brackets."""
 
-    def __init__(self, N: QuasiPolynomial, D: QuasiPolynomial, stability_only: bool):
+    def __init__(self, N: QuasiPolynomial, D: QuasiPolynomial, stability_only: bool,
+                 band: tuple[float, float] = (_certify.BAND_LO, _certify.BAND_HI)):
         self.N, self.D = N, D
         self.stability_only = stability_only
+        self.band = band  # the band of |L| whose phase crossings are certified
         self.winding = np.zeros(N.shape[0])
         self.uncertain = np.zeros(N.shape[0], bool)
         # L = 0: no crossing to certify (a sum of moduli is 0 only where all are)
@@ -512,7 +559,8 @@ class _CertifiedScan:
         self.top = top  # (where the scan ends: Stepan's tail is taken there)
         args = (*self.arrays, _certify.bound_table(major, self.N.bound3_coeffs,
                                                    self.D.bound3_coeffs),
-                w_lo, PER_DECADE, step, top, self.stability_only, self.no_loop)
+                w_lo, PER_DECADE, step, top, self.stability_only, self.no_loop,
+                _certify.band_table(np.full(n, self.band[0]), np.full(n, self.band[1])))
 
         def part(k: slice) -> np.ndarray:
             out = np.empty((16 * (k.stop - k.start) + 64, _certify.ROW))  # a few per design
@@ -619,7 +667,11 @@ def certified_margins(loop: Transfer, design: Any, w_ref: np.ndarray | float, *,
        of the leading coefficients).  A biproper loop whose ``|L_inf|`` is 1, or whose
        ``L_inf`` is a phase crossover in the band, has crossings that may gather at
        infinity: it is never reported stable.
-    5. **Count.**  For a retarded quasi-polynomial of degree ``n`` with no imaginary
+    5. **Far phase crossovers.**  A design without a phase crossover in the band is
+       scanned again (steps 2-4) with the band widened (:func:`_far_phase_crossovers`),
+       so its gain margin, beyond +-26 dB, is still the one closest to 0 dB; without
+       delay, up to the bound of the roots of ``Im(N conj D)``, every phase crossover.
+    6. **Count.**  For a retarded quasi-polynomial of degree ``n`` with no imaginary
        root, ``arg Delta`` increases over ``[0, inf)`` by ``pi (n/2 - Z)``, ``Z`` the
        number of roots with ``Re s > 0`` (Stepan's formula; the delayed terms have lower
        degree).  A root on the axis makes bisection fail at ``MAX_BISECTIONS``: the
@@ -663,13 +715,139 @@ def certified_margins(loop: Transfer, design: Any, w_ref: np.ndarray | float, *,
     stable = (Z == 0) & ~uncertain & ~scan.uncertain & ~unresolved
     if stability_only:
         return _stability_only(shape, stable, Z)
-    return _assemble(shape, stable, Z, scan.solve("gain"), scan.solve("phase"), scan.loop_at)
+    phase = _far_phase_crossovers(scan.solve("phase"), N, D, delta, (w_ref, tau_max),
+                                  scan.loop_at, scan.uncertain | unresolved | scan.no_loop)
+    return _assemble(shape, stable, Z, scan.solve("gain"), phase, scan.loop_at)
+
+
+BAND_STEP = 3000.0
+"""Each further scan for the phase crossovers of a design without one in the band
+``0.05 < |L| < 20`` widens the band by this factor at both ends (69.5 dB)."""
+
+BAND_SCANS = 3
+"""Further scans at most: phase crossovers are resolved down to
+``|L| = 0.05 / 3000^3`` (a gain margin of 234.6 dB) and up to ``20 * 3000^3``."""
+
+
+def _far_phase_crossovers(phase: tuple[np.ndarray, np.ndarray], N: QuasiPolynomial,
+                          D: QuasiPolynomial, delta: QuasiPolynomial,
+                          grid: tuple[np.ndarray, np.ndarray],
+                          loop_at: Callable[[np.ndarray, np.ndarray], np.ndarray],
+                          skip: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Phase crossovers ``(design, w, L)`` of every design: those of the first scan, except
+    for designs (not ``skip``) with none in the band ``0.05 < |L| < 20``, which are
+    scanned again with the band widened :data:`BAND_STEP`-fold at both ends, up to
+    :data:`BAND_SCANS` times, until one lies in it; their crossovers are then those of
+    their last certified scan.  Every crossover in a scan's band is certified and beyond
+    its radius ``|L|`` stays outside the band (:func:`_scan_radius`), so the crossover in
+    the band closest to ``|L| = 1`` in the log sense is the gain margin.  A design whose
+    scan would exceed :data:`MAX_EVALUATIONS` base points, or is not certified, keeps
+    what it has.  ``grid``: ``(w_ref, tau_max)`` per design."""
+    b, w = phase
+    L = loop_at(b, w) if b.size else np.empty(0, complex)
+    inside = (L.real < 0) & (np.abs(L) > _certify.BAND_LO) & (np.abs(L) < _certify.BAND_HI)
+    done = skip.copy()
+    done[b[inside]] = True
+    todo = np.nonzero(~done)[0]
+    if todo.size == 0:
+        return b, w, L
+    for k in range(1, BAND_SCANS + 1):
+        if todo.size == 0:
+            break
+        band = (_certify.BAND_LO / BAND_STEP ** k, _certify.BAND_HI * BAND_STEP ** k)
+        w_ref, tau_max = (x[todo] for x in grid)
+        count = lambda t, w_ref=w_ref, tau_max=tau_max: _base_grid_count(w_ref, tau_max, t)  # noqa: E731
+        top, unresolved = _scan_radius(N.take(todo), D.take(todo), delta.take(todo), False,
+                                       count, band)
+        fits = ~unresolved & (_base_grid_count(w_ref, tau_max, top) <= MAX_EVALUATIONS)
+        todo, w_ref, tau_max, top = todo[fits], w_ref[fits], tau_max[fits], top[fits]
+        if todo.size == 0:
+            break
+        scan = _CertifiedScan(N.take(todo), D.take(todo), False, band)
+        scan.run(w_ref, tau_max, top)
+        sb, sw = scan.solve("phase")
+        certain = ~scan.uncertain[sb]
+        sb, sw = todo[sb[certain]], sw[certain]
+        redone = todo[~scan.uncertain]
+        Ls = loop_at(sb, sw) if sb.size else np.empty(0, complex)
+        b, w, L = _replace_designs((b, w, L), redone, (sb, sw, Ls))
+        inside = (Ls.real < 0) & (np.abs(Ls) > band[0]) & (np.abs(Ls) < band[1])
+        found = np.zeros(skip.size, bool)
+        found[sb[inside]] = True
+        todo = redone[~found[redone]]
+    b, w, L = _rational_phase_crossovers((b, w, L), N, D, grid, loop_at, todo)
+    order = np.argsort(b, kind="stable")
+    return b[order], w[order], L[order]
+
+
+def _rational_phase_crossovers(phase: tuple[np.ndarray, np.ndarray, np.ndarray],
+                               N: QuasiPolynomial, D: QuasiPolynomial,
+                               grid: tuple[np.ndarray, np.ndarray],
+                               loop_at: Callable[[np.ndarray, np.ndarray], np.ndarray],
+                               todo: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Phase crossovers ``(design, w, L)``, those of the designs ``todo`` that have no delay
+    replaced by all there are: ``L = N / D`` is on the real axis only where the polynomial
+    ``Im(N(jw) conj D(jw))`` vanishes, so none lies beyond its roots' bound
+    (:func:`_phase_polynomial_radius`), and a scan up to it certifying phase crossings of
+    any ``|L|`` finds them all (none: the gain margin is ``inf``)."""
+    w_ref, tau_max = grid
+    todo = todo[tau_max[todo] == 0]
+    if todo.size == 0:
+        return phase
+    top = _phase_polynomial_radius(N.take(todo), D.take(todo))
+    fits = np.isfinite(top) & (_base_grid_count(w_ref[todo], tau_max[todo], top)
+                               <= MAX_EVALUATIONS)
+    todo, top = todo[fits], top[fits]
+    if todo.size == 0:
+        return phase
+    scan = _CertifiedScan(N.take(todo), D.take(todo), False, (0.0, np.inf))
+    scan.run(w_ref[todo], tau_max[todo], top)
+    sb, sw = scan.solve("phase")
+    certain = ~scan.uncertain[sb]
+    sb, sw = todo[sb[certain]], sw[certain]
+    Ls = loop_at(sb, sw) if sb.size else np.empty(0, complex)
+    return _replace_designs(phase, todo[~scan.uncertain], (sb, sw, Ls))
+
+
+def _phase_polynomial_radius(N: QuasiPolynomial, D: QuasiPolynomial) -> np.ndarray:
+    """Per design of a loop ``N / D`` without delay, 1 % beyond Fujiwara's bound on the
+    positive roots of ``p(w) = Im(N(jw) conj D(jw)) = sum_m p_m w^m``; ``inf`` where every
+    coefficient is within its rounding error of 0 (``L`` real at every frequency).  The
+    coefficients are exact sums of ``+-n_j d_k`` (``j + k = m``, the sign from
+    ``Im(j^(j+k)) (-1)^k``); one within its rounding error of 0 is taken as 0."""
+    n, d = N.coeffs.sum(axis=0), D.coeffs.sum(axis=0)      # (designs, powers) ascending
+    size = n.shape[-1] + d.shape[-1] - 1
+    p, mag = np.zeros((n.shape[0], size)), np.zeros((n.shape[0], size))
+    for j in range(n.shape[-1]):
+        for k in range(d.shape[-1]):
+            sign = (-1) ** k * (0, 1, 0, -1)[(j + k) % 4]
+            if sign:
+                p[:, j + k] += sign * n[:, j] * d[:, k]
+                mag[:, j + k] += np.abs(n[:, j] * d[:, k])
+    p = np.where(np.abs(p) > 8 * np.finfo(float).eps * size * mag, p, 0.0)
+    nonzero = p != 0
+    top_m = np.where(nonzero.any(axis=1), size - 1 - np.argmax(nonzero[:, ::-1], axis=1), -1)
+    rows = np.arange(p.shape[0])
+    lead = np.abs(p[rows, np.maximum(top_m, 0)])
+    m = np.arange(size)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        ratio = np.where(m < top_m[:, None],
+                         (np.abs(p) / lead[:, None]) ** (1.0 / (top_m[:, None] - m)), 0.0)
+    bound = 2.0 * ratio.max(axis=1, initial=0.0)
+    return np.where(top_m > 0, 1.01 * bound, np.inf)
+
+
+def _replace_designs(old: tuple[np.ndarray, ...], designs: np.ndarray,
+                     new: tuple[np.ndarray, ...]) -> tuple[np.ndarray, ...]:
+    """Crossings ``(design, ...)``: those of ``old`` except ``designs``'s, then ``new``."""
+    keep = ~np.isin(old[0], designs)
+    return tuple(np.concatenate([o[keep], x]) for o, x in zip(old, new))
 
 
 def _stepan_count(delta: QuasiPolynomial, scan: _CertifiedScan
                   ) -> tuple[np.ndarray, np.ndarray]:
     """Right-half-plane roots from the winding of ``Delta`` on ``[0, top]`` plus the tail
-    beyond ``top`` (step 5 of :func:`certified_margins`), ``top`` where the scan ended:
+    beyond ``top`` (step 6 of :func:`certified_margins`), ``top`` where the scan ended:
     the Cauchy radius, or a decade above the grid's start where that is further out (the
     tail taken at the radius then counted the turn between the two twice, up to a root's
     worth); ``Delta(j top)`` from the scan's compiled evaluation
@@ -690,9 +868,11 @@ class _Scan:
     phase crossovers, to be solved exactly at the end.
     """
 
-    def __init__(self, loop: LoopFn, design: Any, shape: tuple[int, ...], stability_only: bool):
+    def __init__(self, loop: LoopFn, design: Any, shape: tuple[int, ...], stability_only: bool,
+                 band: tuple[float, float] = (_certify.BAND_LO, _certify.BAND_HI)):
         self.loop, self.design, self.shape = loop, design, shape
         self.stability_only = stability_only
+        self.band = band  # the band of |L| where phase crossings are looked for
         self.single = isinstance(loop, Transfer)
         self.wind_design: list[np.ndarray] = []
         self.wind_value: list[np.ndarray] = []
@@ -726,7 +906,7 @@ class _Scan:
         big = np.maximum(mag[:, 1:], mag[:, :-1])
         coarse = (np.abs(dphi_f) > np.pi / 3) & (big > 0.5)
         if not self.stability_only:
-            coarse |= (np.abs(dphi) > np.pi / 3) & (big > 0.05)
+            coarse |= (np.abs(dphi) > np.pi / 3) & (big > self.band[0])
             # A pair of crossings can hide between two samples on the same side of the unit
             # circle (or of the negative real axis) only if log L moves between them by more
             # than their distance to it, |log|L|| (or pi - |arg L|).  Comparing the step of
@@ -740,7 +920,7 @@ class _Scan:
             to_axis = np.pi - np.abs(np.angle(L))
             same_half = (L.imag[:, 1:] >= 0) == (L.imag[:, :-1] >= 0)
             small = np.minimum(mag[:, 1:], mag[:, :-1])
-            coarse |= (same_half & (big > 0.05) & (small < 20.0)
+            coarse |= (same_half & (big > self.band[0]) & (small < self.band[1])
                        & (step > np.maximum(to_axis[:, 1:], to_axis[:, :-1])))
         if depth <= 0:
             coarse[:] = False
@@ -795,7 +975,7 @@ def first_per_design(groups: np.ndarray, key: np.ndarray) -> np.ndarray:
 
 def count_right_roots(q: QuasiPolynomial, w_ref: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Roots of a flat retarded quasi-polynomial with ``Re s > 0`` (multiplicity and
-    conjugates counted), by the certified scan of :func:`certified_margins` (steps 2-5);
+    conjugates counted), by the certified scan of :func:`certified_margins` (steps 2-4 and 6);
     and whether the count is certain (``False`` when a root lies on the axis)."""
     zero = QuasiPolynomial(np.zeros_like(q.coeffs[:1]), np.zeros_like(q.delays[:1]))
     scan = _CertifiedScan(q, zero, stability_only=True)

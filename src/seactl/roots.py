@@ -20,6 +20,12 @@ Its roots are found in three steps, for every design of a batch:
    (:func:`seactl.margins.count_right_roots`), with ``sigma`` between the last root
    listed and the next one, counts exactly the roots listed right of ``sigma``.  A
    design that never passes both by ``MAX_NODES`` is reported ``converged = False``.
+4. **Error bounds**: each listed root gets an inclusion disc that certifiably holds a
+   number of roots, multiplicity counted (:func:`seactl.rootdiscs.inclusion_discs`):
+   a simple root a disc of about 1e-9 of its size holding one; roots that gather (a
+   multiple root, which Newton and the residual test locate only to about the
+   ``m``-th root of the rounding error) one disc holding all of them, reported as a
+   cluster.  The stability verdict takes the real parts of those discs into account.
 
 Designs without delay are solved as polynomials (companion eigenvalues, polished).
 
@@ -45,6 +51,7 @@ from ._parallel import eigvals
 from .blockdiagram import BlockDiagram, QuasiPolynomial, shifted
 from .errors import InputError
 from .margins import certified_right_roots, count_right_roots
+from .rootdiscs import inclusion_discs
 
 RESIDUAL_TOL = 1e-9
 """Accept a polished root when ``|Delta(s)| <= RESIDUAL_TOL * sum_k |p_k(s) e^{-s tau_k}|``."""
@@ -73,18 +80,29 @@ class Roots:
     ----------
     roots : complex ndarray, shape ``batch + (count,)``
         Roots [rad/s] sorted by decreasing real part, one of each conjugate pair
-        (``imag >= 0``); NaN where fewer were found.
+        (``imag >= 0``); NaN where fewer were found.  A root of a cluster (see
+        ``cluster_count``) is listed at the cluster's centre: no point of it is better
+        known than its disc.
     spectral_abscissa : ndarray
         Largest real part of all roots [1/s] (negative: stable, and the decay rate).
     nodes : ndarray
         Chebyshev collocation size ``N`` the roots converged at (0: no delay).
     converged : ndarray of bool
-        The rightmost roots agreed between two discretizations and the argument principle
-        found no other root right of them; where False the list may miss roots.
+        The rightmost roots agreed between two discretizations, the argument principle
+        found no other root right of them, and each has an inclusion disc; where False
+        the list may miss roots.
     right_half_plane_roots : ndarray of int
         Roots with ``Re s > 0`` by the argument principle on the whole right half-plane
         (:func:`seactl.margins.count_right_roots`; conjugates counted), whether or not
         the list is complete; -1 where no count is certain (a root on the axis).
+    cluster_centre, cluster_radius : ndarray, shape ``batch + (count,)``
+        Per listed root, the disc ``|s - centre| <= radius`` [rad/s] that holds it: its
+        error bound, certified by the argument principle on the disc's circle
+        (:func:`seactl.rootdiscs.inclusion_discs`).  Roots listed in one disc (a multiple
+        root or a tight cluster, which no point locates better) share it.  NaN where no
+        disc is certified.
+    cluster_count : ndarray of int, shape ``batch + (count,)``
+        Roots in that disc, multiplicity counted (1: a simple root; 0 where none).
     """
 
     roots: np.ndarray
@@ -92,12 +110,32 @@ class Roots:
     nodes: np.ndarray
     converged: np.ndarray
     right_half_plane_roots: np.ndarray
+    cluster_centre: np.ndarray
+    cluster_radius: np.ndarray
+    cluster_count: np.ndarray
+
+    @property
+    def real_interval(self) -> tuple[np.ndarray, np.ndarray]:
+        """Per listed root, the bounds [1/s] of the real parts in its disc:
+        ``centre.real -+ radius`` (NaN where no disc is certified)."""
+        c, r = self.cluster_centre.real, self.cluster_radius
+        return c - r, c + r
+
+    @property
+    def uncertain(self) -> np.ndarray:
+        """No verdict: the right-half-plane count is not certain (a root on the axis), or
+        it is 0 and a listed root's disc reaches across the imaginary axis."""
+        lo, hi = self.real_interval
+        with np.errstate(invalid="ignore"):
+            across = ((lo <= 0) & (hi >= 0)).any(axis=-1)
+        return (self.right_half_plane_roots < 0) | ((self.right_half_plane_roots == 0) & across)
 
     @property
     def stable(self) -> np.ndarray:
-        """No root in the closed right half-plane, by the certified count (not by the
-        roots listed, which may be incomplete where not ``converged``)."""
-        return self.right_half_plane_roots == 0
+        """No root in the closed right half-plane by the certified count (not by the roots
+        listed, which may be incomplete where not ``converged``), and no listed root's
+        disc reaching the imaginary axis (:attr:`uncertain`)."""
+        return (self.right_half_plane_roots == 0) & ~self.uncertain
 
     @property
     def unstable_count(self) -> np.ndarray:
@@ -143,9 +181,20 @@ def characteristic_roots(diagram: BlockDiagram, design: Any, *, count: int = 6,
         else:
             r, nd, conv = _delay_roots(sub, deg, count, scale[idx])
         out[idx], nodes[idx], ok[idx] = r, nd, conv
+    centre, radius, size = inclusion_discs(q, out, scale)
+    ok &= ~(np.isfinite(out) & np.isnan(radius)).any(axis=1)
+    # (a conjugate-symmetric cluster's centre: on the axis, its imaginary part rounding)
+    centre = np.where(np.abs(centre.imag) <= 1e-10 * np.abs(centre), centre.real + 0j, centre)
+    centre = np.where(centre.imag < 0, np.conj(centre), centre)
+    out = np.where(size > 1, centre, out)  # (a cluster's points locate none of its roots)
+    order = np.argsort(np.where(np.isfinite(out), -out.real, np.inf), axis=1, kind="stable")
+    out, centre, radius, size = (np.take_along_axis(x, order, axis=1)
+                                 for x in (out, centre, radius, size))
     absc = np.nanmax(out.real, axis=1, initial=-np.inf)
-    return Roots(out.reshape(shape + (count,)), absc.reshape(shape), nodes.reshape(shape),
-                 ok.reshape(shape), certified_right_roots(q, scale).reshape(shape))
+    per_root = shape + (count,)
+    return Roots(out.reshape(per_root), absc.reshape(shape), nodes.reshape(shape),
+                 ok.reshape(shape), certified_right_roots(q, scale).reshape(shape),
+                 centre.reshape(per_root), radius.reshape(per_root), size.reshape(per_root))
 
 
 def _frequency_scale(q: QuasiPolynomial) -> np.ndarray:

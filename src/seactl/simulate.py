@@ -184,7 +184,9 @@ class SimResult:
     stable : ``batch`` bool: stayed within ``bound`` and decaying at the end of the window.
     left_bounds_s : time [s] an output first left ``bound`` (``inf`` if never).
     bound : the divergence bound used (output units).
-    info : details (step, rates, effective delays per delayed block [s], ...).
+    info : details (step, rates, requested and effective delays per delayed block [s]:
+        ``requested_delays_s``, ``effective_delays_s``; equal in continuous mode, the
+        whole-sample buffers' ``T_s/2 + n T_s >= T`` in sampled mode, ...).
     """
 
     mode: str
@@ -832,8 +834,9 @@ def run_continuous(plan: ContinuousPlan, bound: float) -> RunResult:
     # (outputs, designs, time) as a view: a copy of a large batch's record costs a
     # quarter of the run
     rec = _fill_diverged(rec_t.transpose(1, 2, 0), left)
+    delays = {k: d.reshape(p.shape) for k, d in p.delays_s.items()}
     info = {"dt_s": p.dt_s, "record_dt_s": p.dt_s * p.every,
-            "effective_delays_s": {k: d.reshape(p.shape) for k, d in p.delays_s.items()}}
+            "requested_delays_s": delays, "effective_delays_s": delays}
     return RunResult(p.t_s[::p.every], {o: rec[j] for j, o in enumerate(p.outputs)}, left, info)
 
 
@@ -1261,7 +1264,9 @@ def compile_sampled(diagram: BlockDiagram, design: Any, inputs: Mapping[str, Any
     if np.any(imp):
         cols = na + np.nonzero(imp)[0]
         x0[zp["x"]] = np.einsum("nij,j->in", pn.net.B[:, :, cols], imp[cols - na])
-    info = {"rates_hz": rates, "base_period_s": Tb, "effective_delays_s": cn.eff,
+    requested = {b.name: _delay_attr(design, b, shape, n).reshape(shape) for b in cn.delayed}
+    info = {"rates_hz": rates, "base_period_s": Tb, "requested_delays_s": requested,
+            "effective_delays_s": cn.eff,
             "buffer_samples": {b: v.reshape(shape) for b, v in cn.nbuf.items()},
             "saturation": dict(saturation), "friction_step_s": h if friction else None}
     return SampledPlan(

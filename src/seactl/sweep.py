@@ -48,6 +48,7 @@ import signal
 import time
 from collections.abc import Callable, Iterable, Sequence
 from dataclasses import asdict, dataclass, field
+from functools import cached_property, lru_cache
 from pathlib import Path
 from typing import Any
 
@@ -60,6 +61,11 @@ from .errors import InputError, OutputError
 from .outputs import TEMP_TAG
 
 FORMAT = "seactl-sweep/1"
+
+TEMPLATE_MARKER = "SEACTL_SWEEP_TEMPLATE"
+"""Environment variable that is ``"1"`` only while :func:`_start_worker_template` starts
+the fork server: it tells :mod:`seactl._sweep_template`, imported by that server, to
+prepare the workers' template (imported anywhere else, it only defines things)."""
 
 
 
@@ -188,10 +194,8 @@ class SweepSpec:
 
     # ---- identity
     def as_json(self) -> dict[str, Any]:
-        from importlib.metadata import version
-
         return {
-            "format": FORMAT, "seactl": version("seactl"),
+            "format": FORMAT, "seactl": _seactl_version(),
             "actuator": asdict(self.actuator), "sampling": self.sampling,
             "n_samples": self.n_samples if self.sampling != "grid" else None,
             "seed": self.seed if self.sampling != "grid" else None,
@@ -200,8 +204,10 @@ class SweepSpec:
             "z_freqs_hz": list(self.z_freqs_hz),
         }
 
-    @property
+    @cached_property
     def hash(self) -> str:
+        """SHA-256 of :meth:`as_json` (computed once: it travels with the spec to the
+        workers, which stamp it on every chunk)."""
         text = json.dumps(self.as_json(), sort_keys=True, separators=(",", ":"))
         return hashlib.sha256(text.encode()).hexdigest()
 
@@ -235,6 +241,15 @@ class SweepSpec:
             lo, hi = min(vals), max(vals)
             out[name] = lo + (hi - lo) * u[:, k]
         return out
+
+
+@lru_cache(maxsize=1)
+def _seactl_version() -> str:
+    """The installed seactl's version (read from its metadata once per process: each read
+    parses the package's metadata file)."""
+    from importlib.metadata import version
+
+    return version("seactl")
 
 
 def _json_float(x: float) -> float | str:
@@ -438,11 +453,11 @@ def write_chunk(out: Path, i: int, table: Any) -> None:
 
 
 def _chunk_done(spec: SweepSpec, out: Path, i: int) -> bool:
-    import pyarrow.parquet as pq
-
     p = part_path(out, i)
     if not p.is_file():
         return False
+    import pyarrow.parquet as pq
+
     try:
         meta = pq.read_metadata(p)
     except Exception:  # unreadable: recompute
@@ -609,6 +624,9 @@ class SweepResult:
     worker_peak_rss_mb: float
     worker_cpu_seconds: float = 0.0
     summary: dict[str, Any] = field(default_factory=dict)
+    parent_cpu_seconds: float = 0.0
+    """CPU time of this process over ``seconds``, every thread: the progress bar, the
+    client, and for a local cluster its scheduler and nannies (``workers=0``: the chunks)."""
 
     @property
     def points_per_s(self) -> float:
@@ -649,15 +667,20 @@ def _local_cluster(workers: int):
     handler = signal.SIG_IGN if method == "spawn" else lambda *_: interrupted.append(1)
     previous = signal.signal(signal.SIGINT, handler) if _main_thread() else None
     try:
-        # no statistical profiler sampling every worker's stack every 10 ms, and slower
-        # health ticks: nobody reads them without a dashboard, and on two cores they
-        # take time from the chunks.  Logs: a failed chunk reaches the caller as its
-        # exception; after Ctrl-C a worker's heartbeat can meet the closing scheduler
-        # and log an ERROR with its traceback (1 to 2 in 100 interruptions, measured)
+        # no statistical profiler sampling every worker's stack every 10 ms, no GIL
+        # sampling every 1 ms (where gilknocker is installed), health ticks and memory
+        # checks once a second (a chunk's memory is bounded): nobody reads them without a
+        # dashboard, and each runs in every process, the parent's scheduler and nannies
+        # included, taking time from the chunks.  Logs: a failed chunk reaches the caller
+        # as its exception; after Ctrl-C a worker's heartbeat can meet the closing
+        # scheduler and log an ERROR with its traceback (1 to 2 in 100 interruptions,
+        # measured)
         with dask.config.set({"distributed.nanny.pre-spawn-environ": environ,
                               "distributed.worker.multiprocessing-method": method,
                               "distributed.worker.profile.enabled": False,
-                              "distributed.admin.tick.interval": "100ms",
+                              "distributed.admin.system-monitor.gil.enabled": False,
+                              "distributed.worker.memory.monitor-interval": "1s",
+                              "distributed.admin.tick.interval": "1s",
                               "distributed.admin.system-monitor.interval": "2s"}):
             cluster = LocalCluster(n_workers=workers, threads_per_worker=1, processes=True,
                                    dashboard_address=None, silence_logs=logging.CRITICAL,
@@ -685,8 +708,9 @@ def _start_worker_template(environ: dict[str, str]) -> str:
     """Start the template that local workers fork from, and wait until it is ready; the
     start method to give Dask.
 
-    ``"forkserver"``: multiprocessing's fork server is started (once per process), and
-    imports :mod:`seactl._sweep_template`, which loads the sweep's modules and kernels.
+    ``"forkserver"``: multiprocessing's fork server is started (once per process), with
+    :data:`TEMPLATE_MARKER` in its environment, and imports :mod:`seactl._sweep_template`,
+    which then loads the sweep's modules and kernels.
     Every worker forked from it starts with them loaded.  ``"spawn"``: the platform
     has no fork server (Windows).
 
@@ -714,7 +738,11 @@ def _start_worker_template(environ: dict[str, str]) -> str:
         get_mp_context()  # Dask sets its own preload list once per process: before ours
     multiprocessing.set_forkserver_preload(["seactl._sweep_template"])
     os.environ.update(environ)
-    forkserver.ensure_running()
+    os.environ[TEMPLATE_MARKER] = "1"  # (the server copies this process's environment)
+    try:
+        forkserver.ensure_running()
+    finally:
+        os.environ.pop(TEMPLATE_MARKER, None)
     # wait until it has warmed (8 ms once it has): here Ctrl-C still stops cleanly
     ready = multiprocessing.get_context("forkserver").Process(target=os.getpid)
     ready.start()
@@ -779,8 +807,11 @@ def run_sweep(spec: SweepSpec, out: Path | str, *, resume: bool = False,
             own_client.close()
 
 
-def _run(spec: SweepSpec, out: Path, workers: int | None, client: Any, own_client: Any,
-         console: Any, _on_chunk: Callable[[int], None] | None) -> SweepResult:
+def _progress(console: Any) -> Any:
+    """The sweep's progress bar on ``console``; ``None`` without a console (rich's progress
+    is then not even imported)."""
+    if console is None:
+        return None
     from rich.progress import (
         BarColumn,
         MofNCompleteColumn,
@@ -790,21 +821,29 @@ def _run(spec: SweepSpec, out: Path, workers: int | None, client: Any, own_clien
         TimeRemainingColumn,
     )
 
+    return Progress(TextColumn("[bold]sweep"), BarColumn(), MofNCompleteColumn(),
+                    TextColumn("chunks"), TimeElapsedColumn(), TimeRemainingColumn(),
+                    console=console, transient=False)
+
+
+def _run(spec: SweepSpec, out: Path, workers: int | None, client: Any, own_client: Any,
+         console: Any, _on_chunk: Callable[[int], None] | None) -> SweepResult:
+    import contextlib
+
     todo = missing_chunks(spec, out)
     own_cluster = None
-    t0 = time.perf_counter()
+    t0, c0 = time.perf_counter(), time.process_time()
     peak = 0.0
     done = spec.n_chunks - len(todo)
     n_workers = 0
-    progress = Progress(TextColumn("[bold]sweep"), BarColumn(), MofNCompleteColumn(),
-                        TextColumn("chunks"), TimeElapsedColumn(), TimeRemainingColumn(),
-                        console=console, disable=console is None, transient=False)
+    progress = _progress(console)
     computed = points = 0
     cpu = 0.0
     parts: dict[int, dict[str, Any]] = {}
     try:
-        with progress:
-            task = progress.add_task("sweep", total=spec.n_chunks, completed=done)
+        with progress or contextlib.nullcontext():
+            if progress is not None:
+                task = progress.add_task("sweep", total=spec.n_chunks, completed=done)
 
             def finish(i: int, rows: int, part: dict[str, Any], stats: dict[str, float]
                        ) -> None:
@@ -816,7 +855,8 @@ def _run(spec: SweepSpec, out: Path, workers: int | None, client: Any, own_clien
                 points += rows
                 peak = max(peak, stats["peak_rss_mb"])
                 computed += 1
-                progress.advance(task)
+                if progress is not None:
+                    progress.advance(task)
                 if _on_chunk is not None:
                     _on_chunk(i)
 
@@ -839,17 +879,18 @@ def _run(spec: SweepSpec, out: Path, workers: int | None, client: Any, own_clien
         if own_cluster is not None:
             own_client.close()
             own_cluster.close()
-    seconds = time.perf_counter() - t0
     summary = summarize(spec, out, parts)
+    seconds, parent_cpu = time.perf_counter() - t0, time.process_time() - c0
     summary["run"] = {"chunks_computed": computed, "seconds": round(seconds, 3),
                       "workers": n_workers, "worker_peak_rss_mb": round(peak, 1),
-                      "worker_cpu_seconds": round(cpu, 3)}
+                      "worker_cpu_seconds": round(cpu, 3),
+                      "parent_cpu_seconds": round(parent_cpu, 3)}
     from .outputs import write_atomic
 
     write_atomic(out / "_summary.json", json.dumps(summary, indent=2) + "\n")
     _write_manifest(spec, out, "complete")
     return SweepResult(out, spec.hash, spec.n_points, spec.n_chunks, computed, points, seconds,
-                       n_workers, peak, cpu, summary)
+                       n_workers, peak, cpu, summary, parent_cpu_seconds=parent_cpu)
 
 
 def _local(client: Any) -> bool:
@@ -870,8 +911,9 @@ def _on_dask(spec: SweepSpec, out: Path, todo: list[int], client: Any,
     local = _local(client)
     groups = batches(todo, n_workers) if local else [[i] for i in todo]
     futures = {}
+    tag = spec.hash[:12]
     for g in groups:
-        key = f"seactl-sweep-{spec.hash[:12]}-{g[0]:06d}-{g[-1]:06d}"
+        key = f"seactl-sweep-{tag}-{g[0]:06d}-{g[-1]:06d}"
         fut = (client.submit(evaluate_and_write, spec, g, out, retries=2, pure=False, key=key)
                if local else
                client.submit(evaluate_chunk, spec, g[0], retries=2, pure=False, key=key))

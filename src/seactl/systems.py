@@ -212,6 +212,7 @@ class RigidBatch:
         from .margins import closed_loop_right_roots
         from .rigid import RIGID_DIAGRAM
         from .simulate import SEAResponse, SimResult, Step, simulate, step_metrics
+        from .timing import MODEL_LINKS
 
         r = self.rigid
         limit = r.actuator.max_force if (saturate and mode == "sampled") else None
@@ -225,7 +226,8 @@ class RigidBatch:
                         res.stable, res.left_bounds_s, res.bound, res.info)
         met = step_metrics(res.t_s, res.outputs["q_j"], res.stable, res.left_bounds_s)
         return ResponseResult(SEAResponse("step", res, met), self.labels(),
-                              lambda: closed_loop_right_roots(RIGID_DIAGRAM, r, r.wn))
+                              lambda: closed_loop_right_roots(RIGID_DIAGRAM, r, r.wn),
+                              links=MODEL_LINKS["rigid"])
 
     def impedance(self, f_hz: Any) -> ImpedanceResult:
         """Impedance ``Z(j 2 pi f) = F_ext / (j 2 pi f x)`` [N s/m] felt at the output.

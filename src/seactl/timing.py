@@ -11,9 +11,9 @@ latencies) and may be lost (:class:`Bernoulli` independent loss,
 latency plays the role of the fixed delay ``T`` of the deterministic sampled
 mode (:mod:`seactl.simulate`): with zero-order hold the message is used
 ``n = max(ceil((T - T_s/2)/T_s), 0)`` samples after it was taken (effective delay
-``T_s/2 + n T_s``, never shorter than ``T``).  At each tick the receiver uses the newest message that has
-arrived (older ones arriving later are ignored) and holds the last value when
-nothing new arrived.
+``T_s/2 + n T_s``, never shorter than ``T``).  At each tick the receiver uses the
+newest message that has arrived (older ones arriving later are ignored) and holds
+the last value when nothing new arrived.
 
 A link whose model is deterministic (constant latency, a one-bin histogram) and
 lossless is simulated exactly as the deterministic sampled mode with that

@@ -1,6 +1,7 @@
 """Benchmark of ``seactl sweep``: a 1,000,000-point margin sweep on local Dask workers.
 
-Reports (target: 1e6 points in under 60 s on two cores, start-up included):
+Reports (target: 1e6 points in under 60 s on two cores, start-up included; the
+workers' CPU time at least 1.8 of the two cores over the run on started workers):
 
 * ``sweep-1e6``: points per second of the whole run as a fresh process makes it (the
   workers' template start, cluster start, computing, writing Parquet, cluster close)
@@ -20,7 +21,9 @@ The grid is f_n (100 values, 10-40 Hz) x GS (100 values, 0.3-3) x T_qs
 sets a smaller size (e.g. 100000) for a quick look; the default is 1e6 (sizes round up
 to whole T_qs planes of 10,000 points).
 The peak memory of one chunk is measured with ``tracemalloc`` in this process,
-and the workers' peak resident set size is reported by the sweep itself.
+and the workers' peak resident set size is reported by the sweep itself, as are the
+workers' CPU time (their chunks') and this process's (the parent: client, scheduler and
+nannies), each also as a share of the wall time of the run on started workers.
 """
 
 from __future__ import annotations
@@ -81,6 +84,16 @@ def _timed_run(spec, workers: int, root: Path) -> tuple[float, float, float, obj
     finally:
         cluster.close()
     return time.perf_counter() - t0, startup, on_workers, res
+
+
+def _cpu_note(res, seconds: float) -> str:
+    """The workers' and the parent's CPU time over the ``seconds`` of a run on started
+    workers: a parent near one core, or workers short of their count, is a bottleneck."""
+    return (f"CPU over the {seconds:.2f} s on started workers: workers "
+            f"{res.worker_cpu_seconds:.2f} s ({res.worker_cpu_seconds / seconds:.2f} cores busy "
+            f"of {res.workers}), parent (client, scheduler, nannies) "
+            f"{res.parent_cpu_seconds:.2f} s ({res.parent_cpu_seconds / seconds:.2f} of a core, "
+            f"{res.parent_cpu_seconds / res.worker_cpu_seconds:.1%} of the workers')")
 
 
 def _one_by_one(spec, points: np.ndarray) -> tuple[float, np.ndarray]:
@@ -163,19 +176,21 @@ def bench_sweep(repeat: int) -> list[BenchResult]:
                   f"{res.worker_cpu_seconds:.1f} s = {cpu_rate:,.0f} points per CPU-second, "
                   f"i.e. {res.worker_cpu_seconds / fresh:.2f} workers busy on average over the "
                   f"wall time (on 2 idle cores: about "
-                  f"{template + startup + res.worker_cpu_seconds / 2:.0f} s); {res.n_chunks} "
+                  f"{template + startup + res.worker_cpu_seconds / 2:.0f} s); "
+                  f"{_cpu_note(res, r2)}; {res.n_chunks} "
                   f"chunks of {spec.chunk_size}; peak traced memory of one chunk {mem_mb:.0f} MB "
                   f"({1e3 * mem_mb / spec.chunk_size:.1f} kB/point), worker peak RSS "
                   f"{rss:.0f} MB; single run (repeat ignored); max_error in PM degrees over "
                   f"{pts.size} sampled points"))
-        w1, s1, r1, _ = _timed_run(spec, 1, root)
+        w1, s1, r1, res1 = _timed_run(spec, 1, root)
         a, b = read_sweep(root / "w1"), read_sweep(root / "w2")
         diff = 0.0 if a.equals(b) else float(np.nanmax(np.abs(
             np.asarray(a.column("phase_margin_deg")) - np.asarray(b.column("phase_margin_deg")))))
         scaling = BenchResult(
             "sweep-scaling", spec.n_points / r2, "1 worker", spec.n_points / r1, diff,
             note=(f"{spec.n_points:,} points on started workers: 1 worker {r1:.2f} s, 2 "
-                  f"workers {r2:.2f} s (speed-up {r1 / r2:.2f}); whole runs with the "
+                  f"workers {r2:.2f} s (speed-up {r1 / r2:.2f}); 1 worker: {_cpu_note(res1, r1)}; "
+                  "whole runs with the "
                   f"cluster's start and close: {w1:.1f} s and {wall:.1f} s (speed-up "
                   f"{w1 / wall:.2f}; start-up {s1:.1f} / {startup:.1f} s), plus "
                   f"{template:.1f} s once per process for the workers' template; "

@@ -54,7 +54,9 @@ def gains(spec: DesignSpec, as_json: bool) -> None:
       seactl gains --fn 12 14 16 18 20 --t-tau 0.5 --t-qs 2 --t-qd 0.5 --f-qd 50 --f-taud 100
 
     A margin printed as 'none' (null in JSON) means the loop has no such crossing:
-    no gain crossover (phase and delay margin), or no phase crossover (gain margin).
+    no gain crossover (phase and delay margin), or no phase crossover (gain margin;
+    every phase crossover with a gain margin within +-234 dB is resolved, and without
+    delays every one).
     An unstable design's PM is marked '(unstable)' (JSON keeps the number and
     "stable": false).  'abscissa' is the largest real part of the closed-loop roots
     [1/s]: negative when stable, and then the slowest decay rate.

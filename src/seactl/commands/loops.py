@@ -319,8 +319,8 @@ def loop_response(loop: Any, kind: str, mode: str, t_end: float, size: float,
 
     _write_outputs(outs, plot, csv_path, fig, ["t_s", *names],
                    [[float(t), *map(float, yf[:, k])] for k, t in enumerate(res.t_s)])
-    eff = {k: np.asarray(v).reshape(-1).tolist() for k, v in
-           res.info.get("effective_delays_s", {}).items()}
+    req, eff = ({k: np.asarray(v).reshape(-1).tolist() for k, v in res.info.get(key, {}).items()}
+                for key in ("requested_delays_s", "effective_delays_s"))
     v = loop.verdict(res, band)
     runs = [{**lab, "stable": bool(res.stable.reshape(-1)[i])
              and v.verdict[i] not in ("unstable", "limit cycle"),
@@ -331,7 +331,8 @@ def loop_response(loop: Any, kind: str, mode: str, t_end: float, size: float,
     warnings = [(" ".join(f"{k}={x:g}" for k, x in lab.items()) + ": " if lab else "") + w
                 for lab, r in zip(labels, runs) for w in r["warnings"]]
     common = {"loop": loop.name, "mode": mode, "output": out_name, kind == "step" and
-              "amplitude" or "area": size, "effective_delays_s": eff,
+              "amplitude" or "area": size, "requested_delays_s": req,
+              "effective_delays_s": eff,
               "rates_hz": res.info.get("rates_hz"), "warnings": warnings}
     if as_json:
         t = [round(float(v), 9) for v in res.t_s]
@@ -349,8 +350,18 @@ def loop_response(loop: Any, kind: str, mode: str, t_end: float, size: float,
                     r["verdict"] if r["verdict"] == "settled" else f"[red]{r['verdict']}[/red]",
                     *[_fmt(r["metrics"][k], ".4g") for k in keys])
     console.print(tab)
+    if mode == "sampled" and eff:
+        console.print(escape("delays [ms], requested -> simulated (T_s/2 + whole samples, "
+                             "never shorter): " + "; ".join(
+                                 f"{k} {_ms_list(req.get(k, v))} -> {_ms_list(v)}"
+                                 for k, v in eff.items())), highlight=False)
     for w in warnings:
         console.print(escape(f"warning: {w}"), highlight=False)
+
+
+def _ms_list(delays_s: list[float]) -> str:
+    """Delays [s] of a batch as milliseconds, each distinct value once."""
+    return ", ".join(f"{1e3 * x:g}" for x in dict.fromkeys(delays_s))
 
 
 def loop_place(loop: Any, as_json: bool) -> None:

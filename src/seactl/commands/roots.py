@@ -14,8 +14,9 @@ from ._common import DesignSpec, cli, console, design_options, echo_json, json_o
 
 def roots_rows(spec: DesignSpec, count: int) -> list[dict[str, Any]]:
     """One record per design and valid gain solution: ``fn_hz``, ``gs``,
-    ``spectral_abscissa`` [1/s], ``roots`` ``[{"re", "im"}, ...]`` [rad/s], ``complete``,
-    ``stable`` and ``right_half_plane_roots``."""
+    ``spectral_abscissa`` [1/s], ``roots`` ``[{"re", "im", "radius", "count"}, ...]``
+    [rad/s], ``clusters``, ``complete``, ``stable``, ``uncertain`` and
+    ``right_half_plane_roots`` (:meth:`seactl.api.RootsResult.records`)."""
     from ..api import Design
 
     rows = []
@@ -29,6 +30,24 @@ def _root_text(z: dict[str, Any]) -> str:
     re_, im = z["re"], z["im"]
     text = f"{re_:.4g}" if im == 0 else f"{re_:.4g} ± {im:.4g}j"
     return f"[red]{escape(text)}[/red]" if re_ > 0 else escape(text)
+
+
+def _cluster_text(c: dict[str, Any]) -> str:
+    text = (f"cluster of {c['count']} within {c['radius']:.3g} of "
+            + _root_text(c) + f" (re {c['re_min']:.4g} to {c['re_max']:.4g})")
+    return f"[yellow]{text}[/yellow]" if c["re_max"] >= 0 else text
+
+
+def _roots_text(r: dict[str, Any]) -> str:
+    """Simple roots one by one; the roots of a cluster as its disc, once."""
+    parts = [_root_text(z) for z in r["roots"] if z["count"] <= 1]
+    return ", ".join([_cluster_text(c) for c in r["clusters"]] + parts)
+
+
+def _verdict_text(r: dict[str, Any]) -> str:
+    if r["uncertain"]:
+        return "[yellow]uncertain[/yellow]"
+    return "yes" if r["stable"] else "[red]NO[/red]"
 
 
 @cli.command()
@@ -48,7 +67,11 @@ def roots(spec: DesignSpec, count: int, as_json: bool) -> None:
     none lies to the right of those listed (a list it cannot confirm is marked
     incomplete), and counts the right-half-plane roots behind "stable".  Sorted by
     decreasing real part; a conjugate pair is listed once (im >= 0).  A positive real
-    part is an unstable root.
+    part is an unstable root.  Each root's error bound is a disc that the argument
+    principle shows to hold it (JSON: "radius" [rad/s] and "count", the roots in the
+    disc); roots that gather in one disc (a multiple root) are shown as that cluster,
+    with its count and the interval of its real parts.  'uncertain': no verdict, as a
+    cluster's interval reaches across the imaginary axis or a root lies on it.
     """
     rows = roots_rows(spec, count)
     if as_json:
@@ -62,8 +85,7 @@ def roots(spec: DesignSpec, count: int, as_json: bool) -> None:
     for r in rows:
         a = r["spectral_abscissa"]
         t.add_row(f"{r['fn_hz']:g}", f"{r['gs']:g}", "none" if a is None else f"{a:.4g}",
-                  "yes" if r["stable"] else "[red]NO[/red]",
-                  ", ".join(_root_text(z) for z in r["roots"])
+                  _verdict_text(r), _roots_text(r)
                   + ("" if r["complete"] else " [yellow](incomplete: roots may be missing)"
                      "[/yellow]"))
     console.print(t)

@@ -312,9 +312,14 @@ def _output(spec: DesignSpec, resp: Any, mode: str, zero: bool, extra: dict[str,
         tab.add_row(f"{r['fn_hz']:g}", f"{r['gs']:g}", st, *vals,
                     "none" if r["peak_current_a"] is None else f"{r['peak_current_a']:.2f}")
     console.print(tab)
-    eff = extra.get("effective_delays_ms", {})
-    if eff:
-        console.print(escape("effective delays [ms]: " + ", ".join(
+    req, eff = extra.get("requested_delays_ms", {}), extra.get("effective_delays_ms", {})
+    if eff and mode == "sampled":
+        console.print(escape(
+            f"delays [ms], requested -> simulated at {extra['rate_hz']:g} Hz (T_s/2 + whole "
+            "samples, never shorter): " + ", ".join(f"{k} {req.get(k, v):g} -> {v:g}"
+                                                    for k, v in eff.items())), highlight=False)
+    elif eff:
+        console.print(escape("delays [ms] (exact): " + ", ".join(
             f"{k} {v:g}" for k, v in eff.items())), highlight=False)
     for w in warnings:
         console.print(escape(f"warning: {w}"), highlight=False)
@@ -323,25 +328,32 @@ def _output(spec: DesignSpec, resp: Any, mode: str, zero: bool, extra: dict[str,
 def _notes(spec: DesignSpec, mode: str, extra: dict[str, Any]) -> list[str]:
     """Warnings that apply to the whole command (printed and in JSON alike)."""
     notes = []
-    eff = extra.get("effective_delays_ms", {})
+    req, eff = extra.get("requested_delays_ms", {}), extra.get("effective_delays_ms", {})
     if mode == "sampled" and (spec.f_qd_hz is None or spec.f_taud_hz is None):
         notes.append("an unfiltered derivative discretized with Tustin rings at the Nyquist "
                      "frequency (pole at z = -1); give --f-qd and --f-taud for a realistic "
                      "sampled controller")
     if mode == "sampled" and eff:
-        asked = {"Kq_fb": spec.t_qs_ms, "Bq_fb": spec.t_qd_ms, "tau_delay": spec.t_tau_ms}
-        off = [f"{k} {asked[k]:g} -> {v:g}" for k, v in eff.items()
-               if k in asked and abs(asked[k] - v) > 1e-9]
+        off = [f"{k} {req[k]:g} -> {v:g}" for k, v in eff.items()
+               if k in req and abs(req[k] - v) > 1e-9]
         if off:
-            notes.append("at this rate the whole-sample buffers give effective delays "
-                         "T_s/2 + n T_s that differ from the requested ones: "
-                         + ", ".join(off) + " ms")
+            notes.append("at this rate the whole-sample buffers lengthen delays to the next "
+                         "realizable T_s/2 + n T_s: " + ", ".join(off) + " ms")
     return notes
 
 
+def _delays_ms(res: Any, key: str) -> dict[str, float]:
+    """Per SEA loop (torque, stiffness, damping), the largest delay of the batch [ms]."""
+    from ..timing import SEA_LINKS
+
+    info = res.info.get(key, {})
+    return {loop: round(float(np.max(info[b])) * 1e3, 9) for loop, b in SEA_LINKS.items()
+            if b in info}
+
+
 def _extra(res: Any, mode: str, rate_hz: float, saturation: float | None) -> dict[str, Any]:
-    eff = {k: float(np.max(v)) * 1e3 for k, v in res.info.get("effective_delays_s", {}).items()}
-    out: dict[str, Any] = {"effective_delays_ms": {k: round(v, 9) for k, v in eff.items()}}
+    out: dict[str, Any] = {"requested_delays_ms": _delays_ms(res, "requested_delays_s"),
+                           "effective_delays_ms": _delays_ms(res, "effective_delays_s")}
     if mode == "sampled":
         sat = res.info["saturation"].get("i_m", math.inf)
         out.update({"rate_hz": rate_hz, "saturation_a": finite_or_none(sat)})

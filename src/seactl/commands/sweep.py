@@ -220,6 +220,9 @@ def sweep(actuator, sampling, n_samples, seed, chunk_size, unc_points, z_freq, o
         t.add_row(escape("throughput [points/s]"), f"{res.points_per_s:,.0f}")
         t.add_row("workers", "in process" if not run["workers"] else str(run["workers"]))
         t.add_row(escape("peak RSS per worker [MB]"), f"{run['worker_peak_rss_mb']:.0f}")
+        if run["workers"]:   # (in process, the chunks are this process's CPU time)
+            t.add_row(escape("CPU time: workers / this process [s]"),
+                      f"{run['worker_cpu_seconds']:.2f} / {run['parent_cpu_seconds']:.2f}")
     console.print(t)
     if s["best_phase_margin"]:
         best = ", ".join(f"{k}={v:.6g}" if isinstance(v, float) else f"{k}={v}"

@@ -322,7 +322,9 @@ def response_views(d: sc.Design, c: Controls) -> dict[str, Any]:
     st, im = d.step(**kw), d.impulse(**kw)
     return {"step": {"t_ms": st.t_s * 1e3, "y": np.reshape(st.position, -1)},
             "impulse": {"t_ms": im.t_s * 1e3, "y": np.degrees(np.reshape(im.position, -1))},
-            "step_metrics": st.metrics, "impulse_metrics": im.metrics}
+            "step_metrics": st.metrics, "impulse_metrics": im.metrics,
+            "requested_delays_ms": {k: float(v) * 1e3 for k, v in st.requested_delays_s.items()},
+            "effective_delays_ms": {k: float(v) * 1e3 for k, v in st.effective_delays_s.items()}}
 
 
 def _ms(x: Any) -> float | None:
@@ -355,6 +357,8 @@ def response_results(resp: dict[str, Any]) -> dict[str, Any]:
         "step_settling_ms": json_value(_ms(sm.settling_time_s) or math.nan),
         "impulse_peak_deg": json_value(np.degrees(im.peak_deviation)),
         "impulse_recovery_ms": json_value(_ms(im.recovery_time_s) or math.nan),
+        **{f"{k}_requested_delay_ms": v for k, v in resp["requested_delays_ms"].items()},
+        **{f"{k}_effective_delay_ms": v for k, v in resp["effective_delays_ms"].items()},
     }
 
 
@@ -413,7 +417,19 @@ def verdict(r: dict[str, Any], bands: np.ndarray) -> str:
     if r.get("step_overshoot_pct") is not None:
         words.append(f"Step: {r['step_overshoot_pct']:.1f} % overshoot, settles (2 %) in "
                      f"{_f(r['step_settling_ms'], '.0f', ' ms')}.")
+    words += _lengthened_words(r)
     return " ".join(words)
+
+
+def _lengthened_words(r: dict[str, Any]) -> list[str]:
+    """The delays a sampled response ran with, where whole samples lengthened them."""
+    moved = [f"{k} {r[f'{k}_requested_delay_ms']:.3g} -> {r[f'{k}_effective_delay_ms']:.3g} ms"
+             for k in ("stiffness", "damping", "torque") if f"{k}_effective_delay_ms" in r
+             and abs(r[f"{k}_effective_delay_ms"] - r[f"{k}_requested_delay_ms"]) > 1e-9]
+    if not moved:
+        return []
+    return ["The sampled responses run with whole-sample delays T_s/2 + n T_s, never shorter "
+            "than requested: " + ", ".join(moved) + "."]
 
 
 def _roots_words(r: dict[str, Any]) -> str:
