@@ -390,3 +390,25 @@ def test_a_single_design_reshapes():
     r = d.reshape(1, 1)
     assert r.shape == (1, 1)
     assert r.margins().phase_margin_deg[0, 0] == float(d.margins().phase_margin_deg)
+
+
+def test_a_loop_whose_gain_is_zero_is_analysed(tmp_path):
+    """Found by the loop-file fuzz: a gain log(fn) = 0 on a static spring made the loop
+    transfer a constant without axes (IndexError while extending the grid down).  Oracle:
+    L = 0, so the closed loop is the open one (a static spring): stable, no crossing,
+    and Z = -u / (s y) = 0."""
+    path = tmp_path / "zero.toml"
+    path.write_text('variables = { fn = 1.0 }\n'
+                    'processes = { cpu = { rate_hz = 500 } }\n'
+                    'signals = { inputs = ["r", "d"], reference = "r", output = "y" }\n'
+                    'breaks = [ { name = "main", signal = "y_m" } ]\n'
+                    'ports = [ { name = "out", position = "y", force = "u" } ]\n'
+                    '[[blocks]]\nname = "c"\nkind = "gain"\ninput = ["r", "-y_m"]\n'
+                    'output = "u"\nprocess = "cpu"\ngain = "log(fn)"\n'
+                    '[[blocks]]\nname = "p"\nkind = "spring"\ninput = ["u", "d"]\n'
+                    'output = "y"\nstiffness = "fn"\n'
+                    '[[blocks]]\nname = "s"\nkind = "sensor"\ninput = "y"\noutput = "y_m"\n')
+    loop = sc.load_loop(path)
+    a = loop.analyze()
+    assert bool(a.stable) and np.isinf(a["main"].margins.phase_margin_deg)
+    assert np.all(loop.impedance([1.0, 10.0]) == 0)

@@ -1193,8 +1193,9 @@ def _extend_down(loop: Any, design: Any, omega: np.ndarray, max_decades: int = 6
     growing towards lower frequencies (an integrating loop may cross 1 further down)."""
     for _ in range(max_decades):
         w0 = omega[0]
-        with np.errstate(all="ignore"):
-            m = np.abs(loop(design, 1j * np.array([w0 / 10, w0])))
+        with np.errstate(all="ignore"):  # (a constant loop's response has no axes)
+            m = np.broadcast_to(np.abs(loop(design, 1j * np.array([w0 / 10, w0]))),
+                                tuple(design.shape) + (2,))
         if not np.any((m[..., 1] < 2) & (m[..., 0] > 1.5 * m[..., 1])):
             break
         omega = np.concatenate([np.logspace(np.log10(w0 / 10), np.log10(w0), 13)[:-1], omega])
