@@ -412,3 +412,22 @@ def test_a_loop_whose_gain_is_zero_is_analysed(tmp_path):
     a = loop.analyze()
     assert bool(a.stable) and np.isinf(a["main"].margins.phase_margin_deg)
     assert np.all(loop.impedance([1.0, 10.0]) == 0)
+
+
+def test_a_pole_near_the_float_limit_is_refused_in_one_line(tmp_path):
+    """Found by the loop-file fuzz: damping 1e308 on a 50 kg inertia puts a pole at
+    2e306 rad/s, and the grid's ratio w_hi / w_lo overflowed (OverflowError).  Oracle:
+    the contract, a SeactlError."""
+    path = tmp_path / "far.toml"
+    path.write_text('variables = { fn = 14.0 }\n'
+                    'processes = { cpu = { rate_hz = 1000 } }\n'
+                    'signals = { inputs = ["r", "d"], reference = "r", output = "y" }\n'
+                    'breaks = [ { name = "main", signal = "y_m" } ]\n'
+                    '[[blocks]]\nname = "c"\nkind = "pid"\ninput = ["r", "-y_m"]\n'
+                    'output = "u"\nprocess = "cpu"\nkp = "fn"\nki = "pi"\n'
+                    'kd = "(2 ^ hypot(fn, 0.5))"\nfilter_hz = 0.3\ndelay_ms = 50.0\n'
+                    '[[blocks]]\nname = "p"\nkind = "inertia"\ninput = ["u", "d"]\n'
+                    'output = "y"\ninertia = 50.0\ndamping = 1e308\n'
+                    '[[blocks]]\nname = "s"\nkind = "sensor"\ninput = "y"\noutput = "y_m"\n')
+    with pytest.raises(sc.SeactlError):
+        sc.load_loop(path).analyze()

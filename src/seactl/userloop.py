@@ -677,12 +677,17 @@ class UserLoop:
     def _grid(self, design: Any) -> np.ndarray:
         a = self.compiled.model.analysis
         lo, hi = characteristic_range(self.compiled, design)
-        w_lo = 2 * np.pi * a.f_min_hz if a.f_min_hz else lo / 10
-        w_hi = 2 * np.pi * a.f_max_hz if a.f_max_hz else hi * 10
+        with np.errstate(over="ignore"):
+            w_lo = 2 * np.pi * a.f_min_hz if a.f_min_hz else lo / 10
+            w_hi = 2 * np.pi * a.f_max_hz if a.f_max_hz else hi * 10
+        if not (0 < w_lo and w_hi < np.inf):
+            raise LoopFileError(self.file, "values", None, "block poles and zeros a decade "
+                                f"inside the floating-point range (they span {lo:.3g} to "
+                                f"{hi:.3g} rad/s); or give [analysis] f_min_hz and f_max_hz")
         if not w_hi > w_lo:
             raise LoopFileError(self.file, "[analysis] f_max_hz", a.f_max_hz,
                                 f"> f_min_hz ({w_lo / (2 * np.pi):g} Hz)")
-        n = int(np.ceil(12 * np.log10(w_hi / w_lo))) + 1
+        n = int(np.ceil(12 * (np.log10(w_hi) - np.log10(w_lo)))) + 1
         return np.logspace(np.log10(w_lo), np.log10(w_hi), n)
 
     def _signal(self, name: str, what: str) -> str:
