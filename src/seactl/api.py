@@ -85,7 +85,7 @@ def delays_from_ms(delays_ms: Sequence[Any], names: Sequence[str]) -> list[np.nd
                          f"a sequence of {len(names)} delays ({', '.join(names)}) [ms]")
     out = []
     for name, value in zip(names, delays_ms):
-        v = finite_array(f"{name} [ms]", value, minimum=0.0)
+        v = finite_array(f"{name} [ms]", value, minimum=0.0, nonempty=True)
         if np.any(v > MAX_DELAY_MS):
             raise InputError(f"{name} [ms]", float(v[v > MAX_DELAY_MS].flat[0]),
                              f"<= {MAX_DELAY_MS:g} ms (delays_ms takes milliseconds)")
@@ -104,7 +104,7 @@ def _filters(filters_hz: Sequence[Any], names: Sequence[str]) -> list[Any]:
                          f"a sequence of {len(names)} cut-offs ({', '.join(names)}) [Hz], "
                          "None for no filter")
     return [None if f is None else finite_array(f"{n} [Hz]", f, minimum=0.0, strict=True,
-                                                allow_inf=True)
+                                                allow_inf=True, nonempty=True)
             for n, f in zip(names, filters_hz)]
 
 
@@ -179,7 +179,8 @@ class Design:
 
     def __getitem__(self, idx: Any) -> Design:
         shape = self.shape
-        if not shape and idx != () and idx is not Ellipsis:
+        if not shape and not (idx is None or idx is Ellipsis
+                              or (isinstance(idx, tuple) and idx == ())):
             raise IndexError(f"index {idx!r} of a single design (its shape is (); "
                              "d[()] is the design itself)")
 
@@ -672,7 +673,12 @@ class Design:
         ((3, 2), (6,))
         """
         base = self if self.shape else self[None]
-        idx = np.arange(int(np.prod(base.shape))).reshape(*shape)
+        n = int(np.prod(base.shape))
+        try:
+            idx = np.arange(n).reshape(*shape)
+        except (TypeError, ValueError):
+            raise InputError("shape", shape, f"integers whose product is {n} (the number of "
+                             "designs), one of them -1 at most") from None
         return base[np.unravel_index(idx, base.shape)]
 
 
@@ -739,8 +745,8 @@ def design(fn_hz: Any, *, actuator: Any = "ut-sea", gs: Any = 1.0, zeta1: Any = 
     from .design import critically_damped_gains
 
     act = resolve_actuator(actuator, load_sea, SEAParams)
-    fn = finite_array("fn_hz [Hz]", fn_hz, minimum=0.0, strict=True)
-    g = finite_array("gs", gs, minimum=0.0, strict=True)
+    fn = finite_array("fn_hz [Hz]", fn_hz, minimum=0.0, strict=True, nonempty=True)
+    g = finite_array("gs", gs, minimum=0.0, strict=True, nonempty=True)
     t_tau, t_qs, t_qd = delays_from_ms(delays_ms, ("T_tau", "T_qs", "T_qd"))
     f_qd, f_taud = _filters(filters_hz, ("f_qd", "f_taud"))
     fn_b, g_b = np.broadcast_arrays(fn, g)
@@ -748,6 +754,9 @@ def design(fn_hz: Any, *, actuator: Any = "ut-sea", gs: Any = 1.0, zeta1: Any = 
                                     solution=solution)
     sea = SEADesign(act, gains, Timing(t_tau, t_qs, t_qd, f_qd, f_taud))
     shape = sea.shape
+    if 0 in shape:
+        raise InputError("fn_hz, gs, zeta1, zeta2, ratio, delays_ms, filters_hz",
+                         f"a batch of shape {shape}", "arrays with at least one value")
     return Design(sea, np.broadcast_to(fn_b, shape), np.broadcast_to(g_b, shape))
 
 
@@ -774,4 +783,7 @@ def rightmost_roots(system: Any, count: int = 6) -> RootsResult:
     >>> bool(r.spectral_abscissa > 0)            # 15 ms on the damping loop: unstable
     True
     """
+    if not callable(getattr(system, "roots", None)):
+        raise InputError("system", type(system).__name__, "a design batch from sc.design or "
+                         "sc.rigid")
     return system.roots(count=count)

@@ -26,7 +26,7 @@ import numpy as np
 
 from ._validate import finite_array
 from .actuators import SEAParams
-from .errors import InfeasibleDesignError
+from .errors import InfeasibleDesignError, InputError
 from .loops import Gains
 
 
@@ -187,6 +187,12 @@ def feasible_fn_range(actuator: SEAParams, *, zeta1=1.0, zeta2=1.0, ratio=1.0,
     >>> [(round(a, 3), b) for a, b in feasible_fn_range(UT_SEA)]
     [(9.456, 100000.0)]
     """
+    for name, v in (("zeta1", zeta1), ("zeta2", zeta2), ("ratio", ratio), ("lo_hz", lo_hz),
+                    ("hi_hz", hi_hz)):
+        if finite_array(name, v, minimum=0.0, strict=True).ndim:
+            raise InputError(name, v, "one number > 0 (the range of one pole placement)")
+    if not lo_hz < hi_hz:
+        raise InputError("hi_hz", hi_hz, f"> lo_hz ({lo_hz:g} Hz)")
     grid = np.logspace(np.log10(lo_hz), np.log10(hi_hz), 4001)
     ok = solve_gains(actuator, grid, zeta1=zeta1, zeta2=zeta2, ratio=ratio).n_valid > 0
     edges = np.nonzero(ok[1:] != ok[:-1])[0]

@@ -41,6 +41,7 @@ from typing import Any
 import numpy as np
 
 from ._parallel import chunk_size, map_in_threads
+from ._validate import float_array
 from .blockdiagram import (
     Block,
     BlockDiagram,
@@ -120,7 +121,7 @@ def _check_units(units: str) -> str:
 
 
 def _check_freq(f_hz: Any, name: str = "f_hz") -> np.ndarray:
-    f = np.asarray(f_hz, float)
+    f = float_array(name, f_hz)
     if f.ndim == 0:
         f = f[None]
     if f.size == 0:

@@ -118,7 +118,11 @@ def check_range(name: str, value: float, kind: str) -> float:
     from .errors import InputError
 
     lo, hi, what = RANGES[kind]
-    v = float(value)
+    try:
+        v = float(value)
+    except (TypeError, ValueError, OverflowError):
+        raise InputError(name, value, f"a number (no units: the name says them), {what}"
+                         ) from None
     inclusive = kind in ("delay_ms", "rate_hz", "fn_hz", "freq_hz")
     ok = (lo <= v <= hi) if inclusive else (lo < v <= hi)
     if math.isnan(v) or not ok:
@@ -226,3 +230,37 @@ def check_sampled_analysis(n_designs: int, states: int, frequencies: int = 0,
                          f"{states} states{' and its margins' if frequencies else ''} "
                          f"(estimate {human_seconds(seconds)}, limit "
                          f"{human_seconds(time_budget_s())}, SEACTL_MAX_SECONDS)")
+
+
+# ------------------------------------------------------------------ loop files
+MAX_LOOP_BLOCKS = 64
+"""Most blocks a loop file may declare (the examples use 7 to 14)."""
+MAX_LOOP_SIGNALS = 80
+"""Most signals of a compiled loop (a block's signed inputs and a disturbance observer add
+internal ones; the examples have 8 to 17): its transfers are derived symbolically, at a
+cost that grows as the cube of this count (:data:`DERIVE_SECONDS_PER_SIGNAL3`)."""
+DERIVE_SECONDS_PER_SIGNAL3 = 2.5e-5
+"""Time to derive a loop's transfers, per signal cubed (fitted on chains of filters, the
+simplest structure: a lower bound for denser loops)."""
+MAX_LOOP_ORDER = 32
+"""Highest order of a loop (the sum over its blocks of the larger of numerator and
+denominator degree; the examples: 3 to 10).  Its characteristic quasi-polynomial is
+evaluated from expanded coefficients in double precision, which blurs clustered roots as
+the order grows (the limit keeps a margin below the lowest order at which a chain of equal
+filters was judged wrongly) and overflows near order 100."""
+MAX_LOOP_NAMES = 256
+"""Most variables and parameters of a loop file (ordering the parameters grows as the
+cube of their count)."""
+MAX_LOOP_FILE_BYTES = 1 << 20
+"""Largest loop file read (a loop at every other limit fits in a few dozen kB)."""
+MAX_EXPR_CHARS = 1000
+"""Longest expression of a loop file, in characters."""
+MAX_EXPR_DEPTH = 32
+"""Deepest nesting of an expression (operators, parentheses and calls)."""
+MAX_NESTING = 16
+"""Deepest nesting of a loop file's arrays and tables (the examples: 2)."""
+
+
+def derive_seconds(n_signals: int) -> float:
+    """Estimated time to derive the transfers of a loop of ``n_signals`` signals [s]."""
+    return DERIVE_SECONDS_PER_SIGNAL3 * float(n_signals) ** 3

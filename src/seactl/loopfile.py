@@ -18,6 +18,7 @@ a variable given as an array makes a batch of designs.
 from __future__ import annotations
 
 import ast
+import functools
 import keyword
 import math
 import re
@@ -28,15 +29,33 @@ from typing import Any
 import numpy as np
 from pydantic import BaseModel, ConfigDict, Field, ValidationError
 
+from ._validate import float_array
 from .blockdiagram import Block, BlockDiagram, DesignBatch
 from .errors import LoopFileError
+from .limits import (
+    MAX_EXPR_CHARS,
+    MAX_EXPR_DEPTH,
+    MAX_LOOP_BLOCKS,
+    MAX_LOOP_NAMES,
+    MAX_LOOP_ORDER,
+    MAX_LOOP_SIGNALS,
+    MAX_NESTING,
+    RANGES,
+    derive_seconds,
+    human_seconds,
+)
 
 # ------------------------------------------------------------------ expressions
 FUNCTIONS: dict[str, Callable[..., Any]] = {
     "sqrt": np.sqrt, "exp": np.exp, "log": np.log, "log10": np.log10, "sin": np.sin,
-    "cos": np.cos, "tan": np.tan, "atan": np.arctan, "abs": np.abs, "min": np.minimum,
-    "max": np.maximum, "hypot": np.hypot}
+    "cos": np.cos, "tan": np.tan, "atan": np.arctan, "abs": np.abs,
+    "min": lambda *a: functools.reduce(np.minimum, a),
+    "max": lambda *a: functools.reduce(np.maximum, a), "hypot": np.hypot}
 """Functions an expression may call."""
+
+ARITY: dict[str, tuple[int, int | None]] = {
+    **{f: (1, 1) for f in FUNCTIONS}, "min": (2, None), "max": (2, None), "hypot": (2, 2)}
+"""Each function's fewest and most arguments (``None``: any number)."""
 
 CONSTANTS = {"pi": math.pi, "e": math.e}
 """Names every expression knows."""
@@ -78,24 +97,35 @@ def parse_expr(value: Any, file: str, where: str, known: Sequence[str] | None = 
     if isinstance(value, bool) or not isinstance(value, (int, float, str)):
         raise LoopFileError(file, where, value, "a number or an expression string")
     if not isinstance(value, str):
-        if math.isnan(value):  # inf passes: "no filter" for filter_hz, refused elsewhere
-            raise LoopFileError(file, where, value, "a number")
-        return Expr(repr(float(value)), ast.Constant(float(value)), frozenset())
+        number = _number(value)
+        if number is None or math.isnan(number):  # inf passes: "no filter" for filter_hz
+            raise LoopFileError(file, where, value, "a number within the floating-point "
+                                "range")
+        return Expr(repr(number), ast.Constant(number), frozenset())
+    if len(value) > MAX_EXPR_CHARS:
+        raise LoopFileError(file, where, value[:40] + "...", f"an expression of at most "
+                            f"{MAX_EXPR_CHARS} characters (this one has {len(value)})")
     try:
         tree = ast.parse(value.replace("^", "**").strip(), mode="eval").body
-    except SyntaxError:
-        raise LoopFileError(file, where, value, "an expression of " + _ALLOWED) from None
+    except (SyntaxError, ValueError, RecursionError, MemoryError):
+        raise LoopFileError(file, where, value, "an expression of " + _ALLOWED
+                            + f", nested at most {MAX_EXPR_DEPTH} deep") from None
+    if _depth(tree) > MAX_EXPR_DEPTH:
+        raise LoopFileError(file, where, value, f"an expression nested at most "
+                            f"{MAX_EXPR_DEPTH} deep (operators, parentheses and calls)")
     names: set[str] = set()
     for node in ast.walk(tree):
         if isinstance(node, ast.Call):
             if not (isinstance(node.func, ast.Name) and node.func.id in FUNCTIONS
                     and not node.keywords):
                 raise LoopFileError(file, where, value, "calls only to " + ", ".join(FUNCTIONS))
+            _check_arity(node, value, file, where)
         elif isinstance(node, ast.Name):
             names.add(node.id)
         elif isinstance(node, ast.Constant):
-            if isinstance(node.value, bool) or not isinstance(node.value, (int, float)):
-                raise LoopFileError(file, where, value, "an expression of " + _ALLOWED)
+            if _number(node.value) is None:
+                raise LoopFileError(file, where, value, "an expression of " + _ALLOWED
+                                    + " (numbers within the floating-point range)")
         elif not isinstance(node, (ast.BinOp, ast.UnaryOp, ast.Load, ast.UAdd, ast.USub,
                                    *(_BINOPS))):
             raise LoopFileError(file, where, value, f"an expression of {_ALLOWED} "
@@ -108,6 +138,38 @@ def parse_expr(value: Any, file: str, where: str, known: Sequence[str] | None = 
             raise LoopFileError(file, where, value, f"unknown name {unknown[0]!r}; known: "
                                 + ", ".join([*known, *CONSTANTS]))
     return Expr(value, tree, frozenset(names))
+
+
+def _number(value: Any) -> float | None:
+    """``value`` as a float, or None if it is no number (a bool, a string) or too large."""
+    if isinstance(value, bool) or not isinstance(value, (int, float)):
+        return None
+    try:
+        return float(value)
+    except OverflowError:
+        return None
+
+
+def _depth(tree: Any) -> int:
+    """Nesting depth of a syntax tree (iterative: a deep one must not exhaust the stack)."""
+    deepest, stack = 0, [(tree, 1)]
+    while stack:
+        node, d = stack.pop()
+        deepest = max(deepest, d)
+        stack.extend((child, d + 1) for child in ast.iter_child_nodes(node)
+                     if not isinstance(child, (ast.Load, ast.operator, ast.unaryop)))
+    return deepest
+
+
+def _check_arity(node: ast.Call, value: str, file: str, where: str) -> None:
+    name = node.func.id  # type: ignore[attr-defined]
+    lo, hi = ARITY[name]
+    n = len(node.args)
+    if n < lo or (hi is not None and n > hi) or any(isinstance(a, ast.Starred)
+                                                      for a in node.args):
+        count = f"{lo}" if lo == hi else f"at least {lo}" if hi is None else f"{lo} to {hi}"
+        raise LoopFileError(file, where, value, f"{name}() with {count} argument"
+                            f"{'' if lo == hi == 1 else 's'} (it has {n})")
 
 
 def _is_operand(tree: Any, name: str) -> bool:
@@ -249,8 +311,10 @@ class SignalsModel(_Model):
 
 
 class AnalysisModel(_Model):
-    f_min_hz: float | None = Field(None, gt=0, allow_inf_nan=False)
-    f_max_hz: float | None = Field(None, gt=0, allow_inf_nan=False)
+    f_min_hz: float | None = Field(None, ge=RANGES["freq_hz"][0], le=RANGES["freq_hz"][1],
+                                   allow_inf_nan=False)
+    f_max_hz: float | None = Field(None, ge=RANGES["freq_hz"][0], le=RANGES["freq_hz"][1],
+                                   allow_inf_nan=False)
 
 
 class BlockModel(BaseModel):
@@ -314,6 +378,71 @@ def _known_keys(model: type[BaseModel], loc: Sequence[Any]) -> str:
             continue
         fields = sub.model_fields
     return ", ".join(fields)
+
+
+# ------------------------------------------------------------------ size
+_TOML_STRINGS = re.compile(r'"""[\s\S]*?"""|\'\'\'[\s\S]*?\'\'\'|"(?:\\.|[^"\\\n])*"'
+                           r"|'[^'\n]*'|#[^\n]*")
+_TOML_KEY = re.compile(r"^\s*([^=\s\[\]{}][^=\n]*?)\s*=", re.M)
+
+
+def check_toml_nesting(text: str, file: str) -> None:
+    """Refuse TOML text whose arrays or inline tables nest deeper than
+    :data:`~seactl.limits.MAX_NESTING` (before parsing it: the parser recurses), naming
+    the key where it happens."""
+    bare = _TOML_STRINGS.sub(lambda m: "\n" * m.group().count("\n") or "s", text)
+    depth, key, table = 0, "", ""
+    for lineno, line in enumerate(bare.splitlines(), 1):
+        if depth == 0:
+            head = line.strip()
+            if head.startswith("["):
+                table = head.strip("[] ")
+                continue
+            m = _TOML_KEY.match(line)
+            key = (f"{table}." if table else "") + (m.group(1).strip() if m else "")
+        for ch in line:
+            depth += 1 if ch in "[{" else -1 if ch in "]}" else 0
+            if depth > MAX_NESTING:
+                raise LoopFileError(file, f"key {key!r} (line {lineno})", None,
+                                    f"arrays and tables nested at most {MAX_NESTING} deep")
+        depth = max(depth, 0)
+
+
+def check_nesting(data: Any, file: str) -> None:
+    """Refuse loop tables (as parsed, or collected by a builder) nested deeper than
+    :data:`~seactl.limits.MAX_NESTING`, naming the path (iterative: no recursion)."""
+    stack: list[tuple[Any, str, int]] = [(data, "", 0)]
+    while stack:
+        node, path, d = stack.pop()
+        if d > MAX_NESTING:
+            shown = path if len(path) <= 60 else path[:57] + "..."
+            raise LoopFileError(file, f"key {shown!r}", None,
+                                f"arrays and tables nested at most {MAX_NESTING} deep")
+        if isinstance(node, Mapping):
+            stack.extend((v, f"{path}.{k}" if path else str(k), d + 1) for k, v in node.items())
+        elif isinstance(node, (list, tuple)):
+            stack.extend((v, f"{path}[{i}]", d + 1) for i, v in enumerate(node))
+
+
+def check_size(file: str, n_blocks: int, n_signals: int = 0, order: int = 0) -> None:
+    """Refuse a loop larger than :mod:`seactl.limits` allows, with the estimate: more
+    blocks or signals than :data:`~seactl.limits.MAX_LOOP_BLOCKS` /
+    :data:`~seactl.limits.MAX_LOOP_SIGNALS` (the symbolic derivation grows as the cube
+    of the signals) or an order above :data:`~seactl.limits.MAX_LOOP_ORDER`."""
+    if n_blocks > MAX_LOOP_BLOCKS or n_signals > MAX_LOOP_SIGNALS:
+        what, n, lim = (("blocks", n_blocks, MAX_LOOP_BLOCKS) if n_blocks > MAX_LOOP_BLOCKS
+                        else ("signals", n_signals, MAX_LOOP_SIGNALS))
+        n_sig = max(n_signals, n_blocks)
+        raise LoopFileError(file, "[[blocks]]", None, f"at most {lim} {what} (this loop has "
+                            f"{n}: deriving its transfers would take about "
+                            f"{human_seconds(derive_seconds(n_sig))} or more, growing as the "
+                            "cube of its signals)")
+    if order > MAX_LOOP_ORDER:
+        raise LoopFileError(file, "[[blocks]]", None, f"a loop of order at most "
+                            f"{MAX_LOOP_ORDER} (this one has order {order}, the sum of its "
+                            "blocks' orders: its characteristic polynomial's coefficients "
+                            "would lose its roots in double precision, and overflow near "
+                            "order 100)")
 
 
 # ------------------------------------------------------------------ compiled loops
@@ -589,11 +718,20 @@ class CompiledLoop:
         if unknown:
             raise LoopFileError(self.file, f"--set {unknown[0]}", None,
                                 "a variable or parameter of the loop: " + ", ".join(self.names))
+        given = {n: float_array(n, v) for n, v in values.items()}
+        for n, v in given.items():
+            if v.size == 0:
+                raise LoopFileError(self.file, f"--set {n}", None, "at least one value")
+        try:
+            np.broadcast_shapes(*(v.shape for v in given.values()))
+        except ValueError:
+            raise LoopFileError(self.file, "--set", {n: v.shape for n, v in given.items()},
+                                "values whose shapes broadcast together") from None
         env: dict[str, np.ndarray] = {}
         for n, v in self.variables.items():
-            env[n] = np.asarray(values.get(n, v), float)
+            env[n] = given.get(n, np.asarray(v, float))
         for n, e in self.parameters.items():
-            env[n] = np.asarray(values[n], float) if n in values else e(env)
+            env[n] = given[n] if n in given else e(env)
         for n, v in env.items():
             if not np.all(np.isfinite(v)):
                 raise LoopFileError(self.file, f"variable or parameter {n!r}",
@@ -652,7 +790,11 @@ class CompiledLoop:
         for p, m in self.model.processes.items():
             expr = parse_expr(m.latency_ms, self.file, f"process {p!r}, field 'latency_ms'",
                               self.names)
-            out[p] = np.asarray((latency_ms or {}).get(p, expr(env)), float)
+            given = (latency_ms or {}).get(p)
+            out[p] = expr(env) if given is None else float_array(f"latency_ms {p}", given)
+            if out[p].size == 0:
+                raise LoopFileError(self.file, f"process {p!r}, latency", None,
+                                    "at least one value")
         return out
 
     def design(self, values: Mapping[str, Any] = {},
@@ -692,6 +834,14 @@ def compile_loop(data: Mapping[str, Any], file: str) -> CompiledLoop:
         Naming the file, the block and field (or variable, break, port), the value and
         what is valid.
     """
+    check_nesting(data, file)
+    if isinstance(data.get("blocks"), list):
+        check_size(file, len(data["blocks"]))
+    names = sum(len(data[k]) for k in ("variables", "parameters")
+                if isinstance(data.get(k), Mapping))
+    if names > MAX_LOOP_NAMES:
+        raise LoopFileError(file, "[variables] and [parameters]", None, f"at most "
+                            f"{MAX_LOOP_NAMES} names (this loop has {names})")
     try:
         model = LoopModel.model_validate(dict(data))
     except ValidationError as exc:
@@ -712,11 +862,14 @@ def compile_loop(data: Mapping[str, Any], file: str) -> CompiledLoop:
         seen.add(b.name)
         blocks.append(b)
     edges = tuple(e for b in blocks for e in block_edges(b))
+    check_size(file, len(blocks), len({e.src for e in edges} | {e.dst for e in edges}))
     proto = CompiledLoop(file, model, dict(model.variables), params, tuple(blocks), edges,
                          BlockDiagram(model.name, []))
     nominal = proto.arrays()
     sizes = {e.name: tuple(sum(1 for k in nominal if re.fullmatch(rf"{e.name}__{x}\d+", k))
                            for x in "nd") for e in edges}
+    check_size(file, len(blocks), order=sum(max(sizes[e.name]) - 1 for e in edges
+                                            if e.coeffs is not None))
     diagram = BlockDiagram(model.name, [_diagram_block(e, *sizes[e.name]) for e in edges])
     loop = CompiledLoop(file, model, dict(model.variables), params, tuple(blocks), edges,
                         diagram)

@@ -39,7 +39,12 @@ def filter_time_constant(f_hz, name: str = "filter cut-off [Hz]") -> np.ndarray:
     if f_hz is None:
         return np.asarray(0.0)
     f = finite_array(name, f_hz, minimum=0.0, strict=True, allow_inf=True)
-    return 1.0 / (2 * np.pi * f)
+    with np.errstate(over="ignore"):
+        tc = 1.0 / (2 * np.pi * f)
+    if not np.all(np.isfinite(tc)):
+        raise InputError(name, float(f[~np.isfinite(tc)].flat[0]) if f.ndim else float(f),
+                         "a cut-off whose time constant 1/(2 pi f) is a finite number")
+    return tc
 
 
 @dataclass(frozen=True)

@@ -45,6 +45,7 @@ from .blockdiagram import (
     padded_sum,
     rounding_majorant,
 )
+from .errors import ResourceError
 from .limits import check_budget
 
 LoopFn = Callable[[Any, np.ndarray], np.ndarray]
@@ -501,6 +502,11 @@ def _check_grid_budget(count: np.ndarray, tau_max: np.ndarray, top: np.ndarray) 
     scan's radius, which a very fast pole (a filter's cut-off at MHz) puts far out."""
     total = float(count.sum())
     i = int(np.argmax(count))
+    if not np.isfinite(top[i]):
+        raise ResourceError("the certified margin scan has no finite frequency range: the "
+                            "loop's characteristic polynomial has coefficients that overflow "
+                            "or vanish in double precision (so no bound on its roots); give "
+                            "the loop a lower order or values of more moderate magnitude")
     check_budget(f"the certified margin scan ({total:.3g} frequency points)",
                  seconds=total * BASE_POINT_SECONDS,
                  hint=f"its largest design needs {count[i]:.3g}: a loop delay of "

@@ -49,6 +49,7 @@ import numpy as np
 
 from ._parallel import eigvals
 from .blockdiagram import BlockDiagram, QuasiPolynomial, shifted
+from .errors import InputError
 from .margins import certified_right_roots, count_right_roots
 from .rootdiscs import inclusion_discs
 
@@ -162,6 +163,8 @@ def characteristic_roots(diagram: BlockDiagram, design: Any, *, count: int = 6,
     -------
     Roots
     """
+    if isinstance(count, bool) or not isinstance(count, (int, np.integer)) or count < 1:
+        raise InputError("count", count, "an integer >= 1 (roots per design)")
     shape = tuple(getattr(design, "shape", ()))
     q = diagram.characteristic(tuple(cut)).evaluate(design).flat()
     q.require_retarded(f"closed loop of {diagram.name!r}")

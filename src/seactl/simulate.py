@@ -638,9 +638,9 @@ def _check_args(diagram: BlockDiagram, inputs: Mapping[str, Any], mode: str, t_e
     signals)."""
     if mode not in MODES:
         raise InputError("mode", mode, " or ".join(MODES))
-    t_end_s = float(t_end_s)
-    if not (math.isfinite(t_end_s) and t_end_s > 0):
-        raise InputError("t_end", t_end_s, "a finite duration > 0 [s]")
+    from .limits import check_range
+
+    t_end_s = check_range("t_end_s", t_end_s, "t_end_s")
     unknown = set(inputs) - set(diagram.inputs)
     if unknown:
         raise InputError("inputs", ", ".join(sorted(unknown)),

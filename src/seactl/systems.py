@@ -452,10 +452,13 @@ def rigid(fn_hz: Any, *, actuator: Any = "ut-linear", delays_ms: Sequence[Any] =
     from .rigid import RigidDesign, RigidParams, load_rigid
 
     act = resolve_actuator(actuator, load_rigid, RigidParams)
-    fn = finite_array("fn_hz [Hz]", fn_hz, minimum=0.0, strict=True)
+    fn = finite_array("fn_hz [Hz]", fn_hz, minimum=0.0, strict=True, nonempty=True)
     t_s, t_d = delays_from_ms(delays_ms, ("T_s", "T_d"))
     d = RigidDesign.from_fn(act, fn, T_s=t_s, T_d=t_d, f_v=velocity_filter_hz,
                             passive_damping=passive_damping)
+    if 0 in d.shape:
+        raise InputError("fn_hz, delays_ms, velocity_filter_hz", f"a batch of shape "
+                         f"{d.shape}", "arrays with at least one value")
     return RigidBatch(d, np.broadcast_to(fn, d.shape))
 
 

@@ -23,11 +23,14 @@ from typing import Any
 import numpy as np
 
 from ._parallel import eigvals
+from ._validate import frequencies_hz
 from .blockdiagram import Transfer
 from .errors import InputError, LoopFileError
+from .limits import MAX_LOOP_FILE_BYTES, MAX_NESTING, human_bytes
 from .loopfile import (
     CompiledLoop,
     check_name,
+    check_toml_nesting,
     compile_loop,
     has_loop,
     parse_block,
@@ -283,6 +286,10 @@ class LoopBuilder:
         LoopBuilder
             This builder.
         """
+        if not isinstance(input, str) and not (isinstance(input, Sequence) and all(
+                isinstance(x, str) for x in input)):
+            raise LoopFileError(_BUILDER, f"block {name!r}, field 'input'", input,
+                                "a signal name or a sequence of signed signal names")
         data = {"name": name, "kind": kind, "input": input if isinstance(input, str)
                 else list(input), "output": output, **params}
         for key, val in (("process", process), ("delay_ms", delay_ms),
@@ -423,13 +430,27 @@ def load_loop(path: str | Path, **values: Any) -> UserLoop:
     >>> m.phase_margin_deg.round(4).tolist(), (90 - np.degrees([0.05, 0.1])).round(4).tolist()
     ([87.1352, 84.2704], [87.1352, 84.2704])
     """
+    if not isinstance(path, (str, Path)):
+        raise InputError("path", type(path).__name__, "a path to a .toml loop file")
     p = Path(path)
     if not p.is_file():
         raise LoopFileError(str(path), "file", None, "an existing .toml loop file")
     try:
-        data = tomllib.loads(p.read_text())
+        if p.stat().st_size > MAX_LOOP_FILE_BYTES:
+            raise LoopFileError(str(path), "file", None, f"a loop file of at most "
+                                f"{human_bytes(MAX_LOOP_FILE_BYTES)} (this one has "
+                                f"{human_bytes(p.stat().st_size)})")
+        text = p.read_text()
+        check_toml_nesting(text, str(path))
+        data = tomllib.loads(text)
     except (tomllib.TOMLDecodeError, UnicodeDecodeError) as exc:
         raise LoopFileError(str(path), "file", None, f"valid TOML ({exc})") from None
+    except RecursionError:
+        raise LoopFileError(str(path), "file", None, f"arrays and tables nested at most "
+                            f"{MAX_NESTING} deep") from None
+    except OSError as exc:
+        raise LoopFileError(str(path), "file", None, f"a readable file ({exc.strerror})"
+                            ) from None
     loop = UserLoop(compile_loop(data, str(path)))
     return loop.with_values(**values) if values else loop
 
@@ -559,7 +580,7 @@ class UserLoop:
                 if k.startswith("var__")}
 
     # ------------------------------------------------------------ code and processes
-    def _rates(self, rates_hz: Any) -> Any:
+    def _export_rates(self, rates_hz: Any) -> Any:
         return rates_hz if rates_hz is not None else {
             name: float(p.rate_hz) for name, p in self.processes.items()}
 
@@ -598,7 +619,7 @@ class UserLoop:
         from .export import export_design
 
         return export_design(self.diagram, self.design, out, languages=lang,
-                             rates_hz=self._rates(rates_hz), verify_export=verify, step=0.01)
+                             rates_hz=self._export_rates(rates_hz), verify_export=verify, step=0.01)
 
     @run_doc
     def run(self, *, duration_s: float = 2.0, rates_hz: Any = None, step: float = 0.01,
@@ -634,7 +655,7 @@ class UserLoop:
         from .runtime import run_distributed
 
         return run_distributed(self.diagram, self.design, saturation=None, step=step,
-                               duration_s=duration_s, rates_hz=self._rates(rates_hz),
+                               duration_s=duration_s, rates_hz=self._export_rates(rates_hz),
                                transport=transport, extra_latency_s=extra_latency_s,
                                loss=loss, seed=seed)
 
@@ -656,12 +677,17 @@ class UserLoop:
     def _grid(self, design: Any) -> np.ndarray:
         a = self.compiled.model.analysis
         lo, hi = characteristic_range(self.compiled, design)
-        w_lo = 2 * np.pi * a.f_min_hz if a.f_min_hz else lo / 10
-        w_hi = 2 * np.pi * a.f_max_hz if a.f_max_hz else hi * 10
+        with np.errstate(over="ignore"):
+            w_lo = 2 * np.pi * a.f_min_hz if a.f_min_hz else lo / 10
+            w_hi = 2 * np.pi * a.f_max_hz if a.f_max_hz else hi * 10
+        if not (0 < w_lo and w_hi < np.inf):
+            raise LoopFileError(self.file, "values", None, "block poles and zeros a decade "
+                                f"inside the floating-point range (they span {lo:.3g} to "
+                                f"{hi:.3g} rad/s); or give [analysis] f_min_hz and f_max_hz")
         if not w_hi > w_lo:
             raise LoopFileError(self.file, "[analysis] f_max_hz", a.f_max_hz,
                                 f"> f_min_hz ({w_lo / (2 * np.pi):g} Hz)")
-        n = int(np.ceil(12 * np.log10(w_hi / w_lo))) + 1
+        n = int(np.ceil(12 * (np.log10(w_hi) - np.log10(w_lo)))) + 1
         return np.logspace(np.log10(w_lo), np.log10(w_hi), n)
 
     def _signal(self, name: str, what: str) -> str:
@@ -696,7 +722,7 @@ class UserLoop:
         output, input : str
             Signal names.
         f_hz : array_like
-            Frequencies [Hz] (last axis of the result).
+            Frequencies [Hz], finite and > 0 (last axis of the result).
         cut : sequence of str
             Signals held at zero (or imposed, if ``input`` is one of them).
 
@@ -707,7 +733,9 @@ class UserLoop:
         """
         self._signal(output, "output")
         self._signal(input, "input")
-        s = 2j * np.pi * np.atleast_1d(np.asarray(f_hz, float))
+        for c in cut:
+            self._signal(c, "cut")
+        s = 2j * np.pi * frequencies_hz("f_hz", f_hz)
         return self.diagram.transfer(output, input, cut=tuple(cut))(self.design, s)
 
     def impedance(self, f_hz: Any, port: str | None = None) -> np.ndarray:
@@ -717,7 +745,7 @@ class UserLoop:
         Parameters
         ----------
         f_hz : array_like
-            Frequencies [Hz].
+            Frequencies [Hz], finite and > 0.
         port : str, optional
             Port name (default: the first).
 
@@ -732,7 +760,7 @@ class UserLoop:
         if name not in self.ports:
             raise LoopFileError(self.file, "port", name, "one of " + ", ".join(self.ports))
         p = self.ports[name]
-        f = np.atleast_1d(np.asarray(f_hz, float))
+        f = frequencies_hz("f_hz", f_hz)
         T = self.frequency_response(p.force, p.position, f, cut=(p.position,))
         return p.sign * T / (2j * np.pi * f)
 
@@ -1113,6 +1141,10 @@ def open_loop_rhp_poles(compiled: CompiledLoop, design: Any) -> np.ndarray:
     if sum(r[0].shape[1] for r in reals) == 0:
         return np.zeros(shape, int)
     net = _assemble(n, signals, blocks, reals, [], {b.name: np.ones(n) for b in blocks}, {})
+    if not np.all(np.isfinite(net.A)):
+        raise LoopFileError(compiled.file, "values", None, "values whose plant has a finite "
+                            "state-space realization (a coefficient ratio overflows: an "
+                            "inertia, stiffness or leading coefficient near 0 or 1e308)")
     ev = eigvals(net.A)
     mag = np.abs(ev)
     # A multiple pole at the origin splits numerically (+-1e-7 for a double one): poles
@@ -1147,9 +1179,12 @@ def _roots_magnitudes(coeffs: Sequence[Any], shape: tuple[int, ...]) -> np.ndarr
         if q < 1:
             continue
         comp = np.zeros((rows.shape[0], q, q))
-        comp[:, 0, :] = -rows[:, 1:] / rows[:, :1]
+        with np.errstate(over="ignore"):
+            comp[:, 0, :] = -rows[:, 1:] / rows[:, :1]
         comp[:, np.arange(1, q), np.arange(q - 1)] = 1.0
-        out.append(np.abs(eigvals(comp)).ravel())
+        comp = comp[np.isfinite(comp).all(axis=(1, 2))]  # roots beyond double range: none
+        if comp.shape[0]:
+            out.append(np.abs(eigvals(comp)).ravel())
     mags = np.concatenate(out) if out else np.empty(0)
     return mags[np.isfinite(mags) & (mags > 1e-12)]
 
@@ -1210,8 +1245,9 @@ def _extend_down(loop: Any, design: Any, omega: np.ndarray, max_decades: int = 6
     growing towards lower frequencies (an integrating loop may cross 1 further down)."""
     for _ in range(max_decades):
         w0 = omega[0]
-        with np.errstate(all="ignore"):
-            m = np.abs(loop(design, 1j * np.array([w0 / 10, w0])))
+        with np.errstate(all="ignore"):  # (a constant loop's response has no axes)
+            m = np.broadcast_to(np.abs(loop(design, 1j * np.array([w0 / 10, w0]))),
+                                tuple(design.shape) + (2,))
         if not np.any((m[..., 1] < 2) & (m[..., 0] > 1.5 * m[..., 1])):
             break
         omega = np.concatenate([np.logspace(np.log10(w0 / 10), np.log10(w0), 13)[:-1], omega])

@@ -79,25 +79,34 @@ def loop_options(func: Callable) -> Callable:
                              "design options.")(wrapper)
 
 
-SEA_ONLY = ("fn", "gs", "zeta1", "zeta2", "ratio", "t_tau", "t_qs", "t_qd", "f_qd", "f_taud",
-            "actuator", "model", "load", "units", "rate_hz", "saturation", "no_zero",
-            "high_latency", "low_latency", "min_pm", "latency_margin", "f_v",
-            "stiffness_embeddable",
-            "high_timing", "low_timing", "high_loss", "low_loss", "latency", "loss", "runs",
-            "seed", "system", "rigid_actuator", "t_s", "t_d")
-"""Options of the built-in loops that a loop file defines itself."""
+LOOP_OPTIONS: dict[str, frozenset[str]] = {
+    "step": frozenset({"amplitude", "mode", "t_end", "plot", "csv_path", "as_json"}),
+    "impulse": frozenset({"impulse_nms", "band", "mode", "t_end", "plot", "csv_path",
+                          "as_json"}),
+    "impedance": frozenset({"freq", "port", "plot", "csv", "as_json"}),
+    "export": frozenset({"out", "lang", "rates_hz", "verify", "cc", "as_json"}),
+    "run": frozenset({"rates_hz", "duration", "step", "extra_latency", "loss", "seed",
+                      "transport", "out", "as_json"}),
+    "place": frozenset({"as_json"}),
+}
+"""Per command, the options (click parameter names) that apply to a loop file; every other
+option of the command describes a built-in loop (its design, actuator, rate, Monte Carlo)
+and is refused with ``--loop``."""
 
 
 def _refuse_sea_options() -> None:
+    """Refuse, in one line, an option the user gave (on the command line, not by default)
+    that does not apply to a loop file (:data:`LOOP_OPTIONS`)."""
     from click.core import ParameterSource
 
     ctx = click.get_current_context()
+    applies = LOOP_OPTIONS.get(ctx.command.name or "", frozenset()) | {"loop_file", "sets"}
     for p in ctx.command.params:
-        if p.name in SEA_ONLY and ctx.get_parameter_source(p.name) == \
-                ParameterSource.COMMANDLINE:
-            raise InputError(p.opts[0], "given", "absent with --loop (the loop file defines "
-                             "the structure, its values and each process's rate; override "
-                             "them with --set)")
+        if p.name not in applies and ctx.get_parameter_source(p.name) in (
+                ParameterSource.COMMANDLINE, ParameterSource.ENVIRONMENT):
+            raise InputError(max(p.opts, key=len), "given", "absent with --loop (the loop "
+                             "file defines the structure, its values and each process's "
+                             "rate; override them with --set)")
 
 
 def _varied(loop: Any) -> dict[str, np.ndarray]:
@@ -202,8 +211,12 @@ def _write_outputs(outs: Any, plot: Any, csv_path: Any, fig_fn: Callable[[], Any
 
 def _bode(loop: Any, a: Any):
     """Bode figure of every break's loop transfer (one curve per design, up to 12)."""
+    from ..limits import FREQ_BYTES_PER_POINT, check_budget
     from ..plots import loop_bode_figure
 
+    n = int(np.prod(loop.shape, dtype=float))
+    check_budget(f"a Bode plot of {n:,} design(s)", n_bytes=n * 600 * FREQ_BYTES_PER_POINT,
+                 hint="give fewer --set values with --plot (it draws the first 12)")
     om = loop.grid()
     f = np.logspace(np.log10(om[0] / (2 * np.pi)), np.log10(om[-1] / (2 * np.pi)), 600)
     labels = _labels(loop)[:12]
@@ -221,6 +234,12 @@ def _bode(loop: Any, a: Any):
 def loop_impedance(loop: Any, f: np.ndarray, port: str | None, as_json: bool, outs: Any,
                    plot: Any = None, csv_path: Any = None) -> None:
     """``seactl impedance --loop``: Z at a port over ``f``."""
+    from ..limits import FREQ_BYTES_PER_POINT, check_budget
+
+    n = int(np.prod(loop.shape, dtype=float))
+    check_budget(f"{n:,} design(s) of the loop at {f.size:,} frequencies",
+                 n_bytes=n * f.size * FREQ_BYTES_PER_POINT,
+                 hint="give fewer --freq points or fewer --set values")
     z = loop.impedance(f, port)
     name = port or next(iter(loop.ports))
     labels = _labels(loop)
@@ -267,9 +286,10 @@ def loop_impedance(loop: Any, f: np.ndarray, port: str | None, as_json: bool, ou
 
 
 def loop_response(loop: Any, kind: str, mode: str, t_end: float, size: float,
-                  as_json: bool, outs: Any, plot: Any = None, csv_path: Any = None) -> None:
+                  as_json: bool, outs: Any, plot: Any = None, csv_path: Any = None,
+                  band: float | None = None) -> None:
     """``seactl step|impulse --loop``: responses of the file's signals, each process at
-    its rate in sampled mode."""
+    its rate in sampled mode; ``band``: the impulse's recovery band (default 0.05)."""
     from .. import limits
     from ..simulate import impulse_metrics, step_metrics
 
@@ -290,7 +310,8 @@ def loop_response(loop: Any, kind: str, mode: str, t_end: float, size: float,
         m = step_metrics(res.t_s, y, res.stable, res.left_bounds_s, reference=size)
         keys = ("rise_time_s", "overshoot_pct", "settling_time_s", "steady_state_error")
     else:
-        m = impulse_metrics(res.t_s, y, res.stable, res.left_bounds_s)
+        m = impulse_metrics(res.t_s, y, res.stable, res.left_bounds_s,
+                            **({} if band is None else {"band": band}))
         keys = ("peak_deviation", "peak_time_s", "recovery_time_s")
     labels = _labels(loop)
     yf = y.reshape(len(labels), -1)
@@ -307,7 +328,7 @@ def loop_response(loop: Any, kind: str, mode: str, t_end: float, size: float,
                    [[float(t), *map(float, yf[:, k])] for k, t in enumerate(res.t_s)])
     req, eff = ({k: np.asarray(v).reshape(-1).tolist() for k, v in res.info.get(key, {}).items()}
                 for key in ("requested_delays_s", "effective_delays_s"))
-    v = loop.verdict(res)
+    v = loop.verdict(res, band)
     runs = [{**lab, "stable": bool(res.stable.reshape(-1)[i])
              and v.verdict[i] not in ("unstable", "limit cycle"),
              "verdict": v.verdict[i], "evidence": v.evidence(i), "warnings": v.warnings[i],

@@ -456,7 +456,7 @@ def impulse(spec: DesignSpec, impulse_nms: float, band: float, mode: str, rate_h
     check_simulation(spec, mode, rate_hz, t_end or 1.0)
     if loop is not None:
         return loop_response(loop, "impulse", mode, t_end or 1.0, impulse_nms, as_json, outs,
-                             plot, csv_path)
+                             plot, csv_path, band=band)
     if timing is not None:
         return _monte_carlo(spec, "impulse", timing, outs, plot, csv_path, as_json,
                             f"Impulse response, {impulse_nms:g} N m s (sampled, {rate_hz:g} Hz)",

@@ -37,6 +37,9 @@ POINTS_PER_CORE_S = 20_000.0
 """Sweep throughput per core used for the estimate (the default design options, measured)."""
 PARQUET_BYTES_PER_POINT = 60.0
 """Dataset size per point used for the estimate (Parquet, the default columns, measured)."""
+LOOP_POINTS_PER_S = 3000.0
+"""Loop-sweep throughput used for the estimate (in process; the rigid example's loop, one
+of the fastest: an estimate on the short side)."""
 
 
 def parse_axis(actuator: Any, name: str, tokens: tuple[str, ...], *, sampling: str,
@@ -171,10 +174,9 @@ def sweep(actuator, sampling, n_samples, seed, chunk_size, unc_points, z_freq, o
     Runs on local worker processes (all cores) unless --workers or --scheduler
     say otherwise; Dask schedules the chunks and retries failed ones.
     """
-    if loop_file or sets:
-        return _loop_sweep(loop_file, sets, out, chunk_size, overwrite, as_json,
-                           given=[k for k, v in axes.items() if v] + (["--resume"] if resume
-                                                                       else []))
+    if loop_file is not None or sets:
+        return _loop_sweep(loop_file, sets, out, chunk_size, overwrite, as_json, sampling,
+                           n_samples, seed, yes)
     if sampling != "grid" and n_samples is None:
         raise InputError("--n", None, f"given with --sample {sampling} (number of points)")
     if not out.strip():
@@ -231,16 +233,23 @@ def sweep(actuator, sampling, n_samples, seed, chunk_size, unc_points, z_freq, o
 
 
 def _check_size(spec, yes: bool) -> None:
-    n = spec.n_points
+    check_points(spec.n_points, yes)
+
+
+def check_points(n: float, yes: bool, points_per_s: float | None = None) -> None:
+    """Refuse a sweep of more than :data:`LARGE_SWEEP_POINTS` points without ``--yes``,
+    with its estimated time (on every core, or in this process at ``points_per_s``) and
+    dataset size."""
     if n <= LARGE_SWEEP_POINTS or yes:
         return
     from ..limits import human_bytes, human_seconds
 
     cores = os.cpu_count() or 1
+    where = (f"{human_seconds(n / (POINTS_PER_CORE_S * cores))} on {cores} cores"
+             if points_per_s is None else f"{human_seconds(n / points_per_s)} in this process")
     raise ResourceError(f"the sweep has {n:.3g} points (more than {LARGE_SWEEP_POINTS:.0e}): "
-                        f"about {human_seconds(n / (POINTS_PER_CORE_S * cores))} on {cores} "
-                        f"cores and {human_bytes(n * PARQUET_BYTES_PER_POINT)} of Parquet; add "
-                        "--yes to run it")
+                        f"about {where} and {human_bytes(n * PARQUET_BYTES_PER_POINT)} of "
+                        "Parquet; add --yes to run it")
 
 
 def _run(spec, out: str, resume: bool, overwrite: bool, workers, scheduler, quiet: bool):
@@ -255,20 +264,56 @@ def _run(spec, out: str, resume: bool, overwrite: bool, workers, scheduler, quie
         raise click.exceptions.Exit(130) from None
 
 
-def _loop_sweep(loop_file, sets, out, chunk_size, overwrite, as_json, given) -> None:
+LOOP_SWEEP_OPTIONS = frozenset({"loop_file", "sets", "sampling", "n_samples", "seed",
+                                "chunk_size", "out", "overwrite", "yes", "quiet", "as_json"})
+"""The options of ``sweep`` that apply with ``--loop`` (it runs in this process, without
+progress bar, impedance columns, plots or resumption): the others are refused."""
+
+
+def _given(name: str) -> bool:
+    """Whether the user gave option ``name`` (not its default)."""
+    from click.core import ParameterSource
+
+    return click.get_current_context().get_parameter_source(name) in (
+        ParameterSource.COMMANDLINE, ParameterSource.ENVIRONMENT)
+
+
+def _refuse_built_in_options() -> None:
+    ctx = click.get_current_context()
+    for p in ctx.command.params:
+        if p.name not in LOOP_SWEEP_OPTIONS and _given(p.name):
+            raise InputError(max(p.opts, key=len), "given", "absent with --loop (a loop "
+                             "sweep runs in this process over the file's variables given "
+                             "with --set; it has no " + ("plots" if "plot" in p.name else
+                                                         "such option") + ")")
+
+
+def _loop_sweep(loop_file, sets, out, chunk_size, overwrite, as_json, sampling, n_samples,
+                seed, yes) -> None:
     """``seactl sweep --loop FILE --set ...``: in-process, one vectorized batch per chunk."""
-    from ..loopsweep import sweep_loop
+    from ..limits import BYTES_PER_DESIGN, check_budget
+    from ..loopsweep import LoopPoints, sweep_loop
     from ..userloop import load_loop
     from .loops import parse_sets
 
-    if not loop_file:
+    if loop_file is None:
         raise InputError("--set", sets[0], "used with --loop FILE")
-    if given:
-        raise InputError(given[0] if given[0].startswith("--") else AXES[given[0]].option,
-                         "given", "absent with --loop (sweep the file's variables with --set)")
+    _refuse_built_in_options()
+    if sampling != "grid" and n_samples is None:
+        raise InputError("--n", None, f"given with --sample {sampling} (number of points)")
+    if sampling == "grid" and (n_samples is not None or _given("seed")):
+        raise InputError("--n" if n_samples is not None else "--seed", "given", "absent with "
+                         "--sample grid (every combination of the --set values is a point)")
+    if not out.strip():
+        raise InputError("--out", out, "a directory path")
     values = parse_sets(sets)
+    points = LoopPoints(values, sampling, n_samples or 0, seed)
+    check_points(points.n_points, yes, LOOP_POINTS_PER_S)
+    check_budget(f"a chunk of {chunk_size:,} points", n_bytes=chunk_size * BYTES_PER_DESIGN,
+                 hint="lower --chunk-size")
     loop = load_loop(loop_file)
-    res = sweep_loop(loop, values, out, chunk_size=chunk_size, overwrite=overwrite)
+    res = sweep_loop(loop, values, out, chunk_size=chunk_size, overwrite=overwrite,
+                     sampling=sampling, n_samples=n_samples or 0, seed=seed)
     if as_json:
         echo_json({**res, "out": str(out)})
         return
