@@ -253,6 +253,14 @@ def test_explore_refuses_a_port_in_use():
     assert r.stderr.startswith(f"error: invalid --port = {port}: must be a free port")
 
 
+def test_ctrl_c_stops_the_explorer_with_status_130(server):
+    """Oracle: the shell's convention for a command ended by SIGINT (128 + 2)."""
+    _, proc = server
+    proc.send_signal(signal.SIGINT)
+    assert proc.wait(timeout=30) == 130
+    assert proc.stdout.read().strip() == "interrupted"
+
+
 def test_loopback_addresses_and_allow_remote():
     """Oracle: the loopback range 127.0.0.0/8 and ::1 (RFC 1122, RFC 4291)."""
     from seactl.commands.explore import check_address

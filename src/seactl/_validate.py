@@ -12,13 +12,20 @@ def _first_bad(arr: np.ndarray, bad: np.ndarray) -> float:
 
 
 def finite_array(name: str, value, *, minimum: float | None = None,
-                 strict: bool = False, allow_inf: bool = False) -> np.ndarray:
+                 strict: bool = False, allow_inf: bool = False,
+                 nonempty: bool = False) -> np.ndarray:
     """Return ``value`` as a float array after range checks.
 
     ``minimum`` with ``strict`` means ``> minimum``, otherwise ``>= minimum``.
-    ``allow_inf`` admits ``+inf`` (used for "no filter" cut-offs).
+    ``allow_inf`` admits ``+inf`` (used for "no filter" cut-offs); ``nonempty`` refuses an
+    array without values.
     """
-    arr = np.asarray(value, dtype=float)
+    try:
+        arr = np.asarray(value, dtype=float)
+    except (TypeError, ValueError):
+        raise InputError(name, value, "a number or an array of numbers") from None
+    if nonempty and arr.size == 0:
+        raise InputError(name, value, "at least one value")
     valid = "a finite number"
     if minimum is not None:
         valid = f"{'>' if strict else '>='} {minimum:g}" + (" (inf allowed)" if allow_inf else "")

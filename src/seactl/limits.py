@@ -13,6 +13,9 @@ from __future__ import annotations
 
 import math
 import os
+from typing import Any
+
+import numpy as np
 
 from .axes import AXES
 from .errors import ResourceError
@@ -194,3 +197,29 @@ def check_simulation(n_designs: int, mode: str, rate_hz: float, t_end_s: float,
                  n_bytes=n_bytes, seconds=seconds,
                  hint=hint + ("" if mode == "sampled" else " (the continuous mode steps at "
                               "min(0.1 ms, the smallest positive delay))"))
+
+
+MAX_ROOTS = 50
+"""Most rightmost roots asked per design (``count``; a conjugate pair counts once)."""
+ROOTS_SECONDS_PER_DESIGN = 1e-3
+"""Time per design of the roots without a delay (companion eigenvalues) and of reporting
+them, rounded up from the command line's 0.6 ms."""
+ROOTS_SECONDS_PER_ROOT = 8e-3
+"""Time per design and root asked of a delayed design (collocation grown until the roots
+converge): measured 4.5 ms per root for 6 roots and 6 ms for 50, rounded up."""
+
+
+def check_roots(n_designs: int, count: Any, delayed: bool, hint: str = "ask for fewer "
+                "designs or roots") -> int:
+    """``count`` an integer in [1, :data:`MAX_ROOTS`], and the time for ``n_designs``
+    designs within :func:`time_budget_s`; returns ``count``."""
+    from .errors import InputError
+
+    if isinstance(count, bool) or not isinstance(count, (int, np.integer)) \
+            or not 1 <= count <= MAX_ROOTS:
+        raise InputError("count", count, f"an integer in [1, {MAX_ROOTS}] (roots per design)")
+    seconds = n_designs * (ROOTS_SECONDS_PER_DESIGN + delayed * ROOTS_SECONDS_PER_ROOT
+                           * int(count))
+    check_budget(f"{count} root(s) of each of {n_designs:,} design(s)", seconds=seconds,
+                 hint=hint)
+    return int(count)

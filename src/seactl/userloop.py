@@ -34,6 +34,7 @@ from .loopfile import (
     parse_expr,
 )
 from .margins import Margins, loop_margins
+from .outputs import note_input
 from .runtime import run_doc
 
 _BUILDER = "<builder>"
@@ -426,6 +427,7 @@ def load_loop(path: str | Path, **values: Any) -> UserLoop:
     p = Path(path)
     if not p.is_file():
         raise LoopFileError(str(path), "file", None, "an existing .toml loop file")
+    note_input(p)
     try:
         data = tomllib.loads(p.read_text())
     except (tomllib.TOMLDecodeError, UnicodeDecodeError) as exc:

@@ -249,7 +249,7 @@ def _run(spec, out: str, resume: bool, overwrite: bool, workers, scheduler, quie
     except SweepInterrupted as exc:
         err_console.print(f"[yellow]{escape(str(exc))}[/yellow]", highlight=False,
                           soft_wrap=True)
-        raise click.exceptions.Exit(130) from None
+        raise click.exceptions.Exit(143 if exc.terminated else 130) from None
 
 
 def _loop_sweep(loop_file, sets, out, chunk_size, overwrite, as_json, given) -> None:
