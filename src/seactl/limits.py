@@ -202,11 +202,11 @@ def check_simulation(n_designs: int, mode: str, rate_hz: float, t_end_s: float,
 MAX_ROOTS = 50
 """Most rightmost roots asked per design (``count``; a conjugate pair counts once)."""
 ROOTS_SECONDS_PER_DESIGN = 1e-3
-"""Time per design of the roots without a delay (companion eigenvalues) and of reporting
-them, rounded up from the command line's 0.6 ms."""
+"""Upper bound of the time per design of the roots without a delay (companion
+eigenvalues) and of reporting them."""
 ROOTS_SECONDS_PER_ROOT = 8e-3
-"""Time per design and root asked of a delayed design (collocation grown until the roots
-converge): measured 4.5 ms per root for 6 roots and 6 ms for 50, rounded up."""
+"""Upper bound of the time per design and root asked of a delayed design (the
+collocation grows until the roots converge)."""
 
 
 def check_roots(n_designs: int, count: Any, delayed: bool, hint: str = "ask for fewer "
