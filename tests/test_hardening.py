@@ -307,6 +307,19 @@ def test_sweep_overwrite_keeps_a_users_files(tmp_path, capsys):
     assert len(sc_read_sweep(out)) == 4   # the new sweep's 2 x 2 points, not the old 2
 
 
+def test_loop_sweep_overwrite_keeps_a_users_files(tmp_path, capsys):
+    from pathlib import Path
+
+    loop = str(Path(__file__).parents[1] / "examples" / "loops" / "rigid.toml")
+    out = tmp_path / "sw"
+    base = ["sweep", "--loop", loop, "--out", str(out), "--json"]
+    assert main([*base, "--set", "fn=4,8"]) == 0
+    (out / "notes.txt").write_text("mine")
+    assert main([*base, "--set", "fn=4,8,12", "--overwrite"]) == 0
+    assert (out / "notes.txt").read_text() == "mine"
+    assert len(sc_read_sweep(out)) == 3
+
+
 def sc_read_sweep(out):
     import seactl as sc
 

@@ -549,7 +549,7 @@ def prepare_output(spec: SweepSpec, out: Path, *, resume: bool, overwrite: bool)
     check_output(spec, out, resume=resume, overwrite=overwrite)
     try:
         if overwrite and (out / MANIFEST).is_file():
-            _remove_own_files(out)
+            remove_sweep_files(out)
         out.mkdir(parents=True, exist_ok=True)
         for stale in out.glob(f".part-*{TEMP_TAG}*"):   # left by a killed writer
             stale.unlink(missing_ok=True)
@@ -560,7 +560,7 @@ def prepare_output(spec: SweepSpec, out: Path, *, resume: bool, overwrite: bool)
     _write_manifest(spec, out, "running")
 
 
-def _remove_own_files(out: Path) -> None:
+def remove_sweep_files(out: Path) -> None:
     """Remove what a sweep writes into ``out`` (chunks, manifest, summary, temporaries),
     nothing else: files a user added stay."""
     for p in [*out.glob("part-*.parquet"), out / MANIFEST, out / SUMMARY,
