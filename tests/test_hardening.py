@@ -460,17 +460,23 @@ def test_api_misuse_names_the_argument(call, field):
     assert info.value.field == field
 
 
-def test_huge_actuator_values_spill_no_warning(tmp_path, capsys):
+@pytest.mark.parametrize("field, value", [("motor_inertia", "1e308"),
+                                          ("joint_inertia", "1e200"),
+                                          ("current_to_torque", "1e-100")])
+def test_extreme_actuator_values_spill_no_warning(field, value, tmp_path, capsys):
+    """Once numpy's overflow warnings, then a traceback or a one-line error."""
     import warnings
 
+    values = {"motor_inertia": "0.225", "joint_inertia": "0.014", "motor_damping": "1.375",
+              "joint_damping": "0.1", "spring_stiffness": "218.75",
+              "current_to_torque": "5.2", field: value}
     f = tmp_path / "big.toml"
-    f.write_text("motor_inertia = 1e308\njoint_inertia = 0.014\nmotor_damping = 1.375\n"
-                 "joint_damping = 0.1\nspring_stiffness = 218.75\ncurrent_to_torque = 5.2\n")
+    f.write_text("".join(f"{k} = {v}\n" for k, v in values.items()))
     with warnings.catch_warnings():
         warnings.simplefilter("error")
         for cmd in (["gains"], ["step", "--t-end", "0.1"], ["jitter"]):
             assert main([*cmd, "--actuator", str(f)]) == 2
-            assert "motor_inertia" in _stderr_line(capsys)
+            assert field in _stderr_line(capsys)
 
 
 def test_the_gain_design_overflows_quietly():
@@ -480,7 +486,7 @@ def test_the_gain_design_overflows_quietly():
 
     import seactl as sc
 
-    act = sc.SEAParams(1e4, 1e-300, 0.0, 0.0, 1e9, 1e-300)
+    act = sc.SEAParams(1e4, 1e-300, 0.0, 0.0, 1e9, 1e-9)
     with warnings.catch_warnings():
         warnings.simplefilter("error")
         with pytest.raises(sc.SeactlError):
@@ -592,3 +598,19 @@ def test_a_sweep_on_local_workers_leaves_no_temporary_directory(tmp_path, monkey
     assert main(["sweep", "--fn", "12,14", "--out", str(tmp_path / "sw"), "--workers", "1",
                  "--quiet", "--json"]) == 0
     assert [p.name for p in tmp.iterdir() if not p.name.startswith("pymp-")] == []
+
+
+def test_a_report_marker_without_a_list_stands_for_the_reports_files(tmp_path):
+    """A report written before the marker listed its files: its fixed names and figures
+    may be replaced, anything else refuses.  Oracle: the names written by hand."""
+    from seactl.errors import OutputError
+    from seactl.report import check_report_dir
+
+    rep = tmp_path / "rep"
+    (rep / "figures").mkdir(parents=True)
+    for name in (".seactl-report", "index.html", "claims.json", "figures/a.png"):
+        (rep / name).write_text("x")
+    check_report_dir(rep)
+    (rep / "figures" / "mine.svg").write_text("mine")
+    with pytest.raises(OutputError, match="figures/mine.svg, which seactl did not write"):
+        check_report_dir(rep)

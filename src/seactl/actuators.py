@@ -26,8 +26,9 @@ class SEAParams:
     """Immutable, validated SEA parameters in rotary joint space (SI units).
 
     Out-of-range values raise :class:`~seactl.errors.InputError` naming the field,
-    the value and the unit.  The upper bounds are far above any joint actuator (10^4 kg m^2,
-    10^9 N m/rad, ...): beyond them the gain design and the loop's coefficients overflow.
+    the value and the unit.  The bounds are far beyond any joint actuator (up to 10^4 kg m^2,
+    10^9 N m/rad, ...; ``beta`` from 10^-9 N m/A): outside them the gain design and the
+    loop's coefficients overflow.
 
     Parameters
     ----------
@@ -71,7 +72,7 @@ class SEAParams:
     joint_damping: Annotated[float, nonnegative("joint damping b_j [N m s/rad]", le=1e6)]
     spring_stiffness: Annotated[float, positive("spring stiffness k [N m/rad]", le=1e9)]
     current_to_torque: Annotated[float, positive("beta = eta N k_tau r, current to joint "
-                                                 "torque [N m/A]", le=1e6)]
+                                                 "torque [N m/A]", ge=1e-9, le=1e6)]
     motor_torque_constant: Annotated[float, positive("motor torque constant k_tau "
                                                      "[N m/A]", le=1e3)] = 0.0276
     pulley_radius: Annotated[float, positive("joint pulley radius r [m], for the "
