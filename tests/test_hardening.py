@@ -10,6 +10,7 @@ from __future__ import annotations
 import pytest
 
 from seactl.cli import main
+from seactl.errors import OutputError
 
 
 def _stderr_line(capsys) -> str:
@@ -254,6 +255,22 @@ def test_an_output_naming_an_input_is_refused(tmp_path, monkeypatch, capsys):
     line = _stderr_line(capsys)
     assert "trace.csv" in line and "input" in line
     assert trace.read_bytes() == before and _listing(tmp_path) == ["trace.csv"]
+
+
+def test_inputs_are_recorded_only_during_a_command(tmp_path):
+    """In a Python session each call is its own command: a trace read by one call may be
+    written by a later one.  Oracle: the bytes written."""
+    from seactl.outputs import command_inputs, write_atomic
+    from seactl.timing_models import Empirical
+
+    trace = _trace(tmp_path / "trace.csv")
+    Empirical.from_csv(trace)
+    write_atomic(trace, "latency_ms\n4.0\n")
+    assert trace.read_text() == "latency_ms\n4.0\n"
+    with command_inputs(), pytest.raises(OutputError, match="an input of this command"):
+        Empirical.from_csv(trace)
+        write_atomic(trace, "latency_ms\n5.0\n")
+    assert trace.read_text() == "latency_ms\n4.0\n"
 
 
 def test_a_read_only_output_is_not_replaced(tmp_path, monkeypatch, capsys):

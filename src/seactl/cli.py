@@ -50,12 +50,12 @@ def _main(argv: list[str] | tuple[str, ...] | None) -> int:
     from .commands import cli
     from .commands._common import Interrupted, expand_variadic
     from .errors import SeactlError
-    from .outputs import forget_inputs
+    from .outputs import command_inputs
 
-    forget_inputs()
     args = expand_variadic(list(sys.argv[1:] if argv is None else argv))
     try:
-        status = cli.main(args=args, prog_name="seactl", standalone_mode=False)
+        with command_inputs():
+            status = cli.main(args=args, prog_name="seactl", standalone_mode=False)
     except SeactlError as exc:
         _error(str(exc))
         return 2
@@ -107,16 +107,17 @@ def run() -> None:  # pragma: no cover - console script (tested in a subprocess)
     """The ``seactl`` script: SIGTERM handled like Ctrl-C, and once :func:`main` has
     returned, neither interrupts the interpreter's exit (its status stays).  Imports
     happen inside, where an interruption is caught."""
+    status = INTERRUPTED
     try:
         import signal
 
         signal.signal(signal.SIGTERM, _on_sigterm)
         status = main()
     except KeyboardInterrupt as exc:  # before main's handlers, or at the very end
-        status = TERMINATED if type(exc).__name__ == "Terminated" else INTERRUPTED
-        print("terminated" if status == TERMINATED else "interrupted", file=sys.stderr)
-    import signal
+        status = _interrupted(exc)
+    finally:
+        import signal
 
-    for sig in (signal.SIGINT, signal.SIGTERM):
-        signal.signal(sig, signal.SIG_IGN)
+        for sig in (signal.SIGINT, signal.SIGTERM):
+            signal.signal(sig, signal.SIG_IGN)
     sys.exit(status)

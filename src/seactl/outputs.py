@@ -11,18 +11,20 @@ commit, every temporary is removed: nothing is left behind.  Every ``OSError`` b
 permissions of the user's umask (``0666 & ~umask``), like any file a program creates.
 
 Two outputs are refused although the rename could replace them: a file the command reads
-(every input file is noted with :func:`note_input` when it is read; an output naming one is
-refused, at :meth:`OutputSet.add` and again at the commit), and a read-only file (the
-rename needs only the directory's permission, so the file's own mode is checked).
+(while a command of the command line runs, :func:`command_inputs`, every input file is
+noted with :func:`note_input` when it is read; an output naming one is refused, at
+:meth:`OutputSet.add` and again at the commit), and a read-only file (the rename needs
+only the directory's permission, so the file's own mode is checked).
 
 This module sits at the bottom of the layering (it imports only :mod:`seactl.errors`).
 """
 
 from __future__ import annotations
 
+import contextlib
 import os
 import tempfile
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Iterator, Sequence
 from pathlib import Path
 from typing import Any
 
@@ -49,21 +51,30 @@ def reason(exc: OSError) -> str:
     return text[:1].lower() + text[1:]
 
 
-_INPUTS: set[Path] = set()
-"""The files read as inputs since :func:`forget_inputs` (resolved paths)."""
+_INPUTS: set[Path] | None = None
+"""The files the running command has read (resolved paths); ``None`` outside a command of
+the command line (:func:`command_inputs`), where nothing is recorded."""
 
 
 def note_input(path: str | os.PathLike) -> None:
-    """Record that ``path`` is read as an input: no output may replace it."""
+    """Record that ``path`` is read as an input: no output of this command may replace it."""
+    if _INPUTS is None:
+        return
     try:
         _INPUTS.add(Path(path).resolve())
     except (OSError, RuntimeError):  # an unresolvable path cannot be an output either
         pass
 
 
-def forget_inputs() -> None:
-    """Start a new command: no input read yet."""
-    _INPUTS.clear()
+@contextlib.contextmanager
+def command_inputs() -> Iterator[None]:
+    """Record the input files read meanwhile (one command of the command line)."""
+    global _INPUTS
+    previous, _INPUTS = _INPUTS, set()
+    try:
+        yield
+    finally:
+        _INPUTS = previous
 
 
 def check_not_input(path: str | os.PathLike) -> None:
@@ -73,7 +84,7 @@ def check_not_input(path: str | os.PathLike) -> None:
         p = Path(path).resolve()
     except (OSError, RuntimeError):
         return
-    for inp in _INPUTS:
+    for inp in _INPUTS or ():
         if inp == p or p in inp.parents:
             what = "is" if inp == p else f"holds {inp.name}, which is"
             raise OutputError(path, f"it {what} an input of this command (choose another "
