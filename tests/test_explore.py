@@ -300,7 +300,9 @@ def server():
     proc = subprocess.Popen(
         [sys.executable, "-c", "from seactl.cli import run; run()", "explore", "--port",
          str(port), "--no-browser"], stdout=subprocess.PIPE, stderr=subprocess.STDOUT,
-        text=True, start_new_session=True)
+        text=True, start_new_session=True,
+        preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL))  # (even from a
+    # shell's background job, which ignores SIGINT: Ctrl-C then reaches Python)
     try:
         ready, _, _ = select.select([proc.stdout], [], [], 180)  # warm-up, then it listens
         line = proc.stdout.readline() if ready else ""

@@ -26,7 +26,7 @@ class SEAParams:
     """Immutable, validated SEA parameters in rotary joint space (SI units).
 
     Out-of-range values raise :class:`~seactl.errors.InputError` naming the field,
-    the value and the unit.  The bounds are far beyond any joint actuator (up to 10^4 kg m^2,
+    the value and the unit.  The bounds are far beyond any joint actuator (up to 10^15 kg m^2,
     10^9 N m/rad, ...; ``beta`` from 10^-9 N m/A): outside them the gain design and the
     loop's coefficients overflow.
 
@@ -64,9 +64,9 @@ class SEAParams:
     """
 
     motor_inertia: Annotated[float, positive("reflected motor inertia I_m [kg m^2]",
-                                             le=1e4)]
+                                             le=1e15)]
     joint_inertia: Annotated[float, positive("joint (load side) inertia I_j [kg m^2]",
-                                             le=1e4)]
+                                             le=1e15)]
     motor_damping: Annotated[float, nonnegative("reflected motor damping b_m [N m s/rad]",
                                                 le=1e6)]
     joint_damping: Annotated[float, nonnegative("joint damping b_j [N m s/rad]", le=1e6)]
