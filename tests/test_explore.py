@@ -265,6 +265,14 @@ def test_explore_refuses_a_port_in_use():
     assert r.stderr.startswith(f"error: invalid --port = {port}: must be a free port")
 
 
+def test_ctrl_c_stops_the_explorer_with_status_130(server):
+    """Oracle: the shell's convention for a command ended by SIGINT (128 + 2)."""
+    _, proc = server
+    proc.send_signal(signal.SIGINT)
+    assert proc.wait(timeout=30) == 130
+    assert proc.stdout.read().strip() == "interrupted"
+
+
 def test_loopback_addresses_and_allow_remote():
     """Oracle: the loopback range 127.0.0.0/8 and ::1 (RFC 1122, RFC 4291)."""
     from seactl.commands.explore import check_address
@@ -304,7 +312,9 @@ def server():
     proc = subprocess.Popen(
         [sys.executable, "-c", "from seactl.cli import run; run()", "explore", "--port",
          str(port), "--no-browser"], stdout=subprocess.PIPE, stderr=subprocess.STDOUT,
-        text=True, start_new_session=True)
+        text=True, start_new_session=True,
+        preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL))  # (even from a
+    # shell's background job, which ignores SIGINT: Ctrl-C then reaches Python)
     try:
         ready, _, _ = select.select([proc.stdout], [], [], 180)  # warm-up, then it listens
         line = proc.stdout.readline() if ready else ""

@@ -21,6 +21,7 @@ from typing import Any
 from pydantic import BaseModel, ConfigDict, Field, ValidationError, create_model
 
 from .errors import InputError
+from .outputs import note_input
 
 _BOUNDS = (("gt", ">"), ("ge", ">="), ("lt", "<"), ("le", "<="))
 
@@ -91,6 +92,7 @@ def read_toml(field: str, spec: str, what: str) -> dict[str, Any]:
     path = Path(spec)
     if path.suffix != ".toml" or not path.is_file():
         raise InputError(field, spec, f"{what} or an existing .toml file")
+    note_input(path)
     try:
         return tomllib.loads(path.read_text(encoding="utf-8"))
     except tomllib.TOMLDecodeError as exc:

@@ -26,7 +26,9 @@ class SEAParams:
     """Immutable, validated SEA parameters in rotary joint space (SI units).
 
     Out-of-range values raise :class:`~seactl.errors.InputError` naming the field,
-    the value and the unit.
+    the value and the unit.  The bounds are far beyond any joint actuator (up to 10^15 kg m^2,
+    10^9 N m/rad, ...; ``beta`` from 10^-9 N m/A): outside them the gain design and the
+    loop's coefficients overflow.
 
     Parameters
     ----------
@@ -61,18 +63,21 @@ class SEAParams:
     360.0
     """
 
-    motor_inertia: Annotated[float, positive("reflected motor inertia I_m [kg m^2]")]
-    joint_inertia: Annotated[float, positive("joint (load side) inertia I_j [kg m^2]")]
-    motor_damping: Annotated[float, nonnegative("reflected motor damping b_m [N m s/rad]")]
-    joint_damping: Annotated[float, nonnegative("joint damping b_j [N m s/rad]")]
-    spring_stiffness: Annotated[float, positive("spring stiffness k [N m/rad]")]
+    motor_inertia: Annotated[float, positive("reflected motor inertia I_m [kg m^2]",
+                                             le=1e15)]
+    joint_inertia: Annotated[float, positive("joint (load side) inertia I_j [kg m^2]",
+                                             le=1e15)]
+    motor_damping: Annotated[float, nonnegative("reflected motor damping b_m [N m s/rad]",
+                                                le=1e6)]
+    joint_damping: Annotated[float, nonnegative("joint damping b_j [N m s/rad]", le=1e6)]
+    spring_stiffness: Annotated[float, positive("spring stiffness k [N m/rad]", le=1e9)]
     current_to_torque: Annotated[float, positive("beta = eta N k_tau r, current to joint "
-                                                 "torque [N m/A]")]
+                                                 "torque [N m/A]", ge=1e-9, le=1e6)]
     motor_torque_constant: Annotated[float, positive("motor torque constant k_tau "
-                                                     "[N m/A]")] = 0.0276
+                                                     "[N m/A]", le=1e3)] = 0.0276
     pulley_radius: Annotated[float, positive("joint pulley radius r [m], for the "
-                                             "linear-space view")] = 0.025
-    max_current: Annotated[float, positive("motor current limit [A]")] = 30.0
+                                             "linear-space view", le=10.0)] = 0.025
+    max_current: Annotated[float, positive("motor current limit [A]", le=1e5)] = 30.0
     name: str = "custom"
 
     def __post_init__(self) -> None:

@@ -108,6 +108,31 @@ def _filters(filters_hz: Sequence[Any], names: Sequence[str]) -> list[Any]:
             for n, f in zip(names, filters_hz)]
 
 
+def check_batch(**arguments: Any) -> tuple[int, ...]:
+    """The broadcast shape of the arguments' arrays (an argument holding several, such as
+    ``delays_ms``, gives each), or :class:`InputError` naming the first argument that does
+    not broadcast with those before it, or that has no value (a batch without designs)."""
+    shape: tuple[int, ...] = ()
+    for name, value in arguments.items():
+        parts = value if isinstance(value, tuple) else (value,)
+        for part in (v for v in parts if v is not None):
+            if np.size(part) == 0:
+                raise InputError(name, _plain(value), "at least one value (a batch of "
+                                 "designs is never empty)")
+            try:
+                shape = np.broadcast_shapes(shape, np.shape(part))
+            except ValueError:
+                raise InputError(name, _plain(value), f"an array that broadcasts with the "
+                                 f"shape {shape} of the arguments before it") from None
+    return shape
+
+
+def _plain(value: Any) -> Any:
+    if isinstance(value, tuple):
+        return tuple(_plain(v) for v in value)
+    return value.tolist() if isinstance(value, (np.ndarray, np.generic)) else value
+
+
 def resolve_actuator(actuator: Any, loader: Any, cls: type) -> Any:
     """An actuator object as is, or a preset name / TOML path loaded by ``loader``."""
     return actuator if isinstance(actuator, cls) else loader(actuator)
@@ -187,6 +212,8 @@ class Design:
         def pick(x: Any) -> Any:
             return None if x is None else np.broadcast_to(np.asarray(x, float), shape)[idx]
 
+        if np.size(pick(self.fn_hz)) == 0:
+            raise InputError("index", idx, "a selection of at least one design")
         t = self.timing
         timing = Timing(pick(t.T_tau), pick(t.T_qs), pick(t.T_qd), pick(t.f_qd),
                         pick(t.f_taud))
@@ -323,9 +350,13 @@ class Design:
         >>> round(z.real, 2), round(z.imag, 1), bool(d.margins().stable)
         (1.19, 747.3, False)
         """
+        from .limits import check_roots
         from .loops import SEA_DIAGRAM
         from .roots import characteristic_roots
 
+        t = self.timing
+        check_roots(int(np.prod(self.shape)), count,
+                    any(np.any(np.asarray(x) > 0) for x in (t.T_tau, t.T_qs, t.T_qd)))
         return RootsResult(characteristic_roots(SEA_DIAGRAM, self.sea, count=count),
                            {"fn_hz": self.fn_hz, "gs": self.gs})
 
@@ -749,6 +780,9 @@ def design(fn_hz: Any, *, actuator: Any = "ut-sea", gs: Any = 1.0, zeta1: Any = 
     g = finite_array("gs", gs, minimum=0.0, strict=True, nonempty=True)
     t_tau, t_qs, t_qd = delays_from_ms(delays_ms, ("T_tau", "T_qs", "T_qd"))
     f_qd, f_taud = _filters(filters_hz, ("f_qd", "f_taud"))
+    check_batch(fn_hz=fn, gs=g, zeta1=zeta1, zeta2=zeta2, ratio=ratio,
+                delays_ms=tuple(np.asarray(t) * 1e3 for t in (t_tau, t_qs, t_qd)),
+                filters_hz=(f_qd, f_taud))
     fn_b, g_b = np.broadcast_arrays(fn, g)
     gains = critically_damped_gains(act, fn_b, zeta1=zeta1, zeta2=zeta2, ratio=ratio, gs=g_b,
                                     solution=solution)

@@ -4,48 +4,74 @@ Every command that takes a design shares the options of
 :func:`seactl.commands._common.design_options` (milliseconds and Hz at the CLI, SI
 inside).  Errors in user input print one line (``error: ...``) without a traceback and
 exit with status 2.
+
+Interruptions: Ctrl-C exits with status 130 and SIGTERM with 143 (128 + the signal), each
+after one line on stderr and the same clean-up (child processes stopped, temporary files
+removed): :func:`run` turns SIGTERM into :class:`~seactl.errors.Terminated`, a
+``KeyboardInterrupt``.  This module imports nothing heavy before :func:`main` runs, so an
+interruption while the commands load is caught too.
 """
 
 from __future__ import annotations
 
 import sys
-from collections.abc import Sequence
 
-import click
-from rich.markup import escape
+__all__ = ["main", "run"]   # and, loaded with the commands: cli, expand_variadic, parse_values
 
-from .commands import cli
-from .commands._common import err_console, expand_variadic, parse_values
-from .errors import SeactlError
+INTERRUPTED = 130
+"""Exit status after Ctrl-C (128 + SIGINT)."""
+TERMINATED = 143
+"""Exit status after SIGTERM (128 + SIGTERM)."""
 
-__all__ = ["cli", "expand_variadic", "main", "parse_values", "run"]
+
+def __getattr__(name: str) -> object:
+    """``cli``, ``expand_variadic`` and ``parse_values`` load with the commands."""
+    if name in ("cli", "expand_variadic", "parse_values"):
+        from . import commands
+        from .commands import _common
+
+        return commands.cli if name == "cli" else getattr(_common, name)
+    raise AttributeError(f"module 'seactl.cli' has no attribute {name!r}")
 
 
 # ------------------------------------------------------------------ entry point
-def main(argv: Sequence[str] | None = None) -> int:
-    """Console entry point: returns the exit status (2 for bad input)."""
+def main(argv: list[str] | tuple[str, ...] | None = None) -> int:
+    """Console entry point: returns the exit status (2 for bad input, 130 after Ctrl-C,
+    143 after SIGTERM)."""
+    try:
+        return _main(argv)
+    except KeyboardInterrupt as exc:   # outside click: while loading, or while reporting
+        return _interrupted(exc)
+
+
+def _main(argv: list[str] | tuple[str, ...] | None) -> int:
+    import click
+
+    from .commands import cli
+    from .commands._common import Interrupted, expand_variadic
+    from .errors import SeactlError
+    from .outputs import command_inputs
+
     args = expand_variadic(list(sys.argv[1:] if argv is None else argv))
     try:
-        status = cli.main(args=args, prog_name="seactl", standalone_mode=False)
+        with command_inputs():
+            status = cli.main(args=args, prog_name="seactl", standalone_mode=False)
     except SeactlError as exc:
-        err_console.print(f"[bold red]error:[/bold red] {escape(str(exc))}", highlight=False,
-                          soft_wrap=True)
+        _error(str(exc))
         return 2
-    except click.exceptions.Abort:
-        err_console.print("interrupted")
-        return 130
+    except Interrupted as exc:
+        return _interrupted(exc.interrupt)
+    except click.exceptions.Abort as exc:   # click's form of a KeyboardInterrupt
+        return _interrupted(exc.__context__ or exc)
     except click.ClickException as exc:  # click's own usage errors: the same one line
-        message = " ".join(exc.format_message().split())
-        err_console.print(f"[bold red]error:[/bold red] {escape(message)}", highlight=False,
-                          soft_wrap=True)
+        _error(" ".join(exc.format_message().split()))
         return 2
     except click.exceptions.Exit as exc:
         return exc.exit_code
-    except OSError as exc:  # a last net: the commands turn their own into OutputError
+    except OSError as exc:  # a last net: the commands name their own files
         from .outputs import reason
 
-        where = f"cannot write {exc.filename}: " if exc.filename else ""
-        _error(where + reason(exc))
+        _error((f"{exc.filename}: " if exc.filename else "") + reason(exc))
         return 2
     except MemoryError:
         _error("out of memory; ask for fewer designs, frequencies or time steps")
@@ -53,11 +79,45 @@ def main(argv: Sequence[str] | None = None) -> int:
     return status if isinstance(status, int) else 0   # click.exceptions.Exit's status
 
 
+def _interrupted(exc: BaseException) -> int:
+    """One line for an interruption; its exit status."""
+    from .errors import Terminated
+
+    terminated = isinstance(exc, Terminated)
+    print("terminated" if terminated else "interrupted", file=sys.stderr)  # (plain: the
+    return TERMINATED if terminated else INTERRUPTED  # interruption may be mid-import)
+
+
 def _error(message: str) -> None:
+    from rich.markup import escape
+
+    from .commands._common import err_console
+
     err_console.print(f"[bold red]error:[/bold red] {escape(message)}", highlight=False,
                       soft_wrap=True)
 
 
-def run() -> None:  # pragma: no cover - console script
-    sys.exit(main())
+def _on_sigterm(signum: int, frame: object) -> None:
+    from .errors import Terminated
 
+    raise Terminated
+
+
+def run() -> None:  # pragma: no cover - console script (tested in a subprocess)
+    """The ``seactl`` script: SIGTERM handled like Ctrl-C, and once :func:`main` has
+    returned, neither interrupts the interpreter's exit (its status stays).  Imports
+    happen inside, where an interruption is caught."""
+    status = INTERRUPTED
+    try:
+        import signal
+
+        signal.signal(signal.SIGTERM, _on_sigterm)
+        status = main()
+    except KeyboardInterrupt as exc:  # before main's handlers, or at the very end
+        status = _interrupted(exc)
+    finally:
+        import signal
+
+        for sig in (signal.SIGINT, signal.SIGTERM):
+            signal.signal(sig, signal.SIG_IGN)
+    sys.exit(status)

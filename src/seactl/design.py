@@ -25,7 +25,7 @@ from dataclasses import dataclass, fields
 import numpy as np
 
 from ._validate import finite_array
-from .actuators import SEAParams
+from .actuators import SEAParams, load_sea
 from .errors import InfeasibleDesignError, InputError
 from .loops import Gains
 
@@ -132,10 +132,11 @@ def solve_gains(actuator: SEAParams, fn_hz, *, zeta1=1.0, zeta2=1.0,
     a = actuator
     w1 = 2 * np.pi * fn
     a3, a2, a1, a0 = target_polynomial(w1, rt * w1, z1, z2)
-    M = a.Im * a.Ij
-    Btau = (a3 * M - a.Ij * a.bm - a.Im * a.bj) / (a.Ij * a.beta * a.k)
-    c = a0 * M / a.k                                   # Kq = c / u
-    with np.errstate(divide="ignore", invalid="ignore"):
+    # (an overflow of extreme parameters gives non-finite gains, which are not valid)
+    with np.errstate(all="ignore"):
+        M = a.Im * a.Ij
+        Btau = (a3 * M - a.Ij * a.bm - a.Im * a.bj) / (a.Ij * a.beta * a.k)
+        c = a0 * M / a.k                                   # Kq = c / u
         # second equation: Bq = al0 + al1 u
         al1 = -a.Ij / (a.beta * Btau)
         al0 = (a2 * M - a.bj * a.bm - a.k * a.Im) / (a.k * a.beta * Btau) - a.bj
@@ -153,7 +154,8 @@ def solve_gains(actuator: SEAParams, fn_hz, *, zeta1=1.0, zeta2=1.0,
         for l_, r_ in zip(lhs, rhs):
             resid = np.maximum(resid, np.abs(l_ - r_[..., None]) / np.abs(r_[..., None]))
     positive = (Kq > 0) & (Bq > 0) & (Ktau > 0) & (Bt > 0)
-    valid = real & positive & (resid < 1e-9) & np.isfinite(u)
+    finite = np.isfinite(Kq) & np.isfinite(Bq) & np.isfinite(Ktau) & np.isfinite(Bt)
+    valid = real & positive & (resid < 1e-9) & np.isfinite(u) & finite
     return GainSolutions(fn, Kq, Bq, Ktau, Bt, valid)
 
 
@@ -167,8 +169,8 @@ def feasible_fn_range(actuator: SEAParams, *, zeta1=1.0, zeta2=1.0, ratio=1.0,
 
     Parameters
     ----------
-    actuator : SEAParams
-        The actuator.
+    actuator : SEAParams or str or path
+        The actuator, a preset name (``"ut-sea"``) or a TOML file.
     zeta1, zeta2 : float
         Damping ratios of the two target pole pairs.
     ratio : float
@@ -187,6 +189,8 @@ def feasible_fn_range(actuator: SEAParams, *, zeta1=1.0, zeta2=1.0, ratio=1.0,
     >>> [(round(a, 3), b) for a, b in feasible_fn_range(UT_SEA)]
     [(9.456, 100000.0)]
     """
+    if not isinstance(actuator, SEAParams):
+        actuator = load_sea(actuator)
     for name, v in (("zeta1", zeta1), ("zeta2", zeta2), ("ratio", ratio), ("lo_hz", lo_hz),
                     ("hi_hz", hi_hz)):
         if finite_array(name, v, minimum=0.0, strict=True).ndim:

@@ -153,3 +153,9 @@ class ResourceError(SeactlError, ValueError):
     >>> print(ResourceError("a 1e12-point grid needs about 14.6 TiB of memory"))
     a 1e12-point grid needs about 14.6 TiB of memory
     """
+
+
+class Terminated(KeyboardInterrupt):
+    """SIGTERM arrived (the command line's handler raises it): handled like Ctrl-C, so every
+    clean-up that Ctrl-C runs (child processes stopped, temporary files removed) runs too;
+    the command line then exits with status 143 instead of 130."""

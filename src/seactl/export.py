@@ -732,9 +732,9 @@ def check_export_dir(out: str | os.PathLike, marker: str = MARKER,
                      what: str = "an export") -> Path:
     """Refuse ``out`` unless it is absent, an empty directory, or ``what`` seactl wrote
     (a directory holding ``marker``)."""
-    out = Path(out)
     if not os.fspath(out).strip():
         raise InputError("out", os.fspath(out), "a directory name")
+    out = Path(out)
     if out.exists():
         if not out.is_dir():
             raise OutputError(out, "exists and is not a directory")
@@ -746,23 +746,37 @@ def check_export_dir(out: str | os.PathLike, marker: str = MARKER,
     return out
 
 
+def listed_files(out: Path, marker: str = MARKER) -> set[str]:
+    """The files seactl wrote into ``out`` (listed by its ``marker``; none without one)."""
+    try:
+        return set((out / marker).read_text(errors="replace").splitlines()[1:])
+    except OSError:
+        return set()
+
+
 def write_export(files: Mapping[str, str], out: str | os.PathLike, marker: str = MARKER,
                  what: str = "an export") -> list[Path]:
     """Write ``files`` into ``out`` as a set (temporaries renamed at the end), with the
     marker file; returns the paths written (the marker last)."""
     out = check_export_dir(out, marker, what)
     created = not out.exists()
+    earlier = listed_files(out, marker)
+    for name in files:
+        if name not in earlier and (out / name).exists():
+            raise OutputError(out / name, f"it exists and {what} seactl wrote there does not "
+                              "list it (move it out or choose another directory)")
     try:
         out.mkdir(exist_ok=True)
     except OSError as exc:
         raise OutputError(out, exc.strerror or str(exc)) from None
+    still = sorted(n for n in earlier if n not in files and (out / n).is_file())
     try:
         with OutputSet() as outs:
             paths = [outs.add("out", out / name) for name in [*files, marker]]
             for path, name in zip(paths, files):
                 outs.write(path, files[name])
             outs.write(paths[-1], "written by seactl; seactl may replace the files it "
-                       "lists\n" + "".join(f"{n}\n" for n in files))
+                       "lists\n" + "".join(f"{n}\n" for n in [*files, *still]))
             outs.commit()
     except BaseException:
         if created:

@@ -13,6 +13,9 @@ from __future__ import annotations
 
 import math
 import os
+from typing import Any
+
+import numpy as np
 
 from .axes import AXES
 from .errors import ResourceError
@@ -264,3 +267,29 @@ MAX_NESTING = 16
 def derive_seconds(n_signals: int) -> float:
     """Estimated time to derive the transfers of a loop of ``n_signals`` signals [s]."""
     return DERIVE_SECONDS_PER_SIGNAL3 * float(n_signals) ** 3
+
+
+MAX_ROOTS = 50
+"""Most rightmost roots asked per design (``count``; a conjugate pair counts once)."""
+ROOTS_SECONDS_PER_DESIGN = 1e-3
+"""Upper bound of the time per design of the roots without a delay (companion
+eigenvalues) and of reporting them."""
+ROOTS_SECONDS_PER_ROOT = 8e-3
+"""Upper bound of the time per design and root asked of a delayed design (the
+collocation grows until the roots converge)."""
+
+
+def check_roots(n_designs: int, count: Any, delayed: bool, hint: str = "ask for fewer "
+                "designs or roots") -> int:
+    """``count`` an integer in [1, :data:`MAX_ROOTS`], and the time for ``n_designs``
+    designs within :func:`time_budget_s`; returns ``count``."""
+    from .errors import InputError
+
+    if isinstance(count, bool) or not isinstance(count, (int, np.integer)) \
+            or not 1 <= count <= MAX_ROOTS:
+        raise InputError("count", count, f"an integer in [1, {MAX_ROOTS}] (roots per design)")
+    seconds = n_designs * (ROOTS_SECONDS_PER_DESIGN + delayed * ROOTS_SECONDS_PER_ROOT
+                           * int(count))
+    check_budget(f"{count} root(s) of each of {n_designs:,} design(s)", seconds=seconds,
+                 hint=hint)
+    return int(count)

@@ -19,15 +19,14 @@ from typing import Any
 import numpy as np
 
 from .errors import InputError
-from .sweep import write_chunk
+from .sweep import remove_sweep_files, write_chunk
 
 FORMAT = "seactl-loop-sweep-1"
 
 
 def _prepare(out: Path, overwrite: bool) -> None:
-    """A new or empty directory, or (with ``overwrite``) a loop sweep seactl wrote."""
-    import shutil
-
+    """A new or empty directory, or (with ``overwrite``) a loop sweep seactl wrote (its
+    files are removed, files a user added stay)."""
     if out.exists() and not out.is_dir():
         raise InputError("out", str(out), "a directory path (a Parquet dataset), not a file")
     if out.is_dir() and any(out.iterdir()):
@@ -39,7 +38,7 @@ def _prepare(out: Path, overwrite: bool) -> None:
         if not overwrite:
             raise InputError("out", str(out), "a new directory, or overwrite=True "
                              "(--overwrite) to replace this loop sweep")
-        shutil.rmtree(out)
+        remove_sweep_files(out)
     out.mkdir(parents=True, exist_ok=True)
 
 

@@ -10,14 +10,21 @@ commit, every temporary is removed: nothing is left behind.  Every ``OSError`` b
 :class:`~seactl.errors.OutputError` (``cannot write PATH: reason``).  Files get the
 permissions of the user's umask (``0666 & ~umask``), like any file a program creates.
 
+Two outputs are refused although the rename could replace them: a file the command reads
+(while a command of the command line runs, :func:`command_inputs`, every input file is
+noted with :func:`note_input` when it is read; an output naming one is refused, at
+:meth:`OutputSet.add` and again at the commit), and a read-only file (the rename needs
+only the directory's permission, so the file's own mode is checked).
+
 This module sits at the bottom of the layering (it imports only :mod:`seactl.errors`).
 """
 
 from __future__ import annotations
 
+import contextlib
 import os
 import tempfile
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Iterator, Sequence
 from pathlib import Path
 from typing import Any
 
@@ -44,6 +51,58 @@ def reason(exc: OSError) -> str:
     return text[:1].lower() + text[1:]
 
 
+_INPUTS: set[Path] | None = None
+"""The files the running command has read (resolved paths); ``None`` outside a command of
+the command line (:func:`command_inputs`), where nothing is recorded."""
+
+
+def note_input(path: str | os.PathLike) -> None:
+    """Record that ``path`` is read as an input: no output of this command may replace it."""
+    if _INPUTS is None:
+        return
+    try:
+        _INPUTS.add(Path(path).resolve())
+    except (OSError, RuntimeError):  # an unresolvable path cannot be an output either
+        pass
+
+
+@contextlib.contextmanager
+def command_inputs() -> Iterator[None]:
+    """Record the input files read meanwhile (one command of the command line)."""
+    global _INPUTS
+    previous, _INPUTS = _INPUTS, set()
+    try:
+        yield
+    finally:
+        _INPUTS = previous
+
+
+def check_not_input(path: str | os.PathLike) -> None:
+    """Refuse an output that is one of the command's input files, or a directory holding
+    one (:class:`~seactl.errors.OutputError`)."""
+    try:
+        p = Path(path).resolve()
+    except (OSError, RuntimeError):
+        return
+    for inp in _INPUTS or ():
+        if inp == p or p in inp.parents:
+            what = "is" if inp == p else f"holds {inp.name}, which is"
+            raise OutputError(path, f"it {what} an input of this command (choose another "
+                              "output name)")
+
+
+def check_writable(path: Path) -> None:
+    """Refuse replacing an existing file that is read-only (its mode has no write bit, or
+    this user may not write it): the rename into place would bypass that permission."""
+    try:
+        st = path.stat()
+    except OSError:
+        return
+    if not st.st_mode & 0o222 or not os.access(path, os.W_OK):
+        raise OutputError(path, "the file is read-only (make it writable or choose another "
+                          "name)")
+
+
 def check_file_path(option: str, path: str | os.PathLike, suffixes: Sequence[str]) -> Path:
     """Check that ``path`` can be written as a new or replaced regular file.
 
@@ -61,6 +120,8 @@ def check_file_path(option: str, path: str | os.PathLike, suffixes: Sequence[str
         raise OutputError(p, "is a directory")
     if p.exists() and not p.is_file():
         raise OutputError(p, "exists and is not a regular file")
+    check_writable(p)
+    check_not_input(p)
     parent = p.parent
     if not parent.exists():
         raise OutputError(p, f"the directory {parent} does not exist")
@@ -80,6 +141,8 @@ def _temp_sibling(path: Path) -> Path:
 
 
 def _publish(tmp: Path, path: Path) -> None:
+    check_writable(path)
+    check_not_input(path)
     os.chmod(tmp, 0o666 & ~umask())
     os.replace(tmp, path)
 
@@ -181,12 +244,22 @@ class OutputSet:
         self.write_with(path, lambda tmp: save_figure_to(fig, tmp, fmt, dpi))
 
     def commit(self) -> None:
-        """Rename every temporary into place."""
+        """Rename every temporary into place (none if any of the paths became read-only
+        or an input meanwhile)."""
+        try:
+            for path in self._temps:
+                check_writable(path)
+                check_not_input(path)
+        except OutputError:
+            self.discard()
+            raise
         for path, tmp in list(self._temps.items()):
             try:
                 _publish(tmp, path)
             except OSError as exc:
                 self.discard()
+                if isinstance(exc, OutputError):
+                    raise
                 raise OutputError(path, reason(exc)) from None
             del self._temps[path]
 

@@ -200,8 +200,6 @@ def build(out: Path, sections: Iterable[SectionFn], console: Any = None, jobs: i
         raise OutputError(out, reason(exc)) from None
     try:
         os.chmod(tmp, 0o777 & ~_umask())
-        (tmp / MARKER).write_text("written by seactl reproduce; seactl may replace this "
-                                  "directory\n")
         (tmp / "figures").mkdir()
         ctx = Context(tmp / "figures")
         built: list[Section] = []
@@ -218,6 +216,7 @@ def build(out: Path, sections: Iterable[SectionFn], console: Any = None, jobs: i
         claims = [c.as_json() for s in built for c in s.claims]
         (tmp / "claims.json").write_text(json.dumps(claims, indent=2, sort_keys=True) + "\n")
         (tmp / "index.html").write_text(_render(built, claims))
+        write_marker(tmp)
         _swap_into_place(tmp, out)
     except BaseException as exc:
         shutil.rmtree(tmp, ignore_errors=True)
@@ -273,19 +272,50 @@ def _umask() -> int:
 
 
 MARKER = ".seactl-report"
-"""File that marks a directory as a report seactl wrote (and may therefore replace)."""
+"""File that marks a directory as a report seactl wrote: its first line says so, the
+others list every file and directory seactl wrote there (relative, ``/``-separated)."""
+MARKER_HEADER = "written by seactl reproduce; seactl may replace the files listed below"
+LEGACY_FILES = ("index.html", "claims.json", "figures")
+"""What a marker without a list (written before the list existed) stands for, with the
+``.png`` figures in ``figures/``."""
+
+
+def write_marker(tmp: Path) -> None:
+    """The marker of the report in ``tmp``, listing everything in it."""
+    names = sorted(p.relative_to(tmp).as_posix() for p in tmp.rglob("*"))
+    (tmp / MARKER).write_text("\n".join([MARKER_HEADER, *names]) + "\n")
+
+
+def _written_by_seactl(out: Path) -> set[str]:
+    lines = (out / MARKER).read_text(errors="replace").splitlines()
+    if lines[:1] == [MARKER_HEADER]:
+        return {MARKER, *lines[1:]}
+    return {MARKER, *LEGACY_FILES, *(f"figures/{p.name}" for p in out.glob("figures/*.png"))}
 
 
 def check_report_dir(out: Path) -> None:
-    """Refuse ``out`` unless it is absent, an empty directory, or a report seactl wrote."""
+    """Refuse ``out`` unless it is absent, an empty directory, or a report seactl wrote
+    that holds nothing else (replacing it must not delete a file a user added)."""
     out = Path(out)
     if not out.exists():
         return
     if not out.is_dir():
         raise OutputError(out, "exists and is not a directory")
-    if any(out.iterdir()) and not (out / MARKER).is_file():
+    if not any(out.iterdir()):
+        return
+    if not (out / MARKER).is_file():
         raise OutputError(out, "the directory is not empty and is not a report seactl wrote "
                           "(choose a new or empty directory)")
+    try:
+        ours = _written_by_seactl(out)
+        foreign = sorted(rel for p in out.rglob("*")
+                         if (rel := p.relative_to(out).as_posix()) not in ours)
+    except OSError as exc:
+        raise OutputError(out, reason(exc)) from None
+    if foreign:
+        more = f" and {len(foreign) - 1} more" if len(foreign) > 1 else ""
+        raise OutputError(out, f"it holds {foreign[0]}{more}, which seactl did not write "
+                          "(move it out, or choose a new or empty directory)")
 
 
 def _swap_into_place(tmp: Path, out: Path) -> None:

@@ -459,7 +459,7 @@ def _stats_ms(lat_s: np.ndarray) -> dict[str, Any]:
 
 
 def _check_run(duration_s: float, extra_latency_s: float, loss: float, step: float,
-               transport: str) -> None:
+               transport: str, seed: int) -> None:
     from .errors import InputError
 
     for name, v, lo, hi in (("duration_s", duration_s, 0.1, 60.0),
@@ -467,6 +467,8 @@ def _check_run(duration_s: float, extra_latency_s: float, loss: float, step: flo
                             ("loss", loss, 0.0, 0.99), ("step", abs(step), 1e-6, 1.0)):
         if not (math.isfinite(v) and lo <= v <= hi):
             raise InputError(name, v, f"in [{lo:g}, {hi:g}]")
+    if isinstance(seed, bool) or not isinstance(seed, (int, np.integer)) or seed < 0:
+        raise InputError("seed", seed, "an integer >= 0")
     if transport not in TRANSPORTS:
         raise InputError("transport", transport, " or ".join(TRANSPORTS))
     if transport == "zenoh":
@@ -490,9 +492,10 @@ def run_distributed(diagram: Any, design: Any, *, saturation: dict[str, float] |
     children's process ids once they are started."""
     from .errors import InputError
     from .export import compile_processes, export_files
+    from .limits import MIN_SAMPLES
     from .simulate import compile_sampled
 
-    _check_run(duration_s, extra_latency_s, loss, step, transport)
+    _check_run(duration_s, extra_latency_s, loss, step, transport, seed)
     ctl = compile_processes(diagram, design, rates_hz, saturation)
     if set(ctl.names) != {"embedded", "high-level"}:
         raise InputError("processes", ", ".join(ctl.names), "exactly embedded and high-level "
@@ -501,6 +504,10 @@ def run_distributed(diagram: Any, design: Any, *, saturation: dict[str, float] |
         raise InputError("rates_hz", ctl.base_rate_hz, "<= 5000 Hz for a run (Python processes)")
     Tb = 1.0 / ctl.base_rate_hz
     K = int(round(duration_s / Tb))
+    if K < MIN_SAMPLES:
+        raise InputError("duration_s", duration_s, f"at least {MIN_SAMPLES} ticks of the "
+                         f"fastest process ({MIN_SAMPLES / ctl.base_rate_hz:g} s at "
+                         f"{ctl.base_rate_hz:g} Hz)")
     plan = compile_sampled(diagram, design, {}, Tb, (), rates_hz=rates_hz, saturation=saturation)
     with tempfile.TemporaryDirectory(prefix="seactl-run-") as tmp:
         run_dir = Path(tmp)

@@ -106,7 +106,7 @@ from numba import njit
 
 from ._parallel import eigvals, in_threads, stacked
 from .blockdiagram import Block, BlockDiagram
-from .errors import InputError
+from .errors import InputError, SeactlError
 from .limits import check_budget, simulation_estimate
 from .verdict import RECOVERY_BAND, STEP_BAND
 
@@ -367,7 +367,12 @@ def _assemble(n: int, signals: Sequence[str], blocks: Sequence[Block],
         P[:, d, idx[b.src]] += D * z
         if b.name in wcol:
             R[:, d, wcol[b.name]] += D * (1.0 - z)
-    M = stacked(np.linalg.inv, np.eye(m)[None] - P)
+    try:
+        M = stacked(np.linalg.inv, np.eye(m)[None] - P)
+    except np.linalg.LinAlgError:
+        raise SeactlError("the loop's instantaneous (algebraic) feedback is singular in "
+                          "floating point for these parameters: the gains or plant values "
+                          "are too extreme to simulate") from None
     Cs, Ds = M @ Q, M @ R
     Ax = np.zeros((n, N, N))
     Bx = np.zeros((n, N, nv))

@@ -40,11 +40,14 @@ Examples
 
 from __future__ import annotations
 
+import contextlib
 import hashlib
 import json
 import math
 import os
+import shutil
 import signal
+import tempfile
 import time
 from collections.abc import Callable, Iterable, Sequence
 from dataclasses import asdict, dataclass, field
@@ -57,7 +60,7 @@ import numpy as np
 from ._parallel import one_thread
 from .actuators import SEAParams
 from .axes import ACTUATOR_AXES, ACTUATOR_FIELDS, AXES, SAMPLINGS
-from .errors import InputError, OutputError
+from .errors import InputError, OutputError, Terminated
 from .outputs import TEMP_TAG
 
 FORMAT = "seactl-sweep/1"
@@ -125,30 +128,30 @@ class SweepSpec:
 
     def __post_init__(self) -> None:
         if self.sampling not in SAMPLINGS:
-            raise InputError("--sample", self.sampling, "one of " + ", ".join(SAMPLINGS))
+            raise InputError("sampling", self.sampling, "one of " + ", ".join(SAMPLINGS))
         if int(self.chunk_size) != self.chunk_size or self.chunk_size < 1:
-            raise InputError("--chunk-size", self.chunk_size, "an integer >= 1")
+            raise InputError("chunk_size", self.chunk_size, "an integer >= 1")
         if isinstance(self.seed, bool) or int(self.seed) != self.seed or self.seed < 0:
             raise InputError("seed", self.seed, "an integer >= 0")
         if self.sampling != "grid" and (int(self.n_samples) != self.n_samples
                                         or self.n_samples < 1):
-            raise InputError("--n", self.n_samples, f"an integer >= 1 for --sample "
-                             f"{self.sampling}")
+            raise InputError("n_samples", self.n_samples, f"an integer >= 1 for sampling "
+                             f"{self.sampling!r}")
         norm: dict[str, tuple[float, ...]] = {}
         for name, values in self.axes:
             if name not in AXES:
                 raise InputError("axis", name, "one of " + ", ".join(AXES))
             if name in norm:
-                raise InputError(AXES[name].option, name, "given once")
+                raise InputError(name, name, "given once")
             vals = tuple(float(v) for v in np.ravel(values))
             if not vals:
-                raise InputError(AXES[name].option, "", "at least one value")
+                raise InputError(name, "", "at least one value")
             _check_axis(name, np.asarray(vals))
             norm[name] = vals
         from .limits import check_range
 
         for f in self.z_freqs_hz:
-            check_range("--z-freq [Hz]", f, "freq_hz")
+            check_range("z_freqs_hz [Hz]", f, "freq_hz")
         # canonical order (AXES order) so that equal sweeps hash equally
         object.__setattr__(self, "axes", tuple((n, norm[n]) for n in AXES if n in norm))
         object.__setattr__(self, "z_freqs_hz", tuple(float(f) for f in self.z_freqs_hz))
@@ -257,7 +260,7 @@ def _json_float(x: float) -> float | str:
 
 
 def _check_axis(name: str, vals: np.ndarray) -> None:
-    AXES[name].check(vals, AXES[name].label)
+    AXES[name].check(vals, f"{name} [{AXES[name].unit}]" if AXES[name].unit else name)
 
 
 # ------------------------------------------------------------------ evaluation
@@ -488,6 +491,7 @@ def _write_manifest(spec: SweepSpec, out: Path, status: str) -> None:
 
 
 MANIFEST = "_manifest.json"
+SUMMARY = "_summary.json"
 
 
 def read_manifest(out: Path) -> dict[str, Any]:
@@ -520,12 +524,12 @@ def check_output(spec: SweepSpec, out: Path, *, resume: bool, overwrite: bool) -
     OutputError
         ``out`` or its parent cannot be created.
     """
+    if not os.fspath(out).strip():
+        raise InputError("out", os.fspath(out), "a directory path")
     out = Path(out)
     if resume and overwrite:
         raise InputError("overwrite", True, "False with resume=True (resume completes a sweep,"
                          " overwrite restarts it: choose one)")
-    if not str(out).strip():
-        raise InputError("out", str(out), "a directory path")
     if out.exists() and not out.is_dir():
         raise InputError("out", str(out), "a directory path (a Parquet dataset), not a file")
     if out.is_dir() and any(out.iterdir()):
@@ -556,13 +560,11 @@ def check_output(spec: SweepSpec, out: Path, *, resume: bool, overwrite: bool) -
 def prepare_output(spec: SweepSpec, out: Path, *, resume: bool, overwrite: bool) -> None:
     """Create ``out`` or check it belongs to the same sweep (``resume``), then write the
     manifest (status ``running``); see :func:`check_output` for the errors."""
-    import shutil
-
     out = Path(out)
     check_output(spec, out, resume=resume, overwrite=overwrite)
     try:
         if overwrite and (out / MANIFEST).is_file():
-            shutil.rmtree(out)
+            remove_sweep_files(out)
         out.mkdir(parents=True, exist_ok=True)
         for stale in out.glob(f".part-*{TEMP_TAG}*"):   # left by a killed writer
             stale.unlink(missing_ok=True)
@@ -571,6 +573,15 @@ def prepare_output(spec: SweepSpec, out: Path, *, resume: bool, overwrite: bool)
 
         raise OutputError(out, reason(exc)) from None
     _write_manifest(spec, out, "running")
+
+
+def remove_sweep_files(out: Path) -> None:
+    """Remove what a sweep writes into ``out`` (chunks, manifest, summary, temporaries),
+    nothing else: files a user added stay."""
+    for p in [*out.glob("part-*.parquet"), out / MANIFEST, out / SUMMARY,
+              *out.glob(f".part-*{TEMP_TAG}*"), *out.glob(f".{MANIFEST}*"),
+              *out.glob(f".{SUMMARY}*")]:
+        p.unlink(missing_ok=True)
 
 
 def _remove_new_sweep(out: Path) -> None:
@@ -595,13 +606,13 @@ def _spec_diff(a: dict[str, Any], b: dict[str, Any]) -> list[str]:
     return out
 
 
-def read_sweep(out: Path, columns: Iterable[str] | None = None):
+def read_sweep(out: Path | str, columns: Iterable[str] | None = None):
     """The sweep dataset in ``out`` as one Arrow table sorted by ``point``."""
     import pyarrow.parquet as pq
 
-    parts = sorted(Path(out).glob("part-*.parquet"))
+    parts = sorted(Path(out).glob("part-*.parquet")) if os.fspath(out).strip() else []
     if not parts:
-        raise InputError("--out", str(out), "a directory holding sweep results")
+        raise InputError("out", str(out), "a directory holding sweep results")
     cols = None if columns is None else list(dict.fromkeys(["point", *columns]))
     import pyarrow as pa
 
@@ -635,17 +646,38 @@ class SweepResult:
 
 
 class SweepInterrupted(KeyboardInterrupt):
-    """Ctrl-C during a sweep; finished chunks are kept (``done`` of ``total``)."""
+    """Ctrl-C (or SIGTERM: ``terminated``) during a sweep; finished chunks are kept
+    (``done`` of ``total``)."""
 
-    def __init__(self, out: Path, done: int, total: int):
+    def __init__(self, out: Path, done: int, total: int, terminated: bool = False):
         self.out, self.done, self.total = out, done, total
-        super().__init__(f"interrupted: {done} of {total} chunks are on disk in {out}; "
-                         "rerun the same command with --resume to finish")
+        self.terminated = terminated
+        super().__init__(f"{'terminated' if terminated else 'interrupted'}: {done} of "
+                         f"{total} chunks are on disk in {out}; rerun the same command with "
+                         "--resume to finish")
 
 
-def _local_cluster(workers: int):
+@contextlib.contextmanager
+def _uninterrupted():
+    """Ctrl-C and SIGTERM ignored meanwhile (in the main thread): closing the workers is
+    not cut short by a second Ctrl-C, which would leave them and their files behind."""
+    if not _main_thread():
+        yield
+        return
+    previous = {sig: signal.signal(sig, signal.SIG_IGN) for sig in (signal.SIGINT,
+                                                                    signal.SIGTERM)}
+    try:
+        yield
+    finally:
+        for sig, handler in previous.items():
+            signal.signal(sig, handler)
+
+
+def _local_cluster(workers: int, scratch: str | None = None):
     """One single-threaded worker process per core (dashboard, profiler off), forked from
-    a warm template where the platform allows (:func:`_start_worker_template`).
+    a warm template where the platform allows (:func:`_start_worker_template`), with their
+    files in ``scratch`` (default: Dask's ``dask-scratch-space`` in the temporary directory,
+    which Dask leaves behind).
 
     Dask's nanny sets ``MALLOC_TRIM_THRESHOLD_=65536`` in its workers (to return
     memory to the OS); with the margin kernel's many short-lived arrays of a few MB
@@ -681,7 +713,8 @@ def _local_cluster(workers: int):
                               "distributed.admin.system-monitor.gil.enabled": False,
                               "distributed.worker.memory.monitor-interval": "1s",
                               "distributed.admin.tick.interval": "1s",
-                              "distributed.admin.system-monitor.interval": "2s"}):
+                              "distributed.admin.system-monitor.interval": "2s",
+                              **({} if scratch is None else {"temporary-directory": scratch})}):
             cluster = LocalCluster(n_workers=workers, threads_per_worker=1, processes=True,
                                    dashboard_address=None, silence_logs=logging.CRITICAL,
                                    preload=["seactl._sweep_worker"])
@@ -780,6 +813,8 @@ def run_sweep(spec: SweepSpec, out: Path | str, *, resume: bool = False,
     complete; on Ctrl-C the pending ones are cancelled and
     :class:`SweepInterrupted` is raised, every written chunk staying on disk.
     """
+    if not os.fspath(out).strip():
+        raise InputError("out", os.fspath(out), "a directory path")
     out = Path(out)
     if workers is not None and workers < 0:
         raise InputError("workers", workers, ">= 0 (0: in this process)")
@@ -831,7 +866,7 @@ def _run(spec: SweepSpec, out: Path, workers: int | None, client: Any, own_clien
     import contextlib
 
     todo = missing_chunks(spec, out)
-    own_cluster = None
+    own_cluster = scratch = None
     t0, c0 = time.perf_counter(), time.process_time()
     peak = 0.0
     done = spec.n_chunks - len(todo)
@@ -868,17 +903,21 @@ def _run(spec: SweepSpec, out: Path, workers: int | None, client: Any, own_clien
                 from distributed import Client
 
                 if client is None:
-                    own_cluster = _local_cluster(workers or os.cpu_count() or 1)
+                    scratch = tempfile.mkdtemp(prefix="seactl-sweep-")
+                    own_cluster = _local_cluster(workers or os.cpu_count() or 1, scratch)
                     own_client = client = Client(own_cluster)
                 n_workers = len(client.scheduler_info(n_workers=-1)["workers"])
                 _on_dask(spec, out, todo, client, finish, n_workers)
-    except KeyboardInterrupt:
+    except KeyboardInterrupt as exc:
         have = spec.n_chunks - len(missing_chunks(spec, out))
-        raise SweepInterrupted(out, have, spec.n_chunks) from None
+        raise SweepInterrupted(out, have, spec.n_chunks, isinstance(exc, Terminated)) from None
     finally:
-        if own_cluster is not None:
-            own_client.close()
-            own_cluster.close()
+        with _uninterrupted():
+            if own_cluster is not None:
+                own_client.close()
+                own_cluster.close()
+            if scratch is not None:   # the workers' files (removed after they stopped)
+                shutil.rmtree(scratch, ignore_errors=True)
     summary = summarize(spec, out, parts)
     seconds, parent_cpu = time.perf_counter() - t0, time.process_time() - c0
     summary["run"] = {"chunks_computed": computed, "seconds": round(seconds, 3),
@@ -887,7 +926,7 @@ def _run(spec: SweepSpec, out: Path, workers: int | None, client: Any, own_clien
                       "parent_cpu_seconds": round(parent_cpu, 3)}
     from .outputs import write_atomic
 
-    write_atomic(out / "_summary.json", json.dumps(summary, indent=2) + "\n")
+    write_atomic(out / SUMMARY, json.dumps(summary, indent=2) + "\n")
     _write_manifest(spec, out, "complete")
     return SweepResult(out, spec.hash, spec.n_points, spec.n_chunks, computed, points, seconds,
                        n_workers, peak, cpu, summary, parent_cpu_seconds=parent_cpu)

@@ -25,7 +25,7 @@ from ._results import (
     json_value,
 )
 from ._validate import finite_array
-from .api import delays_from_ms, resolve_actuator
+from .api import check_batch, delays_from_ms, resolve_actuator
 from .errors import InputError
 from .runtime import run_doc
 
@@ -87,6 +87,8 @@ class RigidBatch:
         def pick(x: Any) -> Any:
             return None if x is None else np.broadcast_to(np.asarray(x, float), shape)[idx]
 
+        if np.size(pick(self.fn_hz)) == 0:
+            raise InputError("index", idx, "a selection of at least one design")
         g = self.rigid.gains
         sub = replace(self.rigid, gains=RigidGains(pick(g.K), pick(g.B)),
                       T_s=pick(self.rigid.T_s), T_d=pick(self.rigid.T_d),
@@ -149,9 +151,13 @@ class RigidBatch:
         True
         """
         from ._results import RootsResult
+        from .limits import check_roots
         from .rigid import RIGID_DIAGRAM
         from .roots import characteristic_roots
 
+        r = self.rigid
+        check_roots(int(np.prod(self.shape)), count,
+                    any(np.any(np.asarray(x) > 0) for x in (r.T_s, r.T_d)))
         return RootsResult(characteristic_roots(RIGID_DIAGRAM, self.rigid, count=count),
                            {"fn_hz": self.fn_hz})
 
@@ -454,6 +460,7 @@ def rigid(fn_hz: Any, *, actuator: Any = "ut-linear", delays_ms: Sequence[Any] =
     act = resolve_actuator(actuator, load_rigid, RigidParams)
     fn = finite_array("fn_hz [Hz]", fn_hz, minimum=0.0, strict=True, nonempty=True)
     t_s, t_d = delays_from_ms(delays_ms, ("T_s", "T_d"))
+    check_batch(fn_hz=fn, delays_ms=(np.asarray(t_s) * 1e3, np.asarray(t_d) * 1e3))
     d = RigidDesign.from_fn(act, fn, T_s=t_s, T_d=t_d, f_v=velocity_filter_hz,
                             passive_damping=passive_damping)
     if 0 in d.shape:
@@ -603,6 +610,8 @@ def latency_map(fn_hz: float, stiffness_delays_ms: Any, damping_delays_ms: Any, 
     model = loop_model(kind, actuator, torque_delay_ms=torque_delay_ms, filters_hz=filters_hz)
     ts = delays_from_ms((stiffness_delays_ms,), ("stiffness delay",))[0]
     td = delays_from_ms((damping_delays_ms,), ("damping delay",))[0]
+    check_batch(stiffness_delays_ms=ts.ravel() * 1e3,
+                damping_delays_ms=td.ravel()[:, None] * 1e3)
     from .latency import latency_map as compute
 
     return LatencyMapResult(compute(model, float(fn_hz), np.ravel(ts), np.ravel(td)))
@@ -778,7 +787,7 @@ def read_sweep(out: str | Path, columns: Sequence[str] | None = None) -> Any:
     """
     from .sweep import read_sweep as read
 
-    return read(Path(out), columns)
+    return read(out, columns)
 
 
 # ------------------------------------------------------------------ mobile base

@@ -31,6 +31,7 @@ from typing import Any
 import numpy as np
 
 from .errors import InputError
+from .outputs import note_input, reason
 
 QUANTILE = 0.999
 """Default quantile taken as the upper end of an unbounded latency or loss-burst
@@ -145,43 +146,83 @@ class Empirical:
         return float(v[order][np.searchsorted(c, q * c[-1] * (1 - 1e-12))])
 
     @classmethod
-    def from_csv(cls, path: str | Path) -> Empirical:
+    def from_csv(cls, path: str | Path, field: str = "latency CSV") -> Empirical:
         """Read measured latencies [ms]: one column (one sample per row) or two
-        (``latency_ms, count``: a histogram); a non-numeric first row is a header."""
-        rows = _read_rows(Path(path))
-        ncol = {len(r) for r in rows}
-        if ncol not in ({1}, {2}):
-            raise InputError("latency CSV", str(path), "one column (latency_ms) or two "
-                             "(latency_ms, count) in every row")
-        vals = np.array([r[0] for r in rows])
-        cnt = np.array([r[1] for r in rows]) if ncol == {2} else np.ones(vals.size)
+        (``latency_ms, count``: a histogram).  A first row that is not numbers is a header
+        and names the columns (:data:`TRACE_COLUMNS`; ``latency_ms`` required); ``field``
+        names the argument in errors."""
+        vals, cnt = read_trace(Path(path), field)
         if np.any(vals < 0) or np.any(vals > 1000) or np.any(cnt < 0) or cnt.sum() <= 0:
-            raise InputError("latency CSV", str(path), "latencies in [0, 1000] ms and "
-                             "counts >= 0 with a positive total")
+            raise InputError(field, str(path), "latencies in [0, 1000] ms and counts >= 0 "
+                             "with a positive total")
         uniq, inv = np.unique(vals, return_inverse=True)
         w = np.bincount(inv, weights=cnt)
         keep = w > 0
         return cls(tuple(uniq[keep] * 1e-3), tuple(w[keep]), str(path))
 
 
-def _read_rows(path: Path) -> list[list[float]]:
+TRACE_COLUMNS = ("latency_ms", "count")
+"""Columns a latency trace's header may name (``count``: a histogram's weights)."""
+
+
+def _trace_text(path: Path, field: str) -> str:
     if not path.is_file():
-        raise InputError("latency CSV", str(path), "an existing file")
-    rows: list[list[float]] = []
-    with path.open(newline="") as fh:
-        for i, raw in enumerate(csv.reader(fh)):
-            cells = [c.strip() for c in raw if c.strip()]
-            if not cells:
-                continue
-            try:
-                rows.append([float(c) for c in cells])
-            except ValueError:
-                if i == 0:
-                    continue  # header
-                raise InputError("latency CSV", f"{path}:{i + 1}", "numbers") from None
-    if not rows:
-        raise InputError("latency CSV", str(path), "at least one latency")
-    return rows
+        raise InputError(field, str(path), "an existing file")
+    note_input(path)
+    try:
+        data = path.read_bytes()
+    except OSError as exc:
+        raise InputError(field, str(path), f"a readable file ({reason(exc)})") from None
+    try:
+        if b"\0" in data:
+            raise UnicodeDecodeError("utf-8", data, 0, 1, "NUL byte")
+        return data.decode("utf-8-sig")
+    except UnicodeDecodeError:
+        raise InputError(field, str(path), "a UTF-8 text file (CSV); this file is binary "
+                         "or UTF-16") from None
+
+
+def _columns(path: Path, field: str, header: list[str]) -> list[int]:
+    """Positions of ``latency_ms`` and (if named) ``count`` in ``header``."""
+    names = [h.lower() for h in header]
+    if "latency_ms" not in names or len(set(names)) != len(names) \
+            or not set(names) <= set(TRACE_COLUMNS):
+        raise InputError(field, f"{path}: header {','.join(header)}", "a header naming "
+                         "the column latency_ms and optionally count (nothing else)")
+    return [names.index(c) for c in TRACE_COLUMNS if c in names]
+
+
+def read_trace(path: Path, field: str = "latency CSV") -> tuple[np.ndarray, np.ndarray]:
+    """(latencies [ms], counts) of a trace file (:meth:`Empirical.from_csv`); every value
+    finite, every row with the same columns."""
+    rows = [(i + 1, cells) for i, raw in enumerate(csv.reader(_trace_text(path, field)
+                                                              .splitlines()))
+            if (cells := [c.strip() for c in raw if c.strip()])]
+    cols: list[int] | None = None
+    if rows:
+        try:
+            [float(c) for c in rows[0][1]]
+        except ValueError:
+            cols = _columns(path, field, rows[0][1])
+            width = len(rows[0][1])
+            rows = rows[1:]
+    if cols is None:
+        width = len(rows[0][1]) if rows else 1
+        cols = list(range(width)) if width <= 2 else []
+    if not rows or not cols:
+        raise InputError(field, str(path), "one column (latency_ms) or two (latency_ms, "
+                         "count), with at least one latency")
+    table = np.empty((len(rows), len(cols)))
+    for k, (line, cells) in enumerate(rows):
+        try:
+            if len(cells) != width:
+                raise ValueError
+            table[k] = [float(cells[c]) for c in cols]
+        except ValueError:
+            raise InputError(field, f"{path}:{line}", f"{width} number(s) per row") from None
+        if not np.all(np.isfinite(table[k])):
+            raise InputError(field, f"{path}:{line}", "finite numbers (no NaN or inf)")
+    return table[:, 0], (table[:, 1] if len(cols) == 2 else np.ones(len(rows)))
 
 
 # ----------------------------------------------------------------------------- loss
@@ -301,7 +342,7 @@ def parse_latency(text: str, field: str = "latency") -> Any:
     kind = kind.lower()
     valid = "MS, const:MS, uniform:LOW:HIGH, exp:SHIFT:MEAN (ms) or hist:FILE.csv"
     if kind in ("hist", "csv", "empirical"):
-        model = Empirical.from_csv(rest)
+        model = Empirical.from_csv(rest, field)
     elif kind in ("const", "constant") or not rest:
         v = _numbers(field, text, [rest if rest else kind], 1, 1, valid)
         model = Constant(v[0] * 1e-3)

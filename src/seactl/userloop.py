@@ -37,6 +37,7 @@ from .loopfile import (
     parse_expr,
 )
 from .margins import Margins, loop_margins
+from .outputs import note_input
 from .runtime import run_doc
 
 _BUILDER = "<builder>"
@@ -435,6 +436,7 @@ def load_loop(path: str | Path, **values: Any) -> UserLoop:
     p = Path(path)
     if not p.is_file():
         raise LoopFileError(str(path), "file", None, "an existing .toml loop file")
+    note_input(p)
     try:
         if p.stat().st_size > MAX_LOOP_FILE_BYTES:
             raise LoopFileError(str(path), "file", None, f"a loop file of at most "

@@ -279,6 +279,15 @@ def echo_json(obj: Any) -> None:
 
 
 # ------------------------------------------------------------------ commands
+class Interrupted(Exception):
+    """Ctrl-C or SIGTERM (``interrupt``, a ``KeyboardInterrupt``) during a command, carried
+    to :func:`seactl.cli.main` as is."""
+
+    def __init__(self, interrupt: KeyboardInterrupt):
+        super().__init__(str(interrupt))
+        self.interrupt = interrupt
+
+
 class _Command(click.Command):
     """A command whose library errors are re-worded for the command line: an
     :class:`InputError` naming a parameter (``t_qs_ms``, ``out``) names the flag the user
@@ -287,6 +296,8 @@ class _Command(click.Command):
     def invoke(self, ctx: click.Context) -> Any:
         try:
             return super().invoke(ctx)
+        except KeyboardInterrupt as exc:   # past click's handler (it prints a blank line)
+            raise Interrupted(exc) from exc
         except InputError as exc:
             flag = flag_for(ctx.command, exc.field)
             if flag is not None:
@@ -298,6 +309,7 @@ class _Command(click.Command):
 def flag_for(command: click.Command, field: str) -> str | None:
     """The flag (with the axis unit, if any) of ``command`` whose parameter is ``field``."""
     name = str(field).split(" [")[0]
+    name = {"z_freqs_hz": "z_freq", "duration_s": "duration"}.get(name, name)  # API names
     for param in command.params:
         if isinstance(param, click.Option) and param.name == name:
             unit = AXES[name].unit if name in AXES else ""

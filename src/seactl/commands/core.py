@@ -10,6 +10,7 @@ import numpy as np
 from rich.markup import escape
 from rich.table import Table
 
+from ..errors import InputError
 from ._common import (
     SAMPLED_KEYS,
     DesignSpec,
@@ -122,6 +123,8 @@ def reproduce(out: str, only: tuple[str, ...], jobs: int | None) -> None:
     """Regenerate every table, figure and numeric claim of the paper into a report."""
     from ..paper import reproduce as run
 
+    if not out.strip():   # (Path("") is the working directory)
+        raise InputError("--out", out, "a directory name")
     summary = run(Path(out), only=only or None, console=err_console, jobs=jobs)
     counts = {s: sum(1 for c in summary if c["status"] == s) for s in ("pass", "fail", "info")}
     console.print(f"report: {Path(out) / 'index.html'}  claims: {counts['pass']} pass, "

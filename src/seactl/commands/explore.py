@@ -39,7 +39,10 @@ def explore(host: str, port: int, no_browser: bool, allow_remote: bool) -> None:
     \b
     Needs the app extra:  pip install "seactl[app]"
     """
+    from ..explore.server import check_port_free
+
     check_address(host, port, allow_remote)
+    check_port_free(host, port)
     try:
         import bokeh  # noqa: F401
     except ImportError:

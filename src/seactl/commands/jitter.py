@@ -57,7 +57,7 @@ def parse_traces(tokens: tuple[str, ...]) -> dict[str, Any]:
         if not sep or link.strip() not in LINKS:
             raise InputError("--trace", tok, "LINK=FILE.csv with LINK one of "
                              + ", ".join(LINKS))
-        out[link.strip()] = Empirical.from_csv(path.strip())
+        out[link.strip()] = Empirical.from_csv(path.strip(), f"--trace {link.strip()}")
     return out
 
 

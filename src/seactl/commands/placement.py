@@ -483,7 +483,14 @@ def place(high_latency, low_latency, actuator, min_pm, latency_margin, f_v,
 
     if loop is not None:
         return loop_place(loop, as_json)
+    for opt, latency, timing_opt in (("--high-latency", high_latency, high_timing),
+                                     ("--low-latency", low_latency, low_timing)):
+        if latency is not None and timing_opt is not None:
+            raise InputError(opt, latency, f"given without {opt[:-8]}-timing (the smallest "
+                             f"latency of {opt[:-8]}-timing is the one analysed)")
     timing = _process_timing(high_timing, low_timing, high_loss, low_loss, rate_hz)
+    if timing and runs:
+        _check_monte_carlo(timing, runs)
     hi = _ms("--high-latency", 22.0 if high_latency is None else high_latency)
     lo = _ms("--low-latency", 0.5 if low_latency is None else low_latency)
     if not 0 <= min_pm < 180:
@@ -522,6 +529,23 @@ def _process_timing(high_timing, low_timing, high_loss, low_loss, rate_hz):
     return out or None
 
 
+def _check_monte_carlo(timing, runs: int) -> None:
+    """Refuse up front a Monte Carlo check (every placement, :data:`MC_SECONDS` simulated
+    at the fastest process rate) larger than the machine's memory or the time budget."""
+    from ..limits import check_budget, simulation_estimate
+    from ..placement import PLACEMENTS
+
+    steps = MC_SECONDS * max([1000.0, *(t.rate_hz for t in timing.values())])
+    n_bytes, seconds = simulation_estimate(runs, steps, steps)
+    check_budget(f"the Monte Carlo check ({runs:,} runs of each of {len(PLACEMENTS)} "
+                 "placements)", n_bytes=n_bytes, seconds=len(PLACEMENTS) * seconds,
+                 hint="lower --runs")
+
+
+MC_SECONDS = 1.0
+"""Simulated time of each Monte Carlo run [s] (:func:`seactl.timing.verify_placement`)."""
+
+
 def _monte_carlo_checks(model, advice, timing, runs, seed) -> dict[str, Any]:
     if not timing or runs == 0:
         return {}
@@ -529,7 +553,7 @@ def _monte_carlo_checks(model, advice, timing, runs, seed) -> dict[str, Any]:
 
     out = {}
     for o in advice.options:
-        mc = verify_placement(model, o, timing, runs=runs, seed=seed)
+        mc = verify_placement(model, o, timing, runs=runs, seed=seed, t_end_s=MC_SECONDS)
         if mc is not None:
             out[o.placement] = {"runs": runs, "seed": seed,
                                 "fraction_stable": float(mc.fraction_stable),

@@ -43,7 +43,8 @@ def _float(name: str, text: str, lo: float, hi: float) -> float:
               help="Latency added to the high-level -> embedded link [ms].")
 @click.option("--loss", default="0", show_default=True,
               help="Probability of losing a high-level -> embedded message.")
-@click.option("--seed", default=0, show_default=True, type=int, help="Seed of the loss.")
+@click.option("--seed", default=0, show_default=True, type=click.IntRange(min=0),
+              help="Seed of the loss (an integer >= 0).")
 @click.option("--transport", type=click.Choice(["zenoh", "udp"]), default="zenoh",
               show_default=True, help="Message transport (loopback only).")
 @click.option("--out", default=None, type=click.Path(file_okay=False),

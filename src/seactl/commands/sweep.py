@@ -261,7 +261,7 @@ def _run(spec, out: str, resume: bool, overwrite: bool, workers, scheduler, quie
     except SweepInterrupted as exc:
         err_console.print(f"[yellow]{escape(str(exc))}[/yellow]", highlight=False,
                           soft_wrap=True)
-        raise click.exceptions.Exit(130) from None
+        raise click.exceptions.Exit(143 if exc.terminated else 130) from None
 
 
 LOOP_SWEEP_OPTIONS = frozenset({"loop_file", "sets", "sampling", "n_samples", "seed",

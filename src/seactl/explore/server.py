@@ -27,9 +27,30 @@ def url(host: str, port: int) -> str:
     return f"http://{'[' + h + ']' if ':' in h else h}:{port}/"
 
 
+def check_port_free(host: str, port: int) -> None:
+    """Refuse (:class:`InputError` naming ``--port``) a port another program listens on,
+    by binding it as the server will (``SO_REUSEADDR``): before anything slow is loaded."""
+    import socket
+
+    try:
+        infos = socket.getaddrinfo(host.strip("[]"), port, type=socket.SOCK_STREAM,
+                                   flags=socket.AI_PASSIVE)
+    except OSError as exc:
+        raise InputError("--host", host, f"an address of this machine ({exc})") from None
+    for family, kind, proto, _, address in infos:
+        with socket.socket(family, kind, proto) as probe:
+            probe.setsockopt(socket.SOL_SOCKET, socket.SO_REUSEADDR, 1)
+            try:
+                probe.bind(address)
+            except OSError as exc:
+                raise InputError("--port", port, f"a free port on {host} "
+                                 f"({exc.strerror})") from None
+
+
 def serve(host: str, port: int, *, open_browser: bool = True,
           announce: Callable[[str], None] = print) -> None:
-    """Bind, warm the caches, then serve until interrupted (Ctrl+C or SIGTERM).
+    """Bind, warm the caches, then serve until interrupted (Ctrl+C or SIGTERM: the
+    ``KeyboardInterrupt`` propagates once the server is stopped).
 
     Websocket connections are accepted only from pages served under ``host:port``
     (and ``localhost:port`` on a loopback address), Bokeh's cross-origin check.
@@ -54,8 +75,6 @@ def serve(host: str, port: int, *, open_browser: bool = True,
     if open_browser:
         server.io_loop.add_callback(webbrowser.open, url(host, port))
     try:
-        server.io_loop.start()
-    except KeyboardInterrupt:
-        pass
+        server.io_loop.start()   # until Ctrl-C or SIGTERM (the caller's exit status)
     finally:
         server.stop()
