@@ -453,13 +453,13 @@ def test_conflicts_and_degenerate_runs_are_refused(argv, needle, capsys):
 
 
 @pytest.mark.parametrize("call, field", [
-    (lambda sc: sc.design([]), "fn_hz"),
+    (lambda sc: sc.design([]), "fn_hz [Hz]"),
     (lambda sc: sc.design(14, gs=[]), "gs"),
     (lambda sc: sc.design([14, 15], gs=[1, 2, 3]), "gs"),
     (lambda sc: sc.design("abc"), "fn_hz [Hz]"),
     (lambda sc: sc.design([14, 15])[0:0], "index"),
-    (lambda sc: sc.rigid([]), "fn_hz"),
-    (lambda sc: sc.latency_map(14, [], [1]), "stiffness_delays_ms"),
+    (lambda sc: sc.rigid([]), "fn_hz [Hz]"),
+    (lambda sc: sc.latency_map(14, [], [1]), "stiffness_delays [ms]"),
     (lambda sc: sc.rightmost_roots("ut-sea"), "system"),
     (lambda sc: sc.feasible_fn_range("nosuch"), "actuator"),
     (lambda sc: sc.read_sweep(""), "out"),

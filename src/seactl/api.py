@@ -116,6 +116,11 @@ def check_batch(**arguments: Any) -> tuple[int, ...]:
     for name, value in arguments.items():
         parts = value if isinstance(value, tuple) else (value,)
         for part in (v for v in parts if v is not None):
+            try:
+                part = np.asarray(part, dtype=float)
+            except (TypeError, ValueError):
+                raise InputError(name, _plain(value), "a number or an array of numbers "
+                                 "(not ragged)") from None
             if np.size(part) == 0:
                 raise InputError(name, _plain(value), "at least one value (a batch of "
                                  "designs is never empty)")

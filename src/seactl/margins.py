@@ -500,9 +500,10 @@ def _check_grid_budget(count: np.ndarray, tau_max: np.ndarray, top: np.ndarray) 
     (:func:`seactl.limits.check_budget`; its points are made as it goes, so memory does
     not grow with them): a long delay turns the phase once per ``2 pi / tau`` up to the
     scan's radius, which a very fast pole (a filter's cut-off at MHz) puts far out."""
+    count = np.where(np.isnan(top), 0.0, count)  # no grid: not scanned, uncertain
     total = float(count.sum())
     i = int(np.argmax(count))
-    if not np.isfinite(top[i]):
+    if not (np.isfinite(top[i]) and np.isfinite(count[i])):
         raise ResourceError("the certified margin scan has no finite frequency range: the "
                             "loop's characteristic polynomial has coefficients that overflow "
                             "or vanish in double precision (so no bound on its roots); give "

@@ -608,8 +608,8 @@ def latency_map(fn_hz: float, stiffness_delays_ms: Any, damping_delays_ms: Any, 
     [[True, False], [True, False]]
     """
     model = loop_model(kind, actuator, torque_delay_ms=torque_delay_ms, filters_hz=filters_hz)
-    ts = delays_from_ms((stiffness_delays_ms,), ("stiffness delay",))[0]
-    td = delays_from_ms((damping_delays_ms,), ("damping delay",))[0]
+    ts = delays_from_ms((stiffness_delays_ms,), ("stiffness_delays",))[0]
+    td = delays_from_ms((damping_delays_ms,), ("damping_delays",))[0]
     check_batch(stiffness_delays_ms=ts.ravel() * 1e3,
                 damping_delays_ms=td.ravel()[:, None] * 1e3)
     from .latency import latency_map as compute
