@@ -297,6 +297,7 @@ def brute_force(model, high, low, min_pm, margin, grid):
     return best
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("high,low,min_pm,margin", [(22e-3, 0.5e-3, 45.0, 0.5),
                                                     (5e-3, 1e-3, 30.0, 0.0)])
 def test_advisor_matches_brute_force(high, low, min_pm, margin):
@@ -318,6 +319,7 @@ def test_advisor_matches_brute_force(high, low, min_pm, margin):
         (rec.fn_hz / cen.fn_hz) ** 2, rel=1e-6)   # K = m w_n^2
 
 
+@pytest.mark.slow
 def test_advisor_sea_reports_none_when_nothing_qualifies():
     # Oracle: brute_force on a geometric f_n grid.
     model = sea_model()

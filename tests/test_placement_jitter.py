@@ -38,6 +38,7 @@ def test_deterministic_timing_changes_nothing():
         assert o.fn_hz == pytest.approx(r.fn_hz, rel=1e-12)
 
 
+@pytest.mark.slow
 def test_jitter_lowers_fn_to_the_binding_margin_and_monte_carlo_agrees():
     m = rigid_model()
     timing = {"high-level": ProcessTiming(ShiftedExponential(7e-3, 3e-3)),
@@ -62,6 +63,7 @@ def test_jitter_lowers_fn_to_the_binding_margin_and_monte_carlo_agrees():
     assert float(mc.fraction_stable) == 1.0
 
 
+@pytest.mark.slow
 def test_public_place_and_cli(capsys, tmp_path):
     timing = {"embedded": ProcessTiming(Uniform(0.5e-3, 1.5e-3))}
     assert sc.place(22, 0.5, timing=timing).recommended == "distributed"
@@ -77,6 +79,7 @@ def test_public_place_and_cli(capsys, tmp_path):
     assert main(["place", "--high-timing", "uniform:5"]) == 2
 
 
+@pytest.mark.slow
 def test_timing_path_uses_the_same_monotone_score():
     # Oracle: the score's definition: the same jitter on a longer nominal latency gives a
     # box that contains the shorter one's, so no placement's score may rise (bisection

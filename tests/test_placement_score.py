@@ -53,6 +53,7 @@ def score_by_definition(model, lat, min_pm, margin, fn_grid):
     return None if k == 0 else fn_grid[k - 1], fn_grid[k]
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("lat,margin", [({"T_s": 5e-3, "T_d": 1e-3}, 0.5),
                                         ({"T_s": 22e-3, "T_d": 0.5e-3}, 0.0),
                                         ({"T_s": 2e-3, "T_d": 8e-3}, 1.0)])
@@ -68,6 +69,7 @@ def test_score_matches_its_definition_rigid(lat, margin):
     assert r.limit["constraint"] in ("unstable", "phase margin")
 
 
+@pytest.mark.slow
 def test_score_matches_its_definition_sea():
     # Oracle: score_by_definition on a dense geometric f_n grid (0.2 % steps).
     model = sea_model()
@@ -83,6 +85,7 @@ def _score(model, lat, margin=0.5):
     return -np.inf if r.status == "none" else r.fn_hz
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("seed", range(4))
 def test_a_longer_latency_never_raises_the_score(seed):
     # Oracle: the definition's monotonicity (the box of latencies only grows), checked on
