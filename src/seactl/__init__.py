@@ -21,6 +21,7 @@ import types
 # seactl`` and the command line's start-up stay fast; ``seactl.design`` etc. resolve to the
 # functions even though submodules of the same names exist (see _Namespace).
 _PUBLIC = {
+    ".system": ("System",),
     ".api": ("design", "Design", "UnitWarning", "rightmost_roots"),
     ".actuators": ("SEAParams", "UT_SEA", "load_sea"),
     ".design": ("feasible_fn_range",),
@@ -35,6 +36,8 @@ _PUBLIC = {
 _HOME = {name: module for module, names in _PUBLIC.items() for name in names}
 
 __all__ = [
+    # the one system type
+    "System",
     # SEA designs
     "design", "Design", "SEAParams", "UT_SEA", "load_sea", "feasible_fn_range",
     "MarginsResult", "SampledMarginsResult", "ImpedanceResult", "ResponseResult",
