@@ -802,7 +802,7 @@ def horner_row(c, r, x):  # pragma: no cover - compiled
 def cauchy_newton(c, x):  # pragma: no cover - compiled
     """Per design (row of ``c``, ascending powers), the smallest of 8 Newton iterates from
     ``x`` on ``-sum_j c_j w^j`` (by Horner) where it is positive
-    (:func:`seactl.margins.cauchy_bound`; one compiled pass instead of some hundred numpy
+    (:func:`seactl._cauchy.cauchy_bound`; one compiled pass instead of some hundred numpy
     operations, a ninth of a lone design's margins)."""
     best = x.copy()
     for d in range(x.size):

@@ -7,7 +7,7 @@ module proves ``w |N| / |Delta| <= P (1 + EPS)`` for every ``w >= 0``, raising `
 it meets a larger value:
 
 * beyond ``R`` the leading term of ``Delta`` dominates ``Delta``'s other terms and
-  ``w |N| / P`` together (a Cauchy bound, :func:`seactl.margins.cauchy_bound`; it needs
+  ``w |N| / P`` together (a Cauchy bound, :func:`seactl._cauchy.cauchy_bound`; it needs
   ``w N`` of lower degree than ``Delta``);
 * on each interval ``[wa, wb]`` of ``[0, R]``, ``sup |N| <= max(|N(wa)|, |N(wb)|) + h^2/8
   sup |N''|`` (``N`` stays that close to its chord) or the first-order bound from
@@ -26,6 +26,7 @@ import math
 import numpy as np
 from numba import njit
 
+from ._cauchy import cauchy_bound
 from ._certify import compact, derivatives, horner_row, np_maximum, np_minimum
 from ._parallel import chunk_size, map_in_threads
 from ._realpart import bisect
@@ -137,7 +138,6 @@ def _tail_radius(N: QuasiPolynomial, Delta: QuasiPolynomial, peak: np.ndarray
     times the limit ``c = b / |a_n|`` (``b``: ``N``'s coefficients of ``s^(n-1)``):
     ``(P |a_n| - b) w^n`` dominates the rest (Cauchy bound).  ``R`` is inf where ``w N``
     has a higher degree (``w |T|`` unbounded)."""
-    from .margins import cauchy_bound
 
     n, rows = Delta.degree, np.arange(peak.size)
     deg = np.maximum(N.degree, N.delayed_degree) + 1
