@@ -19,7 +19,8 @@ from .constants import TABLE_I, TABLE_I_DECIMALS, TABLE_I_TIMING
 def table_i_designs() -> Design:
     """The designs of Table I, through the public API (as a user would build them)."""
     t = TABLE_I_TIMING
-    return design(sorted(TABLE_I), delays_ms=(t["t_tau_ms"], t["t_qs_ms"], t["t_qd_ms"]),
+    return design(sorted(TABLE_I), delays_ms={"torque": t["t_tau_ms"], "stiffness": t["t_qs_ms"],
+                                              "damping": t["t_qd_ms"]},
                   filters_hz=(t["f_qd_hz"], t["f_taud_hz"]))
 
 
