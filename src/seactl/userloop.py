@@ -462,20 +462,23 @@ class UserLoop(System):
     @property
     def default_step(self) -> float:  # type: ignore[override]
         """The step amplitude of :meth:`step` and :meth:`run`: the file's ``[signals]
-        reference_step``, else 0.01."""
+        reference_step``, else 0.01.
+        """
         step = self.compiled.model.signals.reference_step
         return self.DEFAULT_STEP if step is None else float(step)
 
     @property
     def step_unit(self) -> str:  # type: ignore[override]
         """The unit of the step: the file's ``[signals] reference_unit``, else
-        ``"reference units"``."""
+        ``"reference units"``.
+        """
         return self.compiled.model.signals.reference_unit or "reference units"
 
     @property
     def loops(self) -> tuple[str, ...]:  # type: ignore[override]
         """The delayed blocks: the keys of the responses' requested and effective
-        delays (and the links of :meth:`monte_carlo`)."""
+        delays (and the links of :meth:`monte_carlo`).
+        """
         return tuple(b.name for b in self.diagram.blocks if b.delay is not None)
 
     # ------------------------------------------------------------ structure
@@ -1238,6 +1241,8 @@ class UserLoop(System):
 
         Parameters
         ----------
+        _t_end_s : float, optional
+            Deprecated: ``t_end_s`` given by position.
         t_end_s : float
             Simulated time [s].
         amplitude : float, optional
@@ -1283,6 +1288,8 @@ class UserLoop(System):
 
         Parameters
         ----------
+        _t_end_s : float, optional
+            Deprecated: ``t_end_s`` given by position.
         t_end_s : float
             Simulated time [s].
         amplitude : float, optional
