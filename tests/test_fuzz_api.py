@@ -308,7 +308,8 @@ def _loop_view(name, v, view, draw):
         return loop.with_latencies(embedded=v).analyze(jitter=False)
     if view == "frequency_response":
         return loop.frequency_response("x", "x_des", v)
-    return loop.step(t_end_s=draw(small()), mode=draw(st.sampled_from(["continuous", "sampled", "x"])))
+    return loop.step(t_end_s=draw(small()),
+                     mode=draw(st.sampled_from(["continuous", "sampled", "x"])))
 
 
 def _builder(method, v):

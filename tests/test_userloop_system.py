@@ -276,3 +276,40 @@ def test_sweep_writes_the_margins_of_analyze(paper, tmp_path):
     pm = lp.margins()["outer"].margins.phase_margin_deg
     np.testing.assert_allclose(np.sort(df["outer_phase_margin_deg"].to_numpy()), np.sort(pm),
                                rtol=1e-12)
+
+
+def test_results_have_records_to_dict_and_plot(paper):
+    """Every view's result: one JSON-ready record per design (per design and break for
+    margins), a to_dict() that json serializes, and a plot on given axes."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    lp = paper.with_values(Kq=[70.0, 90.0])
+    results = [lp.margins(), lp.margins(rate_hz={}), lp.jitter_margins(), lp.roots(count=2),
+               lp.step(t_end_s=0.2), lp.impulse(t_end_s=0.2), lp.impedance([1.0, 10.0])]
+    for r in results:
+        json.dumps(r.to_dict())
+        _, ax = plt.subplots()
+        assert r.plot(ax=ax) is ax
+        plt.close("all")
+        if hasattr(r, "records"):
+            rows = r.records()
+            assert len(rows) in (2, 4) and json.dumps(rows)
+    steps = results[4].records()
+    assert [r["label"] for r in steps] == ["Kq=70", "Kq=90"]
+    assert [r["verdict"] for r in steps] == ["settled", "settled"]
+
+
+def test_bad_values_raise_input_errors(paper):
+    for call in (lambda: paper.step(t_end_s=0.2, amplitude="x"),
+                 lambda: paper.step(t_end_s=0.2, amplitude=0.0),
+                 lambda: paper.step(t_end_s=0.2, rate_hz="fast"),
+                 lambda: paper.step(t_end_s=0.2, mode="analog"),
+                 lambda: paper.monte_carlo(runs=0),
+                 lambda: paper.monte_carlo(kind="ramp"),
+                 lambda: paper.roots(count=0),
+                 lambda: paper.impedance([1.0], port="knee")):
+        with pytest.raises(sc.SeactlError):
+            call()

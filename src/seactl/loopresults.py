@@ -478,6 +478,23 @@ class LoopResponseResult(ResponseResult):
                      saturated_fraction=self.info.get("saturated_fraction"),
                      right_half_plane_roots=rhp)
 
+    def records(self) -> list[dict[str, Any]]:
+        """One JSON-ready dict per design (C order): ``label``, ``stable`` (the window
+        stayed bounded and decayed), ``verdict`` and the metrics' fields.
+
+        Returns
+        -------
+        list of dict
+            A value that is not finite is ``None``.
+        """
+        shape = np.shape(self.stable)
+        metrics = {k: _flat(v, shape) for k, v in vars(self.metrics).items()}
+        verdict = self.verdict().verdict
+        stable = _flat(self.stable, shape)
+        return [{"label": label, "stable": bool(stable[i]), "verdict": verdict[i],
+                 **{k: json_value(v[i]) for k, v in metrics.items()}}
+                for i, label in enumerate(self.labels)]
+
     def to_dict(self) -> dict[str, Any]:
         """Time, the output, the current (if any) and every metric as nested lists.
 

@@ -1104,14 +1104,17 @@ class UserLoop(System):
     def _rates(self, rates_hz: Any) -> dict[str, float]:
         """Process -> rate [Hz]: the file's, overridden by a mapping, or one rate for
         every process."""
+        from .limits import check_range
+
         rates = {p: m.rate_hz for p, m in self.processes.items()}
         if rates_hz is not None and not isinstance(rates_hz, Mapping):
-            return {p: float(rates_hz) for p in rates} or rates_hz
+            rate = check_range("rate_hz", rates_hz, "rate_hz")
+            return {p: rate for p in rates} or rate
         for p, r in (rates_hz or {}).items():
             if p not in rates:
                 raise LoopFileError(self.file, "rate", p, "a declared process: "
                                     + ", ".join(rates))
-            rates[p] = float(r)
+            rates[p] = check_range(f"rate_hz[{p!r}]", r, "rate_hz")
         return rates
 
     def _io(self, which: str, input: str | None, output: str | None) -> tuple[str, str]:
@@ -1139,14 +1142,14 @@ class UserLoop(System):
         return signal if sign > 0 else None
 
     def _check_simulation(self, mode: str, rates: Mapping[str, float], t_end_s: float,
-                          record_dt: float | None) -> None:
+                          record_dt: float | None, runs: int = 1) -> None:
         from .limits import check_simulation
 
         if mode not in ("continuous", "sampled"):
             raise InputError("mode", mode, "'continuous' or 'sampled'")
         delays = [float(np.max(v)) for k, v in self.design._arrays.items()
                   if k.endswith("__T")]
-        check_simulation(int(np.prod(self.shape, dtype=int)), mode,
+        check_simulation(runs * int(np.prod(self.shape, dtype=int)), mode,
                          max(rates.values(), default=1000.0), t_end_s, delays,
                          record_dt_s=record_dt,
                          rate_name="rate_hz (the loop's fastest process)")
@@ -1158,9 +1161,7 @@ class UserLoop(System):
         from .verdict import RECOVERY_BAND
 
         step = kind == "step"
-        if not (np.isfinite(size) and size != 0):
-            raise InputError("amplitude", size, "a finite non-zero number (the loop file's "
-                             "units)")
+        size = _amplitude(size)
         inp, out = self._io("reference" if step else "disturbance", input, output)
         rates = self._rates(rate_hz)
         self._check_simulation(mode, rates, t_end_s, record_dt)
@@ -1383,11 +1384,14 @@ class UserLoop(System):
         if kind not in ("step", "impulse"):
             raise InputError("kind", kind, "'step' or 'impulse'")
         step = kind == "step"
-        t_end_s = (0.5 if step else 1.0) if t_end_s is None else float(t_end_s)
+        t_end_s = (0.5 if step else 1.0) if t_end_s is None else t_end_s
         size = self.default_step if step else self.DEFAULT_IMPULSE
         inp, out = self._io("reference" if step else "disturbance", None, None)
         rates = self._rates(rate_hz)
-        self._check_simulation("sampled", rates, t_end_s, None)
+        if isinstance(runs, bool) or not isinstance(runs, (int, np.integer)) \
+                or not 1 <= runs <= 100_000:
+            raise InputError("runs", runs, "an integer in [1, 100000]")
+        self._check_simulation("sampled", rates, t_end_s, None, int(runs))
         lat = {k: parse_latency(v, f"latency {k}") if isinstance(v, str) else v
                for k, v in (latency or {}).items()}
         los = {k: parse_loss(v, f"loss {k}") if isinstance(v, str) else v
@@ -1406,6 +1410,18 @@ class UserLoop(System):
 
 
 # ------------------------------------------------------------------ helpers
+def _amplitude(value: Any) -> float:
+    """A step or impulse size: a finite non-zero number (in the loop file's units)."""
+    try:
+        v = float(value)
+    except (TypeError, ValueError, OverflowError):
+        v = float("nan")
+    if not (np.isfinite(v) and v != 0):
+        raise InputError("amplitude", value, "a finite non-zero number (the loop file's "
+                         "units)")
+    return v
+
+
 def break_margins(compiled: CompiledLoop, design: Any, omega: np.ndarray, signal: str,
                   others: Sequence[str]) -> Margins:
     """Margins of the loop broken at ``signal`` with the ``others`` closed.
