@@ -313,3 +313,13 @@ def test_bad_values_raise_input_errors(paper):
                  lambda: paper.impedance([1.0], port="knee")):
         with pytest.raises(sc.SeactlError):
             call()
+
+
+def test_delays_by_loop_name(paper):
+    """A loop file's loops are its delayed blocks; their delays are the processes'
+    latencies the file sets (T_high = 2 ms, T_embedded = 0.5 ms)."""
+    assert paper.links == {k: k for k in paper.loops}
+    assert {k: float(v) for k, v in paper.delays_s.items()} == {
+        "Kq_fb": 2e-3, "Bq_fb": 0.5e-3, "tau_delay": 0.5e-3}
+    r = paper.impulse(t_end_s=0.2)
+    assert (r.amplitude, r.amplitude_unit) == (paper.default_impulse, paper.impulse_unit)

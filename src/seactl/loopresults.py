@@ -389,6 +389,8 @@ class LoopResponseResult(ResponseResult):
         The output signal.
     amplitude : float
         Step size, or impulse area, in the loop file's units.
+    amplitude_unit : str
+        Its unit (:attr:`seactl.UserLoop.step_unit` or ``impulse_unit``).
     t_s : ndarray
         Time [s].
     position : ndarray
@@ -409,12 +411,16 @@ class LoopResponseResult(ResponseResult):
         One legend label per design.
     right_roots : callable
         The certified count of right-half-plane roots per design (continuous mode).
+    amplitude_unit : str
+        The unit of ``amplitude``.
     """
 
-    def __init__(self, response: UserLoopResponse, labels: list[str], right_roots: Any):
+    def __init__(self, response: UserLoopResponse, labels: list[str], right_roots: Any,
+                 amplitude_unit: str = ""):
         self._inner = response
         self.labels = labels
         self._right_roots = right_roots
+        self.amplitude_unit = amplitude_unit
 
     kind = property(lambda self: self._inner.kind)
     mode = property(lambda self: self._inner.result.mode)
@@ -501,14 +507,15 @@ class LoopResponseResult(ResponseResult):
         Returns
         -------
         dict
-            ``kind``, ``mode``, ``output``, ``amplitude``, ``t_s``, ``position``,
-            ``current`` (None without a current signal), ``requested_delays_ms``,
+            ``kind``, ``mode``, ``output``, ``amplitude``, ``amplitude_unit``, ``t_s``,
+            ``position``, ``current`` (None without a current signal), ``requested_delays_ms``,
             ``effective_delays_ms`` (per delayed block), the metrics' fields and, sampled,
             ``sampled_verdict`` and ``sampled_unstable_modes``.
         """
         cur = self.current
         out = {"kind": self.kind, "mode": self.mode, "output": self.output,
-               "amplitude": self.amplitude, "t_s": json_array(self.t_s),
+               "amplitude": self.amplitude, "amplitude_unit": self.amplitude_unit,
+               "t_s": json_array(self.t_s),
                "position": json_array(self.position),
                "current": None if cur is None else json_array(cur),
                "requested_delays_ms": {k: json_array(1e3 * np.asarray(v))

@@ -450,8 +450,11 @@ class UserLoop(System):
     kind = "loop"
     DEFAULT_STEP = 0.01
     """The step of a loop file that declares no ``[signals] reference_step``."""
-    DEFAULT_IMPULSE = 0.05
-    """The impulse area of :meth:`impulse` (the file's disturbance unit times seconds)."""
+    default_impulse = 0.05
+    """The impulse area of :meth:`impulse` (the file's disturbance unit times seconds),
+    the SEA's 0.05 N m s."""
+    impulse_unit = "disturbance units x s"
+    """The unit of an impulse: the file's disturbance unit times seconds."""
 
     def __init__(self, compiled: CompiledLoop, values: Mapping[str, Any] | None = None,
                  latency_ms: Mapping[str, Any] | None = None):
@@ -480,6 +483,18 @@ class UserLoop(System):
         delays (and the links of :meth:`monte_carlo`).
         """
         return tuple(b.name for b in self.diagram.blocks if b.delay is not None)
+
+    @property
+    def links(self) -> dict[str, str]:
+        """Loop -> delayed block: a loop file's loops are its delayed blocks."""
+        return {name: name for name in self.loops}
+
+    @property
+    def delays_s(self) -> dict[str, np.ndarray]:
+        """Delayed block -> its delay [s] (batch shape)."""
+        arrays = self.design._arrays
+        return {b.name: np.broadcast_to(arrays[b.delay], self.shape)
+                for b in self.diagram.blocks if b.delay is not None}
 
     # ------------------------------------------------------------ structure
     @property
@@ -591,8 +606,20 @@ class UserLoop(System):
         return f"UserLoop(name={self.name!r}, file={self.file!r}, shape={self.shape}, " \
                f"values={ {k: np.asarray(v).tolist() for k, v in self.values.items()} })"
 
-    def _label_columns(self) -> dict[str, np.ndarray]:
-        """The variables set to several values, broadcast to the batch shape."""
+    def label_columns(self, gains: bool = True) -> dict[str, np.ndarray]:
+        """The per-design columns that label the results' records: the variables set to
+        several values.
+
+        Parameters
+        ----------
+        gains : bool
+            Unused (a loop's gains are its variables).
+
+        Returns
+        -------
+        dict
+            Name -> array of the batch shape.
+        """
         return {k: np.broadcast_to(np.asarray(v, float), self.shape)
                 for k, v in self.values.items() if np.size(v) > 1}
 
@@ -611,7 +638,7 @@ class UserLoop(System):
         >>> sc.load_loop("examples/loops/rigid.toml", fn=[8, 12]).labels()   # doctest: +SKIP
         ['fn=8', 'fn=12']
         """
-        cols = {k: np.ravel(v) for k, v in self._label_columns().items()}
+        cols = {k: np.ravel(v) for k, v in self.label_columns().items()}
         n = int(np.prod(self.shape, dtype=int))
         return [", ".join(f"{k}={v[i]:g}" for k, v in cols.items()) or self.name
                 for i in range(n)]
@@ -968,7 +995,7 @@ class UserLoop(System):
         env = {k[5:]: np.broadcast_to(v, design.shape) for k, v in design._arrays.items()
                if k.startswith("var__")}
         return LoopAnalysis(self.name, out, out[-1].margins.stable, env,
-                            self._label_columns() if design is self.design else {})
+                            self.label_columns() if design is self.design else {})
 
     def margins(self, rate_hz: Any = None) -> LoopAnalysis | LoopSampledMargins:
         """Margins at every named break: of the continuous loop (``rate_hz`` None, as
@@ -1007,7 +1034,7 @@ class UserLoop(System):
         w_ref = 100 * self._grid(self.design)[0]
         return LoopSampledMargins(self.name, {name: SampledMarginsResult(
             sampled_margins(self.diagram, self.design, sig, rates, w_ref),
-            self._label_columns()) for name, sig in self.breaks.items()})
+            self.label_columns()) for name, sig in self.breaks.items()})
 
     def jitter_margins(self) -> LoopJitterResult:
         """Jitter margins at every named break (Kao-Lincoln small-gain bound with exact
@@ -1022,7 +1049,7 @@ class UserLoop(System):
         a = self._analyze(self.design, True)
         return LoopJitterResult(self.name, {b.name: b.jitter_margin_s for b in a.breaks},
                                 {b.name: b.margins.delay_margin_s for b in a.breaks},
-                                a.stable, self._label_columns())
+                                a.stable, self.label_columns())
 
     def roots(self, count: int = 6) -> RootsResult:
         """Rightmost roots of the whole loop's characteristic quasi-polynomial (every
@@ -1056,7 +1083,7 @@ class UserLoop(System):
                       if k.endswith("__T"))
         check_roots(int(np.prod(self.shape, dtype=int)), count, delayed)
         return RootsResult(characteristic_roots(self.diagram, self.design, count=count),
-                           self._label_columns())
+                           self.label_columns())
 
     def placements(self, max_options: int = 4096) -> Placements:
         """Every assignment of the blocks whose delay is their process's latency
@@ -1141,7 +1168,7 @@ class UserLoop(System):
         sign, signal = amps[0].inputs[0]
         return signal if sign > 0 else None
 
-    def _check_simulation(self, mode: str, rates: Mapping[str, float], t_end_s: float,
+    def _check_loop_simulation(self, mode: str, rates: Mapping[str, float], t_end_s: float,
                           record_dt: float | None, runs: int = 1) -> None:
         from .limits import check_simulation
 
@@ -1154,7 +1181,7 @@ class UserLoop(System):
                          record_dt_s=record_dt,
                          rate_name="rate_hz (the loop's fastest process)")
 
-    def _response(self, kind: str, size: float, t_end_s: float, mode: str, rate_hz: Any,
+    def _loop_response(self, kind: str, size: float, t_end_s: float, mode: str, rate_hz: Any,
                   input: str | None, output: str | None, record_dt: Any,
                   band: float | None = None) -> LoopResponseResult:
         from .simulate import Impulse, Step, impulse_metrics, simulate, step_metrics
@@ -1164,7 +1191,7 @@ class UserLoop(System):
         size = _amplitude(size)
         inp, out = self._io("reference" if step else "disturbance", input, output)
         rates = self._rates(rate_hz)
-        self._check_simulation(mode, rates, t_end_s, record_dt)
+        self._check_loop_simulation(mode, rates, t_end_s, record_dt)
         cur = self._current_signal()
         res = simulate(self.diagram, self.design, {inp: Step(size) if step else Impulse(size)},
                        t_end_s, mode=mode, outputs=(out,) + ((cur,) if cur and cur != out
@@ -1178,7 +1205,8 @@ class UserLoop(System):
             impulse_metrics(res.t_s, y, res.stable, res.left_bounds_s,
                             RECOVERY_BAND if band is None else band)
         return LoopResponseResult(UserLoopResponse(kind, res, m, out, float(size), cur),
-                                  self.labels(), self._right_roots)
+                                  self.labels(), self._right_roots,
+                                  self.step_unit if step else self.impulse_unit)
 
     def _sampled_verdict(self, res: Any, rates: Mapping[str, float]) -> None:
         """The sampled loop's certified verdict in ``res.info`` beside the response
@@ -1234,7 +1262,7 @@ class UserLoop(System):
                              "a result of this loop's step() or impulse()")
         return result.verdict(band)
 
-    def step(self, _t_end_s: float | None = None, /, *, t_end_s: float = 0.5,
+    def step(self, _t_end_s: float | None = None, /, *, t_end_s: float | None = None,
              amplitude: float | None = None, mode: str = "continuous", rate_hz: Any = None,
              input: str | None = None, output: str | None = None,
              record_dt: float | None = None, rates_hz: Any = None) -> LoopResponseResult:
@@ -1244,8 +1272,8 @@ class UserLoop(System):
         ----------
         _t_end_s : float, optional
             Deprecated: ``t_end_s`` given by position.
-        t_end_s : float
-            Simulated time [s].
+        t_end_s : float, optional
+            Simulated time [s] (default 0.5).
         amplitude : float, optional
             Step size in the reference's unit (:attr:`step_unit`; default
             :attr:`default_step`).  ``position`` is divided by it.
@@ -1277,10 +1305,11 @@ class UserLoop(System):
         ['settled', 'unstable']
         """
         t_end_s, rate_hz = self._old_arguments(_t_end_s, t_end_s, rates_hz, rate_hz)
-        return self._response("step", self.default_step if amplitude is None else amplitude,
+        t_end_s = 0.5 if t_end_s is None else t_end_s
+        return self._loop_response("step", self.default_step if amplitude is None else amplitude,
                               t_end_s, mode, rate_hz, input, output, record_dt)
 
-    def impulse(self, _t_end_s: float | None = None, /, *, t_end_s: float = 1.0,
+    def impulse(self, _t_end_s: float | None = None, /, *, t_end_s: float | None = None,
                 amplitude: float | None = None, mode: str = "continuous", rate_hz: Any = None,
                 input: str | None = None, output: str | None = None,
                 record_dt: float | None = None, band: float | None = None,
@@ -1291,11 +1320,11 @@ class UserLoop(System):
         ----------
         _t_end_s : float, optional
             Deprecated: ``t_end_s`` given by position.
-        t_end_s : float
-            Simulated time [s].
+        t_end_s : float, optional
+            Simulated time [s] (default 1).
         amplitude : float, optional
             Impulse area, the disturbance's unit times seconds (default
-            :data:`DEFAULT_IMPULSE`, 0.05: the SEA's 0.05 N m s).
+            :attr:`default_impulse`, 0.05: the SEA's 0.05 N m s).
         mode : str
             ``"continuous"`` or ``"sampled"``.
         rate_hz : float or dict, optional
@@ -1315,17 +1344,18 @@ class UserLoop(System):
             As :meth:`step`; ``position`` in the output's unit.
         """
         t_end_s, rate_hz = self._old_arguments(_t_end_s, t_end_s, rates_hz, rate_hz)
+        t_end_s = 1.0 if t_end_s is None else t_end_s
         if area is not None:
             warnings.warn("impulse(area=) is deprecated; use amplitude=", DeprecationWarning,
                           stacklevel=2)
             amplitude = area if amplitude is None else amplitude
-        size = self.DEFAULT_IMPULSE if amplitude is None else amplitude
-        return self._response("impulse", size, t_end_s, mode, rate_hz, input, output,
+        size = self.default_impulse if amplitude is None else amplitude
+        return self._loop_response("impulse", size, t_end_s, mode, rate_hz, input, output,
                               record_dt, band)
 
     @staticmethod
-    def _old_arguments(t_pos: Any, t_end_s: float, rates_hz: Any, rate_hz: Any
-                       ) -> tuple[float, Any]:
+    def _old_arguments(t_pos: Any, t_end_s: float | None, rates_hz: Any, rate_hz: Any
+                       ) -> tuple[float | None, Any]:
         """Positional ``t_end_s`` and ``rates_hz=``: deprecated spellings."""
         if t_pos is not None:
             warnings.warn("a positional t_end_s is deprecated; pass t_end_s=",
@@ -1339,14 +1369,14 @@ class UserLoop(System):
 
     def monte_carlo(self, kind: str = "step", *, latency: Any = None, loss: Any = None,
                     runs: int = 100, seed: int = 0, rate_hz: Any = None,
-                    t_end_s: float | None = None) -> Any:
+                    t_end_s: float | None = None, amplitude: float | None = None) -> Any:
         """Sampled step or impulse responses under random latency and message loss.
 
         Parameters
         ----------
         kind : {"step", "impulse"}
             Step of :attr:`default_step` on the reference, or impulse of
-            :data:`DEFAULT_IMPULSE` on the disturbance.
+            :attr:`default_impulse` on the disturbance.
         latency : dict, optional
             Delayed block (one of :attr:`loops`) -> latency model of
             :mod:`seactl.timing_models` (seconds), or its text form in ms
@@ -1361,6 +1391,9 @@ class UserLoop(System):
             As :meth:`step` (default: the file's rates).
         t_end_s : float, optional
             Window [s] (default 0.5 for steps, 1 for impulses).
+        amplitude : float, optional
+            Step or impulse size (default :attr:`default_step` or
+            :attr:`default_impulse`).
 
         Returns
         -------
@@ -1385,13 +1418,14 @@ class UserLoop(System):
             raise InputError("kind", kind, "'step' or 'impulse'")
         step = kind == "step"
         t_end_s = (0.5 if step else 1.0) if t_end_s is None else t_end_s
-        size = self.default_step if step else self.DEFAULT_IMPULSE
+        size = _amplitude((self.default_step if step else self.default_impulse)
+                          if amplitude is None else amplitude)
         inp, out = self._io("reference" if step else "disturbance", None, None)
         rates = self._rates(rate_hz)
         if isinstance(runs, bool) or not isinstance(runs, (int, np.integer)) \
                 or not 1 <= runs <= 100_000:
             raise InputError("runs", runs, "an integer in [1, 100000]")
-        self._check_simulation("sampled", rates, t_end_s, None, int(runs))
+        self._check_loop_simulation("sampled", rates, t_end_s, None, int(runs))
         lat = {k: parse_latency(v, f"latency {k}") if isinstance(v, str) else v
                for k, v in (latency or {}).items()}
         los = {k: parse_loss(v, f"loss {k}") if isinstance(v, str) else v

@@ -166,7 +166,7 @@ def _loop_roots(loop: Any, count: int, as_json: bool) -> None:
     if as_json:
         echo_json({"loop": loop.name, "file": loop.file, "designs": rows})
         return
-    varied = [k for k, v in loop.values.items() if np.size(v) > 1]
+    varied = list(loop.label_columns())
     t = Table(title=escape(f"Rightmost closed-loop roots [rad/s] of loop '{loop.name}' "
                            f"({loop.file})"))
     for col in (*varied, "abscissa [1/s]", "stable", "roots"):
