@@ -332,7 +332,7 @@ def loop_file(draw) -> str:
             'output = "y_m"\n[[breaks]]\nname = "main"\nsignal = "y_m"\n')
 
 
-LOOP_COMMANDS = [["analyze", "--no-jitter"], ["analyze", "--json"], ["step"],
+LOOP_COMMANDS = [["analyze", "--no-jitter"], ["analyze", "--json"], ["step"], ["roots"],
                  ["step", "--mode", "sampled"], ["impulse"], ["export", "--out", "pexport"]]
 
 

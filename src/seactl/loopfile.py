@@ -27,7 +27,7 @@ from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
-from pydantic import BaseModel, ConfigDict, Field, ValidationError
+from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_validator
 
 from ._validate import float_array
 from .blockdiagram import Block, BlockDiagram, DesignBatch
@@ -308,6 +308,17 @@ class SignalsModel(_Model):
     reference: str | None = None
     disturbance: str | None = None
     output: str | None = None
+    reference_step: float | None = Field(None, allow_inf_nan=False, description="the "
+                                         "default step of the reference (its unit)")
+    reference_unit: str | None = Field(None, max_length=40, description="the unit of the "
+                                       "reference, e.g. rad or m")
+
+    @field_validator("reference_step")
+    @classmethod
+    def _nonzero_step(cls, v: float | None) -> float | None:
+        if v is not None and v == 0:
+            raise ValueError("a non-zero step")
+        return v
 
 
 class AnalysisModel(_Model):

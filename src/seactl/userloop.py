@@ -14,6 +14,7 @@ from __future__ import annotations
 
 import itertools
 import tomllib
+import warnings
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, replace
 from functools import cached_property
@@ -23,6 +24,7 @@ from typing import Any
 import numpy as np
 
 from ._parallel import eigvals
+from ._results import ImpedanceResult, RootsResult, SampledMarginsResult, json_value
 from ._validate import frequencies_hz
 from .blockdiagram import Transfer
 from .errors import InputError, LoopFileError
@@ -36,76 +38,20 @@ from .loopfile import (
     parse_block,
     parse_expr,
 )
+from .loopresults import (
+    BreakMargins,
+    LoopAnalysis,
+    LoopJitterResult,
+    LoopResponseResult,
+    LoopSampledMargins,
+    UserLoopResponse,
+)
 from .margins import Margins, loop_margins
 from .outputs import note_input
 from .runtime import run_doc
+from .system import System
 
 _BUILDER = "<builder>"
-
-
-def _jsonable(x: Any) -> Any:
-    a = np.asarray(x)
-    if a.dtype == bool:
-        return a.tolist()
-    if a.ndim == 0:
-        v = float(a)
-        return round(v, 12) if np.isfinite(v) else None
-    return [_jsonable(v) for v in a]
-
-
-@dataclass(frozen=True)
-class BreakMargins:
-    """Margins of one loop broken at a named signal (arrays of the design batch shape)."""
-
-    name: str
-    signal: str
-    margins: Margins
-    jitter_margin_s: np.ndarray
-
-    def to_dict(self) -> dict[str, Any]:
-        m = self.margins
-        return {"break": self.name, "signal": self.signal,
-                "phase_margin_deg": _jsonable(m.phase_margin_deg),
-                "crossover_hz": _jsonable(m.crossover_hz),
-                "gain_margin_db": _jsonable(m.gain_margin_db),
-                "phase_crossover_hz": _jsonable(m.phase_crossover_hz),
-                "delay_margin_ms": _jsonable(m.delay_margin_ms),
-                "jitter_margin_ms": _jsonable(self.jitter_margin_s * 1e3),
-                "stable": _jsonable(m.stable), "unstable_poles": m.unstable_poles.tolist()}
-
-
-@dataclass(frozen=True)
-class LoopAnalysis:
-    """Margins at every named break of a :class:`UserLoop`, and its stability.
-
-    Attributes
-    ----------
-    loop : str
-        The loop's name.
-    breaks : list of BreakMargins
-        One per ``[[breaks]]`` entry, in file order.
-    stable : ndarray
-        Closed-loop stability (Nyquist on the exact-delay loops: no closed-loop root of
-        the characteristic quasi-polynomial in the right half plane).
-    values : dict
-        The design variables and parameters the batch was evaluated at.
-    """
-
-    loop: str
-    breaks: list[BreakMargins]
-    stable: np.ndarray
-    values: dict[str, np.ndarray]
-
-    def __getitem__(self, name: str) -> BreakMargins:
-        for b in self.breaks:
-            if b.name == name:
-                return b
-        raise KeyError(name)
-
-    def to_dict(self) -> dict[str, Any]:
-        return {"loop": self.loop, "stable": _jsonable(self.stable),
-                "values": {k: _jsonable(v) for k, v in self.values.items()},
-                "breaks": [b.to_dict() for b in self.breaks]}
 
 
 @dataclass(frozen=True)
@@ -140,9 +86,9 @@ class Placements:
                                    "stable": bool(self.analysis.stable[i])}
             for b in self.analysis.breaks:
                 m = b.margins
-                row[b.name] = {"phase_margin_deg": _jsonable(m.phase_margin_deg[i]),
-                               "crossover_hz": _jsonable(m.crossover_hz[i]),
-                               "delay_margin_ms": _jsonable(m.delay_margin_ms[i])}
+                row[b.name] = {"phase_margin_deg": json_value(m.phase_margin_deg[i]),
+                               "crossover_hz": json_value(m.crossover_hz[i]),
+                               "delay_margin_ms": json_value(m.delay_margin_ms[i])}
             rows.append(row)
         return rows
 
@@ -342,7 +288,9 @@ class LoopBuilder:
         return self
 
     def signals(self, inputs: Sequence[str] = (), reference: str | None = None,
-                disturbance: str | None = None, output: str | None = None) -> LoopBuilder:
+                disturbance: str | None = None, output: str | None = None, *,
+                reference_step: float | None = None, reference_unit: str | None = None
+                ) -> LoopBuilder:
         """Declare the exogenous inputs and the default signals of the responses.
 
         Parameters
@@ -353,6 +301,10 @@ class LoopBuilder:
             The inputs a step and an impulse drive by default.
         output : str, optional
             The response's default output signal.
+        reference_step : float, optional
+            The default step amplitude (:attr:`UserLoop.default_step`; default 0.01).
+        reference_unit : str, optional
+            The reference's unit (:attr:`UserLoop.step_unit`).
 
         Returns
         -------
@@ -360,7 +312,8 @@ class LoopBuilder:
             This builder.
         """
         sig = {"inputs": list(inputs), "reference": reference, "disturbance": disturbance,
-               "output": output}
+               "output": output, "reference_step": reference_step,
+               "reference_unit": reference_unit}
         self._data["signals"] = {k: v for k, v in sig.items() if v is not None}
         return self
 
@@ -457,13 +410,18 @@ def load_loop(path: str | Path, **values: Any) -> UserLoop:
     return loop.with_values(**values) if values else loop
 
 
-class UserLoop:
+class UserLoop(System):
     """A user-defined loop at given values of its design variables (a batch if arrays).
 
-    Every view derives from the compiled block diagram: :meth:`analyze` (margins at every
-    named break, delay and jitter margins, stability), :meth:`impedance` at a port,
-    :meth:`frequency_response` of any transfer, :meth:`step` and :meth:`impulse`
-    (continuous or sampled, each process at its rate).
+    A :class:`~seactl.System`: the same views, keywords and result types as
+    :func:`seactl.design` (:meth:`margins`, :meth:`roots`, :meth:`impedance`,
+    :meth:`step`, :meth:`impulse`, :meth:`jitter_margins`, :meth:`monte_carlo`,
+    :meth:`to_control`, :meth:`export`, :meth:`run`, :meth:`sweep`), each derived from
+    the compiled block diagram; the loop's own extras are :meth:`analyze` (margins and
+    jitter margins at every named break), :meth:`frequency_response` of any transfer,
+    :meth:`loop_transfer`, :meth:`placements`, :meth:`with_values` and
+    :meth:`with_latencies`.  Its ``loops`` (the keys of the responses' requested and
+    effective delays) are its delayed blocks.
 
     Parameters
     ----------
@@ -485,13 +443,58 @@ class UserLoop:
     ...         .break_at("main", "y_m").build())
     >>> loop.with_values(K=[5.0, 20.0]).shape
     (2,)
+    >>> isinstance(loop, sc.System), loop.default_step, loop.step_unit
+    (True, 0.01, 'reference units')
     """
+
+    kind = "loop"
+    DEFAULT_STEP = 0.01
+    """The step of a loop file that declares no ``[signals] reference_step``."""
+    default_impulse = 0.05
+    """The impulse area of :meth:`impulse` (the file's disturbance unit times seconds),
+    the SEA's 0.05 N m s."""
+    impulse_unit = "disturbance units x s"
+    """The unit of an impulse: the file's disturbance unit times seconds."""
 
     def __init__(self, compiled: CompiledLoop, values: Mapping[str, Any] | None = None,
                  latency_ms: Mapping[str, Any] | None = None):
         self.compiled = compiled
         self.values = dict(values or {})
         self.latency_ms = dict(latency_ms or {})
+
+    @property
+    def default_step(self) -> float:  # type: ignore[override]
+        """The step amplitude of :meth:`step` and :meth:`run`: the file's ``[signals]
+        reference_step``, else 0.01.
+        """
+        step = self.compiled.model.signals.reference_step
+        return self.DEFAULT_STEP if step is None else float(step)
+
+    @property
+    def step_unit(self) -> str:  # type: ignore[override]
+        """The unit of the step: the file's ``[signals] reference_unit``, else
+        ``"reference units"``.
+        """
+        return self.compiled.model.signals.reference_unit or "reference units"
+
+    @property
+    def loops(self) -> tuple[str, ...]:  # type: ignore[override]
+        """The delayed blocks: the keys of the responses' requested and effective
+        delays (and the links of :meth:`monte_carlo`).
+        """
+        return tuple(b.name for b in self.diagram.blocks if b.delay is not None)
+
+    @property
+    def links(self) -> dict[str, str]:
+        """Loop -> delayed block: a loop file's loops are its delayed blocks."""
+        return {name: name for name in self.loops}
+
+    @property
+    def delays_s(self) -> dict[str, np.ndarray]:
+        """Delayed block -> its delay [s] (batch shape)."""
+        arrays = self.design._arrays
+        return {b.name: np.broadcast_to(arrays[b.delay], self.shape)
+                for b in self.diagram.blocks if b.delay is not None}
 
     # ------------------------------------------------------------ structure
     @property
@@ -570,6 +573,76 @@ class UserLoop:
         """Shape of the design batch."""
         return self.design.shape
 
+    def __getitem__(self, idx: Any) -> UserLoop:
+        """The designs ``idx`` selects (numpy indexing of the batch), as a loop whose
+        multi-valued variables and latencies hold just those."""
+        shape = self.shape
+        if not shape and not (idx is None or idx is Ellipsis
+                              or (isinstance(idx, tuple) and idx == ())):
+            raise IndexError(f"index {idx!r} of a single design (its shape is (); "
+                             "loop[()] is the loop itself)")
+
+        probe = np.broadcast_to(np.zeros(()), shape)[idx]
+        if np.size(probe) == 0:
+            raise InputError("index", idx, "a selection of at least one design")
+
+        def pick(v: Any) -> Any:
+            return np.broadcast_to(np.asarray(v, float), shape)[idx] if np.size(v) > 1 else v
+
+        sel = {k: pick(v) for k, v in self.values.items()}
+        lat = {k: pick(v) for k, v in self.latency_ms.items()}
+        loop = UserLoop(self.compiled, sel, lat)
+        if loop.shape != np.shape(probe):  # a new axis, or every value a single one
+            env = self.environment()
+            if not env:
+                raise InputError("index", idx, "an index of the batch (a loop without "
+                                 "variables has no batch axes to add)")
+            k = next(iter(self.compiled.model.variables), None) or next(iter(env))
+            sel[k] = np.broadcast_to(np.asarray(env[k], float), shape)[idx]
+            loop = UserLoop(self.compiled, sel, lat)
+        return loop
+
+    def __repr__(self) -> str:
+        return f"UserLoop(name={self.name!r}, file={self.file!r}, shape={self.shape}, " \
+               f"values={ {k: np.asarray(v).tolist() for k, v in self.values.items()} })"
+
+    def label_columns(self, gains: bool = True) -> dict[str, np.ndarray]:
+        """The per-design columns that label the results' records: the variables set to
+        several values.
+
+        Parameters
+        ----------
+        gains : bool
+            Unused (a loop's gains are its variables).
+
+        Returns
+        -------
+        dict
+            Name -> array of the batch shape.
+        """
+        return {k: np.broadcast_to(np.asarray(v, float), self.shape)
+                for k, v in self.values.items() if np.size(v) > 1}
+
+    def labels(self) -> list[str]:
+        """One short label per design (flattened batch), for legends.
+
+        Returns
+        -------
+        list of str
+            ``"K=5, fn=8"`` style labels of the variables set to several values (the
+            loop's name for a single design).
+
+        Examples
+        --------
+        >>> import seactl as sc
+        >>> sc.load_loop("examples/loops/rigid.toml", fn=[8, 12]).labels()   # doctest: +SKIP
+        ['fn=8', 'fn=12']
+        """
+        cols = {k: np.ravel(v) for k, v in self.label_columns().items()}
+        n = int(np.prod(self.shape, dtype=int))
+        return [", ".join(f"{k}={v[i]:g}" for k, v in cols.items()) or self.name
+                for i in range(n)]
+
     def environment(self) -> dict[str, np.ndarray]:
         """Every variable and parameter at this loop's values.
 
@@ -592,6 +665,7 @@ class UserLoop:
 
         As :meth:`seactl.Design.export`, for one design of the loop (every ``--set``
         variable single-valued); each process at the file's rate unless ``rates_hz``.
+        ``verify`` runs the step response at :attr:`default_step`.
 
         Parameters
         ----------
@@ -621,12 +695,14 @@ class UserLoop:
         from .export import export_design
 
         return export_design(self.diagram, self.design, out, languages=lang,
-                             rates_hz=self._export_rates(rates_hz), verify_export=verify, step=0.01)
+                             rates_hz=self._export_rates(rates_hz), verify_export=verify,
+                             step=self.default_step)
 
     @run_doc
-    def run(self, *, duration_s: float = 2.0, rates_hz: Any = None, step: float = 0.01,
-            transport: str = "zenoh", extra_latency_s: float = 0.0, loss: float = 0.0,
-            seed: int = 0) -> Any:
+    def run(self, *, duration_s: float = 2.0, rates_hz: Any = None,
+            amplitude: float | None = None, transport: str = "zenoh",
+            extra_latency_s: float = 0.0, loss: float = 0.0, seed: int = 0,
+            step: float | None = None) -> Any:
         """Run the exported controllers as three OS processes on loopback.
 
         As :meth:`seactl.Design.run`, for a loop file whose processes are ``embedded`` and
@@ -638,9 +714,11 @@ class UserLoop:
             Run time [s], 0.1 to 60.
         rates_hz : float or mapping, optional
             As :meth:`export` (at most 5000 Hz).
-        step : float
-            Step of the file's reference signal.
+        amplitude : float, optional
+            Step of the file's reference signal (default :attr:`default_step`).
         {link_parameters}
+        step : float, optional
+            Deprecated spelling of ``amplitude``.
 
         Returns
         -------
@@ -656,10 +734,114 @@ class UserLoop:
         """
         from .runtime import run_distributed
 
-        return run_distributed(self.diagram, self.design, saturation=None, step=step,
+        if step is not None:
+            warnings.warn("run(step=) is deprecated; use amplitude=", DeprecationWarning,
+                          stacklevel=2)
+            amplitude = step if amplitude is None else amplitude
+        return run_distributed(self.diagram, self.design, saturation=None,
+                               step=self.default_step if amplitude is None else amplitude,
                                duration_s=duration_s, rates_hz=self._export_rates(rates_hz),
                                transport=transport, extra_latency_s=extra_latency_s,
                                loss=loss, seed=seed)
+
+    def _transfer(self, name: str) -> tuple[Any, bool]:
+        """The transfer :meth:`to_control` exports and whether it is divided by ``-s``."""
+        if name == "loop":
+            if not self.breaks:
+                raise LoopFileError(self.file, "[[breaks]]", None, "at least one named break")
+            return self.loop_transfer(list(self.breaks)[-1]), False
+        if name in self.breaks:
+            return self.loop_transfer(name), False
+        if name == "closed":
+            inp, out = self._io("reference", None, None)
+            return self.diagram.transfer(out, inp), False
+        if name == "impedance" and self.ports:
+            p = next(iter(self.ports.values()))
+            if p.sign == -1:
+                return self.diagram.transfer(p.force, p.position, cut=(p.position,)), True
+        raise InputError("transfer", name, "'loop' (the outermost break), a break name ("
+                         + ", ".join(self.breaks) + "), 'closed' (reference to output) or "
+                         "'impedance' (the first port, sign -1)")
+
+    def to_control(self, kind: str = "frd", *, transfer: str = "loop", f_hz: Any = None,
+                   order: int = 3) -> Any:
+        """Export to python-control: exact-delay frequency response or a Padé model.
+
+        Parameters
+        ----------
+        kind : {"frd", "pade", "pade-ss"}
+            As :meth:`seactl.Design.to_control`.
+        transfer : str
+            ``"loop"``: the loop broken at the outermost (last) break, the others closed;
+            a break name: the loop broken there; ``"closed"``: reference to output;
+            ``"impedance"``: the first port's (sign -1).
+        f_hz : array_like, optional
+            Frequencies of the FRD [Hz] (default: 2000 points from 0.01 Hz to 10 kHz).
+        order : int
+            Padé order per delay, 1 to 4.
+
+        Returns
+        -------
+        control.FrequencyResponseData or control.TransferFunction or control.StateSpace
+            For a single design; a list of them (flattened batch order) for a batch.
+
+        Examples
+        --------
+        >>> import control as ct
+        >>> import seactl as sc
+        >>> L = sc.load_loop("examples/loops/paper-sea.toml").to_control()  # doctest: +SKIP
+        >>> round(float(ct.margin(L)[1]), 2)                                  # doctest: +SKIP
+        43.26
+        """
+        from ._export import to_control
+
+        self._transfer(transfer)  # an unknown name fails before any work
+        if not self.shape:
+            return to_control(self.design, kind, transfer, f_hz, order, self._transfer)
+        n = int(np.prod(self.shape, dtype=int))
+        flat = self.reshape(n)
+        return [to_control(flat[i].design, kind, transfer, f_hz, order, self._transfer)
+                for i in range(n)]
+
+    def sweep(self, out: Any, *, values: Mapping[str, Any] | None = None,
+              chunk_size: int = 5000, overwrite: bool = False, sampling: str = "grid",
+              n_samples: int = 0, seed: int = 0) -> dict[str, Any]:
+        """Margins at every break over a grid (or random sample) of the loop's variables,
+        written as a Parquet dataset (:func:`seactl.loopsweep.sweep_loop`, what
+        ``seactl sweep --loop`` runs; :func:`seactl.read_sweep` reads it).
+
+        Parameters
+        ----------
+        out : str or path
+            A new or empty directory.
+        values : dict, optional
+            Variable -> values (arrays broadcast together; default: this loop's
+            multi-valued variables).
+        chunk_size : int
+            Points per vectorized chunk.
+        overwrite : bool
+            Replace a loop sweep seactl wrote there.
+        sampling : {"grid", "random", "lhs"}
+            Every combination, or ``n_samples`` random / Latin-hypercube points over the
+            interval each multi-valued variable spans.
+        n_samples : int
+            Points of a random or LHS sampling.
+        seed : int
+            Seed of the sampling.
+
+        Returns
+        -------
+        dict
+            The summary (also written to ``_summary.json``).
+        """
+        from .loopsweep import sweep_loop
+
+        vals = {k: v for k, v in self.values.items() if np.size(v) > 1} \
+            if values is None else dict(values)
+        base = UserLoop(self.compiled, {k: v for k, v in self.values.items()
+                                        if np.size(v) == 1}, self.latency_ms)
+        return sweep_loop(base, vals, out, chunk_size=chunk_size, overwrite=overwrite,
+                          sampling=sampling, n_samples=n_samples, seed=seed)
 
     # ------------------------------------------------------------ frequency domain
     def grid(self) -> np.ndarray:
@@ -740,7 +922,7 @@ class UserLoop:
         s = 2j * np.pi * frequencies_hz("f_hz", f_hz)
         return self.diagram.transfer(output, input, cut=tuple(cut))(self.design, s)
 
-    def impedance(self, f_hz: Any, port: str | None = None) -> np.ndarray:
+    def impedance(self, f_hz: Any, *, port: str | None = None) -> ImpedanceResult:
         """Impedance ``Z = sign * force / (s position)`` at a port, its motion imposed and
         the exogenous inputs at zero.
 
@@ -753,9 +935,13 @@ class UserLoop:
 
         Returns
         -------
-        ndarray
-            Complex ``Z(j 2 pi f)``, shape ``batch + (F,)``.
+        ImpedanceResult
+            ``z`` (complex, shape ``batch + (F,)``), ``f_hz``, ``magnitude``,
+            ``magnitude_db``, ``phase_deg``, ``stiffness``, ``port``; ``to_dict()``,
+            ``plot()``.
         """
+        from .loopresults import LoopImpedanceResponse
+
         if not self.ports:
             raise LoopFileError(self.file, "[[ports]]", None, "at least one impedance port")
         name = port or next(iter(self.ports))
@@ -764,7 +950,9 @@ class UserLoop:
         p = self.ports[name]
         f = frequencies_hz("f_hz", f_hz)
         T = self.frequency_response(p.force, p.position, f, cut=(p.position,))
-        return p.sign * T / (2j * np.pi * f)
+        z = p.sign * T / (2j * np.pi * f)
+        return ImpedanceResult(LoopImpedanceResponse("block-diagram", f, z, "SI", False,
+                                                     name), self.labels())
 
     def analyze(self, jitter: bool = True) -> LoopAnalysis:
         """Margins at every named break, with every other loop closed.
@@ -806,9 +994,10 @@ class UserLoop:
             out.append(BreakMargins(name, sig, m, np.where(m.stable, jit, 0.0)))
         env = {k[5:]: np.broadcast_to(v, design.shape) for k, v in design._arrays.items()
                if k.startswith("var__")}
-        return LoopAnalysis(self.name, out, out[-1].margins.stable, env)
+        return LoopAnalysis(self.name, out, out[-1].margins.stable, env,
+                            self.label_columns() if design is self.design else {})
 
-    def margins(self, rate_hz: Any = None) -> Any:
+    def margins(self, rate_hz: Any = None) -> LoopAnalysis | LoopSampledMargins:
         """Margins at every named break: of the continuous loop (``rate_hz`` None, as
         :meth:`analyze` without jitter), or of the loop sampled at its process rates.
 
@@ -823,9 +1012,11 @@ class UserLoop:
 
         Returns
         -------
-        LoopAnalysis or dict
-            Continuous: the :meth:`analyze` result.  Sampled: break name ->
-            :class:`~seactl.SampledMarginsResult` (one verdict, the whole loop's).
+        LoopAnalysis or LoopSampledMargins
+            Continuous: the :meth:`analyze` result (``result["outer"].margins``,
+            ``records()``: one row per design and break).  Sampled: break name ->
+            :class:`~seactl.SampledMarginsResult` (one verdict, the whole loop's), with
+            ``records()``.
 
         Examples
         --------
@@ -835,18 +1026,64 @@ class UserLoop:
         """
         if rate_hz is None:
             return self._analyze(self.design, False)
-        from ._results import SampledMarginsResult
         from .sampled import sampled_margins
 
-        rates = self._rates(rate_hz) if isinstance(rate_hz, Mapping) else \
-            {p: rate_hz for p in self.processes} or rate_hz
+        rates = self._rates(rate_hz)
         if not self.breaks:
             raise LoopFileError(self.file, "[[breaks]]", None, "at least one named break")
         w_ref = 100 * self._grid(self.design)[0]
-        return {name: SampledMarginsResult(
-                    sampled_margins(self.diagram, self.design, sig, rates, w_ref),
-                    dict(self.environment()))
-                for name, sig in self.breaks.items()}
+        return LoopSampledMargins(self.name, {name: SampledMarginsResult(
+            sampled_margins(self.diagram, self.design, sig, rates, w_ref),
+            self.label_columns()) for name, sig in self.breaks.items()})
+
+    def jitter_margins(self) -> LoopJitterResult:
+        """Jitter margins at every named break (Kao-Lincoln small-gain bound with exact
+        delays), with the delay margins and stability of :meth:`analyze`.
+
+        Returns
+        -------
+        LoopJitterResult
+            ``breaks_s`` (break -> jitter margin [s]), ``overall_s`` (the outermost
+            break's), ``delay_margin_s``, ``stable``, ``records()``.
+        """
+        a = self._analyze(self.design, True)
+        return LoopJitterResult(self.name, {b.name: b.jitter_margin_s for b in a.breaks},
+                                {b.name: b.margins.delay_margin_s for b in a.breaks},
+                                a.stable, self.label_columns())
+
+    def roots(self, count: int = 6) -> RootsResult:
+        """Rightmost roots of the whole loop's characteristic quasi-polynomial (every
+        break closed, exact delays), per design, as :meth:`seactl.Design.roots`
+        (:func:`seactl.roots.characteristic_roots`: collocation, Newton, inclusion discs
+        and the argument principle's count).
+
+        Parameters
+        ----------
+        count : int
+            Roots per design (a conjugate pair counts once).
+
+        Returns
+        -------
+        RootsResult
+            ``roots`` [rad/s] of shape ``shape + (count,)`` by decreasing real part,
+            ``spectral_abscissa`` [1/s], each root's disc, ``stable``, ``uncertain``,
+            ``right_half_plane_roots``, ``records()``.
+
+        Examples
+        --------
+        >>> import seactl as sc
+        >>> r = sc.load_loop("examples/loops/paper-sea.toml").roots(count=2)  # doctest: +SKIP
+        >>> round(r.records()[0]["spectral_abscissa"], 2)                      # doctest: +SKIP
+        -39.85
+        """
+        from .limits import check_roots
+        from .roots import characteristic_roots
+
+        delayed = any(np.any(np.asarray(v) > 0) for k, v in self.design._arrays.items()
+                      if k.endswith("__T"))
+        check_roots(int(np.prod(self.shape, dtype=int)), count, delayed)
+        return RootsResult(characteristic_roots(self.diagram, self.design, count=count),
+                           self.label_columns())
 
     def placements(self, max_options: int = 4096) -> Placements:
         """Every assignment of the blocks whose delay is their process's latency
@@ -891,20 +1128,24 @@ class UserLoop:
         return Placements(movable, lat, options, a, order)
 
     # ------------------------------------------------------------ time domain
-    def _rates(self, rates_hz: Mapping[str, float] | None) -> dict[str, float]:
+    def _rates(self, rates_hz: Any) -> dict[str, float]:
+        """Process -> rate [Hz]: the file's, overridden by a mapping, or one rate for
+        every process."""
+        from .limits import check_range
+
         rates = {p: m.rate_hz for p, m in self.processes.items()}
+        if rates_hz is not None and not isinstance(rates_hz, Mapping):
+            rate = check_range("rate_hz", rates_hz, "rate_hz")
+            return {p: rate for p in rates} or rate
         for p, r in (rates_hz or {}).items():
             if p not in rates:
                 raise LoopFileError(self.file, "rate", p, "a declared process: "
                                     + ", ".join(rates))
-            rates[p] = float(r)
+            rates[p] = check_range(f"rate_hz[{p!r}]", r, "rate_hz")
         return rates
 
-    def _response(self, which: str, excitation: Any, t_end_s: float, mode: str,
-                  input: str | None, output: str | None, rates_hz: Any, record_dt: Any
-                  ) -> Any:
-        from .simulate import simulate
-
+    def _io(self, which: str, input: str | None, output: str | None) -> tuple[str, str]:
+        """The excited input and the output signal of a response (the file's by default)."""
         sig = self.compiled.model.signals
         inp = input or getattr(sig, which)
         out = output or sig.output
@@ -917,157 +1158,304 @@ class UserLoop:
         if inp not in self.diagram.inputs:
             raise LoopFileError(self.file, "input", inp, "an exogenous input: "
                                 + ", ".join(self.diagram.inputs))
-        self._signal(out, "output")
-        rates = self._rates(rates_hz)
-        res = simulate(self.diagram, self.design, {inp: excitation}, t_end_s, mode=mode,
-                       outputs=(out,), rates_hz=rates, record_dt=record_dt)
-        if mode == "sampled":   # the simulated loop's certified verdict beside it
-            from .sampled import sampled_roots
+        return inp, self._signal(out, "output")
 
-            r = sampled_roots(self.diagram, self.design, rates)
-            res.info.update(sampled_verdict=r.verdict, sampled_unstable_modes=r.unstable_modes,
-                            sampled_rate=r.rate_label)
-        step = which == "reference"
-        res.info["excitation"] = {"kind": "step" if step else "impulse",
-                                  "size": float(excitation.amplitude if step
-                                                else excitation.area)}
-        return res
+    def _current_signal(self) -> str | None:
+        """The input of the loop's ``current_to_torque`` block, if it has exactly one."""
+        amps = [b for b in self.compiled.blocks if b.kind == "current_to_torque"]
+        if len(amps) != 1 or len(amps[0].inputs) != 1:
+            return None
+        sign, signal = amps[0].inputs[0]
+        return signal if sign > 0 else None
 
-    def right_half_plane_roots(self) -> np.ndarray:
+    def _check_loop_simulation(self, mode: str, rates: Mapping[str, float], t_end_s: float,
+                          record_dt: float | None, runs: int = 1) -> None:
+        from .limits import check_simulation
+
+        if mode not in ("continuous", "sampled"):
+            raise InputError("mode", mode, "'continuous' or 'sampled'")
+        delays = [float(np.max(v)) for k, v in self.design._arrays.items()
+                  if k.endswith("__T")]
+        check_simulation(runs * int(np.prod(self.shape, dtype=int)), mode,
+                         max(rates.values(), default=1000.0), t_end_s, delays,
+                         record_dt_s=record_dt,
+                         rate_name="rate_hz (the loop's fastest process)")
+
+    def _loop_response(self, kind: str, size: float, t_end_s: float, mode: str, rate_hz: Any,
+                  input: str | None, output: str | None, record_dt: Any,
+                  band: float | None = None) -> LoopResponseResult:
+        from .simulate import Impulse, Step, impulse_metrics, simulate, step_metrics
+        from .verdict import RECOVERY_BAND
+
+        step = kind == "step"
+        size = _amplitude(size)
+        inp, out = self._io("reference" if step else "disturbance", input, output)
+        rates = self._rates(rate_hz)
+        self._check_loop_simulation(mode, rates, t_end_s, record_dt)
+        cur = self._current_signal()
+        res = simulate(self.diagram, self.design, {inp: Step(size) if step else Impulse(size)},
+                       t_end_s, mode=mode, outputs=(out,) + ((cur,) if cur and cur != out
+                                                             else ()),
+                       rates_hz=rates, record_dt=record_dt)
+        if mode == "sampled":
+            self._sampled_verdict(res, rates)
+        res.info["excitation"] = {"kind": kind, "size": float(size)}
+        y = res.outputs[out]
+        m = step_metrics(res.t_s, y / size, res.stable, res.left_bounds_s) if step else \
+            impulse_metrics(res.t_s, y, res.stable, res.left_bounds_s,
+                            RECOVERY_BAND if band is None else band)
+        return LoopResponseResult(UserLoopResponse(kind, res, m, out, float(size), cur),
+                                  self.labels(), self._right_roots,
+                                  self.step_unit if step else self.impulse_unit)
+
+    def _sampled_verdict(self, res: Any, rates: Mapping[str, float]) -> None:
+        """The sampled loop's certified verdict in ``res.info`` beside the response
+        (``sampled_verdict``, ``sampled_unstable_modes``, ``sampled_rate``); where it is
+        certified it also replaces the simulation's own count of growing modes
+        (``unstable_modes``), which the verdict reads."""
+        from .sampled import sampled_roots
+
+        r = sampled_roots(self.diagram, self.design, rates)
+        res.info.update(sampled_verdict=r.verdict, sampled_unstable_modes=r.unstable_modes,
+                        sampled_rate=r.rate_label)
+        own = np.asarray(res.info.get("unstable_modes", r.unstable_modes))
+        res.info["unstable_modes"] = np.where(r.unstable_modes >= 0, r.unstable_modes, own)
+
+    def _right_roots(self) -> np.ndarray:
         """Certified count of the whole diagram's closed-loop roots with ``Re s > 0`` per
-        design (the exact-delay loop the continuous simulation runs; -1 where uncertain).
-
-        Returns
-        -------
-        numpy.ndarray
-            Integer counts, the batch's shape.
-
-        Examples
-        --------
-        >>> import seactl as sc
-        >>> loop = sc.load_loop("examples/loops/paper-sea.toml")      # doctest: +SKIP
-        >>> loop.with_values(T_high=[2.0, 30.0]).right_half_plane_roots().tolist()  # doctest: +SKIP
-        [0, 2]
-        """
+        design (the exact-delay loop the continuous simulation runs; -1 where uncertain)."""
         from .margins import closed_loop_right_roots
 
         g = self.grid()
         return closed_loop_right_roots(self.diagram, self.design, np.sqrt(g[..., 0] * g[..., -1]))
 
-    def verdict(self, result: Any, band: float | None = None) -> Any:
-        """Settled, not settled, unstable, limit cycle or saturated per design, with the
-        evidence, for a result of this loop's :meth:`step` or :meth:`impulse` (what
-        ``seactl step --loop`` prints).
+    def right_half_plane_roots(self) -> np.ndarray:
+        """Deprecated: ``roots().right_half_plane_roots`` (the same certified count).
 
-        A loop with growing modes is unstable however slowly they grow: in continuous mode
-        by :meth:`right_half_plane_roots`, in sampled mode by the eigenvalues of the loop's
-        map over one period (:func:`seactl.simulate.sampled_unstable_modes`).
-        ``result.stable`` only says that the simulated window stayed bounded and decayed.
+        Returns
+        -------
+        numpy.ndarray
+            Integer counts of closed-loop roots with ``Re s > 0``, the batch's shape (-1
+            where uncertain).
+        """
+        warnings.warn("UserLoop.right_half_plane_roots() is deprecated; use "
+                      "roots().right_half_plane_roots", DeprecationWarning, stacklevel=2)
+        return self._right_roots()
+
+    def verdict(self, result: Any, band: float | None = None) -> Any:
+        """The verdict of a response of this loop: ``result.verdict(band)``.
 
         Parameters
         ----------
-        result : seactl.simulate.SimResult
-            From :meth:`step` or :meth:`impulse` of this loop (same values).
+        result : LoopResponseResult
+            From :meth:`step` or :meth:`impulse` of this loop.
         band : float, optional
-            Settling band relative to the step (default 0.02), or recovery band relative to
-            the impulse's peak deviation (default 0.05).
+            As :meth:`LoopResponseResult.verdict`.
 
         Returns
         -------
         seactl.verdict.TimeVerdict
-            As :meth:`seactl.api.Design.step`'s ``verdict()``: the verdicts, the warnings
-            and the evidence per design.
+            The verdicts, the warnings and the evidence per design.
+        """
+        if not isinstance(result, LoopResponseResult):
+            raise InputError("result", type(result).__name__,
+                             "a result of this loop's step() or impulse()")
+        return result.verdict(band)
+
+    def step(self, _t_end_s: float | None = None, /, *, t_end_s: float | None = None,
+             amplitude: float | None = None, mode: str = "continuous", rate_hz: Any = None,
+             input: str | None = None, output: str | None = None,
+             record_dt: float | None = None, rates_hz: Any = None) -> LoopResponseResult:
+        """Step response (``[signals] reference`` to ``output`` by default).
+
+        Parameters
+        ----------
+        _t_end_s : float, optional
+            Deprecated: ``t_end_s`` given by position.
+        t_end_s : float, optional
+            Simulated time [s] (default 0.5).
+        amplitude : float, optional
+            Step size in the reference's unit (:attr:`step_unit`; default
+            :attr:`default_step`).  ``position`` is divided by it.
+        mode : str
+            ``"continuous"`` (exact delays, delay buffers) or ``"sampled"`` (each process at
+            its rate, Tustin controllers, zero-order hold).
+        rate_hz : float or dict, optional
+            One rate [Hz] for every process, or process -> rate (default: the file's).
+        input, output : str, optional
+            Override the file's reference and output signals.
+        record_dt : float, optional
+            Recording interval [s] (continuous mode).
+        rates_hz : dict, optional
+            Deprecated spelling of ``rate_hz``.
+
+        Returns
+        -------
+        LoopResponseResult
+            ``t_s``, ``position`` (the output / step), ``metrics``, ``verdict()``, the
+            requested and effective delays per delayed block, and in sampled mode the
+            loop's certified verdict.
 
         Examples
         --------
         >>> import seactl as sc
         >>> loop = sc.load_loop("examples/loops/paper-sea.toml")      # doctest: +SKIP
-        >>> loop = loop.with_values(T_high=[2.0, 30.0])                # doctest: +SKIP
-        >>> loop.verdict(loop.step(0.3)).verdict                       # doctest: +SKIP
+        >>> r = loop.with_values(T_high=[2.0, 30.0]).step(t_end_s=0.3)  # doctest: +SKIP
+        >>> r.verdict().verdict                                        # doctest: +SKIP
         ['settled', 'unstable']
         """
-        from .verdict import RECOVERY_BAND, STEP_BAND, judge
+        t_end_s, rate_hz = self._old_arguments(_t_end_s, t_end_s, rates_hz, rate_hz)
+        t_end_s = 0.5 if t_end_s is None else t_end_s
+        return self._loop_response("step", self.default_step if amplitude is None else amplitude,
+                              t_end_s, mode, rate_hz, input, output, record_dt)
 
-        exc = (getattr(result, "info", None) or {}).get("excitation")
-        if exc is None:
-            raise InputError("result", type(result).__name__,
-                             "a result of this loop's step() or impulse()")
-        step = exc["kind"] == "step"
-        y = next(iter(result.outputs.values())).reshape(-1, result.t_s.size)
-        rhp = (result.info.get("unstable_modes") if result.mode == "sampled"
-               else self.right_half_plane_roots())
-        return judge(result.t_s, y, target=exc["size"] if step else 0.0,
-                     scale=abs(exc["size"]) if step else np.abs(y).max(-1),
-                     band=(STEP_BAND if step else RECOVERY_BAND) if band is None else band,
-                     left_bounds_s=result.left_bounds_s,
-                     saturated_fraction=result.info.get("saturated_fraction"),
-                     right_half_plane_roots=rhp)
-
-    def step(self, t_end_s: float = 0.5, *, mode: str = "continuous", amplitude: float = 1.0,
-             input: str | None = None, output: str | None = None,
-             rates_hz: Mapping[str, float] | None = None, record_dt: float | None = None
-             ) -> Any:
-        """Step response (``[signals] reference`` to ``output`` by default).
-
-        Parameters
-        ----------
-        t_end_s : float
-            Simulated time [s].
-        mode : str
-            ``"continuous"`` (exact delays, delay buffers) or ``"sampled"`` (each process at
-            its rate, Tustin controllers, zero-order hold).
-        amplitude : float
-            Step size.
-        input, output : str, optional
-            Override the file's reference and output signals.
-        rates_hz : dict, optional
-            Override process rates [Hz].
-        record_dt : float, optional
-            Recording interval [s] (continuous mode).
-
-        Returns
-        -------
-        seactl.simulate.SimResult
-            Responses (``outputs[output]``), stability, effective delays in ``info``.
-        """
-        from .simulate import Step
-
-        return self._response("reference", Step(amplitude), t_end_s, mode, input, output,
-                              rates_hz, record_dt)
-
-    def impulse(self, t_end_s: float = 1.0, *, mode: str = "continuous", area: float = 1.0,
+    def impulse(self, _t_end_s: float | None = None, /, *, t_end_s: float | None = None,
+                amplitude: float | None = None, mode: str = "continuous", rate_hz: Any = None,
                 input: str | None = None, output: str | None = None,
-                rates_hz: Mapping[str, float] | None = None, record_dt: float | None = None
-                ) -> Any:
+                record_dt: float | None = None, band: float | None = None,
+                area: float | None = None, rates_hz: Any = None) -> LoopResponseResult:
         """Impulse response (``[signals] disturbance`` to ``output`` by default).
 
         Parameters
         ----------
-        t_end_s : float
-            Simulated time [s].
+        _t_end_s : float, optional
+            Deprecated: ``t_end_s`` given by position.
+        t_end_s : float, optional
+            Simulated time [s] (default 1).
+        amplitude : float, optional
+            Impulse area, the disturbance's unit times seconds (default
+            :attr:`default_impulse`, 0.05: the SEA's 0.05 N m s).
         mode : str
             ``"continuous"`` or ``"sampled"``.
-        area : float
-            Impulse area (e.g. N m s for a torque).
+        rate_hz : float or dict, optional
+            As :meth:`step`.
         input, output : str, optional
             Override the file's disturbance and output signals.
-        rates_hz : dict, optional
-            Override process rates [Hz].
         record_dt : float, optional
             Recording interval [s] (continuous mode).
+        band : float, optional
+            Recovery band of the metrics, relative to the peak deviation (default 0.05).
+        area, rates_hz : optional
+            Deprecated spellings of ``amplitude`` and ``rate_hz``.
 
         Returns
         -------
-        seactl.simulate.SimResult
-            Responses, stability, effective delays.
+        LoopResponseResult
+            As :meth:`step`; ``position`` in the output's unit.
         """
-        from .simulate import Impulse
+        t_end_s, rate_hz = self._old_arguments(_t_end_s, t_end_s, rates_hz, rate_hz)
+        t_end_s = 1.0 if t_end_s is None else t_end_s
+        if area is not None:
+            warnings.warn("impulse(area=) is deprecated; use amplitude=", DeprecationWarning,
+                          stacklevel=2)
+            amplitude = area if amplitude is None else amplitude
+        size = self.default_impulse if amplitude is None else amplitude
+        return self._loop_response("impulse", size, t_end_s, mode, rate_hz, input, output,
+                              record_dt, band)
 
-        return self._response("disturbance", Impulse(area), t_end_s, mode, input, output,
-                              rates_hz, record_dt)
+    @staticmethod
+    def _old_arguments(t_pos: Any, t_end_s: float | None, rates_hz: Any, rate_hz: Any
+                       ) -> tuple[float | None, Any]:
+        """Positional ``t_end_s`` and ``rates_hz=``: deprecated spellings."""
+        if t_pos is not None:
+            warnings.warn("a positional t_end_s is deprecated; pass t_end_s=",
+                          DeprecationWarning, stacklevel=3)
+            t_end_s = t_pos
+        if rates_hz is not None:
+            warnings.warn("rates_hz= is deprecated; use rate_hz=", DeprecationWarning,
+                          stacklevel=3)
+            rate_hz = rates_hz if rate_hz is None else rate_hz
+        return t_end_s, rate_hz
+
+    def monte_carlo(self, kind: str = "step", *, latency: Any = None, loss: Any = None,
+                    runs: int = 100, seed: int = 0, rate_hz: Any = None,
+                    t_end_s: float | None = None, amplitude: float | None = None) -> Any:
+        """Sampled step or impulse responses under random latency and message loss.
+
+        Parameters
+        ----------
+        kind : {"step", "impulse"}
+            Step of :attr:`default_step` on the reference, or impulse of
+            :attr:`default_impulse` on the disturbance.
+        latency : dict, optional
+            Delayed block (one of :attr:`loops`) -> latency model of
+            :mod:`seactl.timing_models` (seconds), or its text form in ms
+            (``"uniform:0.5:3"``).
+        loss : dict, optional
+            Delayed block -> loss probability, loss model, or text (``"ge:0.01:0.3"``).
+        runs : int
+            Timing realizations per design.
+        seed : int
+            Seed (each run has its own stream: reproducible).
+        rate_hz : float or dict, optional
+            As :meth:`step` (default: the file's rates).
+        t_end_s : float, optional
+            Window [s] (default 0.5 for steps, 1 for impulses).
+        amplitude : float, optional
+            Step or impulse size (default :attr:`default_step` or
+            :attr:`default_impulse`).
+
+        Returns
+        -------
+        seactl.timing.MonteCarloSummary
+            ``fraction_stable``, ``rms_error_mean``, ``rms_error_worst``,
+            ``peak_current_worst_a`` (NaN without a current signal), ``worst_run``, the
+            per-run arrays and the batched simulation.
+
+        Examples
+        --------
+        >>> import seactl as sc
+        >>> loop = sc.load_loop("examples/loops/paper-sea.toml")      # doctest: +SKIP
+        >>> mc = loop.monte_carlo(latency={"Bq_fb": "uniform:0.5:3"}, runs=10)  # doctest: +SKIP
+        >>> float(mc.fraction_stable)                                  # doctest: +SKIP
+        1.0
+        """
+        from .simulate import Impulse, Step
+        from .timing import MonteCarloSummary, timed_simulation
+        from .timing_models import parse_latency, parse_loss
+
+        if kind not in ("step", "impulse"):
+            raise InputError("kind", kind, "'step' or 'impulse'")
+        step = kind == "step"
+        t_end_s = (0.5 if step else 1.0) if t_end_s is None else t_end_s
+        size = _amplitude((self.default_step if step else self.default_impulse)
+                          if amplitude is None else amplitude)
+        inp, out = self._io("reference" if step else "disturbance", None, None)
+        rates = self._rates(rate_hz)
+        if isinstance(runs, bool) or not isinstance(runs, (int, np.integer)) \
+                or not 1 <= runs <= 100_000:
+            raise InputError("runs", runs, "an integer in [1, 100000]")
+        self._check_loop_simulation("sampled", rates, t_end_s, None, int(runs))
+        lat = {k: parse_latency(v, f"latency {k}") if isinstance(v, str) else v
+               for k, v in (latency or {}).items()}
+        los = {k: parse_loss(v, f"loss {k}") if isinstance(v, str) else v
+               for k, v in (loss or {}).items()}
+        cur = self._current_signal()
+        res = timed_simulation(self.diagram, self.design, {inp: Step(size) if step
+                                                           else Impulse(size)}, t_end_s,
+                               latency=lat, loss=los, runs=runs, seed=seed, rates_hz=rates,
+                               outputs=(out,) + ((cur,) if cur and cur != out else ()))
+        y = res.outputs[out]
+        rms = np.sqrt(np.mean((y / size - 1.0 if step else y) ** 2, axis=-1))
+        peak = np.max(np.abs(res.outputs[cur]), axis=-1) if cur else np.full(rms.shape,
+                                                                             np.nan)
+        return MonteCarloSummary(kind, int(runs), res.stable, np.where(res.stable, rms, np.nan),
+                                 np.where(res.stable, peak, np.nan), res)
 
 
 # ------------------------------------------------------------------ helpers
+def _amplitude(value: Any) -> float:
+    """A step or impulse size: a finite non-zero number (in the loop file's units)."""
+    try:
+        v = float(value)
+    except (TypeError, ValueError, OverflowError):
+        v = float("nan")
+    if not (np.isfinite(v) and v != 0):
+        raise InputError("amplitude", value, "a finite non-zero number (the loop file's "
+                         "units)")
+    return v
+
+
 def break_margins(compiled: CompiledLoop, design: Any, omega: np.ndarray, signal: str,
                   others: Sequence[str]) -> Margins:
     """Margins of the loop broken at ``signal`` with the ``others`` closed.

@@ -110,7 +110,7 @@ class SystemChoice:
                              "one value per variable (one design per export)")
         rates = self.rates_hz if self.rates_given else {
             name: float(p.rate_hz) for name, p in loop.processes.items()}
-        return loop.diagram, loop.design, None, 0.01, rates
+        return loop.diagram, loop.design, None, loop.default_step, rates
 
 
 def system_options(func: Callable[..., Any]) -> Callable[..., Any]:

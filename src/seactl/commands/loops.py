@@ -88,6 +88,7 @@ LOOP_OPTIONS: dict[str, frozenset[str]] = {
     "run": frozenset({"rates_hz", "duration", "step", "extra_latency", "loss", "seed",
                       "transport", "out", "as_json"}),
     "place": frozenset({"as_json"}),
+    "roots": frozenset({"count", "as_json"}),
 }
 """Per command, the options (click parameter names) that apply to a loop file; every other
 option of the command describes a built-in loop (its design, actuator, rate, Monte Carlo)
@@ -119,10 +120,6 @@ def _labels(loop: Any) -> list[dict[str, float]]:
     varied = _varied(loop)
     n = int(np.prod(loop.shape, dtype=int))
     return [{k: float(v.reshape(-1)[i]) for k, v in varied.items()} for i in range(n)]
-
-
-def _item(x: Any, i: int) -> float | None:
-    return finite_or_none(np.asarray(x).reshape(-1)[i])
 
 
 def _fmt(x: Any, spec: str) -> str:
@@ -158,20 +155,7 @@ def analyze(loop_file: str, sets: tuple[str, ...], no_jitter: bool, plot: str | 
         if plot_p:
             outs.figure(plot_p, _bode(loop, a))
         outs.commit()
-    labels = _labels(loop)
-    rows = []
-    for i, lab in enumerate(labels):
-        for b in a.breaks:
-            m = b.margins
-            g = functools.partial(_item, i=i)
-            rows.append({**lab, "break": b.name, "signal": b.signal,
-                         "phase_margin_deg": g(m.phase_margin_deg),
-                         "crossover_hz": g(m.crossover_hz),
-                         "gain_margin_db": g(m.gain_margin_db),
-                         "phase_crossover_hz": g(m.phase_crossover_hz),
-                         "delay_margin_ms": g(m.delay_margin_ms),
-                         "jitter_margin_ms": None if no_jitter else g(b.jitter_margin_s * 1e3),
-                         "stable": bool(np.asarray(a.stable).reshape(-1)[i])})
+    rows = a.records()
     if as_json:
         echo_json({"loop": loop.name, "file": loop_file, "set": {k: np.asarray(v).ravel()
                                                                    .tolist() for k, v in
@@ -240,10 +224,11 @@ def loop_impedance(loop: Any, f: np.ndarray, port: str | None, as_json: bool, ou
     check_budget(f"{n:,} design(s) of the loop at {f.size:,} frequencies",
                  n_bytes=n * f.size * FREQ_BYTES_PER_POINT,
                  hint="give fewer --freq points or fewer --set values")
-    z = loop.impedance(f, port)
-    name = port or next(iter(loop.ports))
+    res = loop.impedance(f, port=port)
+    name = res.port
     labels = _labels(loop)
-    zf = z.reshape(len(labels), f.size)
+    zf = res.z.reshape(len(labels), f.size)
+    phase = np.reshape(res.phase_deg, zf.shape)
     names = [" ".join(f"{k}={v:g}" for k, v in lab.items()) or loop.name for lab in labels]
 
     def fig():
@@ -255,17 +240,15 @@ def loop_impedance(loop: Any, f: np.ndarray, port: str | None, as_json: bool, ou
     _write_outputs(outs, plot, csv_path, fig, ["design", "f_hz", "re", "im", "magnitude",
                                          "phase_deg"],
                    [[names[i], float(fk), float(zf[i, k].real), float(zf[i, k].imag),
-                     float(abs(zf[i, k])), float(np.degrees(np.angle(zf[i, k])))]
+                     float(abs(zf[i, k])), float(phase[i, k])]
                     for i in range(len(labels)) for k, fk in enumerate(f)])
-    stable = loop.analyze(jitter=False).stable if loop.breaks else None
-    labels = _labels(loop)
-    zf = z.reshape(len(labels), f.size)
+    stable = loop.margins().stable if loop.breaks else None
     out = []
     for i, lab in enumerate(labels):
         out.append({**lab, "loop": loop.name, "port": name, "f_hz": f.tolist(),
                     "magnitude": [finite_or_none(x) for x in np.abs(zf[i])],
                     "magnitude_db": [finite_or_none(x) for x in 20 * np.log10(np.abs(zf[i]))],
-                    "phase_deg": [finite_or_none(x) for x in np.degrees(np.angle(zf[i]))],
+                    "phase_deg": [finite_or_none(x) for x in phase[i]],
                     "real": [finite_or_none(x) for x in zf[i].real],
                     "stable": None if stable is None else bool(np.asarray(stable)
                                                                 .reshape(-1)[i])})
@@ -285,13 +268,13 @@ def loop_impedance(loop: Any, f: np.ndarray, port: str | None, as_json: bool, ou
         console.print(t)
 
 
-def loop_response(loop: Any, kind: str, mode: str, t_end: float, size: float,
+def loop_response(loop: Any, kind: str, mode: str, t_end: float, size: float | None,
                   as_json: bool, outs: Any, plot: Any = None, csv_path: Any = None,
                   band: float | None = None) -> None:
-    """``seactl step|impulse --loop``: responses of the file's signals, each process at
-    its rate in sampled mode; ``band``: the impulse's recovery band (default 0.05)."""
+    """``seactl step|impulse --loop``: :meth:`seactl.UserLoop.step` or ``impulse`` (each
+    process at its rate in sampled mode); ``size`` None: the loop's default step or
+    impulse; ``band``: the impulse's recovery band (default 0.05)."""
     from .. import limits
-    from ..simulate import impulse_metrics, step_metrics
 
     delays = [float(np.max(v)) for k, v in loop.design._arrays.items() if k.endswith("__T")]
     limits.check_simulation(int(np.prod(loop.shape, dtype=int)), mode,
@@ -299,20 +282,16 @@ def loop_response(loop: Any, kind: str, mode: str, t_end: float, size: float,
                             record_dt_s=5e-4, t_end_name="--t-end [s]",
                             rate_name="rate_hz (the loop file's fastest process)",
                             hint="shorten --t-end or give fewer --set values")
+    rec = 5e-4 if mode == "continuous" else None
     if kind == "step":
-        res = loop.step(t_end, mode=mode, amplitude=size,
-                        record_dt=5e-4 if mode == "continuous" else None)
-    else:
-        res = loop.impulse(t_end, mode=mode, area=size,
-                           record_dt=5e-4 if mode == "continuous" else None)
-    out_name, y = next(iter(res.outputs.items()))
-    if kind == "step":
-        m = step_metrics(res.t_s, y, res.stable, res.left_bounds_s, reference=size)
+        res = loop.step(t_end_s=t_end, mode=mode, amplitude=size, record_dt=rec)
         keys = ("rise_time_s", "overshoot_pct", "settling_time_s", "steady_state_error")
     else:
-        m = impulse_metrics(res.t_s, y, res.stable, res.left_bounds_s,
-                            **({} if band is None else {"band": band}))
+        res = loop.impulse(t_end_s=t_end, mode=mode, amplitude=size, record_dt=rec, band=band)
         keys = ("peak_deviation", "peak_time_s", "recovery_time_s")
+    out_name, size = res.output, res.amplitude
+    y = res.outputs[out_name]
+    m = res.metrics
     labels = _labels(loop)
     yf = y.reshape(len(labels), -1)
     names = [" ".join(f"{k}={v:g}" for k, v in lab.items()) or loop.name for lab in labels]
@@ -326,31 +305,34 @@ def loop_response(loop: Any, kind: str, mode: str, t_end: float, size: float,
 
     _write_outputs(outs, plot, csv_path, fig, ["t_s", *names],
                    [[float(t), *map(float, yf[:, k])] for k, t in enumerate(res.t_s)])
-    req, eff = ({k: np.asarray(v).reshape(-1).tolist() for k, v in res.info.get(key, {}).items()}
-                for key in ("requested_delays_s", "effective_delays_s"))
-    v = loop.verdict(res, band)
+    req, eff = ({k: np.asarray(v).reshape(-1).tolist() for k, v in d.items()}
+                for d in (res.requested_delays_s, res.effective_delays_s))
+    v = res.verdict(band)
     runs = [{**lab, "stable": bool(res.stable.reshape(-1)[i])
              and v.verdict[i] not in ("unstable", "limit cycle"),
              "verdict": v.verdict[i], "evidence": v.evidence(i), "warnings": v.warnings[i],
              "metrics": {k: finite_or_none(np.asarray(getattr(m, k)).reshape(-1)[i])
                          for k in keys},
              out_name: [round(float(v), 12) for v in yf[i]]} for i, lab in enumerate(labels)]
-    lines = sampled_loop_lines(res.info, runs, loop.right_half_plane_roots(), names) \
-        if "sampled_verdict" in res.info else []
+    lines = sampled_loop_lines(res.info, runs, loop.roots(count=1).right_half_plane_roots,
+                               names) if "sampled_verdict" in res.info else []
     warnings = [(" ".join(f"{k}={x:g}" for k, x in lab.items()) + ": " if lab else "") + w
                 for lab, r in zip(labels, runs) for w in r["warnings"]]
     common = {"loop": loop.name, "mode": mode, "output": out_name, kind == "step" and
-              "amplitude" or "area": size, "requested_delays_s": req,
-              "effective_delays_s": eff,
+              "amplitude" or "area": size, "step_unit": loop.step_unit,
+              "requested_delays_s": req, "effective_delays_s": eff,
               "rates_hz": res.info.get("rates_hz"), "warnings": warnings}
+    if kind != "step":
+        del common["step_unit"]
     if as_json:
         t = [round(float(v), 9) for v in res.t_s]
         one = {k: x for k, x in runs[0].items() if k != "warnings"}
         echo_json({**common, "t_s": t, **one} if len(runs) == 1 else
                   {**common, "t_s": t, "runs": runs})
         return
+    amp = f", step {size:g} {loop.step_unit}" if kind == "step" else f", area {size:g}"
     tab = Table(title=escape(f"{kind.capitalize()} response of loop '{loop.name}' "
-                             f"({mode}), output {out_name}"))
+                             f"({mode}{amp}), output {out_name}"))
     varied = list(_varied(loop))
     for c in [*varied, "verdict", *keys]:
         tab.add_column(escape(c), justify="right")

@@ -19,6 +19,7 @@ from ._common import (
     rate_option,
     verdict_text,
 )
+from .loops import loop_options
 
 
 def roots_rows(spec: DesignSpec, count: int) -> list[dict[str, Any]]:
@@ -97,7 +98,9 @@ def _z_text(z: dict[str, Any]) -> str:
               help="Roots per design (a conjugate pair counts once).")
 @rate_option
 @json_option
-def roots(spec: DesignSpec, count: int, rate_hz: float | None, as_json: bool) -> None:
+@loop_options
+def roots(spec: DesignSpec, count: int, rate_hz: float | None, as_json: bool,
+          loop: Any) -> None:
     """Rightmost closed-loop roots [rad/s] with exact delays, and the spectral abscissa.
 
     \b
@@ -119,7 +122,12 @@ def roots(spec: DesignSpec, count: int, rate_hz: float | None, as_json: bool) ->
     (largest |z| first; |z| > 1 grows), with the equivalent s = ln(z)/T [rad/s] in JSON
     ("sampled": [{"rate_hz", "period_s", "verdict", "unstable_modes", "roots": [{"z",
     "abs", "s_rad_per_s"}]}]); the verdict is certified (docs/theory/sampled.md).
+
+    With --loop FILE, the roots of the loop file's whole diagram (every break closed),
+    as sc.load_loop(FILE).roots(count=) gives them (JSON: "loop", "file", "designs").
     """
+    if loop is not None:
+        return _loop_roots(loop, count, as_json)
     rows = roots_rows(spec, count)
     srows = sampled_root_rows(spec, count, rate_hz) if rate_hz is not None else None
     if as_json:
@@ -150,3 +158,23 @@ def roots(spec: DesignSpec, count: int, rate_hz: float | None, as_json: bool) ->
         console.print("incomplete: the discretizations did not agree, or the argument "
                       "principle counted roots the list does not hold; 'stable' is the "
                       "certified count of right-half-plane roots either way.", highlight=False)
+
+
+def _loop_roots(loop: Any, count: int, as_json: bool) -> None:
+    """``seactl roots --loop``: :meth:`seactl.UserLoop.roots`, one row per design."""
+    rows = loop.roots(count=count).records()
+    if as_json:
+        echo_json({"loop": loop.name, "file": loop.file, "designs": rows})
+        return
+    varied = list(loop.label_columns())
+    t = Table(title=escape(f"Rightmost closed-loop roots [rad/s] of loop '{loop.name}' "
+                           f"({loop.file})"))
+    for col in (*varied, "abscissa [1/s]", "stable", "roots"):
+        t.add_column(escape(col), justify="left" if col == "roots" else "right")
+    for r in rows:
+        a = r["spectral_abscissa"]
+        t.add_row(*[f"{r[k]:g}" for k in varied], "none" if a is None else f"{a:.4g}",
+                  _verdict_text(r), _roots_text(r)
+                  + ("" if r["complete"] else " [yellow](incomplete: roots may be missing)"
+                     "[/yellow]"))
+    console.print(t)

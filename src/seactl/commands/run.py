@@ -38,7 +38,7 @@ def _float(name: str, text: str, lo: float, hi: float) -> float:
 @click.option("--duration", default="2", show_default=True, help="Run time [s] (0.1 to 60).")
 @click.option("--step", "step", default=None,
               help="Step of the reference: q_des [rad] (SEA, default 0.01) or x_des [m] "
-                   "(rigid, default 0.004).")
+                   "(rigid, default 0.004); --loop: the file's reference_step, else 0.01.")
 @click.option("--extra-latency", default="0", show_default=True,
               help="Latency added to the high-level -> embedded link [ms].")
 @click.option("--loss", default="0", show_default=True,
@@ -66,9 +66,10 @@ def run(spec: DesignSpec, loop: Any, system: SystemChoice, duration: str, step: 
     from ..export import check_export_dir, write_export
     from ..runtime import RUN_MARKER, run_distributed, run_files
 
-    diagram, design, sat, _, rates = system.build(spec, loop)
-    default_step = 0.004 if system.system == "rigid" and loop is None else 0.01
-    unit = "reference units" if loop is not None else "rad" if system.system == "sea" else "m"
+    diagram, design, sat, default_step, rates = system.build(spec, loop)
+    if loop is None:
+        default_step = 0.004 if system.system == "rigid" else 0.01
+    unit = loop.step_unit if loop is not None else "rad" if system.system == "sea" else "m"
     if out is not None:
         check_export_dir(out, RUN_MARKER, "a run")
     res = run_distributed(

@@ -409,9 +409,11 @@ def step(spec: DesignSpec, amplitude: float, mode: str, rate_hz: float, zero: bo
 
     check_range("--amplitude [rad]", abs(amplitude), "amplitude_rad")
     check_simulation(spec, mode, rate_hz, t_end or 0.5)
-    if loop is not None:
-        return loop_response(loop, "step", mode, t_end or 0.5, amplitude, as_json, outs, plot,
-                             csv_path)
+    if loop is not None:  # without --amplitude: the loop's default step (its file's)
+        given = click.get_current_context().get_parameter_source("amplitude") \
+            != click.core.ParameterSource.DEFAULT
+        return loop_response(loop, "step", mode, t_end or 0.5, amplitude if given else None,
+                             as_json, outs, plot, csv_path)
     if timing is not None:
         return _monte_carlo(spec, "step", timing, outs, plot, csv_path, as_json,
                             f"Step response (sampled, {rate_hz:g} Hz)", rate_hz=rate_hz,
