@@ -32,13 +32,6 @@ def _flat(x: Any, shape: tuple[int, ...]) -> np.ndarray:
     return np.ravel(np.broadcast_to(np.asarray(x), shape))
 
 
-def _label_rows(labels: Mapping[str, Any], shape: tuple[int, ...]) -> list[dict[str, Any]]:
-    """One dict of label columns per design (C order)."""
-    cols = {k: _flat(v, shape) for k, v in labels.items()}
-    n = int(np.prod(shape, dtype=int))
-    return [{k: json_value(v[i]) for k, v in cols.items()} for i in range(n)]
-
-
 def plot_per_break(ax: Any, names: list[str], values: list[np.ndarray], ylabel: str) -> Any:
     """One line per break against the design index (a new figure if ``ax`` is None)."""
     ax = _axes(ax)
@@ -98,7 +91,6 @@ class LoopSampledMargins(Mapping):
         list of dict
             Rows, designs in C order.
         """
-        common = ("rate_hz", "verdict", "unstable_modes", "stable")
         per = {name: r.records() for name, r in self.breaks.items()}
         if not per:
             return []
@@ -108,7 +100,7 @@ class LoopSampledMargins(Mapping):
             out = {k: v for k, v in row.items() if k not in SAMPLED_BREAK_COLUMNS}
             for name, recs in per.items():
                 out.update({f"{name}_{k}": v for k, v in recs[i].items()
-                            if k in SAMPLED_BREAK_COLUMNS and k not in common})
+                            if k in SAMPLED_BREAK_COLUMNS})
             rows.append(out)
         return rows
 

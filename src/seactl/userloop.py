@@ -120,8 +120,8 @@ class LoopAnalysis:
 
     def records(self) -> list[dict[str, Any]]:
         """One flat row per design (C order): its values, stability and, per break
-        ``<b>``, ``<b>_phase_margin_deg``, ``<b>_crossover_hz``, ``<b>_gain_margin_db``,
-        ``<b>_delay_margin_ms`` and ``<b>_jitter_margin_ms`` (the columns of a loop sweep).
+        ``<b>``, ``<b>_phase_margin_deg``, ``<b>_crossover_hz``, ``<b>_delay_margin_ms``
+        and ``<b>_jitter_margin_ms``.
 
         Returns
         -------
@@ -134,7 +134,6 @@ class LoopAnalysis:
             m = b.margins
             cols.update({f"{b.name}_phase_margin_deg": m.phase_margin_deg,
                          f"{b.name}_crossover_hz": m.crossover_hz,
-                         f"{b.name}_gain_margin_db": m.gain_margin_db,
                          f"{b.name}_delay_margin_ms": m.delay_margin_ms,
                          f"{b.name}_jitter_margin_ms": np.asarray(b.jitter_margin_s) * 1e3})
         arrays = np.broadcast_arrays(*(np.asarray(v) for v in cols.values()))
