@@ -1,9 +1,11 @@
-"""Result objects of a user loop's views (:class:`seactl.UserLoop`): margins at every named
-break (continuous and sampled), jitter margins per break, and step and impulse responses.
+"""Result objects of a user loop's views (:class:`seactl.UserLoop`): the sampled loop's
+margins at every named break, jitter margins per break, step and impulse responses and
+the impedance at a port.
 
 They carry the same methods as the built-in systems' results (``to_dict()``,
-``records()``, ``plot(ax=None)``) and the same column names; what differs is that a user
-loop has named breaks (one row per design and break) and signals of its own units.
+``records()``, ``plot(ax=None)``) and the same column names; a user loop has named breaks
+(per-break columns ``<break>_...``) and signals in its own units.  The continuous
+margins are :class:`seactl.userloop.LoopAnalysis`.
 """
 
 from __future__ import annotations
@@ -14,9 +16,8 @@ from typing import Any
 
 import numpy as np
 
-from ._results import ResponseResult, json_array, json_value
+from ._results import ImpedanceResult, ResponseResult, json_array, json_value
 from .impedance import ImpedanceResponse
-from .margins import Margins
 
 
 def _axes(ax: Any) -> Any:
@@ -31,15 +32,8 @@ def _flat(x: Any, shape: tuple[int, ...]) -> np.ndarray:
     return np.ravel(np.broadcast_to(np.asarray(x), shape))
 
 
-def _label_rows(labels: Mapping[str, Any], shape: tuple[int, ...]) -> list[dict[str, Any]]:
-    """One dict of label columns per design (C order)."""
-    cols = {k: _flat(v, shape) for k, v in labels.items()}
-    n = int(np.prod(shape, dtype=int))
-    return [{k: json_value(v[i]) for k, v in cols.items()} for i in range(n)]
-
-
-def _plot_per_break(ax: Any, names: list[str], values: list[np.ndarray], ylabel: str) -> Any:
-    """One line per break against the design index."""
+def plot_per_break(ax: Any, names: list[str], values: list[np.ndarray], ylabel: str) -> Any:
+    """One line per break against the design index (a new figure if ``ax`` is None)."""
     ax = _axes(ax)
     for name, v in zip(names, values):
         v = np.ravel(v).astype(float)
@@ -51,124 +45,10 @@ def _plot_per_break(ax: Any, names: list[str], values: list[np.ndarray], ylabel:
     return ax
 
 
-@dataclass(frozen=True)
-class BreakMargins:
-    """Margins of one loop broken at a named signal (arrays of the design batch shape)."""
-
-    name: str
-    signal: str
-    margins: Margins
-    jitter_margin_s: np.ndarray
-
-    def to_dict(self) -> dict[str, Any]:
-        """The margins as (nested) lists; NaN and infinities become ``None``.
-
-        Returns
-        -------
-        dict
-            ``break``, ``signal``, the margins, ``jitter_margin_ms``, ``stable`` and
-            ``unstable_poles``.
-        """
-        m = self.margins
-        return {"break": self.name, "signal": self.signal,
-                "phase_margin_deg": json_array(m.phase_margin_deg),
-                "crossover_hz": json_array(m.crossover_hz),
-                "gain_margin_db": json_array(m.gain_margin_db),
-                "phase_crossover_hz": json_array(m.phase_crossover_hz),
-                "delay_margin_ms": json_array(m.delay_margin_ms),
-                "jitter_margin_ms": json_array(np.asarray(self.jitter_margin_s) * 1e3),
-                "stable": json_array(m.stable),
-                "unstable_poles": np.asarray(m.unstable_poles).tolist()}
-
-
-BREAK_COLUMNS = ("phase_margin_deg", "crossover_hz", "gain_margin_db", "phase_crossover_hz",
-                 "delay_margin_ms")
-
-
-@dataclass(frozen=True)
-class LoopAnalysis:
-    """Margins at every named break of a :class:`~seactl.UserLoop`, and its stability.
-
-    Attributes
-    ----------
-    loop : str
-        The loop's name.
-    breaks : list of BreakMargins
-        One per ``[[breaks]]`` entry, in file order.
-    stable : ndarray
-        Closed-loop stability (Nyquist on the exact-delay loops: no closed-loop root of
-        the characteristic quasi-polynomial in the right half plane).
-    values : dict
-        The design variables and parameters the batch was evaluated at.
-    labels : dict
-        The label columns of :meth:`records` (the variables set to several values).
-    """
-
-    loop: str
-    breaks: list[BreakMargins]
-    stable: np.ndarray
-    values: dict[str, np.ndarray]
-    labels: dict[str, np.ndarray] = field(default_factory=dict)
-
-    def __getitem__(self, name: str) -> BreakMargins:
-        for b in self.breaks:
-            if b.name == name:
-                return b
-        raise KeyError(name)
-
-    def records(self) -> list[dict[str, Any]]:
-        """One JSON-ready row per design and break (designs in C order, breaks in file
-        order): the label columns, ``break``, ``signal``, ``phase_margin_deg``,
-        ``crossover_hz``, ``gain_margin_db``, ``phase_crossover_hz``, ``delay_margin_ms``,
-        ``jitter_margin_ms`` (``None`` when not computed) and ``stable`` (the whole loop).
-
-        Returns
-        -------
-        list of dict
-            What ``seactl analyze --loop --json`` prints as ``rows``.
-        """
-        shape = np.shape(self.stable)
-        labels = _label_rows(self.labels, shape)
-        stable = _flat(self.stable, shape)
-        cols = [(b, {k: _flat(getattr(b.margins, k), shape) for k in BREAK_COLUMNS},
-                 _flat(np.asarray(b.jitter_margin_s) * 1e3, shape)) for b in self.breaks]
-        rows = []
-        for i, lab in enumerate(labels):
-            for b, c, jit in cols:
-                rows.append({**lab, "break": b.name, "signal": b.signal,
-                             **{k: json_value(v[i]) for k, v in c.items()},
-                             "jitter_margin_ms": json_value(jit[i]),
-                             "stable": bool(stable[i])})
-        return rows
-
-    def to_dict(self) -> dict[str, Any]:
-        """The loop, its stability, the values and every break's margins as nested lists.
-
-        Returns
-        -------
-        dict
-            ``loop``, ``stable``, ``values``, ``breaks`` (:meth:`BreakMargins.to_dict`).
-        """
-        return {"loop": self.loop, "stable": json_array(self.stable),
-                "values": {k: json_array(v) for k, v in self.values.items()},
-                "breaks": [b.to_dict() for b in self.breaks]}
-
-    def plot(self, ax: Any = None) -> Any:
-        """Phase margin of every break against the design index.
-
-        Parameters
-        ----------
-        ax : matplotlib.axes.Axes, optional
-            Where to draw (default: a new figure).
-
-        Returns
-        -------
-        matplotlib.axes.Axes
-            The axes drawn on.
-        """
-        return _plot_per_break(ax, [b.name for b in self.breaks],
-                               [b.margins.phase_margin_deg for b in self.breaks],
-                               "phase margin [deg]")
+SAMPLED_BREAK_COLUMNS = ("phase_margin_deg", "crossover_hz", "gain_margin_db",
+                         "phase_crossover_hz", "delay_margin_ms", "delay_margin_samples",
+                         "jitter_margin_ms", "jitter_margin_samples")
+"""The per-break columns of :meth:`LoopSampledMargins.records`."""
 
 
 class LoopSampledMargins(Mapping):
@@ -201,17 +81,28 @@ class LoopSampledMargins(Mapping):
         return f"LoopSampledMargins(loop={self.loop!r}, breaks={list(self.breaks)})"
 
     def records(self) -> list[dict[str, Any]]:
-        """One JSON-ready row per design and break (designs in C order): ``break`` then
-        the columns of :meth:`seactl.SampledMarginsResult.records`.
+        """One JSON-ready row per design (C order): the label columns, ``rate_hz``,
+        ``verdict``, ``unstable_modes`` and ``stable`` (the whole loop's), then per break
+        ``<b>`` the margins of :meth:`seactl.SampledMarginsResult.records` as
+        ``<b>_phase_margin_deg``, ``<b>_delay_margin_ms``, ...
 
         Returns
         -------
         list of dict
-            Rows, designs in C order, breaks in file order within a design.
+            Rows, designs in C order.
         """
         per = {name: r.records() for name, r in self.breaks.items()}
-        n = len(next(iter(per.values()))) if per else 0
-        return [{"break": name, **per[name][i]} for i in range(n) for name in per]
+        if not per:
+            return []
+        first = next(iter(per.values()))
+        rows = []
+        for i, row in enumerate(first):
+            out = {k: v for k, v in row.items() if k not in SAMPLED_BREAK_COLUMNS}
+            for name, recs in per.items():
+                out.update({f"{name}_{k}": v for k, v in recs[i].items()
+                            if k in SAMPLED_BREAK_COLUMNS})
+            rows.append(out)
+        return rows
 
     def to_dict(self) -> dict[str, Any]:
         """``{"loop": ..., "breaks": {name: SampledMarginsResult.to_dict()}}``.
@@ -237,7 +128,7 @@ class LoopSampledMargins(Mapping):
         matplotlib.axes.Axes
             The axes drawn on.
         """
-        return _plot_per_break(ax, list(self.breaks),
+        return plot_per_break(ax, list(self.breaks),
                                [r.phase_margin_deg for r in self.breaks.values()],
                                "phase margin [deg]")
 
@@ -256,9 +147,9 @@ class LoopJitterResult:
     ----------
     loop : str
         The loop's name.
-    breaks_s : dict
+    break_jitter_margins_s : dict
         Break name -> jitter margin [s].
-    delay_margins_s : dict
+    break_delay_margins_s : dict
         Break name -> delay margin [s].
     stable : ndarray
         Closed-loop stability.
@@ -267,20 +158,20 @@ class LoopJitterResult:
     """
 
     loop: str
-    breaks_s: dict[str, np.ndarray]
-    delay_margins_s: dict[str, np.ndarray]
+    break_jitter_margins_s: dict[str, np.ndarray]
+    break_delay_margins_s: dict[str, np.ndarray]
     stable: np.ndarray
     labels: dict[str, np.ndarray] = field(default_factory=dict)
 
     @property
-    def overall_s(self) -> np.ndarray:
+    def jitter_margin_s(self) -> np.ndarray:
         """The outermost (last) break's jitter margin [s]."""
-        return self.breaks_s[list(self.breaks_s)[-1]]
+        return self.break_jitter_margins_s[list(self.break_jitter_margins_s)[-1]]
 
     @property
     def delay_margin_s(self) -> np.ndarray:
         """The outermost break's delay margin [s]."""
-        return self.delay_margins_s[list(self.delay_margins_s)[-1]]
+        return self.break_delay_margins_s[list(self.break_delay_margins_s)[-1]]
 
     def ms(self, name: str) -> np.ndarray:
         """A break's jitter margin [ms].
@@ -295,13 +186,13 @@ class LoopJitterResult:
         ndarray
             Batch shape.
         """
-        return np.asarray(self.breaks_s[name]) * 1e3
+        return np.asarray(self.break_jitter_margins_s[name]) * 1e3
 
     def _columns(self) -> dict[str, np.ndarray]:
         shape = np.shape(self.stable)
         cols = {k: np.broadcast_to(np.asarray(v), shape) for k, v in self.labels.items()}
-        cols["jitter_margin_ms"] = np.asarray(self.overall_s) * 1e3
-        for name in self.breaks_s:
+        cols["jitter_margin_ms"] = np.asarray(self.jitter_margin_s) * 1e3
+        for name in self.break_jitter_margins_s:
             cols[f"{name}_jitter_margin_ms"] = self.ms(name)
         cols["delay_margin_ms"] = np.asarray(self.delay_margin_s) * 1e3
         cols["stable"] = self.stable
@@ -343,8 +234,8 @@ class LoopJitterResult:
         matplotlib.axes.Axes
             The axes drawn on.
         """
-        ax = _plot_per_break(ax, list(self.breaks_s), [self.ms(n) for n in self.breaks_s],
-                             "jitter margin [ms]")
+        names = list(self.break_jitter_margins_s)
+        ax = plot_per_break(ax, names, [self.ms(n) for n in names], "jitter margin [ms]")
         ax.set_yscale("log")
         return ax
 
@@ -395,6 +286,9 @@ class LoopResponseResult(ResponseResult):
         Time [s].
     position : ndarray
         The output (divided by the step for steps), ``batch + (T,)``.
+    current_a : ndarray or None
+        The input of the loop's ``current_to_torque`` block (its unit is the loop
+        file's), if it has exactly one.
     outputs : dict
         Every simulated signal as simulated (not normalized).
     metrics : StepMetrics or ImpulseMetrics
@@ -417,7 +311,8 @@ class LoopResponseResult(ResponseResult):
 
     def __init__(self, response: UserLoopResponse, labels: list[str], right_roots: Any,
                  amplitude_unit: str = ""):
-        self._inner = response
+        self._inner = self._response = response
+        self._links = None
         self.labels = labels
         self._right_roots = right_roots
         self.amplitude_unit = amplitude_unit
@@ -428,7 +323,8 @@ class LoopResponseResult(ResponseResult):
     amplitude = property(lambda self: self._inner.amplitude)
     t_s = property(lambda self: self._inner.t_s)
     position = property(lambda self: self._inner.position)
-    current = property(lambda self: self._inner.current)
+    current_a = property(lambda self: self._inner.current)
+    current = current_a
     metrics = property(lambda self: self._inner.metrics)
     result = property(lambda self: self._inner.result)
     outputs = property(lambda self: self._inner.result.outputs)
@@ -473,7 +369,7 @@ class LoopResponseResult(ResponseResult):
         step = self.kind == "step"
         t = self.t_s
         y = np.asarray(self.position, float).reshape(-1, t.size)
-        cur = self.current
+        cur = self.current_a
         rhp = (self.info.get("unstable_modes") if self.mode == "sampled"
                else self._right_roots())
         return judge(t, y, target=1.0 if step else 0.0,
@@ -508,16 +404,17 @@ class LoopResponseResult(ResponseResult):
         -------
         dict
             ``kind``, ``mode``, ``output``, ``amplitude``, ``amplitude_unit``, ``t_s``,
-            ``position``, ``current`` (None without a current signal), ``requested_delays_ms``,
+            ``position``, ``current_a`` (None without a current signal),
+            ``requested_delays_ms``,
             ``effective_delays_ms`` (per delayed block), the metrics' fields and, sampled,
             ``sampled_verdict`` and ``sampled_unstable_modes``.
         """
-        cur = self.current
+        cur = self.current_a
         out = {"kind": self.kind, "mode": self.mode, "output": self.output,
                "amplitude": self.amplitude, "amplitude_unit": self.amplitude_unit,
                "t_s": json_array(self.t_s),
                "position": json_array(self.position),
-               "current": None if cur is None else json_array(cur),
+               "current_a": None if cur is None else json_array(cur),
                "requested_delays_ms": {k: json_array(1e3 * np.asarray(v))
                                        for k, v in self.requested_delays_s.items()},
                "effective_delays_ms": {k: json_array(1e3 * np.asarray(v))
@@ -559,8 +456,36 @@ class LoopImpedanceResponse(ImpedanceResponse):
     """``Z(j 2 pi f)`` at a port of a user loop, in the loop file's units (force per
     velocity of the port)."""
 
-    port: str = ""
-
     @property
     def unit(self) -> str:
         return "SI (port force / port velocity)"
+
+
+class LoopImpedanceResult(ImpedanceResult):
+    """The impedance at a port of a user loop (:class:`~seactl.ImpedanceResult` with the
+    port's name).
+
+    Parameters
+    ----------
+    response : LoopImpedanceResponse
+        The computed impedance.
+    labels : list of str
+        One legend label per design.
+    port : str
+        The port's name.
+    """
+
+    def __init__(self, response: LoopImpedanceResponse, labels: list[str], port: str):
+        super().__init__(response, labels)
+        self.port = port
+
+    def to_dict(self) -> dict[str, Any]:
+        """As :meth:`seactl.ImpedanceResult.to_dict`, with the ``port``.
+
+        Returns
+        -------
+        dict
+            ``port``, ``model``, ``unit``, ``load``, ``f_hz``, ``magnitude``,
+            ``phase_deg``.
+        """
+        return {"port": self.port, **super().to_dict()}

@@ -24,7 +24,7 @@ from typing import Any
 import numpy as np
 
 from ._parallel import eigvals
-from ._results import ImpedanceResult, RootsResult, SampledMarginsResult, json_value
+from ._results import RootsResult, SampledMarginsResult, json_value
 from ._validate import frequencies_hz
 from .blockdiagram import Transfer
 from .errors import InputError, LoopFileError
@@ -39,12 +39,12 @@ from .loopfile import (
     parse_expr,
 )
 from .loopresults import (
-    BreakMargins,
-    LoopAnalysis,
+    LoopImpedanceResult,
     LoopJitterResult,
     LoopResponseResult,
     LoopSampledMargins,
     UserLoopResponse,
+    plot_per_break,
 )
 from .margins import Margins, loop_margins
 from .outputs import note_input
@@ -52,6 +52,111 @@ from .runtime import run_doc
 from .system import System
 
 _BUILDER = "<builder>"
+
+
+def _jsonable(x: Any) -> Any:
+    a = np.asarray(x)
+    if a.dtype == bool:
+        return a.tolist()
+    if a.ndim == 0:
+        v = float(a)
+        return round(v, 12) if np.isfinite(v) else None
+    return [_jsonable(v) for v in a]
+
+
+@dataclass(frozen=True)
+class BreakMargins:
+    """Margins of one loop broken at a named signal (arrays of the design batch shape)."""
+
+    name: str
+    signal: str
+    margins: Margins
+    jitter_margin_s: np.ndarray
+
+    def to_dict(self) -> dict[str, Any]:
+        m = self.margins
+        return {"break": self.name, "signal": self.signal,
+                "phase_margin_deg": _jsonable(m.phase_margin_deg),
+                "crossover_hz": _jsonable(m.crossover_hz),
+                "gain_margin_db": _jsonable(m.gain_margin_db),
+                "phase_crossover_hz": _jsonable(m.phase_crossover_hz),
+                "delay_margin_ms": _jsonable(m.delay_margin_ms),
+                "jitter_margin_ms": _jsonable(self.jitter_margin_s * 1e3),
+                "stable": _jsonable(m.stable), "unstable_poles": m.unstable_poles.tolist()}
+
+
+@dataclass(frozen=True)
+class LoopAnalysis:
+    """Margins at every named break of a :class:`UserLoop`, and its stability.
+
+    Attributes
+    ----------
+    loop : str
+        The loop's name.
+    breaks : list of BreakMargins
+        One per ``[[breaks]]`` entry, in file order.
+    stable : ndarray
+        Closed-loop stability (Nyquist on the exact-delay loops: no closed-loop root of
+        the characteristic quasi-polynomial in the right half plane).
+    values : dict
+        The design variables and parameters the batch was evaluated at.
+    """
+
+    loop: str
+    breaks: list[BreakMargins]
+    stable: np.ndarray
+    values: dict[str, np.ndarray]
+
+    def __getitem__(self, name: str) -> BreakMargins:
+        for b in self.breaks:
+            if b.name == name:
+                return b
+        raise KeyError(name)
+
+    def to_dict(self) -> dict[str, Any]:
+        return {"loop": self.loop, "stable": _jsonable(self.stable),
+                "values": {k: _jsonable(v) for k, v in self.values.items()},
+                "breaks": [b.to_dict() for b in self.breaks]}
+
+    def records(self) -> list[dict[str, Any]]:
+        """One flat row per design (C order): its values, stability and, per break
+        ``<b>``, ``<b>_phase_margin_deg``, ``<b>_crossover_hz``, ``<b>_delay_margin_ms``
+        and ``<b>_jitter_margin_ms``.
+
+        Returns
+        -------
+        list of dict
+            JSON-ready rows.
+        """
+        cols: dict[str, Any] = dict(self.values)
+        cols["stable"] = self.stable
+        for b in self.breaks:
+            m = b.margins
+            cols.update({f"{b.name}_phase_margin_deg": m.phase_margin_deg,
+                         f"{b.name}_crossover_hz": m.crossover_hz,
+                         f"{b.name}_delay_margin_ms": m.delay_margin_ms,
+                         f"{b.name}_jitter_margin_ms": np.asarray(b.jitter_margin_s) * 1e3})
+        arrays = np.broadcast_arrays(*(np.asarray(v) for v in cols.values()))
+        flat = {k: np.ravel(v) for k, v in zip(cols, arrays)}
+        n = flat["stable"].size
+        return [{k: json_value(v[i]) for k, v in flat.items()} for i in range(n)]
+
+    def plot(self, ax: Any = None) -> Any:
+        """Phase margin at every break against the design index.
+
+        Parameters
+        ----------
+        ax : matplotlib.axes.Axes, optional
+            Where to draw (default: a new figure).
+
+        Returns
+        -------
+        matplotlib.axes.Axes
+            The axes drawn on.
+        """
+        return plot_per_break(ax, [b.name for b in self.breaks],
+                              [b.margins.phase_margin_deg for b in self.breaks],
+                              "phase margin [deg]")
 
 
 @dataclass(frozen=True)
@@ -922,7 +1027,7 @@ class UserLoop(System):
         s = 2j * np.pi * frequencies_hz("f_hz", f_hz)
         return self.diagram.transfer(output, input, cut=tuple(cut))(self.design, s)
 
-    def impedance(self, f_hz: Any, *, port: str | None = None) -> ImpedanceResult:
+    def impedance(self, f_hz: Any, *, port: str | None = None) -> LoopImpedanceResult:
         """Impedance ``Z = sign * force / (s position)`` at a port, its motion imposed and
         the exogenous inputs at zero.
 
@@ -935,8 +1040,9 @@ class UserLoop(System):
 
         Returns
         -------
-        ImpedanceResult
-            ``z`` (complex, shape ``batch + (F,)``), ``f_hz``, ``magnitude``,
+        LoopImpedanceResult
+            An :class:`~seactl.ImpedanceResult`: ``z`` (complex, shape ``batch + (F,)``),
+            ``f_hz``, ``magnitude``,
             ``magnitude_db``, ``phase_deg``, ``stiffness``, ``port``; ``to_dict()``,
             ``plot()``.
         """
@@ -951,8 +1057,8 @@ class UserLoop(System):
         f = frequencies_hz("f_hz", f_hz)
         T = self.frequency_response(p.force, p.position, f, cut=(p.position,))
         z = p.sign * T / (2j * np.pi * f)
-        return ImpedanceResult(LoopImpedanceResponse("block-diagram", f, z, "SI", False,
-                                                     name), self.labels())
+        return LoopImpedanceResult(LoopImpedanceResponse("block-diagram", f, z, "SI", False),
+                                   self.labels(), name)
 
     def analyze(self, jitter: bool = True) -> LoopAnalysis:
         """Margins at every named break, with every other loop closed.
@@ -994,8 +1100,7 @@ class UserLoop(System):
             out.append(BreakMargins(name, sig, m, np.where(m.stable, jit, 0.0)))
         env = {k[5:]: np.broadcast_to(v, design.shape) for k, v in design._arrays.items()
                if k.startswith("var__")}
-        return LoopAnalysis(self.name, out, out[-1].margins.stable, env,
-                            self.label_columns() if design is self.design else {})
+        return LoopAnalysis(self.name, out, out[-1].margins.stable, env)
 
     def margins(self, rate_hz: Any = None) -> LoopAnalysis | LoopSampledMargins:
         """Margins at every named break: of the continuous loop (``rate_hz`` None, as
@@ -1043,8 +1148,9 @@ class UserLoop(System):
         Returns
         -------
         LoopJitterResult
-            ``breaks_s`` (break -> jitter margin [s]), ``overall_s`` (the outermost
-            break's), ``delay_margin_s``, ``stable``, ``records()``.
+            ``break_jitter_margins_s`` (break -> jitter margin [s]),
+            ``jitter_margin_s`` (the outermost break's), ``delay_margin_s``, ``stable``,
+            ``records()``.
         """
         a = self._analyze(self.design, True)
         return LoopJitterResult(self.name, {b.name: b.jitter_margin_s for b in a.breaks},

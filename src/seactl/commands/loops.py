@@ -122,6 +122,10 @@ def _labels(loop: Any) -> list[dict[str, float]]:
     return [{k: float(v.reshape(-1)[i]) for k, v in varied.items()} for i in range(n)]
 
 
+def _item(x: Any, i: int) -> float | None:
+    return finite_or_none(np.asarray(x).reshape(-1)[i])
+
+
 def _fmt(x: Any, spec: str) -> str:
     return "none" if x is None else format(x, spec)
 
@@ -155,7 +159,20 @@ def analyze(loop_file: str, sets: tuple[str, ...], no_jitter: bool, plot: str | 
         if plot_p:
             outs.figure(plot_p, _bode(loop, a))
         outs.commit()
-    rows = a.records()
+    labels = _labels(loop)
+    rows = []
+    for i, lab in enumerate(labels):
+        for b in a.breaks:
+            m = b.margins
+            g = functools.partial(_item, i=i)
+            rows.append({**lab, "break": b.name, "signal": b.signal,
+                         "phase_margin_deg": g(m.phase_margin_deg),
+                         "crossover_hz": g(m.crossover_hz),
+                         "gain_margin_db": g(m.gain_margin_db),
+                         "phase_crossover_hz": g(m.phase_crossover_hz),
+                         "delay_margin_ms": g(m.delay_margin_ms),
+                         "jitter_margin_ms": None if no_jitter else g(b.jitter_margin_s * 1e3),
+                         "stable": bool(np.asarray(a.stable).reshape(-1)[i])})
     if as_json:
         echo_json({"loop": loop.name, "file": loop_file, "set": {k: np.asarray(v).ravel()
                                                                    .tolist() for k, v in
