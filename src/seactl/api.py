@@ -309,16 +309,19 @@ class Design:
         Returns
         -------
         JitterResult
-            Arrays of the batch shape (``overall_s``, ``stiffness_s``, ``damping_s``,
-            ``torque_s``, ``delay_margin_s``, ``stable``), with ``records()``.
+            Arrays of the batch shape (``jitter_margin_s``, ``stiffness_jitter_margin_s``,
+            ``damping_jitter_margin_s``, ``torque_jitter_margin_s``, ``delay_margin_s``,
+            ``stable``), with ``records()``.
 
         Examples
         --------
         >>> import seactl as sc
         >>> d = sc.design([12, 14], delays_ms=(0.5, 2, 0.5), filters_hz=(50, 100))
         >>> j = d.jitter_margins()
-        >>> j.ms("overall").round(2), bool(j.ms("damping")[1] > j.ms("overall")[1])
-        (array([11.47,  8.04]), True)
+        >>> (j.jitter_margin_s * 1e3).round(2)
+        array([11.47,  8.04])
+        >>> bool(j.damping_jitter_margin_s[1] > j.jitter_margin_s[1])
+        True
         """
         from .jitter import sea_jitter_margins
 
