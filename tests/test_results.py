@@ -41,7 +41,7 @@ UNIT_SUFFIXES = ("_s", "_ms", "_hz", "_deg", "_db", "_rad", "_a", "_m", "_mps", 
 UNITLESS = {
     **dict.fromkeys(("labels", "label"), "legend labels / label columns"),
     "seconds": "the unit is the name (a sweep's wall time)",
-    **dict.fromkeys(("stable", "uncertain", "converged", "has_crossover", "load"),
+    **dict.fromkeys(("stable", "uncertain", "converged", "complete", "has_crossover", "load"),
                     "a boolean"),
     **dict.fromkeys(("verdict", "kind", "mode", "model", "unit", "units", "arch", "loop",
                      "name", "baseline", "note", "max_error_text", "compiler", "reason",
@@ -214,6 +214,19 @@ def test_cli_json_uses_the_attribute_names(capsys):
     for row, i in zip(rows, range(2)):
         assert all(_same_name(k, j) or k in j.labels for k in row)
         assert row["jitter_margin_ms"] == pytest.approx(1e3 * j.jitter_margin_s[i], rel=1e-9)
+
+
+def test_json_keys_are_attribute_names():
+    # Oracle: the attributes themselves; a key is an attribute, its ms form, or a label.
+    d = sc.design([12, 14], **TABLE_I)
+    views = {"margins": d.margins(), "sampled": d.margins(rate_hz=1000),
+             "impedance": d.impedance([1.0, 10.0]), "roots": d.roots(count=2)}
+    for name, res in views.items():
+        keys = set(res.to_dict()) | {k for row in res.records() for k in row}
+        # a row's index; the rows under "designs" (roots); the roots' discs, per root
+        keys -= {"design", "designs", "clusters"}
+        labels = res.labels if isinstance(res.labels, dict) else {}
+        assert {k for k in keys if not (_same_name(k, res) or k in labels)} == set(), name
 
 
 def test_response_current_has_its_unit():

@@ -854,9 +854,9 @@ class RootsResult(Result):
         Certified count of roots with ``Re s > 0`` (-1 where no count is certain).
     unstable_count : ndarray of int
         Listed roots with ``Re s > 0``, conjugates counted.
-    converged : ndarray of bool
+    converged, complete : ndarray of bool
         The list is complete (discretizations agreed, the argument principle found no
-        other root right of them).
+        other root right of them); ``complete`` is the name in :meth:`records`.
     nodes : ndarray of int
         Chebyshev collocation size the roots converged at (0: no delay).
     cluster_centre, cluster_radius : ndarray
@@ -887,6 +887,7 @@ class RootsResult(Result):
     unstable_count = _field("_roots", "unstable_count",
                             "Listed roots with positive real part, conjugates counted.")
     converged = _field("_roots", "converged", "Whether the list is complete.")
+    complete = _field("_roots", "converged", "Whether the list is complete (``converged``).")
     nodes = _field("_roots", "nodes", "Collocation size the roots converged at.")
     cluster_centre = _field("_roots", "cluster_centre", "Centre of each root's disc.")
     cluster_radius = _field("_roots", "cluster_radius", "Radius of each root's disc.")
