@@ -263,6 +263,19 @@ def test_placement_records_follow_the_options():
     assert [r["recommended"] for r in rows].count(True) == 1
 
 
+def test_loop_analysis_records_are_its_break_margins():
+    # Oracle: each break's own margins, design by design; the row's stability is the loop's.
+    loop = sc.load_loop(SRC.parents[1] / "examples" / "loops" / "paper-sea.toml")
+    a = loop.with_values(Kq=[60.0, 83.17208068860442]).analyze(jitter=False)
+    rows = a.records()
+    assert len(rows) == 2 and [r["Kq"] for r in rows] == pytest.approx([60.0, 83.1720806886])
+    for b in a.breaks:
+        pm = np.ravel(np.broadcast_to(b.margins.phase_margin_deg, np.shape(a.stable)))
+        assert [r[f"{b.name}_phase_margin_deg"] for r in rows] == pytest.approx(
+            pm.tolist(), abs=1e-9)
+    assert [r["stable"] for r in rows] == np.ravel(a.stable).tolist()
+
+
 def test_plots_draw_on_given_axes():
     import matplotlib
 
@@ -270,8 +283,11 @@ def test_plots_draw_on_given_axes():
     import matplotlib.pyplot as plt
 
     d = sc.design([12, 14], **TABLE_I)
-    for res in (d.margins(), d.jitter_margins(), d.impedance([1.0, 10.0]),
-                sc.latency_map(14, [0, 5], [0, 1]), sc.place(22, 0.5)):
+    mc = d.monte_carlo(latency={"damping": "uniform:0.5:3"}, runs=3, t_end_s=0.05)
+    for res in (d.margins(), d.margins(rate_hz=1000), d.jitter_margins(),
+                d.impedance([1.0, 10.0]), d.roots(count=2), d.step(t_end_s=0.05),
+                d.step(t_end_s=0.05).result, mc, sc.latency_map(14, [0, 5], [0, 1]),
+                sc.place(22, 0.5)):
         _, ax = plt.subplots()
         assert res.plot(ax) is ax and ax.has_data()
         plt.close("all")
