@@ -133,7 +133,7 @@ class Renamed(property):
     def _read(self, obj: Any) -> Any:
         warnings.warn(f"{type(obj).__name__}.{self.old} is deprecated; use "
                       f".{self.new}" + (f" (x {self.scale:g})" if self.scale != 1.0 else ""),
-                      DeprecationWarning, stacklevel=3)
+                      DeprecationWarning, stacklevel=2)
         value = getattr(obj, self.new)
         return value if self.scale == 1.0 else np.asarray(value) * self.scale
 
