@@ -470,11 +470,20 @@ class ResponseResult(Result):
     links : mapping, optional
         Loop name -> delayed block name (e.g. ``{"stiffness": "Kq_fb"}``): the keys of
         :attr:`requested_delays_s` and :attr:`effective_delays_s` (default: block names).
+    amplitude : float, optional
+        The step or impulse applied, in ``amplitude_unit`` (``"rad"`` or ``"m"`` for a
+        step, ``"N m s"`` or ``"N s"`` for an impulse).
+    amplitude_unit : str
+        Its unit.
 
     Attributes
     ----------
     labels : list of str
         One legend label per design.
+    amplitude : float or None
+        The step or impulse applied, in ``amplitude_unit``.
+    amplitude_unit : str
+        Its unit.
     kind : str
         ``"step"`` or ``"impulse"``.
     mode : str
@@ -499,15 +508,17 @@ class ResponseResult(Result):
     >>> import seactl as sc
     >>> r = sc.design([14, 20], filters_hz=(50, 100)).step(t_end_s=0.3)
     >>> r.position.shape[0], sorted(r.to_dict())[:3]
-    (2, ['current_a', 'effective_delays_ms', 'final_value'])
+    (2, ['amplitude', 'amplitude_unit', 'current_a'])
     """
 
     def __init__(self, response: Any, labels: list[str], right_roots: Any = None,
-                 links: Any = None):
+                 links: Any = None, amplitude: float | None = None, amplitude_unit: str = ""):
         self._response = response
         self.labels = labels
         self._right_roots = right_roots
         self._links = dict(links) if links is not None else None
+        self.amplitude = amplitude
+        self.amplitude_unit = amplitude_unit
 
     kind = _field("_response", "kind", "``step`` or ``impulse``.")
     t_s = _field("_response", "t_s", "Sample times [s].")
@@ -595,11 +606,13 @@ class ResponseResult(Result):
         Returns
         -------
         dict
-            ``kind``, ``mode``, ``t_s``, ``position``, ``current_a``,
-            ``requested_delays_ms``, ``effective_delays_ms`` (per loop), ``stable`` and the
-            metrics' fields (e.g. ``overshoot_pct``).
+            ``kind``, ``mode``, ``amplitude``, ``amplitude_unit``, ``t_s``, ``position``,
+            ``current_a``, ``requested_delays_ms``, ``effective_delays_ms`` (per loop),
+            ``stable`` and the metrics' fields (e.g. ``overshoot_pct``).
         """
-        out = {"kind": self.kind, "mode": self.mode, "t_s": json_array(self.t_s),
+        out = {"kind": self.kind, "mode": self.mode,
+               "amplitude": None if self.amplitude is None else json_value(self.amplitude),
+               "amplitude_unit": self.amplitude_unit, "t_s": json_array(self.t_s),
                "position": json_array(self.position),
                "current_a": json_array(self.current_a),
                "requested_delays_ms": {k: json_array(1e3 * np.asarray(v))
