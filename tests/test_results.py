@@ -63,7 +63,7 @@ UNITLESS = {
     **dict.fromkeys(("position", "q_measured", "q_replay", "q_nominal", "bound"),
                     "in the system's position unit (rad or m), or relative to the step"),
     **dict.fromkeys(("rms_error", "rms_error_mean", "rms_error_worst"),
-                    "relative to the step (step) or in rad (impulse), as `kind` says"),
+                    "relative to the step (step) or in the position unit (impulse)"),
     **dict.fromkeys(("max_damping", "max_joint_damping", "max_kx", "damping", "kx"),
                     "the paper's gain names; their units (N s/(m kg), N m s/rad, N/(m kg)) "
                     "are in the docstring"),

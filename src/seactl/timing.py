@@ -249,7 +249,7 @@ def timed_simulation(diagram: Any, design: Any, inputs: Mapping[str, Any], t_end
 # ----------------------------------------------------------------------------- SEA
 @dataclass(frozen=True)
 class MonteCarloSummary(Result):
-    """Monte Carlo over timing realizations (random latency and loss) of a batch of SEA
+    """Monte Carlo over timing realizations (random latency and loss) of a batch of
     designs.
 
     Parameters
@@ -263,7 +263,7 @@ class MonteCarloSummary(Result):
     rms_error : numpy.ndarray
         ``(runs,) + shape``: RMS tracking error over the window.
     peak_current_a : numpy.ndarray
-        ``(runs,) + shape``: largest ``|i_m|`` [A].
+        ``(runs,) + shape``: largest motor current [A].
     result : seactl.simulate.SimResult
         The batched simulation.
 
@@ -277,10 +277,10 @@ class MonteCarloSummary(Result):
         ``(runs,) + shape``, per run.
     rms_error : ndarray
         ``(runs,) + shape``: RMS tracking error over the window, relative to the step
-        (``q_j`` / step - 1) for a step, in rad (``q_j``) for an impulse; NaN for
-        unstable runs.
+        (position / step - 1) for a step, in the position's unit (rad or m) for an
+        impulse; NaN for unstable runs.
     peak_current_a : ndarray
-        ``(runs,) + shape``: largest ``|i_m|`` [A] (NaN if unstable).
+        ``(runs,) + shape``: largest motor current [A] (NaN if unstable).
     fraction_stable : ndarray
         ``shape``: fraction of runs that stayed stable.
     rms_error_mean, rms_error_worst : ndarray
@@ -377,7 +377,7 @@ class MonteCarloSummary(Result):
         ok = np.reshape(self.stable, (self.runs, -1))
         for i in range(err.shape[1]):
             ax.hist(err[ok[:, i], i], bins=30, alpha=0.6, label=f"design {i}")
-        ax.set_xlabel("RMS error" + (" / step" if self.kind == "step" else " [rad]"))
+        ax.set_xlabel("RMS error" + (" / step" if self.kind == "step" else ""))
         ax.set_ylabel("runs")
         if err.shape[1] <= 8:
             ax.legend(loc="best")
