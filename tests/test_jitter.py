@@ -132,7 +132,7 @@ def test_measured_trace_is_checked_against_the_analysed_band(tmp_path, capsys):
     flags = ["--fn", "14", "--t-tau", "1", "--t-qd", "1", "--f-qd", "50", "--f-taud", "100"]
     J = sc.design(14, delays_ms={"torque": 1, "stiffness": 2, "damping": 1},
                   filters_hz=(50, 100)).jitter_margins()
-    j_ms = float(np.ravel(J.stiffness_s)[0]) * 1e3
+    j_ms = float(np.ravel(J.stiffness_jitter_margin_s)[0]) * 1e3
     for t_qs, covered in (("2", 3.5 <= 2 + j_ms), ("3", False)):   # 2.5 < 3: below the band
         assert main(["jitter", *flags, "--t-qs", t_qs, "--trace", f"stiffness={trace}",
                      "--json"]) == 0

@@ -20,7 +20,7 @@ from seactl.sweep import (
     SweepInterrupted,
     SweepSpec,
     missing_chunks,
-    monte_carlo,
+    parameter_robustness,
     read_sweep,
     run_sweep,
     sweep_map,
@@ -229,14 +229,14 @@ def test_cli_sweep_plot_and_bad_input(tmp_path, capsys):
         assert code == 2 and field in err and "Traceback" not in err, (args, err)
 
 
-def test_monte_carlo_matches_samples_evaluated_one_by_one():
+def test_parameter_robustness_matches_samples_evaluated_one_by_one():
     """Oracle: sea_margins of each sampled plant, one by one and as one batched plant."""
     spec = SweepSpec(UT_SEA, (("fn_hz", (20.0,)), ("t_tau_ms", (0.5,)), ("t_qs_ms", (14.0,)),
                               ("t_qd_ms", (0.5,)), ("f_qd_hz", (50.0,)), ("f_taud_hz", (100.0,)),
                               ("Ij", (0.6 * IJ, 1.4 * IJ)), ("k", (0.6 * UT_SEA.k,
                                                                    1.4 * UT_SEA.k))),
                      sampling="random", n_samples=120, chunk_size=50, seed=1)
-    r = monte_carlo(spec)
+    r = parameter_robustness(spec)
     gains = critically_damped_gains(UT_SEA, 20.0)
     timing = Timing.from_ms(0.5, 14.0, 0.5, 50.0, 100.0)
     nominal = sea_margins(SEADesign(UT_SEA, gains, timing))

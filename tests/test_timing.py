@@ -154,7 +154,7 @@ def test_jitter_inside_margin_always_stable_far_beyond_not():
     # Kao-Lincoln: an extra delay varying in [0, J] keeps the loop stable (J = the torque
     # loop's jitter margin).  Far beyond it (6 J) some realizations go unstable.
     d = sc.design(14, **TABLE_I)
-    J = float(d.jitter_margins().torque_s)
+    J = float(d.jitter_margins().torque_jitter_margin_s)
     inside = sea_monte_carlo(d.sea, "impulse", latency={"torque": Uniform(0.5e-3,
                                                                           0.5e-3 + 0.5 * J)},
                              runs=100, seed=0)

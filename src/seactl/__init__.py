@@ -23,6 +23,7 @@ import types
 # functions even though submodules of the same names exist (see _Namespace).
 _PUBLIC = {
     ".system": ("System",),
+    ".results": ("Result",),
     ".api": ("design", "Design", "UnitWarning", "rightmost_roots"),
     ".actuators": ("SEAParams", "UT_SEA", "load_sea"),
     ".design": ("feasible_fn_range",),
@@ -37,8 +38,8 @@ _PUBLIC = {
 _HOME = {name: module for module, names in _PUBLIC.items() for name in names}
 
 __all__ = [
-    # the one system type
-    "System",
+    # the one system type and the base of its results
+    "System", "Result",
     # SEA designs
     "design", "Design", "SEAParams", "UT_SEA", "load_sea", "feasible_fn_range",
     "MarginsResult", "SampledMarginsResult", "ImpedanceResult", "ResponseResult",

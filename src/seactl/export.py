@@ -49,6 +49,7 @@ from .blockdiagram import Block, BlockDiagram
 from .errors import InputError, OutputError, ResourceError, SeactlError
 from .limits import check_range
 from .outputs import OutputSet
+from .results import Result, new_axes
 from .simulate import (
     Step,
     _assemble,
@@ -908,24 +909,120 @@ def verify(diagram: BlockDiagram, design: Any, ctl: Controllers, *,
 
 # ----------------------------------------------------------------------------- one call
 @dataclass(frozen=True)
-class ExportResult:
-    """What an export wrote (``files``, the marker last), the per-process controllers and,
-    with ``verify``, the :class:`Verification`."""
+class ExportResult(Result):
+    """What an export wrote, the per-process controllers and, with ``verify``, how far the
+    exported code is from seactl's own sampled controller.
+
+    Parameters
+    ----------
+    files : list of pathlib.Path
+        The files written, the marker last.
+    controllers : Controllers
+        The per-process discrete controllers.
+    verification : Verification or None
+        The verification, when asked for.
+
+    Attributes
+    ----------
+    files : list of pathlib.Path
+        The files written, the marker last.
+    controllers : Controllers
+        The per-process discrete controllers.
+    verification : Verification or None
+        The verification, when asked for.
+    processes : tuple of ProcessController
+        The processes, senders first.
+    max_error : float or None
+        Largest relative difference of any implementation (dimensionless; None unverified).
+    errors : dict or None
+        ``"<language>/<signals>"`` -> relative difference.
+    compiler : str or None
+        The C compiler used.
+    compile_s : float or None
+        Time to compile every process [s].
+    """
 
     files: list[Path]
     controllers: Controllers
     verification: Verification | None
 
+    @property
+    def processes(self) -> tuple[ProcessController, ...]:
+        """The processes, senders first."""
+        return self.controllers.processes
+
+    @property
+    def max_error(self) -> float | None:
+        """Largest relative difference of any implementation (None unverified)."""
+        return None if self.verification is None else self.verification.max_error
+
+    @property
+    def errors(self) -> dict[str, float] | None:
+        """Implementation and signals -> relative difference (None unverified)."""
+        return None if self.verification is None else self.verification.errors
+
+    @property
+    def compiler(self) -> str | None:
+        """The C compiler used (None: none)."""
+        return None if self.verification is None else self.verification.compiler
+
+    @property
+    def compile_s(self) -> float | None:
+        """Time to compile every process [s] (None: nothing compiled)."""
+        return None if self.verification is None else self.verification.compile_s
+
     def to_dict(self) -> dict[str, Any]:
-        v = self.verification
+        """The files, the processes and the verification as JSON-ready values.
+
+        Returns
+        -------
+        dict
+            ``files``, ``processes`` (``name``, ``rate_hz``, ``inputs``, ``outputs``),
+            ``max_error``, ``errors``, ``compiler``, ``compile_s``.
+        """
         return {"files": [str(p) for p in self.files],
                 "processes": [{"name": p.name, "rate_hz": p.rate_hz, "inputs": list(p.inputs),
-                               "outputs": list(p.outputs)}
-                              for p in self.controllers.processes],
-                "max_error": None if v is None else v.max_error,
-                "errors": None if v is None else v.errors,
-                "compiler": None if v is None else v.compiler,
-                "compile_s": None if v is None or v.compile_s is None else v.compile_s}
+                               "outputs": list(p.outputs)} for p in self.processes],
+                "max_error": self.max_error, "errors": self.errors,
+                "compiler": self.compiler, "compile_s": self.compile_s}
+
+    def records(self) -> list[dict[str, Any]]:
+        """One flat row per process.
+
+        Returns
+        -------
+        list of dict
+            ``name``, ``rate_hz``, ``inputs`` and ``outputs`` (comma-separated signal
+            names).
+        """
+        return [{"name": p.name, "rate_hz": p.rate_hz, "inputs": ",".join(p.inputs),
+                 "outputs": ",".join(p.outputs)} for p in self.processes]
+
+    def plot(self, ax: Any = None) -> Any:
+        """The verification's relative errors per implementation (log scale), or each
+        process's rate when the export was not verified.
+
+        Parameters
+        ----------
+        ax : matplotlib.axes.Axes, optional
+            Where to draw (default: a new figure).
+
+        Returns
+        -------
+        matplotlib.axes.Axes
+            The axes drawn on.
+        """
+        ax = new_axes(ax)
+        if self.errors:
+            names = list(self.errors)
+            ax.bar(names, [max(v, 1e-17) for v in self.errors.values()], color="tab:blue")
+            ax.set_yscale("log")
+            ax.set_ylabel("relative error")
+        else:
+            ax.bar([p.name for p in self.processes], [p.rate_hz for p in self.processes])
+            ax.set_ylabel("rate [Hz]")
+        ax.grid(True, axis="y", alpha=0.3)
+        return ax
 
 
 def export_design(diagram: BlockDiagram, design: Any, out: str | os.PathLike, *,

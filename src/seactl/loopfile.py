@@ -341,7 +341,7 @@ class BlockModel(BaseModel):
     description: str = ""
 
 
-class LoopModel(_Model):
+class LoopFileModel(_Model):
     name: str = "loop"
     description: str = ""
     default_process: str | None = None
@@ -707,7 +707,7 @@ class CompiledLoop:
     """A validated loop: its diagram and how each design's arrays are computed."""
 
     file: str
-    model: LoopModel
+    model: LoopFileModel
     variables: dict[str, float]
     parameters: dict[str, Expr]
     blocks: tuple[BlockSpec, ...]
@@ -854,12 +854,12 @@ def compile_loop(data: Mapping[str, Any], file: str) -> CompiledLoop:
         raise LoopFileError(file, "[variables] and [parameters]", None, f"at most "
                             f"{MAX_LOOP_NAMES} names (this loop has {names})")
     try:
-        model = LoopModel.model_validate(dict(data))
+        model = LoopFileModel.model_validate(dict(data))
     except ValidationError as exc:
         err = validation_error(exc, file, data)
         if exc.errors()[0]["type"] == "extra_forbidden":
             err = LoopFileError(file, err.where, err.value, "unknown key; valid here: "
-                                + _known_keys(LoopModel, exc.errors()[0]["loc"]))
+                                + _known_keys(LoopFileModel, exc.errors()[0]["loc"]))
         raise err from None
     for p in model.processes:
         check_name(p.replace("-", "_"), file, f"process name {p!r}")

@@ -18,14 +18,7 @@ import numpy as np
 
 from ._results import ImpedanceResult, ResponseResult, json_array, json_value
 from .impedance import ImpedanceResponse
-
-
-def _axes(ax: Any) -> Any:
-    if ax is None:
-        import matplotlib.pyplot as plt
-
-        _, ax = plt.subplots(figsize=(6.0, 3.6), layout="constrained")
-    return ax
+from .results import Renamed, Result, new_axes
 
 
 def _flat(x: Any, shape: tuple[int, ...]) -> np.ndarray:
@@ -34,7 +27,7 @@ def _flat(x: Any, shape: tuple[int, ...]) -> np.ndarray:
 
 def plot_per_break(ax: Any, names: list[str], values: list[np.ndarray], ylabel: str) -> Any:
     """One line per break against the design index (a new figure if ``ax`` is None)."""
-    ax = _axes(ax)
+    ax = new_axes(ax)
     for name, v in zip(names, values):
         v = np.ravel(v).astype(float)
         ax.plot(np.arange(v.size), v, "o-", label=name)
@@ -134,7 +127,7 @@ class LoopSampledMargins(Mapping):
 
 
 @dataclass(frozen=True)
-class LoopJitterResult:
+class LoopJitterResult(Result):
     """Jitter margins of a user loop at every named break (arrays of the batch shape).
 
     The jitter margin at a break is the largest ``J`` such that any time-varying extra
@@ -324,7 +317,7 @@ class LoopResponseResult(ResponseResult):
     t_s = property(lambda self: self._inner.t_s)
     position = property(lambda self: self._inner.position)
     current_a = property(lambda self: self._inner.current)
-    current = current_a
+    current = Renamed("current_a")
     metrics = property(lambda self: self._inner.metrics)
     result = property(lambda self: self._inner.result)
     outputs = property(lambda self: self._inner.result.outputs)
@@ -439,7 +432,7 @@ class LoopResponseResult(ResponseResult):
         matplotlib.axes.Axes
             The axes drawn on.
         """
-        ax = _axes(ax)
+        ax = new_axes(ax)
         ys = np.reshape(self.position, (-1, self.t_s.size))
         for y, label in zip(ys, self.labels):
             ax.plot(self.t_s, y, label=label)

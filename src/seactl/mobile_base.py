@@ -55,6 +55,7 @@ from ._borrow import borrowed
 from ._parallel import in_threads
 from ._params import check, nonnegative, positive, read_toml, schema_of, validate
 from .errors import InputError
+from .results import Result, json_value, new_axes
 
 ARCHS = ("cosc", "dosc")
 
@@ -348,7 +349,7 @@ def _hold(t: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
 
 # -------------------------------------------------------------------- simulation
 @dataclass(frozen=True)
-class SimResult:
+class BaseTrajectories:
     """Sampled trajectories of a batch of simulations (one row per embedded sample).
 
     Attributes
@@ -391,7 +392,7 @@ def _as_batch(*arrays) -> list[np.ndarray]:
 
 
 def simulate(p: MobileBaseParams, kx, dx, bq, *, reference=None, duration: float,
-             push: float = 0.0, record_energy: bool = False) -> SimResult:
+             push: float = 0.0, record_energy: bool = False) -> BaseTrajectories:
     """Simulate a batch of gain settings on the sampled multi-rate base.
 
     Parameters
@@ -456,7 +457,7 @@ def simulate(p: MobileBaseParams, kx, dx, bq, *, reference=None, duration: float
         es = kinetic_energy(p, V, _wheel_rates(V, X, p.alpha, p.wheel_radius,
                                                p.wheel_distance), WM) \
             + 0.5 * p.stiffness * np.sum((QM - PHI) ** 2, axis=-1)
-    return SimResult(t, out[0], out[1], x_d, v_d, out[2], sat / (3 * n), es)
+    return BaseTrajectories(t, out[0], out[1], x_d, v_d, out[2], sat / (3 * n), es)
 
 
 def _constants(p: MobileBaseParams) -> np.ndarray:
@@ -654,8 +655,8 @@ class Vibration:
     fired: np.ndarray
 
 
-def vibration_criterion(p: MobileBaseParams, result: SimResult) -> Vibration:
-    """Evaluate :class:`Vibration` on a :func:`criterion_test` :class:`SimResult`."""
+def vibration_criterion(p: MobileBaseParams, result: BaseTrajectories) -> Vibration:
+    """Evaluate :class:`Vibration` on a :func:`criterion_test` :class:`BaseTrajectories`."""
     m = result.t >= result.t[-1] - p.criterion_window + 1e-12
     t = result.t[m]
     v = result.v[m].copy()                                 # (n, B, 3)
@@ -772,12 +773,44 @@ def _search(p: MobileBaseParams, archs: tuple[str, ...], which: str, lo: float, 
 
 
 @dataclass(frozen=True)
-class ArchResult:
+class ArchResult(Result):
     """The tuning procedure's outcome for one architecture (gains as acceleration gains).
 
-    ``max_damping`` [N s/(m kg)] (DOSC: Cartesian equivalent of the joint damping
-    ``max_joint_damping`` [N m s/rad]), ``max_kx`` [N/(m kg)] found with the damping set to
-    ``damping`` = safety x max_damping; the circle is tracked with ``kx`` = safety x max_kx.
+    Parameters
+    ----------
+    arch : str
+        ``"cosc"`` or ``"dosc"``.
+    max_damping, max_joint_damping, max_kx, damping, kx : float
+        The limits found and the gains used (see Attributes).
+    damping_search, kx_search : Search
+        The two searches.
+    rms_position_m, rms_velocity_mps : float
+        RMS tracking errors of the circle [m], [m/s].
+    saturation : float
+        Fraction of wheel-samples saturated while tracking.
+
+    Attributes
+    ----------
+    arch : str
+        ``"cosc"`` or ``"dosc"``.
+    max_damping : float
+        Damping limit, an acceleration gain [N s/(m kg)] (DOSC: the Cartesian
+        equivalent of ``max_joint_damping``).
+    max_joint_damping : float
+        DOSC's joint damping limit [N m s/rad].
+    max_kx : float
+        Stiffness limit found with the damping at ``damping``, an acceleration gain
+        [N/(m kg)].
+    damping : float
+        The damping used: safety factor x ``max_damping`` [N s/(m kg)].
+    kx : float
+        The stiffness tracking the circle: safety factor x ``max_kx`` [N/(m kg)].
+    damping_search, kx_search : Search
+        Every candidate of the two searches.
+    rms_position_m, rms_velocity_mps : float
+        RMS tracking errors of the circle [m], [m/s] (NaN without tracking).
+    saturation : float
+        Fraction of wheel-samples saturated while tracking.
     """
 
     arch: str
@@ -792,15 +825,90 @@ class ArchResult:
     rms_velocity_mps: float
     saturation: float
 
+    def records(self) -> list[dict[str, Any]]:
+        """One flat row: the limits, gains and tracking errors.
+
+        Returns
+        -------
+        list of dict
+            ``arch`` and every scalar attribute.
+        """
+        return [{"arch": self.arch, **{k: json_value(getattr(self, k)) for k in ARCH_COLUMNS}}]
+
+    def to_dict(self) -> dict[str, Any]:
+        """The row of :meth:`records`.
+
+        Returns
+        -------
+        dict
+            ``arch`` and every scalar attribute.
+        """
+        return self.records()[0]
+
+    def plot(self, ax: Any = None) -> Any:
+        """The vibration measure of every candidate of both searches.
+
+        Parameters
+        ----------
+        ax : matplotlib.axes.Axes, optional
+            Where to draw (default: a new figure).
+
+        Returns
+        -------
+        matplotlib.axes.Axes
+            The axes drawn on.
+        """
+        ax = new_axes(ax)
+        for name, srch in (("damping", self.damping_search), ("kx", self.kx_search)):
+            ax.loglog(srch.gains, np.maximum(srch.vibration, 1e-18), "o-", label=name)
+            ax.axvline(srch.limit, ls=":", color="0.5")
+        ax.set_xlabel("gain")
+        ax.set_ylabel("vibration")
+        ax.set_title(self.arch.upper())
+        ax.legend(loc="best")
+        return ax
+
+
+ARCH_COLUMNS = ("max_damping", "max_joint_damping", "max_kx", "damping", "kx",
+                "rms_position_m", "rms_velocity_mps", "saturation")
+"""The scalar attributes of :class:`ArchResult` (its records' columns after ``arch``)."""
+
 
 @dataclass(frozen=True)
-class MobileBaseComparison:
-    """COSC versus DOSC: limits, tracking errors and the paper's ratios."""
+class MobileBaseComparison(Result):
+    """COSC versus DOSC: limits, tracking errors and the paper's ratios.
+
+    Parameters
+    ----------
+    params : MobileBaseParams
+        The base.
+    results : dict
+        Architecture -> :class:`ArchResult`.
+    circle : Circle
+        The tracked reference.
+    track : BaseTrajectories, optional
+        The circle-tracking simulation (one trajectory per architecture).
+
+    Attributes
+    ----------
+    params : MobileBaseParams
+        The base.
+    results : dict
+        Architecture -> :class:`ArchResult`.
+    circle : Circle
+        The tracked reference.
+    track : BaseTrajectories or None
+        The circle-tracking simulation.
+    kx_ratio : float
+        ``max_kx(DOSC) / max_kx(COSC)`` (dimensionless).
+    position_rms_reduction_pct, velocity_rms_reduction_pct : float
+        How much smaller DOSC's RMS errors are than COSC's [%].
+    """
 
     params: MobileBaseParams
     results: dict[str, ArchResult]
     circle: Circle
-    track: SimResult | None = field(default=None, repr=False)
+    track: BaseTrajectories | None = field(default=None, repr=False)
 
     @property
     def kx_ratio(self) -> float:
@@ -822,6 +930,62 @@ class MobileBaseComparison:
     def velocity_rms_reduction_pct(self) -> float:
         """How much smaller DOSC's RMS velocity error is than COSC's [%]."""
         return self._reduction("rms_velocity_mps")
+
+    def records(self) -> list[dict[str, Any]]:
+        """One flat row per architecture.
+
+        Returns
+        -------
+        list of dict
+            As :meth:`ArchResult.records`.
+        """
+        return [row for r in self.results.values() for row in r.records()]
+
+    def to_dict(self) -> dict[str, Any]:
+        """The rows and the ratios as JSON-ready values.
+
+        Returns
+        -------
+        dict
+            ``base`` (the parameter set's name), ``archs`` (:meth:`records`),
+            ``kx_ratio``, ``position_rms_reduction_pct``, ``velocity_rms_reduction_pct``
+            (None where not computed).
+        """
+        both = {"cosc", "dosc"} <= set(self.results)
+        return {"base": self.params.name, "archs": self.records(),
+                "kx_ratio": json_value(self.kx_ratio) if both else None,
+                "position_rms_reduction_pct":
+                    json_value(self.position_rms_reduction_pct) if both else None,
+                "velocity_rms_reduction_pct":
+                    json_value(self.velocity_rms_reduction_pct) if both else None}
+
+    def plot(self, ax: Any = None) -> Any:
+        """The tracked circle per architecture (with tracking), else the stiffness limits.
+
+        Parameters
+        ----------
+        ax : matplotlib.axes.Axes, optional
+            Where to draw (default: a new figure).
+
+        Returns
+        -------
+        matplotlib.axes.Axes
+            The axes drawn on.
+        """
+        ax = new_axes(ax)
+        if self.track is None:
+            ax.bar([a.upper() for a in self.results], [r.max_kx for r in self.results.values()])
+            ax.set_ylabel("stiffness limit K_x [N/(m kg)]")
+            return ax
+        tr = self.track
+        ax.plot(tr.x_d[:, 0], tr.x_d[:, 1], "k:", label="reference")
+        for i, a in enumerate(self.results):
+            ax.plot(tr.x[:, i, 0], tr.x[:, i, 1], label=a.upper())
+        ax.set_xlabel("x [m]")
+        ax.set_ylabel("y [m]")
+        ax.set_aspect("equal")
+        ax.legend(loc="best")
+        return ax
 
 
 def tune(p: MobileBaseParams = TRIKEY, archs: tuple[str, ...] = ARCHS, *, track: bool = True

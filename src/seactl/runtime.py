@@ -54,6 +54,8 @@ from typing import Any
 
 import numpy as np
 
+from .results import Result, json_value, new_axes
+
 SENSE, CENTRAL, ACT, STOP, HELLO, START = 0, 1, 2, 3, 4, 5
 HEADER = struct.Struct("<Bqd")
 PEER_TIMEOUT_S = 2.0
@@ -353,9 +355,35 @@ def run_high_level(cfg: dict[str, Any], link: Any) -> dict[str, np.ndarray]:
 
 # ----------------------------------------------------------------------------- parent
 @dataclass(frozen=True)
-class RunResult:
-    """A distributed run: per-link latency samples [s], the measured and replayed
-    responses, and the summary numbers (``summary``, JSON-ready)."""
+class RunResult(Result):
+    """A distributed run: per-link latency samples, the measured and replayed responses,
+    and the summary numbers.
+
+    Parameters
+    ----------
+    t_s : numpy.ndarray
+        Base-tick times [s].
+    q_measured, q_replay, q_nominal : numpy.ndarray
+        The output measured on the plant process, simulated with the measured link timing,
+        and simulated with the design's delays.
+    latency_s : dict
+        Link -> its latency samples [s].
+    summary : dict
+        JSON-ready summary (what ``seactl run --json`` prints).
+
+    Attributes
+    ----------
+    t_s : ndarray
+        Base-tick times [s].
+    q_measured, q_replay, q_nominal : ndarray
+        The system's output (``summary["output"]``) in its own unit (rad: SEA, m: rigid
+        actuator): measured, replayed with the measured timing, simulated nominally.
+    latency_s : dict
+        Link -> its latency samples [s].
+    summary : dict
+        JSON-ready summary: transport, rates, per-link latency statistics [ms], tracking
+        and replay differences.
+    """
 
     t_s: np.ndarray
     q_measured: np.ndarray
@@ -363,6 +391,53 @@ class RunResult:
     q_nominal: np.ndarray
     latency_s: dict[str, np.ndarray]
     summary: dict[str, Any]
+
+    def to_dict(self) -> dict[str, Any]:
+        """The summary (what ``seactl run --json`` prints, without the file list).
+
+        Returns
+        -------
+        dict
+            JSON-ready summary.
+        """
+        return dict(self.summary)
+
+    def records(self) -> list[dict[str, Any]]:
+        """One flat row per link: its latency statistics [ms].
+
+        Returns
+        -------
+        list of dict
+            ``link``, ``count``, ``mean_ms``, ``p50_ms``, ``p99_ms``, ``max_ms``,
+            ``jitter_ms``.
+        """
+        return [{"link": link, **{k: json_value(v) for k, v in stats.items()
+                                  if k != "histogram"}}
+                for link, stats in self.summary.get("links", {}).items()]
+
+    def plot(self, ax: Any = None) -> Any:
+        """The measured response against both simulations.
+
+        Parameters
+        ----------
+        ax : matplotlib.axes.Axes, optional
+            Where to draw (default: a new figure).
+
+        Returns
+        -------
+        matplotlib.axes.Axes
+            The axes drawn on.
+        """
+        ax = new_axes(ax)
+        t_ms = self.t_s * 1e3
+        ax.plot(t_ms, self.q_measured, label="measured", lw=2)
+        ax.plot(t_ms, self.q_replay, "--", label="simulated, measured timing")
+        ax.plot(t_ms, self.q_nominal, ":", label="simulated, design delays")
+        ax.set_xlabel("time [ms]")
+        ax.set_ylabel(str(self.summary.get("output", "output")))
+        ax.grid(True, alpha=0.3)
+        ax.legend(loc="best")
+        return ax
 
 
 def _plant_matrices(plan: Any) -> dict[str, np.ndarray]:

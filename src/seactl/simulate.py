@@ -108,6 +108,7 @@ from ._parallel import eigvals, in_threads, stacked
 from .blockdiagram import Block, BlockDiagram
 from .errors import InputError, SeactlError
 from .limits import check_budget, simulation_estimate
+from .results import Result, flat_records, json_array, new_axes
 from .verdict import RECOVERY_BAND, STEP_BAND
 
 MODES = ("continuous", "sampled")
@@ -173,18 +174,42 @@ class Friction:
 
 # ----------------------------------------------------------------------------- results
 @dataclass(frozen=True)
-class SimResult:
+class SimResult(Result):
     """Simulated responses of a batch of designs.
+
+    Parameters
+    ----------
+    mode : str
+        ``"continuous"`` or ``"sampled"``.
+    t_s : numpy.ndarray
+        Sample times [s], shape ``(T,)``.
+    outputs : dict
+        Signal name -> array of shape ``batch + (T,)``.
+    stable : numpy.ndarray
+        ``batch`` bool.
+    left_bounds_s : numpy.ndarray
+        Time [s] an output first left ``bound``.
+    bound : float
+        The divergence bound used.
+    info : dict, optional
+        Details.
 
     Attributes
     ----------
-    mode : ``"continuous"`` or ``"sampled"``.
-    t_s : sample times [s], shape ``(T,)``.
-    outputs : signal name -> array of shape ``batch + (T,)``.
-    stable : ``batch`` bool: stayed within ``bound`` and decaying at the end of the window.
-    left_bounds_s : time [s] an output first left ``bound`` (``inf`` if never).
-    bound : the divergence bound used (output units).
-    info : details (step, rates, requested and effective delays per delayed block [s]:
+    mode : str
+        ``"continuous"`` or ``"sampled"``.
+    t_s : ndarray
+        Sample times [s], shape ``(T,)``.
+    outputs : dict
+        Signal name -> array of shape ``batch + (T,)``, each in its signal's unit.
+    stable : ndarray of bool
+        ``batch``: stayed within ``bound`` and decaying at the end of the window.
+    left_bounds_s : ndarray
+        Time [s] an output first left ``bound`` (``inf`` if never).
+    bound : float
+        The divergence bound used (in the outputs' units).
+    info : dict
+        Details (step, rates, requested and effective delays per delayed block [s]:
         ``requested_delays_s``, ``effective_delays_s``; equal in continuous mode, the
         whole-sample buffers' ``T_s/2 + n T_s >= T`` in sampled mode, ...).
     """
@@ -196,6 +221,54 @@ class SimResult:
     left_bounds_s: np.ndarray
     bound: float
     info: dict[str, Any] = field(default_factory=dict)
+
+    def to_dict(self) -> dict[str, Any]:
+        """Time, every output, boundedness and exit times as nested lists.
+
+        Returns
+        -------
+        dict
+            ``mode``, ``t_s``, ``outputs`` (signal -> nested list), ``stable``,
+            ``left_bounds_s``, ``bound``.
+        """
+        return {"mode": self.mode, "t_s": json_array(self.t_s),
+                "outputs": {k: json_array(v) for k, v in self.outputs.items()},
+                "stable": json_array(self.stable), "left_bounds_s": json_array(self.left_bounds_s),
+                "bound": self.bound}
+
+    def records(self) -> list[dict[str, Any]]:
+        """One row per design (flattened batch): boundedness and exit time.
+
+        Returns
+        -------
+        list of dict
+            ``stable``, ``left_bounds_s``.
+        """
+        return flat_records({"stable": self.stable, "left_bounds_s": self.left_bounds_s})
+
+    def plot(self, ax: Any = None, output: str | None = None) -> Any:
+        """One output against time (default: the first), one line per design.
+
+        Parameters
+        ----------
+        ax : matplotlib.axes.Axes, optional
+            Where to draw (default: a new figure).
+        output : str, optional
+            Signal name (a key of :attr:`outputs`).
+
+        Returns
+        -------
+        matplotlib.axes.Axes
+            The axes drawn on.
+        """
+        ax = new_axes(ax)
+        name = output if output is not None else next(iter(self.outputs))
+        for y in np.reshape(self.outputs[name], (-1, self.t_s.size)):
+            ax.plot(self.t_s, y)
+        ax.set_xlabel("time [s]")
+        ax.set_ylabel(name)
+        ax.grid(True, alpha=0.3)
+        return ax
 
 
 @dataclass(frozen=True)
@@ -697,7 +770,7 @@ class Layout:
 
 
 @dataclass(frozen=True)
-class RunResult:
+class RunOutputs:
     """What a run loop returns: flat-batch outputs ``(n, T)``, exit times, details."""
 
     t_s: np.ndarray
@@ -818,7 +891,7 @@ def compile_continuous(diagram: BlockDiagram, design: Any, inputs: Mapping[str, 
         mint.T.copy(), frac.T.copy(), int(mint.max(initial=0)) + 3, delays, shape)
 
 
-def run_continuous(plan: ContinuousPlan, bound: float) -> RunResult:
+def run_continuous(plan: ContinuousPlan, bound: float) -> RunOutputs:
     """Step a :class:`ContinuousPlan` in time (compiled: :func:`_continuous_kernel`)."""
     p, z, v = plan, plan.z, plan.v
     n = p.H.shape[-1]
@@ -842,7 +915,7 @@ def run_continuous(plan: ContinuousPlan, bound: float) -> RunResult:
     delays = {k: d.reshape(p.shape) for k, d in p.delays_s.items()}
     info = {"dt_s": p.dt_s, "record_dt_s": p.dt_s * p.every,
             "requested_delays_s": delays, "effective_delays_s": delays}
-    return RunResult(p.t_s[::p.every], {o: rec[j] for j, o in enumerate(p.outputs)}, left, info)
+    return RunOutputs(p.t_s[::p.every], {o: rec[j] for j, o in enumerate(p.outputs)}, left, info)
 
 
 @njit(cache=True, nogil=True)
@@ -1456,7 +1529,7 @@ def _check_bounds(plan: SampledPlan, st: _SampledState, k: int, y: np.ndarray,
 
 
 def run_sampled(plan: SampledPlan, bound: float,
-                timing: Mapping[str, np.ndarray] | None = None) -> RunResult:
+                timing: Mapping[str, np.ndarray] | None = None) -> RunOutputs:
     """Step a :class:`SampledPlan` tick by tick.
 
     ``timing`` (optional) maps delayed blocks (``plan.links``, compiled with
@@ -1720,7 +1793,7 @@ def run_controller(plan: SampledPlan, sensed: np.ndarray) -> np.ndarray:
     return out
 
 
-def _sampled_result(plan: SampledPlan, st: _SampledState) -> RunResult:
+def _sampled_result(plan: SampledPlan, st: _SampledState) -> RunOutputs:
     rec = {o: st.rec[plan.order.index(o)] for o in plan.outputs}
     peak_act = st.peak_act.T
     recs = _fill_diverged(np.stack([rec[o] for o in plan.outputs]), st.left)
@@ -1729,7 +1802,7 @@ def _sampled_result(plan: SampledPlan, st: _SampledState) -> RunResult:
                               for j, s in enumerate(plan.actuation)}
     info["saturated_fraction"] = (st.sat_ticks / (plan.steps + 1)).reshape(plan.shape)
     info["friction_step_s"] = plan.info["friction_step_s"]
-    return RunResult(plan.t_s, {o: recs[j] for j, o in enumerate(plan.outputs)}, st.left, info)
+    return RunOutputs(plan.t_s, {o: recs[j] for j, o in enumerate(plan.outputs)}, st.left, info)
 
 
 # ----------------------------------------------------------------------------- metrics

@@ -62,6 +62,7 @@ from .actuators import SEAParams
 from .axes import ACTUATOR_AXES, ACTUATOR_FIELDS, AXES, SAMPLINGS
 from .errors import InputError, OutputError, Terminated
 from .outputs import TEMP_TAG
+from .results import Renamed, Result, flat_records, json_value, new_axes
 
 FORMAT = "seactl-sweep/1"
 
@@ -621,8 +622,33 @@ def read_sweep(out: Path | str, columns: Iterable[str] | None = None):
 
 # ------------------------------------------------------------------ execution
 @dataclass(frozen=True)
-class SweepResult:
-    """Outcome of :func:`run_sweep`."""
+class SweepResult(Result):
+    """Outcome of :func:`run_sweep`: where the data went, counts and timing.
+
+    Attributes
+    ----------
+    out : pathlib.Path
+        The dataset's directory (read it with :func:`read_sweep`).
+    spec_hash : str
+        Hash of the sweep's specification (a resumed sweep must match it).
+    n_points, n_chunks : int
+        Design points and chunks of the whole sweep.
+    chunks_computed, points_computed : int
+        Chunks and points computed by this run (the rest were there already).
+    seconds : float
+        Wall time of this run [s].
+    workers : int
+        Worker processes (0: this process).
+    worker_peak_rss_mb : float
+        Largest resident set of a worker [MB].
+    worker_cpu_seconds, parent_cpu_seconds : float
+        CPU time of the workers and of this process [s].
+    summary : dict
+        Counts of feasible and stable points, a sample of phase margins (``pm_sample``,
+        [deg]) and the best point.
+    points_per_s : float
+        Points computed per second of wall time.
+    """
 
     out: Path
     spec_hash: str
@@ -643,6 +669,51 @@ class SweepResult:
     def points_per_s(self) -> float:
         """Points computed in this run per second of wall time (start-up included)."""
         return self.points_computed / self.seconds if self.seconds > 0 else float("nan")
+
+    def records(self) -> list[dict[str, Any]]:
+        """One flat row: the counts and timing of this run.
+
+        Returns
+        -------
+        list of dict
+            ``out`` and every count and time above (not ``summary``).
+        """
+        keys = ("spec_hash", "n_points", "n_chunks", "chunks_computed", "points_computed",
+                "seconds", "workers", "worker_peak_rss_mb", "worker_cpu_seconds",
+                "parent_cpu_seconds", "points_per_s")
+        return [{"out": str(self.out), **{k: json_value(getattr(self, k)) for k in keys}}]
+
+    def to_dict(self) -> dict[str, Any]:
+        """The row of :meth:`records` with the summary's counts.
+
+        Returns
+        -------
+        dict
+            As :meth:`records`, plus ``n``, ``feasible`` and ``stable`` points.
+        """
+        counts = {k: json_value(self.summary[k]) for k in ("n", "feasible", "stable")
+                  if k in self.summary}
+        return {**self.records()[0], **counts}
+
+    def plot(self, ax: Any = None) -> Any:
+        """Histogram of the phase margin over the stable points (the summary's sample).
+
+        Parameters
+        ----------
+        ax : matplotlib.axes.Axes, optional
+            Where to draw (default: a new figure).
+
+        Returns
+        -------
+        matplotlib.axes.Axes
+            The axes drawn on.
+        """
+        ax = new_axes(ax)
+        pm = np.asarray(self.summary.get("pm_sample", []), float)
+        ax.hist(pm[np.isfinite(pm)], bins=40, color="tab:blue")
+        ax.set_xlabel("phase margin [deg]")
+        ax.set_ylabel("stable points")
+        return ax
 
 
 class SweepInterrupted(KeyboardInterrupt):
@@ -1038,28 +1109,63 @@ def chunk_summary(spec: SweepSpec, table: Any) -> dict[str, Any]:
 
 # ------------------------------------------------------------------ robustness
 @dataclass(frozen=True)
-class RobustResult:
-    """Monte Carlo of a design over actuator parameter uncertainty.
+class RobustResult(Result):
+    """One design over actuator parameter uncertainty: random samples of the plant's
+    parameters (:func:`parameter_robustness`).
 
-    ``phase_margin_deg`` holds one value per sample (``inf``: no crossover);
-    ``stable`` the stability of each sample."""
+    Parameters
+    ----------
+    nominal_phase_margin_deg : float
+        Phase margin of the nominal actuator [deg].
+    phase_margin_deg : numpy.ndarray
+        One value per sample [deg] (``inf``: no crossover).
+    stable : numpy.ndarray
+        Stability of each sample.
+    samples : dict
+        Actuator axis (``Ij``, ``bm``, ``k``, ...) -> its value per sample (rotary SI).
+
+    Attributes
+    ----------
+    nominal_phase_margin_deg : float
+        Phase margin of the nominal actuator [deg].
+    phase_margin_deg : ndarray
+        One value per sample [deg] (``inf``: no crossover).
+    stable : ndarray of bool
+        Stability of each sample.
+    samples : dict
+        Actuator axis -> its value per sample, in that axis's unit (:data:`AXES`).
+    n_samples : int
+        Number of samples.
+    p_unstable : float
+        Fraction of unstable samples (the probability of instability, dimensionless).
+    """
 
     nominal_phase_margin_deg: float
     phase_margin_deg: np.ndarray
     stable: np.ndarray
     samples: dict[str, np.ndarray]
 
+    n = Renamed("n_samples")
+
     @property
-    def n(self) -> int:
+    def n_samples(self) -> int:
+        """Number of samples."""
         return int(self.stable.size)
 
     @property
     def p_unstable(self) -> float:
+        """Fraction of unstable samples."""
         return float(1.0 - self.stable.mean())
 
     def p_unstable_ci95(self) -> tuple[float, float]:
-        """Wilson 95% interval of the probability of instability."""
-        z, n, p = 1.959963984540054, self.n, self.p_unstable
+        """Wilson 95% interval of the probability of instability.
+
+        Returns
+        -------
+        tuple of float
+            Lower and upper end.
+        """
+        z, n, p = 1.959963984540054, self.n_samples, self.p_unstable
         centre = (p + z * z / (2 * n)) / (1 + z * z / n)
         half = z * math.sqrt(p * (1 - p) / n + z * z / (4 * n * n)) / (1 + z * z / n)
         lo = 0.0 if p == 0 else max(0.0, centre - half)   # exact ends (no rounding residue)
@@ -1067,11 +1173,71 @@ class RobustResult:
         return lo, hi
 
     def percentiles(self, q=(1, 5, 50, 95, 99)) -> dict[str, float]:
-        """Phase-margin percentiles over the stable samples."""
+        """Phase-margin percentiles over the stable samples.
+
+        Parameters
+        ----------
+        q : sequence of float
+            Percentiles.
+
+        Returns
+        -------
+        dict
+            ``"p<q>"`` -> phase margin [deg] (empty without a stable finite sample).
+        """
         pm = self.phase_margin_deg[self.stable & np.isfinite(self.phase_margin_deg)]
         if pm.size == 0:
             return {}
         return {f"p{x:g}": float(v) for x, v in zip(q, np.percentile(pm, q))}
+
+    def records(self) -> list[dict[str, Any]]:
+        """One flat row per sample: its actuator parameters, phase margin and stability.
+
+        Returns
+        -------
+        list of dict
+            The sampled axes, ``phase_margin_deg``, ``stable``.
+        """
+        return flat_records({**self.samples, "phase_margin_deg": self.phase_margin_deg,
+                             "stable": self.stable})
+
+    def to_dict(self) -> dict[str, Any]:
+        """The distribution's summary (the keys ``seactl robust --json`` prints).
+
+        Returns
+        -------
+        dict
+            ``n_samples``, ``nominal_phase_margin_deg``, ``p_unstable``,
+            ``p_unstable_ci95``, ``phase_margin_deg_stable`` (percentiles).
+        """
+        return {"n_samples": self.n_samples,
+                "nominal_phase_margin_deg": json_value(self.nominal_phase_margin_deg),
+                "p_unstable": json_value(self.p_unstable),
+                "p_unstable_ci95": [json_value(x) for x in self.p_unstable_ci95()],
+                "phase_margin_deg_stable": {k: json_value(v)
+                                            for k, v in self.percentiles().items()}}
+
+    def plot(self, ax: Any = None) -> Any:
+        """Histogram of the phase margin over the stable samples, nominal marked.
+
+        Parameters
+        ----------
+        ax : matplotlib.axes.Axes, optional
+            Where to draw (default: a new figure).
+
+        Returns
+        -------
+        matplotlib.axes.Axes
+            The axes drawn on.
+        """
+        ax = new_axes(ax)
+        pm = self.phase_margin_deg[self.stable & np.isfinite(self.phase_margin_deg)]
+        ax.hist(pm, bins=40, color="tab:blue")
+        ax.axvline(self.nominal_phase_margin_deg, color="k", ls="--", label="nominal")
+        ax.set_xlabel("phase margin [deg]")
+        ax.set_ylabel("stable samples")
+        ax.legend(loc="best")
+        return ax
 
 
 def relative_interval(actuator: SEAParams, name: str, percent: float) -> tuple[float, float]:
@@ -1083,18 +1249,31 @@ def relative_interval(actuator: SEAParams, name: str, percent: float) -> tuple[f
     return nom * (1 - percent / 100), nom * (1 + percent / 100)
 
 
-def monte_carlo(spec: SweepSpec) -> RobustResult:
+def parameter_robustness(spec: SweepSpec) -> RobustResult:
     """Evaluate a random-sampling spec chunk by chunk in this process.
 
     ``spec`` fixes one design (``f_n``, GS, delays, filters) and samples the
     plant parameters of its swept actuator axes uniformly in their intervals;
-    the nominal phase margin is that of the unperturbed actuator."""
+    the nominal phase margin is that of the unperturbed actuator.  ("Monte Carlo" in
+    seactl means random latency and loss, :mod:`seactl.timing`.)
+
+    Parameters
+    ----------
+    spec : SweepSpec
+        ``sampling="random"``; only actuator axes swept.
+
+    Returns
+    -------
+    RobustResult
+        Phase margin and stability per sample, and the nominal phase margin.
+    """
     if spec.sampling != "random":
-        raise InputError("sampling", spec.sampling, "random for a Monte Carlo analysis")
+        raise InputError("sampling", spec.sampling, "random for a parameter-robustness "
+                         "analysis")
     bad = [n for n, _ in spec.swept if n not in ACTUATOR_AXES]
     if bad:
         raise InputError(AXES[bad[0]].option, "several values", "a single value (the "
-                         "Monte Carlo varies actuator parameters of one design)")
+                         "analysis varies actuator parameters of one design)")
     pm, st = [], []
     samples: dict[str, list[np.ndarray]] = {n: [] for n, _ in spec.swept}
     for i in range(spec.n_chunks):
@@ -1114,10 +1293,32 @@ def monte_carlo(spec: SweepSpec) -> RobustResult:
                         np.concatenate(st), {k: np.concatenate(v) for k, v in samples.items()})
 
 
+def monte_carlo(spec: SweepSpec) -> RobustResult:
+    """Deprecated name of :func:`parameter_robustness`.
+
+    Parameters
+    ----------
+    spec : SweepSpec
+        As for :func:`parameter_robustness`.
+
+    Returns
+    -------
+    RobustResult
+        As for :func:`parameter_robustness`.
+    """
+    import warnings
+
+    warnings.warn("seactl.sweep.monte_carlo is deprecated; use "
+                  "seactl.sweep.parameter_robustness (Monte Carlo means random latency and "
+                  "loss: seactl.timing)", DeprecationWarning, stacklevel=2)
+    return parameter_robustness(spec)
+
+
 __all__ = [
     "AXES", "RobustResult", "SweepInterrupted", "SweepResult", "SweepSpec",
     "evaluate_chunk", "evaluate_points", "impedance_magnitude", "missing_chunks",
-    "monte_carlo", "read_sweep", "relative_interval", "run_sweep", "summarize",
+    "monte_carlo", "parameter_robustness", "read_sweep", "relative_interval", "run_sweep",
+    "summarize",
 ]
 
 

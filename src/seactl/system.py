@@ -404,9 +404,9 @@ class System:
         Returns
         -------
         JitterResult
-            Arrays of the batch shape (``overall_s``, ``stiffness_s``, ``damping_s``,
-            ``torque_s`` (SEA; None for the rigid actuator), ``delay_margin_s``,
-            ``stable``), with ``records()``.
+            Arrays of the batch shape (``jitter_margin_s``, ``stiffness_jitter_margin_s``,
+            ``damping_jitter_margin_s``, ``torque_jitter_margin_s`` (SEA; None for the rigid
+            actuator), ``delay_margin_s``, ``stable``), with ``records()``.
 
         Examples
         --------
@@ -414,10 +414,11 @@ class System:
         >>> d = sc.design([12, 14], delays_ms={"torque": 0.5, "stiffness": 2, "damping": 0.5},
         ...               filters_hz=(50, 100))
         >>> j = d.jitter_margins()
-        >>> j.ms("overall").round(2), bool(j.ms("damping")[1] > j.ms("overall")[1])
+        >>> ms = 1e3 * j.jitter_margin_s
+        >>> ms.round(2), bool(1e3 * j.damping_jitter_margin_s[1] > ms[1])
         (array([11.47,  8.04]), True)
         >>> j = sc.rigid(8, delays_ms={"stiffness": 1.5, "damping": 1.5}).jitter_margins()
-        >>> bool(j.ms("damping") < j.ms("stiffness"))
+        >>> bool(j.damping_jitter_margin_s < j.stiffness_jitter_margin_s)
         True
         """
         return JitterResult(self.jitter_core(), self.label_columns(gains=False))

@@ -17,10 +17,14 @@ from typing import Any, ClassVar
 
 import numpy as np
 
-from ._results import _axes, json_array, json_value
+from ._results import (
+    json_array,
+    json_value,
+)
 from ._validate import finite_array
 from .api import check_batch, delays_by_loop, delays_from_ms, resolve_actuator
 from .errors import InputError
+from .results import Result, flat_records, new_axes
 from .system import System
 
 KINDS = ("sea", "rigid")
@@ -348,7 +352,7 @@ def loop_model(kind: str = "sea", actuator: Any = None, *, torque_delay_ms: floa
 
 
 @dataclass(frozen=True)
-class LatencyMapResult:
+class LatencyMapResult(Result):
     """Phase margin and stability over (stiffness delay, damping delay) at one ``f_n``.
 
     Parameters
@@ -356,15 +360,88 @@ class LatencyMapResult:
     map : seactl.latency.LatencyMap
         The computed map; arrays indexed ``[i_stiffness, i_damping]``.
 
+    Attributes
+    ----------
+    map : seactl.latency.LatencyMap
+        The computed map.
+    actuator : str
+        The actuator's name.
+    kind : str
+        ``"sea"`` or ``"rigid"``.
+    fn_hz : float
+        Natural frequency of the design [Hz].
+    stiffness_delay_s, damping_delay_s : ndarray
+        The grid's axes [s] (JSON ``stiffness_delay_ms``, ``damping_delay_ms``).
+    phase_margin_deg : ndarray
+        Whole-loop phase margin [deg], ``[i_stiffness, i_damping]``.
+    crossover_hz : ndarray
+        Its crossover frequency [Hz].
+    stable : ndarray of bool
+        Nyquist stability.
+
     Examples
     --------
     >>> import seactl as sc
     >>> m = sc.latency_map(14, [0, 5, 10], [0, 1], torque_delay_ms=0.5)
-    >>> m.to_dict()["damping_delay_ms"], m.map.phase_margin_deg.shape
+    >>> m.to_dict()["damping_delay_ms"], m.phase_margin_deg.shape
     ([0.0, 1.0], (3, 2))
     """
 
     map: Any
+
+    @property
+    def actuator(self) -> str:
+        """The actuator's name."""
+        return self.map.actuator
+
+    @property
+    def kind(self) -> str:
+        """``sea`` or ``rigid``."""
+        return self.map.kind
+
+    @property
+    def fn_hz(self) -> float:
+        """Natural frequency of the design [Hz]."""
+        return self.map.fn_hz
+
+    @property
+    def stiffness_delay_s(self) -> np.ndarray:
+        """Stiffness-loop delays [s] (rows)."""
+        return self.map.T_s
+
+    @property
+    def damping_delay_s(self) -> np.ndarray:
+        """Damping-loop delays [s] (columns)."""
+        return self.map.T_d
+
+    @property
+    def phase_margin_deg(self) -> np.ndarray:
+        """Whole-loop phase margin [deg]."""
+        return self.map.phase_margin_deg
+
+    @property
+    def crossover_hz(self) -> np.ndarray:
+        """Gain-crossover frequency [Hz]."""
+        return self.map.crossover_hz
+
+    @property
+    def stable(self) -> np.ndarray:
+        """Nyquist stability."""
+        return self.map.stable
+
+    def records(self) -> list[dict[str, Any]]:
+        """One JSON-ready row per grid point (stiffness delay major).
+
+        Returns
+        -------
+        list of dict
+            ``stiffness_delay_ms``, ``damping_delay_ms``, ``phase_margin_deg``,
+            ``crossover_hz``, ``stable``.
+        """
+        ts, td = np.meshgrid(self.stiffness_delay_s, self.damping_delay_s, indexing="ij")
+        return flat_records({"stiffness_delay_ms": ts * 1e3, "damping_delay_ms": td * 1e3,
+                             "phase_margin_deg": self.phase_margin_deg,
+                             "crossover_hz": self.crossover_hz, "stable": self.stable})
 
     def to_dict(self) -> dict[str, Any]:
         """The map as JSON-ready lists (delays in ms).
@@ -395,7 +472,7 @@ class LatencyMapResult:
         matplotlib.axes.Axes
             The axes drawn on.
         """
-        ax = _axes(ax)
+        ax = new_axes(ax)
         m = self.map
         x, y = m.T_d * 1e3, m.T_s * 1e3
         pm = np.where(m.stable, m.phase_margin_deg, np.nan)
@@ -433,13 +510,13 @@ def latency_map(fn_hz: float, stiffness_delays_ms: Any, damping_delays_ms: Any, 
     Returns
     -------
     LatencyMapResult
-        ``map.phase_margin_deg[i, j]`` at stiffness delay ``i`` and damping delay ``j``.
+        ``phase_margin_deg[i, j]`` at stiffness delay ``i`` and damping delay ``j``.
 
     Examples
     --------
     >>> import seactl as sc
     >>> m = sc.latency_map(12, [1, 15], [1, 15], kind="rigid")
-    >>> m.map.stable.tolist()                 # rows: stiffness delay, columns: damping
+    >>> m.stable.tolist()                     # rows: stiffness delay, columns: damping
     [[True, False], [True, False]]
     """
     model = loop_model(kind, actuator, torque_delay_ms=torque_delay_ms, filters_hz=filters_hz)
@@ -454,7 +531,7 @@ def latency_map(fn_hz: float, stiffness_delays_ms: Any, damping_delays_ms: Any, 
 
 # ------------------------------------------------------------------ placement
 @dataclass(frozen=True)
-class PlacementResult:
+class PlacementResult(Result):
     """Which loop to run on which processor (see :func:`place`).
 
     Parameters
@@ -462,12 +539,25 @@ class PlacementResult:
     advice : seactl.placement.Advice
         The advisor's answer: ``recommended``, ``options`` per placement, ``reason``.
 
+    Attributes
+    ----------
+    advice : seactl.placement.Advice
+        The advisor's answer, every field.
+    recommended : str or None
+        ``"centralized"``, ``"distributed"``, ``"embedded"`` or None.
+    options : tuple of seactl.placement.PlacementOption
+        What each placement achieves.
+    reason : str
+        Why the recommendation.
+
     Examples
     --------
     >>> import seactl as sc
     >>> p = sc.place(22, 0.5)
     >>> [o["placement"] for o in p.to_dict()["options"]]
     ['centralized', 'distributed', 'embedded']
+    >>> [r["placement"] for r in p.records()] == [o.placement for o in p.options]
+    True
     """
 
     advice: Any
@@ -476,6 +566,16 @@ class PlacementResult:
     def recommended(self) -> str | None:
         """``"centralized"``, ``"distributed"``, ``"embedded"`` or None."""
         return self.advice.recommended
+
+    @property
+    def options(self) -> tuple[Any, ...]:
+        """What each placement achieves (:class:`seactl.placement.PlacementOption`)."""
+        return self.advice.options
+
+    @property
+    def reason(self) -> str:
+        """Why the recommendation."""
+        return self.advice.reason
 
     def to_dict(self) -> dict[str, Any]:
         """The advice as JSON-ready values (delays in seconds, as in the advice).
@@ -486,6 +586,49 @@ class PlacementResult:
             Every field of :class:`seactl.placement.Advice`.
         """
         return _jsonify(asdict(self.advice))
+
+    def records(self) -> list[dict[str, Any]]:
+        """One flat JSON-ready row per placement option (delays in seconds).
+
+        Returns
+        -------
+        list of dict
+            ``placement``, ``status``, ``fn_hz`` (the score), ``stiffness_delay_s``,
+            ``damping_delay_s``, ``phase_margin_deg``, ``crossover_hz``,
+            ``stiffness_delay_margin_s``, ``damping_delay_margin_s``, ``bottleneck`` and
+            ``recommended``.
+        """
+        return [{"placement": o.placement, "status": o.status, "fn_hz": json_value(o.fn_hz),
+                 "stiffness_delay_s": json_value(o.T_s), "damping_delay_s": json_value(o.T_d),
+                 "phase_margin_deg": json_value(o.phase_margin_deg),
+                 "crossover_hz": json_value(o.crossover_hz),
+                 "stiffness_delay_margin_s": json_value(o.stiffness_dm_s),
+                 "damping_delay_margin_s": json_value(o.damping_dm_s),
+                 "bottleneck": o.bottleneck, "recommended": o.placement == self.recommended}
+                for o in self.options]
+
+    def plot(self, ax: Any = None) -> Any:
+        """Each placement's score, its latency-robust ``f_n`` [Hz]; the recommended one
+        highlighted.
+
+        Parameters
+        ----------
+        ax : matplotlib.axes.Axes, optional
+            Where to draw (default: a new figure).
+
+        Returns
+        -------
+        matplotlib.axes.Axes
+            The axes drawn on.
+        """
+        ax = new_axes(ax)
+        names = [o.placement for o in self.options]
+        scores = [o.fn_hz if o.fn_hz is not None else 0.0 for o in self.options]
+        colors = ["tab:green" if n == self.recommended else "0.6" for n in names]
+        ax.bar(names, scores, color=colors)
+        ax.set_ylabel("latency-robust f_n [Hz]")
+        ax.grid(True, axis="y", alpha=0.3)
+        return ax
 
 
 def place(high_latency_ms: float, low_latency_ms: float, *, kind: str = "rigid",

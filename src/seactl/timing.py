@@ -43,6 +43,7 @@ from typing import Any
 import numpy as np
 
 from .errors import InputError
+from .results import Result, flat_records, new_axes
 from .simulate import Impulse, SimResult, Step, buffer_samples, simulate
 from .timing_models import (  # noqa: F401  (re-exported: the models live in timing_models)
     Bernoulli,
@@ -248,23 +249,50 @@ def timed_simulation(diagram: Any, design: Any, inputs: Mapping[str, Any], t_end
 
 # ----------------------------------------------------------------------------- SEA
 @dataclass(frozen=True)
-class MonteCarloSummary:
-    """Monte Carlo over timing realizations of a batch of designs.
+class MonteCarloSummary(Result):
+    """Monte Carlo over timing realizations (random latency and loss) of a batch of
+    designs.
+
+    Parameters
+    ----------
+    kind : str
+        ``"step"`` or ``"impulse"``.
+    runs : int
+        Realizations per design.
+    stable : numpy.ndarray
+        ``(runs,) + shape`` bool, per run.
+    rms_error : numpy.ndarray
+        ``(runs,) + shape``: RMS tracking error over the window.
+    peak_current_a : numpy.ndarray
+        ``(runs,) + shape``: largest motor current [A].
+    result : seactl.simulate.SimResult
+        The batched simulation.
 
     Attributes
     ----------
-    kind : ``"step"`` or ``"impulse"``.
-    runs : realizations per design.
-    stable : ``(runs,) + shape`` bool, per run.
-    rms_error : ``(runs,) + shape``: RMS tracking error over the window (step: position /
-        step - 1; impulse: position [rad or m]); NaN for unstable runs.
-    peak_current_a : ``(runs,) + shape``: largest motor current [A] (NaN if unstable).
-    fraction_stable : ``shape``: fraction of runs that stayed stable.
-    rms_error_mean, rms_error_worst : ``shape``: mean and worst RMS error of stable runs.
-    peak_current_worst_a : ``shape``: largest current of stable runs [A].
-    worst_run : ``shape``: index of the worst run (an unstable one first, else the largest
-        RMS error).
-    result : the batched :class:`~seactl.simulate.SimResult`.
+    kind : str
+        ``"step"`` or ``"impulse"``.
+    runs : int
+        Realizations per design.
+    stable : ndarray of bool
+        ``(runs,) + shape``, per run.
+    rms_error : ndarray
+        ``(runs,) + shape``: RMS tracking error over the window, relative to the step
+        (position / step - 1) for a step, in the position's unit (rad or m) for an
+        impulse; NaN for unstable runs.
+    peak_current_a : ndarray
+        ``(runs,) + shape``: largest motor current [A] (NaN if unstable).
+    fraction_stable : ndarray
+        ``shape``: fraction of runs that stayed stable.
+    rms_error_mean, rms_error_worst : ndarray
+        ``shape``: mean and worst RMS error of stable runs (unit of ``rms_error``).
+    peak_current_worst_a : ndarray
+        ``shape``: largest current of stable runs [A].
+    worst_run : ndarray of int
+        ``shape``: index of the worst run (an unstable one first, else the largest RMS
+        error).
+    result : seactl.simulate.SimResult
+        The batched simulation.
     """
 
     kind: str
@@ -276,40 +304,85 @@ class MonteCarloSummary:
 
     @property
     def fraction_stable(self) -> np.ndarray:
+        """Fraction of runs that stayed stable, per design."""
         return self.stable.mean(axis=0)
 
     @property
     def rms_error_mean(self) -> np.ndarray:
+        """Mean RMS error of the stable runs, per design."""
         with np.errstate(invalid="ignore"):
             return np.nanmean(np.where(self.stable, self.rms_error, np.nan), axis=0) \
                 if self.stable.any() else np.full(self.stable.shape[1:], np.nan)
 
     @property
     def rms_error_worst(self) -> np.ndarray:
+        """Worst RMS error of the stable runs, per design."""
         e = np.where(self.stable, self.rms_error, -np.inf)
         return np.where(self.stable.any(axis=0), e.max(axis=0), np.nan)
 
     @property
     def peak_current_worst_a(self) -> np.ndarray:
+        """Largest current of the stable runs [A], per design."""
         c = np.where(self.stable, self.peak_current_a, -np.inf)
         return np.where(self.stable.any(axis=0), c.max(axis=0), np.nan)
 
     @property
     def worst_run(self) -> np.ndarray:
+        """Index of the worst run, per design."""
         key = np.where(self.stable, self.rms_error, np.inf)
         return np.argmax(key, axis=0)
 
-    def records(self) -> list[dict[str, Any]]:
-        """One JSON-ready summary per design (flattened batch)."""
-        from ._results import json_value
-
-        cols = {"fraction_stable": self.fraction_stable, "rms_error_mean": self.rms_error_mean,
+    def _columns(self) -> dict[str, Any]:
+        return {"fraction_stable": self.fraction_stable, "rms_error_mean": self.rms_error_mean,
                 "rms_error_worst": self.rms_error_worst,
                 "peak_current_worst_a": self.peak_current_worst_a,
                 "worst_run": self.worst_run}
-        flat = {k: np.ravel(v) for k, v in cols.items()}
-        n = flat["worst_run"].size
-        return [{k: json_value(v[i]) for k, v in flat.items()} for i in range(n)]
+
+    def records(self) -> list[dict[str, Any]]:
+        """One JSON-ready summary per design (flattened batch).
+
+        Returns
+        -------
+        list of dict
+            ``fraction_stable``, ``rms_error_mean``, ``rms_error_worst``,
+            ``peak_current_worst_a``, ``worst_run``.
+        """
+        return flat_records(self._columns())
+
+    def to_dict(self) -> dict[str, Any]:
+        """The per-design summary as nested lists of the batch shape, with ``kind`` and
+        ``runs``.
+
+        Returns
+        -------
+        dict
+            ``kind``, ``runs`` and the keys of :meth:`records`.
+        """
+        return {"kind": self.kind, "runs": int(self.runs), **super().to_dict()}
+
+    def plot(self, ax: Any = None) -> Any:
+        """Distribution of the RMS error over the stable runs, one histogram per design.
+
+        Parameters
+        ----------
+        ax : matplotlib.axes.Axes, optional
+            Where to draw (default: a new figure).
+
+        Returns
+        -------
+        matplotlib.axes.Axes
+            The axes drawn on.
+        """
+        ax = new_axes(ax)
+        err = np.reshape(self.rms_error, (self.runs, -1))
+        ok = np.reshape(self.stable, (self.runs, -1))
+        for i in range(err.shape[1]):
+            ax.hist(err[ok[:, i], i], bins=30, alpha=0.6, label=f"design {i}")
+        ax.set_xlabel("RMS error" + (" / step" if self.kind == "step" else ""))
+        ax.set_ylabel("runs")
+        if err.shape[1] <= 8:
+            ax.legend(loc="best")
+        return ax
 
 
 def sea_monte_carlo(design: Any, kind: str = "step", *, latency: Mapping[str, Any] | None = None,

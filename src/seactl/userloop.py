@@ -44,10 +44,10 @@ from .loopresults import (
     LoopResponseResult,
     LoopSampledMargins,
     UserLoopResponse,
-    plot_per_break,
 )
 from .margins import Margins, loop_margins
 from .outputs import note_input
+from .results import Result, flat_records, new_axes
 from .runtime import run_doc
 from .system import System
 
@@ -86,7 +86,7 @@ class BreakMargins:
 
 
 @dataclass(frozen=True)
-class LoopAnalysis:
+class LoopAnalysis(Result):
     """Margins at every named break of a :class:`UserLoop`, and its stability.
 
     Attributes
@@ -114,6 +114,13 @@ class LoopAnalysis:
         raise KeyError(name)
 
     def to_dict(self) -> dict[str, Any]:
+        """The loop's name, stability, values and every break's margins.
+
+        Returns
+        -------
+        dict
+            ``loop``, ``stable``, ``values``, ``breaks`` (one dict per break).
+        """
         return {"loop": self.loop, "stable": _jsonable(self.stable),
                 "values": {k: _jsonable(v) for k, v in self.values.items()},
                 "breaks": [b.to_dict() for b in self.breaks]}
@@ -136,10 +143,7 @@ class LoopAnalysis:
                          f"{b.name}_crossover_hz": m.crossover_hz,
                          f"{b.name}_delay_margin_ms": m.delay_margin_ms,
                          f"{b.name}_jitter_margin_ms": np.asarray(b.jitter_margin_s) * 1e3})
-        arrays = np.broadcast_arrays(*(np.asarray(v) for v in cols.values()))
-        flat = {k: np.ravel(v) for k, v in zip(cols, arrays)}
-        n = flat["stable"].size
-        return [{k: json_value(v[i]) for k, v in flat.items()} for i in range(n)]
+        return flat_records(cols)
 
     def plot(self, ax: Any = None) -> Any:
         """Phase margin at every break against the design index.
@@ -154,13 +158,19 @@ class LoopAnalysis:
         matplotlib.axes.Axes
             The axes drawn on.
         """
-        return plot_per_break(ax, [b.name for b in self.breaks],
-                              [b.margins.phase_margin_deg for b in self.breaks],
-                              "phase margin [deg]")
+        ax = new_axes(ax)
+        for b in self.breaks:
+            pm = np.ravel(b.margins.phase_margin_deg)
+            ax.plot(np.arange(pm.size), pm, "o-", label=b.name)
+        ax.set_xlabel("design")
+        ax.set_ylabel("phase margin [deg]")
+        ax.grid(True, alpha=0.3)
+        ax.legend(loc="best")
+        return ax
 
 
 @dataclass(frozen=True)
-class Placements:
+class Placements(Result):
     """Placements of the movable blocks on the processes, ranked (best first).
 
     Attributes
@@ -184,7 +194,14 @@ class Placements:
     order: np.ndarray
 
     def records(self) -> list[dict[str, Any]]:
-        """One JSON-ready row per option, best first."""
+        """One JSON-ready row per option, best first.
+
+        Returns
+        -------
+        list of dict
+            ``rank``, ``placement`` (block -> process), ``stable`` and, per break, its
+            ``phase_margin_deg``, ``crossover_hz`` and ``delay_margin_ms``.
+        """
         rows = []
         for rank, (opt, i) in enumerate(zip(self.options, self.order)):
             row: dict[str, Any] = {"rank": rank + 1, "placement": opt,
@@ -196,6 +213,38 @@ class Placements:
                                "delay_margin_ms": json_value(m.delay_margin_ms[i])}
             rows.append(row)
         return rows
+
+    def to_dict(self) -> dict[str, Any]:
+        """The movable blocks, latencies and ranked options.
+
+        Returns
+        -------
+        dict
+            ``blocks``, ``latency_ms``, ``options`` (:meth:`records`).
+        """
+        return {"blocks": list(self.blocks), "latency_ms": dict(self.latency_ms),
+                "options": self.records()}
+
+    def plot(self, ax: Any = None) -> Any:
+        """Each ranked option's smallest phase margin over the breaks.
+
+        Parameters
+        ----------
+        ax : matplotlib.axes.Axes, optional
+            Where to draw (default: a new figure).
+
+        Returns
+        -------
+        matplotlib.axes.Axes
+            The axes drawn on.
+        """
+        ax = new_axes(ax)
+        pm = np.min([np.ravel(b.margins.phase_margin_deg)[self.order]
+                     for b in self.analysis.breaks], axis=0)
+        ax.bar(np.arange(1, pm.size + 1), pm)
+        ax.set_xlabel("rank")
+        ax.set_ylabel("smallest phase margin [deg]")
+        return ax
 
 
 class LoopBuilder:

@@ -393,7 +393,7 @@ def robust(actuator, n_samples, seed, plot_file, as_json, **axes) -> None:
     The same samples, on Dask and stored as Parquet:
     seactl sweep --sample random --n N --seed S with the same options.
     """
-    from ..sweep import monte_carlo
+    from ..sweep import parameter_robustness
 
     fn, gs = axes["fn_hz"], axes["gs"]
     opts = {n: ("none" if axes[n] is None else str(axes[n]),) for n in DESIGN_AXES}
@@ -415,7 +415,7 @@ def robust(actuator, n_samples, seed, plot_file, as_json, **axes) -> None:
                              "two values LO,HI")
     with OutputSet() as outs:
         fig_file = outs.add("--plot", plot_file, FIGURE_SUFFIXES)
-        r = monte_carlo(spec)
+        r = parameter_robustness(spec)
         fig_path = None
         if fig_file:
             from ..plots import robust_histogram_figure
@@ -425,13 +425,13 @@ def robust(actuator, n_samples, seed, plot_file, as_json, **axes) -> None:
             fig = robust_histogram_figure(r.phase_margin_deg, r.stable,
                                           r.nominal_phase_margin_deg,
                                           f"f_n = {fn:g} Hz, GS = {gs:g}: {unc_text} "
-                                          f"({r.n} samples)")
+                                          f"({r.n_samples} samples)")
             outs.figure(fig_file, fig)
             outs.commit()
             fig_path = str(fig_file)
     lo, hi = r.p_unstable_ci95()
     pct = r.percentiles()
-    res = {"n_samples": r.n, "nominal_phase_margin_deg": finite_or_none(
+    res = {"n_samples": r.n_samples, "nominal_phase_margin_deg": finite_or_none(
                r.nominal_phase_margin_deg),
            "p_unstable": finite_or_none(r.p_unstable),
            "p_unstable_ci95": [finite_or_none(lo), finite_or_none(hi)],
@@ -442,7 +442,7 @@ def robust(actuator, n_samples, seed, plot_file, as_json, **axes) -> None:
     if as_json:
         echo_json(res)
         return
-    t = Table(title=f"Monte Carlo, f_n = {fn:g} Hz, GS = {gs:g}, {r.n} samples")
+    t = Table(title=f"Monte Carlo, f_n = {fn:g} Hz, GS = {gs:g}, {r.n_samples} samples")
     t.add_column("quantity")
     t.add_column("value", justify="right")
     for n, (a, b) in res["intervals"].items():

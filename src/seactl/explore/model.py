@@ -381,8 +381,11 @@ def robustness_results(d: sc.Design) -> dict[str, Any]:
     jm = d.jitter_margins()
     out = {"stiffness_delay_margin_ms": json_value(dm.stiffness_s * 1e3),
            "damping_delay_margin_ms": json_value(dm.damping_s * 1e3)}
-    for loop in ("overall", "stiffness", "damping", "torque"):
-        out[f"{loop}_jitter_margin_ms"] = json_value(jm.ms(loop))
+    for loop, jitter_s in (("overall", jm.jitter_margin_s),
+                           ("stiffness", jm.stiffness_jitter_margin_s),
+                           ("damping", jm.damping_jitter_margin_s),
+                           ("torque", jm.torque_jitter_margin_s)):
+        out[f"{loop}_jitter_margin_ms"] = json_value(np.asarray(jitter_s) * 1e3)
     return out
 
 

@@ -138,7 +138,7 @@ MC_SAMPLES = 4000
 @section(71, "robustness-mc")
 def robustness_mc(ctx: Context) -> Section:
     from ..plots import robust_histogram_figure
-    from ..sweep import monte_carlo, relative_interval
+    from ..sweep import parameter_robustness, relative_interval
 
     sec = Section(
         "robustness-mc", "Robustness to actuator parameter uncertainty (Monte Carlo)",
@@ -154,8 +154,8 @@ def robustness_mc(ctx: Context) -> Section:
         axes = [("fn_hz", (fn,)), ("t_tau_ms", (0.5,)), ("t_qs_ms", (T_QS0,)),
                 ("t_qd_ms", (T_QD0,)), ("f_qd_hz", (50.0,)), ("f_taud_hz", (100.0,))]
         axes += [(n, relative_interval(UT_SEA, n, p)) for n, p in MC_UNCERTAINTY.items()]
-        r = monte_carlo(SweepSpec(UT_SEA, tuple(axes), sampling="random",
-                                  n_samples=MC_SAMPLES, seed=0))
+        r = parameter_robustness(SweepSpec(UT_SEA, tuple(axes), sampling="random",
+                                           n_samples=MC_SAMPLES, seed=0))
         lo, hi = r.p_unstable_ci95()
         q = r.percentiles((1, 5, 50, 95))
         rows.append([f"{fn:g}", f"{r.nominal_phase_margin_deg:.2f}"]
@@ -170,7 +170,7 @@ def robustness_mc(ctx: Context) -> Section:
         if fn == 14.0:
             fig = robust_histogram_figure(
                 r.phase_margin_deg, r.stable, r.nominal_phase_margin_deg,
-                f"f_n = 14 Hz (Table I delays): I_j, b_m, k +/-20% ({r.n} plants)")
+                f"f_n = 14 Hz (Table I delays): I_j, b_m, k +/-20% ({r.n_samples} plants)")
             sec.figures.append(Figure(ctx.savefig(fig, "robustness_mc_fn14.png"),
                                       "Phase margin of the f_n = 14 Hz Table I design over "
                                       "perturbed plants; dashed: nominal plant."))
