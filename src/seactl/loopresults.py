@@ -144,6 +144,10 @@ class LoopJitterResult(Result):
         Break name -> jitter margin [s].
     break_delay_margins_s : dict
         Break name -> delay margin [s].
+    jitter_margin_s : ndarray
+        The outermost (last) break's jitter margin [s].
+    delay_margin_s : ndarray
+        The outermost break's delay margin [s].
     stable : ndarray
         Closed-loop stability.
     labels : dict
@@ -289,6 +293,14 @@ class LoopResponseResult(ResponseResult):
     requested_delays_s, effective_delays_s : dict
         Delayed block -> delay [s]: as asked, and as simulated (sampled: ``T_s/2 + n T_s``,
         never shorter).
+    result : seactl.simulate.SimResult
+        The simulation itself.
+    stable : ndarray
+        Whether each simulated response stayed bounded and decayed.
+    left_bounds_s : ndarray
+        Per design, the time a diverging response left its bound [s] (NaN: never).
+    info : dict
+        The simulation's details (delays, sampled verdict, ...).
 
     Parameters
     ----------
@@ -457,6 +469,33 @@ class LoopImpedanceResponse(ImpedanceResponse):
 class LoopImpedanceResult(ImpedanceResult):
     """The impedance at a port of a user loop (:class:`~seactl.ImpedanceResult` with the
     port's name).
+
+    Attributes
+    ----------
+    port : str
+        The port's name.
+    labels : list of str
+        One legend label per design.
+    f_hz : ndarray
+        Frequencies [Hz] (the last axis of the arrays below).
+    z : complex ndarray
+        Impedance ``sign * force / (s position)``, batch shape + ``(F,)``, in :attr:`unit`.
+    magnitude : ndarray
+        ``|Z|`` in :attr:`unit`.
+    magnitude_db : ndarray
+        ``20 log10 |Z|`` [dB re 1 :attr:`unit`].
+    phase_deg : ndarray
+        Phase of ``Z`` [deg], unwrapped along frequency.
+    stiffness : complex ndarray
+        ``s Z(s)`` (its real part at low frequency is the port's stiffness).
+    unit : str
+        Unit of ``Z`` (the loop file's force over velocity).
+    units : str
+        As :class:`~seactl.ImpedanceResult`.
+    model : str
+        ``"block-diagram"``.
+    load : bool
+        Whether a load is included.
 
     Parameters
     ----------
