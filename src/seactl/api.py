@@ -17,7 +17,7 @@ import functools
 import warnings
 from collections.abc import Sequence
 from dataclasses import dataclass, fields
-from typing import Any
+from typing import Any, ClassVar
 
 import numpy as np
 
@@ -176,6 +176,8 @@ class Design:
     ((2,), 83.17)
     """
 
+    default_step: ClassVar[float] = 0.01
+    step_unit: ClassVar[str] = "rad"
     sea: SEADesign
     fn_hz: np.ndarray
     gs: np.ndarray

@@ -12,7 +12,7 @@ from __future__ import annotations
 from collections.abc import Sequence
 from dataclasses import asdict, dataclass
 from pathlib import Path
-from typing import Any
+from typing import Any, ClassVar
 
 import numpy as np
 
@@ -69,6 +69,8 @@ class RigidBatch:
     ((2,), [True, True])
     """
 
+    default_step: ClassVar[float] = 0.004
+    step_unit: ClassVar[str] = "m"
     rigid: Any
     fn_hz: np.ndarray
 

@@ -54,6 +54,7 @@ from rich.markup import escape
 from rich.table import Table
 
 from .. import limits
+from ..api import Design
 from ..errors import InputError
 from ..limits import check_range
 from ..outputs import CSV_SUFFIXES, FIGURE_SUFFIXES, OutputSet
@@ -115,7 +116,8 @@ def _monte_carlo(spec: DesignSpec, kind: str, timing: dict[str, Any], outs: Outp
     if csv_path:
         raise _IE("--csv", csv_path, "not used with --latency/--loss/--runs (use --json)")
     try:
-        mc = sea_monte_carlo(spec.designs(), kind, latency=timing["latency"],
+        # Design.monte_carlo has no zero / saturation_a / amplitude keywords: the core call
+        mc = sea_monte_carlo(spec.designs().sea, kind, latency=timing["latency"],
                              loss=timing["loss"], runs=timing["runs"], seed=timing["seed"],
                              **kwargs)
     except _IE as exc:
@@ -135,8 +137,9 @@ def _monte_carlo(spec: DesignSpec, kind: str, timing: dict[str, Any], outs: Outp
         outs.figure(plot, fig, dpi=110)
     outs.commit()
     if as_json:
-        echo_json({"mode": "sampled", "kind": kind, "runs": mc.runs, "seed": timing["seed"],
-                   **timing["text"], "designs": rows})
+        amp = {"amplitude_rad": kwargs["amplitude"]} if kind == "step" else {}
+        echo_json({"mode": "sampled", "kind": kind, **amp, "runs": mc.runs,
+                   "seed": timing["seed"], **timing["text"], "designs": rows})
         return
     tab = Table(title=escape(f"{title}: {mc.runs} timing realizations, seed {timing['seed']}"))
     for c in ("f_n [Hz]", "GS", "stable runs", "RMS error mean", "RMS error worst",
@@ -248,7 +251,7 @@ def _right_roots(spec: DesignSpec, mode: str, zero: bool) -> np.ndarray | None:
         return None
     from ..sea import sea_right_roots
 
-    return sea_right_roots(spec.designs(), zero)
+    return sea_right_roots(spec.designs().sea, zero)
 
 
 def _output(spec: DesignSpec, resp: Any, mode: str, zero: bool, extra: dict[str, Any],
@@ -346,7 +349,7 @@ def _sampled_loop(spec: DesignSpec, res: Any, runs: list[dict[str, Any]], zero: 
         return []
     from ..sea import sea_right_roots
 
-    return sampled_loop_lines(res.info, runs, sea_right_roots(spec.designs(), zero),
+    return sampled_loop_lines(res.info, runs, sea_right_roots(spec.designs().sea, zero),
                               [f"f_n={r['fn_hz']:g} Hz, GS={r['gs']:g}" for r in runs])
 
 
@@ -389,9 +392,9 @@ def _extra(res: Any, mode: str, rate_hz: float, saturation: float | None) -> dic
 
 @cli.command()
 @design_options
-@click.option("--amplitude", type=float, default=0.01, show_default=True,
-              help="Step size [rad] (responses are normalized by it; it matters only with "
-                   "saturation).")
+@click.option("--amplitude", type=float, default=Design.default_step, show_default=True,
+              help=f"Step size [{Design.step_unit}] (responses are normalized by it; it matters "
+                   "only with saturation).")
 @sim_options
 @loop_options
 def step(spec: DesignSpec, amplitude: float, mode: str, rate_hz: float, zero: bool,
@@ -399,6 +402,8 @@ def step(spec: DesignSpec, amplitude: float, mode: str, rate_hz: float, zero: bo
          plot: Path | None, csv_path: Path | None, as_json: bool,
          timing: dict[str, Any] | None, loop: Any) -> None:
     """Step response of the joint position to a position reference step.
+
+    Python: sc.design(...).step(amplitude=...) (default step: sc.Design.default_step).
 
     \b
     Example (the paper's Fig. ExperimentGS conditions):
@@ -414,15 +419,18 @@ def step(spec: DesignSpec, amplitude: float, mode: str, rate_hz: float, zero: bo
                              csv_path)
     if timing is not None:
         return _monte_carlo(spec, "step", timing, outs, plot, csv_path, as_json,
-                            f"Step response (sampled, {rate_hz:g} Hz)", rate_hz=rate_hz,
+                            f"Step response to {amplitude:g} {Design.step_unit} (sampled, "
+                            f"{rate_hz:g} Hz)", rate_hz=rate_hz,
                             t_end_s=t_end or 0.5, zero=zero, saturation_a=saturation,
                             amplitude=amplitude)
-    design = spec.designs()
+    # Design.step has no amplitude / record_dt keywords on this branch: the core call
+    design = spec.designs().sea
     resp = sea_step(design, zero=zero, mode=mode, rate_hz=rate_hz, t_end_s=t_end or 0.5,
                     saturation_a=saturation, amplitude=amplitude,
                     record_dt=limits.RECORD_DT_S if mode == "continuous" else None)
     extra = _extra(resp.result, mode, rate_hz, saturation) | {"amplitude_rad": amplitude}
-    title = (f"Step response ({mode}{f', {rate_hz:g} Hz' if mode == 'sampled' else ''}, "
+    title = (f"Step response to {amplitude:g} {Design.step_unit} ({mode}"
+             f"{f', {rate_hz:g} Hz' if mode == 'sampled' else ''}, "
              f"{'with' if zero else 'without'} the torque-derivative zero)")
     _output(spec, resp, mode, zero, extra, outs, plot, csv_path, as_json, title,
             "joint position / step size")
@@ -443,6 +451,8 @@ def impulse(spec: DesignSpec, impulse_nms: float, band: float, mode: str, rate_h
     """Joint position after an impulse of external torque (q_des = 0), e.g. a ball hitting
     the arm (Fig. ExperimentImpulse). Position in rad; recovery = last exit from the band.
 
+    Python: sc.design(...).impulse().
+
     \b
     Example:
       seactl impulse --fn 14 --t-tau 0.5 --t-qs 2 --t-qd 0.5 --f-qd 50 --f-taud 100 \\
@@ -462,7 +472,8 @@ def impulse(spec: DesignSpec, impulse_nms: float, band: float, mode: str, rate_h
                             f"Impulse response, {impulse_nms:g} N m s (sampled, {rate_hz:g} Hz)",
                             rate_hz=rate_hz, t_end_s=t_end or 1.0, zero=zero,
                             saturation_a=saturation, impulse_nms=impulse_nms)
-    design = spec.designs()
+    # Design.impulse has no zero / band / record_dt keywords on this branch: the core call
+    design = spec.designs().sea
     resp = sea_impulse(design, impulse_nms=impulse_nms, zero=zero, mode=mode, rate_hz=rate_hz,
                        t_end_s=t_end or 1.0, saturation_a=saturation, band=band,
                        record_dt=limits.RECORD_DT_S if mode == "continuous" else None)
