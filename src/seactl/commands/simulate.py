@@ -216,11 +216,12 @@ def sim_options(func: Callable) -> Callable:
 
 
 def check_simulation(spec: DesignSpec, mode: str, rate_hz: float, t_end_s: float) -> None:
-    """Enough samples to judge the response, and memory and time within the machine's."""
+    """Enough samples to judge the response, and memory and time within the machine's
+    (every step recorded, as the library's ``step`` and ``impulse`` record it)."""
     limits.check_simulation(
         spec.fn_hz.size * spec.gs.size, mode, rate_hz, t_end_s,
         [d * 1e-3 for d in (spec.t_tau_ms, spec.t_qs_ms, spec.t_qd_ms)],
-        record_dt_s=limits.RECORD_DT_S, rate_name="--rate [Hz]", t_end_name="--t-end [s]",
+        rate_name="--rate [Hz]", t_end_name="--t-end [s]",
         hint="shorten --t-end, lower --rate, or give fewer designs")
 
 
@@ -261,11 +262,15 @@ def _output(spec: DesignSpec, resp: Any, mode: str, zero: bool, extra: dict[str,
 
     res, m = resp.result, resp.metrics
     labels = _labels(spec)
-    pos = resp.position.reshape(len(labels), -1)
-    cur = resp.current.reshape(len(labels), -1)
+    # metrics and verdicts from every step (the library's); the curves printed every
+    # RECORD_DT_S in continuous mode
+    every = max(1, round(limits.RECORD_DT_S / res.info["dt_s"])) if mode == "continuous" else 1
+    pos = resp.position.reshape(len(labels), -1)[:, ::every]
+    cur_all = resp.current.reshape(len(labels), -1)
+    cur = cur_all[:, ::every]
     stable = res.stable.reshape(-1)
     left = res.left_bounds_s.reshape(-1)
-    t = res.t_s
+    t = res.t_s[::every]
     names = [f"fn={f:g}Hz gs={g:g}" for f, g in labels]
     if csv_path:
         buf = io.StringIO()
@@ -289,7 +294,7 @@ def _output(spec: DesignSpec, resp: Any, mode: str, zero: bool, extra: dict[str,
                      "verdict": verdict.verdict[i], "evidence": verdict.evidence(i),
                      "warnings": verdict.warnings[i],
                      "left_bounds_s": finite_or_none(left[i]),
-                     "peak_current_a": finite_or_none(np.max(np.abs(cur[i]))),
+                     "peak_current_a": finite_or_none(np.max(np.abs(cur_all[i]))),
                      "metrics": _metrics_json(m, i)})
     loop_lines = _sampled_loop(spec, res, runs, zero)
     warnings = [f"f_n={r['fn_hz']:g} Hz, GS={r['gs']:g}: {w}" for r in runs
@@ -423,11 +428,10 @@ def step(spec: DesignSpec, amplitude: float, mode: str, rate_hz: float, zero: bo
                             f"{rate_hz:g} Hz)", rate_hz=rate_hz,
                             t_end_s=t_end or 0.5, zero=zero, saturation_a=saturation,
                             amplitude=amplitude)
-    # Design.step has no amplitude / record_dt keywords on this branch: the core call
+    # Design.step has no amplitude keyword on this branch: the core call it makes
     design = spec.designs().sea
     resp = sea_step(design, zero=zero, mode=mode, rate_hz=rate_hz, t_end_s=t_end or 0.5,
-                    saturation_a=saturation, amplitude=amplitude,
-                    record_dt=limits.RECORD_DT_S if mode == "continuous" else None)
+                    saturation_a=saturation, amplitude=amplitude)
     extra = _extra(resp.result, mode, rate_hz, saturation) | {"amplitude_rad": amplitude}
     title = (f"Step response to {amplitude:g} {Design.step_unit} ({mode}"
              f"{f', {rate_hz:g} Hz' if mode == 'sampled' else ''}, "
@@ -472,11 +476,10 @@ def impulse(spec: DesignSpec, impulse_nms: float, band: float, mode: str, rate_h
                             f"Impulse response, {impulse_nms:g} N m s (sampled, {rate_hz:g} Hz)",
                             rate_hz=rate_hz, t_end_s=t_end or 1.0, zero=zero,
                             saturation_a=saturation, impulse_nms=impulse_nms)
-    # Design.impulse has no zero / band / record_dt keywords on this branch: the core call
+    # Design.impulse has no zero / band keywords on this branch: the core call it makes
     design = spec.designs().sea
     resp = sea_impulse(design, impulse_nms=impulse_nms, zero=zero, mode=mode, rate_hz=rate_hz,
-                       t_end_s=t_end or 1.0, saturation_a=saturation, band=band,
-                       record_dt=limits.RECORD_DT_S if mode == "continuous" else None)
+                       t_end_s=t_end or 1.0, saturation_a=saturation, band=band)
     extra = _extra(resp.result, mode, rate_hz, saturation) | {"impulse_nms": impulse_nms}
     title = (f"Impulse response, {impulse_nms:g} N m s ({mode}"
              f"{f', {rate_hz:g} Hz' if mode == 'sampled' else ''})")
