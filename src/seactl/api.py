@@ -400,7 +400,8 @@ class Design:
                                self.labels())
 
     def step(self, *, t_end_s: float = 0.5, mode: str = "continuous", rate_hz: float = 1000.0,
-             saturation_a: float | None = None, zero: bool = True) -> ResponseResult:
+             saturation_a: float | None = None, zero: bool = True,
+             amplitude: float = 1.0) -> ResponseResult:
         """Response of the joint angle ``q_j`` to a unit step of ``q_des``.
 
         Parameters
@@ -416,6 +417,9 @@ class Design:
             Current limit [A] of the sampled mode (default: the actuator's).
         zero : bool
             Torque derivative on the whole error (default) or on feedback only.
+        amplitude : float
+            Step size [rad] (``position`` is divided by it; it matters where the current
+            limit clips; the front ends use :attr:`default_step`).
 
         Returns
         -------
@@ -435,7 +439,8 @@ class Design:
 
         self._check_simulation(mode, rate_hz, t_end_s)
         return ResponseResult(sea_step(self.sea, zero=zero, mode=mode, rate_hz=rate_hz,
-                                       t_end_s=t_end_s, saturation_a=saturation_a),
+                                       t_end_s=t_end_s, saturation_a=saturation_a,
+                                       amplitude=amplitude),
                               self.labels(), functools.partial(sea_right_roots, self.sea, zero),
                               links=SEA_LINKS)
 

@@ -415,8 +415,6 @@ def step(spec: DesignSpec, amplitude: float, mode: str, rate_hz: float, zero: bo
       seactl step --fn 14 --t-tau 1 --t-qs 1 --t-qd 1 --f-qd 50 --f-taud 100 --gs 2 \\
           --mode sampled --plot s.png
     """
-    from ..sea import sea_step
-
     check_range("--amplitude [rad]", abs(amplitude), "amplitude_rad")
     check_simulation(spec, mode, rate_hz, t_end or 0.5)
     if loop is not None:
@@ -428,10 +426,8 @@ def step(spec: DesignSpec, amplitude: float, mode: str, rate_hz: float, zero: bo
                             f"{rate_hz:g} Hz)", rate_hz=rate_hz,
                             t_end_s=t_end or 0.5, zero=zero, saturation_a=saturation,
                             amplitude=amplitude)
-    # Design.step has no amplitude keyword on this branch: the core call it makes
-    design = spec.designs().sea
-    resp = sea_step(design, zero=zero, mode=mode, rate_hz=rate_hz, t_end_s=t_end or 0.5,
-                    saturation_a=saturation, amplitude=amplitude)
+    resp = spec.designs().step(t_end_s=t_end or 0.5, amplitude=amplitude, mode=mode,
+                               rate_hz=rate_hz, saturation_a=saturation, zero=zero)
     extra = _extra(resp.result, mode, rate_hz, saturation) | {"amplitude_rad": amplitude}
     title = (f"Step response to {amplitude:g} {Design.step_unit} ({mode}"
              f"{f', {rate_hz:g} Hz' if mode == 'sampled' else ''}, "
