@@ -19,7 +19,7 @@ import pytest
 import seactl as sc
 from seactl.loops import Timing
 
-TABLE_I = dict(delays_ms=(0.5, 2, 0.5), filters_hz=(50, 100))
+TABLE_I = dict(delays_ms={"torque": 0.5, "stiffness": 2, "damping": 0.5}, filters_hz=(50, 100))
 
 
 @pytest.fixture(scope="module")
@@ -73,15 +73,15 @@ def test_units_are_checked_with_the_unit_in_the_message():
     # Oracle: the unit contract of the README (delays_ms refuses > 1000 ms and warns below 1
     # us; Timing takes seconds).
     with pytest.raises(sc.InputError, match=r"T_qs \[ms\] = 2000.0.*milliseconds"):
-        sc.design(14, delays_ms=(0.5, 2000, 0.5))
-    with pytest.raises(sc.InputError, match="delays_ms"):
-        sc.design(14, delays_ms=(0.5, 2))
+        sc.design(14, delays_ms={"torque": 0.5, "stiffness": 2000, "damping": 0.5})
+    with pytest.raises(sc.InputError, match="delays_ms.*torque, stiffness, damping"):
+        sc.design(14, delays_ms={"torque": 0.5, "stifness": 2})
     with pytest.raises(sc.InputError, match=r"f_qd \[Hz\]"):
         sc.design(14, filters_hz=(-50, 100))
     with pytest.raises(sc.InputError, match=r"fn_hz \[Hz\]"):
         sc.design(0)
     with pytest.warns(sc.UnitWarning, match="milliseconds"):
-        sc.design(14, delays_ms=(0.0005, 0.002, 0.0005))
+        sc.design(14, delays_ms={"torque": 0.0005, "stiffness": 0.002, "damping": 0.0005})
     # Timing takes seconds: 2.0 (two seconds, meant as 2 ms) is refused, naming the unit.
     with pytest.raises(sc.InputError, match=r"T_qs \[s\] = 2.0.*Timing takes seconds"):
         Timing(0.5e-3, 2.0, 0.5e-3)
@@ -154,9 +154,9 @@ def test_results_to_dict_is_json_and_plot_draws(table1):
 def test_rigid_latency_asymmetry_and_placement():
     # Oracle: the paper's claim for the rigid actuator (15 ms on the damping loop
     # destabilizes f_n = 12 Hz, 15 ms on the stiffness loop does not).
-    assert sc.rigid(12, delays_ms=(15, 1)).margins().stable
-    assert not sc.rigid(12, delays_ms=(1, 15)).margins().stable
-    dm = sc.rigid(8, delays_ms=(1.5, 1.5)).delay_margins()
+    assert sc.rigid(12, delays_ms={"stiffness": 15, "damping": 1}).margins().stable
+    assert not sc.rigid(12, delays_ms={"stiffness": 1, "damping": 15}).margins().stable
+    dm = sc.rigid(8, delays_ms={"stiffness": 1.5, "damping": 1.5}).delay_margins()
     assert dm.stiffness_s > 5 * dm.damping_s
     m = sc.latency_map(12, [1, 15], [1, 15], kind="rigid")
     assert m.map.stable.tolist() == [[True, False], [True, False]]
@@ -177,7 +177,7 @@ def test_import_is_light():
 def test_rigid_impedance_matches_hand_derived_formula():
     """Oracle: Z = (m s^2 + b s + K e^{-s T_s} + B s e^{-s T_d} / (T_f s + 1)) / s, derived
     by hand from the rigid loop's equations (F_des = K (x_des - x) - B Q s x)."""
-    r = sc.rigid([4.0, 12.0], delays_ms=(15.0, 1.5))
+    r = sc.rigid([4.0, 12.0], delays_ms={"stiffness": 15.0, "damping": 1.5})
     f = np.geomspace(0.1, 1000.0, 50)
     z = r.impedance(f).z
     d = r.rigid
@@ -194,7 +194,7 @@ def test_rigid_step_continuous_matches_python_control_without_delays():
     """Oracle: python-control's step response of K / (m s^2 + (b + B Q) s + K)."""
     import control as ct
 
-    r = sc.rigid(8.0, delays_ms=(0.0, 0.0), velocity_filter_hz=None)
+    r = sc.rigid(8.0, delays_ms={"stiffness": 0.0, "damping": 0.0}, velocity_filter_hz=None)
     res = r.step(t_end_s=0.5)
     d = r.rigid
     m, b, K, B = d.actuator.mass, d.actuator.damping, float(d.K), float(d.B)
@@ -207,7 +207,7 @@ def test_rigid_step_sampled_matches_standalone_oracle():
     """Oracle: tests/rigid_oracle.py (independent ZOH recursion with delay buffers)."""
     from rigid_oracle import simulate_rigid_sampled
 
-    r = sc.rigid([4.0, 12.0], delays_ms=(15.5, 1.5))
+    r = sc.rigid([4.0, 12.0], delays_ms={"stiffness": 15.5, "damping": 1.5})
     res = r.step(t_end_s=0.3, mode="sampled")
     _, x, _ = simulate_rigid_sampled(r.rigid, 1.0, t_end_s=0.3, rate_hz=1000.0)
     np.testing.assert_allclose(res.position, x, atol=1e-9)
@@ -218,7 +218,7 @@ def test_rigid_to_control_frd_and_pade_agree_with_margins():
     ct.margin on the exact-delay response); Padé(4) follows the FRD below 100 Hz."""
     import control as ct
 
-    r = sc.rigid(8.0, delays_ms=(1.5, 1.5))
+    r = sc.rigid(8.0, delays_ms={"stiffness": 1.5, "damping": 1.5})
     f = np.geomspace(0.1, 100.0, 200)
     frd = r.to_control("frd", f_hz=np.geomspace(0.01, 1e4, 4000))
     assert float(ct.margin(frd)[1]) == pytest.approx(float(r.margins().phase_margin_deg),
@@ -235,11 +235,13 @@ def test_delays_and_filters_of_different_shapes_broadcast_to_a_grid():
     t_qs = np.array([1.0, 2.0])[:, None]
     t_qd = np.array([0.5, 1.0, 2.0])
     f_qd = np.array([50.0, 80.0])[:, None]
-    grid = sc.design(14, delays_ms=(0.5, t_qs, t_qd), filters_hz=(f_qd, 100)).margins()
+    grid = sc.design(14, delays_ms={"torque": 0.5, "stiffness": t_qs, "damping": t_qd},
+                     filters_hz=(f_qd, 100)).margins()
     assert grid.phase_margin_deg.shape == (2, 3)
     for i in range(2):
         for j in range(3):
-            one = sc.design(14, delays_ms=(0.5, t_qs[i, 0], t_qd[j]),
+            one = sc.design(14, delays_ms={"torque": 0.5, "stiffness": t_qs[i, 0],
+                                           "damping": t_qd[j]},
                             filters_hz=(f_qd[i, 0], 100)).margins()
             assert float(grid.phase_margin_deg[i, j]) == pytest.approx(
                 float(one.phase_margin_deg), rel=1e-9)

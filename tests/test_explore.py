@@ -170,7 +170,8 @@ def test_sampled_step_shows_the_sampled_loop_verdict():
 
     c = replace(TABLE_I, mode="sampled", rate_hz=190.0)   # the page simulates >= 20 samples
     v = model.views(c)
-    lib = sc.design(14, delays_ms=(0.5, 2, 0.5), filters_hz=(50, 100)).margins(rate_hz=190)
+    lib = sc.design(14, delays_ms={"torque": 0.5, "stiffness": 2, "damping": 0.5},
+                    filters_hz=(50, 100)).margins(rate_hz=190)
     assert v["results"]["sampled_verdict"] == str(lib.verdict) == "unstable"
     assert "stable in continuous time, UNSTABLE sampled at 190 Hz" in v["results"]["verdict"]
     assert "unstable at 190 Hz" in app.results_html(v["results"], "N m s/rad")
@@ -209,7 +210,8 @@ def test_callbacks_update_the_page_and_survive_a_bad_upload():
                                        "(stable)")  # the RootsResult docstring's value
     assert len(ex.sources["roots"].data["re"]) >= 3
     ex.sliders["fn_hz"].value = 16.0
-    expect = sc.design(16.0, delays_ms=(0.5, 2, 0.5), filters_hz=(50, 100)).margins()
+    expect = sc.design(16.0, delays_ms={"torque": 0.5, "stiffness": 2, "damping": 0.5},
+                       filters_hz=(50, 100)).margins()
     assert f">{float(expect.phase_margin_deg):.2f}<" in ex.results.text
     ex.filters.active = [1]  # no velocity filter
     assert ex.sliders["f_qd_hz"].disabled and "--f-qd" not in ex.command.text
@@ -254,7 +256,8 @@ def test_a_dragged_slider_is_computed_once_for_its_latest_value():
     ex.sliders["fn_hz"].value = 17.0  # a newer change supersedes them
     doc.run()
     assert len(ex.last_ms) == 1 and ">17<" in ex.results.text
-    expect = sc.design(17.0, delays_ms=(0.5, 2, 0.5), filters_hz=(50, 100)).margins()
+    expect = sc.design(17.0, delays_ms={"torque": 0.5, "stiffness": 2, "damping": 0.5},
+                       filters_hz=(50, 100)).margins()
     assert f">{float(expect.phase_margin_deg):.2f}<" in ex.results.text
 
 
@@ -416,7 +419,8 @@ def test_browser_slider_moves_the_displayed_phase_margin(server, browser):
         handle.send_keys(Keys.ARROW_RIGHT)
     _wait(lambda: _text(browser, "fn-value") == "14.5")
     fn = float(_text(browser, "fn-value"))
-    expect = sc.design(fn, delays_ms=(0.5, 2, 0.5), filters_hz=(50, 100)).margins()
+    expect = sc.design(fn, delays_ms={"torque": 0.5, "stiffness": 2, "damping": 0.5},
+                       filters_hz=(50, 100)).margins()
     shown = _wait(lambda: (t := _text(browser, "pm-value")) != before and t)
     assert shown == f"{float(expect.phase_margin_deg):.2f}"
     latency = browser.execute_script("return window.__pmChanged - window.__t0;")
@@ -446,7 +450,8 @@ def test_browser_upload_export_and_copy(server, browser, tmp_path):
     (tmp_path / "my-sea.toml").write_bytes(README_TOML.replace(b"218.75", b"400.0"))
     file_input.send_keys(str(tmp_path / "my-sea.toml"))  # a stiffer spring than the UT-SEA
     _wait(lambda: _text(browser, "upload-msg") == "loaded 'my-sea'")
-    expect = sc.design(14, actuator=tmp_path / "my-sea.toml", delays_ms=(0.5, 2, 0.5),
+    expect = sc.design(14, actuator=tmp_path / "my-sea.toml",
+                       delays_ms={"torque": 0.5, "stiffness": 2, "damping": 0.5},
                        filters_hz=(50, 100)).margins()
     shown = _wait(lambda: (t := _text(browser, "pm-value")) != "43.26" and t)
     assert shown == f"{float(expect.phase_margin_deg):.2f}"

@@ -31,12 +31,13 @@ SPLIT = {"embedded": 2000.0, "high-level": 500.0}
 
 
 def _sea(delays_ms, filters_hz, zero=True):
-    return sea_diagram(zero), sc.design(14, delays_ms=delays_ms, filters_hz=filters_hz).sea, \
+    named = dict(zip(("torque", "stiffness", "damping"), delays_ms))
+    return sea_diagram(zero), sc.design(14, delays_ms=named, filters_hz=filters_hz).sea, \
         {"i_m": 30.0}, 0.1
 
 
 def _rigid(delays_ms):
-    d = sc.rigid(8, delays_ms=delays_ms).rigid
+    d = sc.rigid(8, delays_ms=dict(zip(("stiffness", "damping"), delays_ms))).rigid
     return RIGID_DIAGRAM, d, {"F_des": d.actuator.max_force}, 0.004
 
 
@@ -78,7 +79,8 @@ def test_reference_is_the_closed_loop_simulation():
 
 def test_high_level_is_the_delayed_stiffness():
     """T_qs = 2.5 ms at 1 kHz: n = (2.5 - 0.5) / 1 = 2 samples, output -Kq q_j[k - 2]."""
-    d = sc.design(14, delays_ms=(0.5, 2.5, 0.5), filters_hz=(50, 100))
+    d = sc.design(14, delays_ms={"torque": 0.5, "stiffness": 2.5, "damping": 0.5},
+                  filters_hz=(50, 100))
     ctl = ex.compile_processes(sea_diagram(), d.sea, 1000.0, {"i_m": 30.0})
     hl = ctl.process("high-level")
     assert hl.inputs == ("q_j",) and hl.buffers == (("Kq_fb", 2),) and hl.A.size == 0
@@ -92,7 +94,7 @@ def test_high_level_is_the_delayed_stiffness():
 def test_processes_and_schedule():
     """The diagram's split: stiffness on high-level (sent to embedded), the actuation from
     the fastest process; senders run first."""
-    d = sc.design(14, delays_ms=(1, 2, 1), filters_hz=(50, 100))
+    d = sc.design(14, delays_ms={"torque": 1, "stiffness": 2, "damping": 1}, filters_hz=(50, 100))
     ctl = ex.compile_processes(sea_diagram(), d.sea, SPLIT, {"i_m": 30.0})
     assert ctl.names == ("high-level", "embedded")
     emb = ctl.process("embedded")
@@ -109,7 +111,7 @@ def test_zero_and_sub_tick_delays_export_exactly(delays, tmp_path):
     same tick (senders first).  The assembled wiring's rounding (1e-19 of a gain) once
     read as a dependency the other way, and the export refused every design without a
     stiffness delay over one tick.  Oracle: the sampled controller (verify, 1e-9)."""
-    d = sc.design(30, delays_ms=delays)
+    d = sc.design(30, delays_ms=dict(zip(("torque", "stiffness", "damping"), delays)))
     ctl = ex.compile_processes(sea_diagram(), d.sea, 1000.0, {"i_m": 30.0})
     assert ctl.names == ("high-level", "embedded")
     assert "tau_fb_from_high_level" in ctl.process("embedded").inputs
@@ -123,7 +125,7 @@ def test_processes_that_need_each_other_within_a_tick_are_refused_clearly():
     the scheduler's finding becomes an InputError with the delays and the ticks."""
     with pytest.raises(ValueError, match="each other within one tick"):
         ex._schedule({"embedded": {"high-level"}, "high-level": {"embedded"}})
-    d = sc.design(30, delays_ms=(0, 0.5, 0)).sea
+    d = sc.design(30, delays_ms={"torque": 0, "stiffness": 0.5, "damping": 0}).sea
     ctrl = [b for b in sea_diagram().blocks if b.role != "plant"]
     err = ex._cyclic(ctrl, d, {"embedded": 1000.0, "high-level": 500.0}, ValueError("x"))
     assert isinstance(err, sc.InputError) and err.value["T_qs"] == "0.5 ms"
@@ -155,9 +157,9 @@ def test_cli_end_to_end(tmp_path, capsys):
     doc = json.loads((out / "controller.json").read_text())
     emb = next(p for p in doc["processes"] if p["name"] == "embedded")
     u = np.random.default_rng(5).standard_normal((300, len(emb["inputs"]))) * 0.05
-    ctl = ex.compile_processes(sea_diagram(), sc.design(14, delays_ms=(1, 2, 1),
-                                                        filters_hz=(50, 100)).sea,
-                               SPLIT, {"i_m": 30.0})
+    d14 = sc.design(14, delays_ms={"torque": 1, "stiffness": 2, "damping": 1},
+                    filters_hz=(50, 100))
+    ctl = ex.compile_processes(sea_diagram(), d14.sea, SPLIT, {"i_m": 30.0})
     ref = ex.run_process(ctl.process("embedded"), u)
     obj = _load(out / "embedded.py", "Embedded")
     y = np.array([[obj.step(dict(zip(obj.INPUTS, row)))["i_m"]] for row in u])

@@ -239,12 +239,13 @@ def api_call(draw):
         kw = draw(st.sampled_from(["fn_hz", "gs", "delays_ms", "filters_hz", "actuator",
                                    "zeta1"]))
         args = {"fn_hz": 14.0, kw: v} if kw != "delays_ms" else {
-            "fn_hz": 14.0, "delays_ms": (0.5, v, 0.5)}
+            "fn_hz": 14.0, "delays_ms": {"torque": 0.5, "stiffness": v, "damping": 0.5}}
         view = draw(st.sampled_from(["margins", "impedance", "step", "jitter", "roots",
                                      "reshape"]))
         return f"design({args}).{view}", lambda: _design_view(args, view, draw)
     if which == "rigid":
-        args = draw(st.sampled_from([{"fn_hz": v}, {"fn_hz": 8.0, "delays_ms": (v, 1.0)},
+        args = draw(st.sampled_from([{"fn_hz": v}, {"fn_hz": 8.0, "delays_ms": {"stiffness": v,
+                                                                          "damping": 1.0}},
                                      {"fn_hz": 8.0, "velocity_filter_hz": v}]))
         view = draw(st.sampled_from(["margins", "impedance", "step", "roots",
                                      "delay_margins"]))
@@ -340,13 +341,13 @@ def _rigid_file():
 
 @pytest.mark.parametrize("call", [
     lambda: sc.design([]).margins(),                          # argmax of an empty sequence
-    lambda: sc.design(14, delays_ms=(0.5, [], 0.5)).margins(),
+    lambda: sc.design(14, delays_ms={"torque": 0.5, "stiffness": [], "damping": 0.5}).margins(),
     lambda: sc.design(14, filters_hz=(np.zeros(0), None)),
     lambda: sc.rigid([]).margins(),
     lambda: sc.rigid(8, velocity_filter_hz=np.zeros(0)).step(),  # concatenate of nothing
     lambda: sc.design(14, zeta1=np.zeros(0)).impedance([1.0]),  # broadcast (0,1) (2,2)
     lambda: sc.design([[1.0, 2.0], [3.0]]),                   # ragged: numpy's ValueError
-    lambda: sc.design(14).step(t_end_s=None),                 # float(None): TypeError
+    lambda: sc.design(14).step(amplitude="1 rad"),            # float("1 rad"): ValueError
     lambda: sc.design(14).step(t_end_s="2ms"),
     lambda: sc.design(14).impedance("2ms"),
     lambda: sc.rigid(8).step(t_end_s=1e308),                  # OverflowError in the steps

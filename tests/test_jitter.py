@@ -17,7 +17,7 @@ from seactl.cli import main
 from seactl.jitter import SEA_TAPS, peak_omega_t, sea_jitter_margins
 from seactl.latency import loop_delay_margins, sea_model, sea_split_diagram
 
-TABLE_I = dict(delays_ms=(0.5, 2, 0.5), filters_hz=(50, 100))
+TABLE_I = dict(delays_ms={"torque": 0.5, "stiffness": 2, "damping": 0.5}, filters_hz=(50, 100))
 
 
 def _solve_t(diagram, design, omega, tap):
@@ -81,7 +81,7 @@ def test_table_i_14hz_against_numerical_solve_and_python_control():
 
 def test_batch_against_numerical_solve_and_below_delay_margins():
     d = sc.design(np.array([10.0, 14.0, 22.0, 35.0])[:, None], gs=[0.5, 1.0, 2.5],
-                  delays_ms=(0.7, 3.0, 1.0), filters_hz=(40, 150))
+                  delays_ms={"torque": 0.7, "stiffness": 3.0, "damping": 1.0}, filters_hz=(40, 150))
     j = sea_jitter_margins(d.sea)
     assert j.overall_s.shape == (4, 3) and j.stable.any() and (~j.stable).any()
     D = sea_split_diagram()
@@ -130,7 +130,8 @@ def test_measured_trace_is_checked_against_the_analysed_band(tmp_path, capsys):
     trace = tmp_path / "latency-stiffness.csv"
     trace.write_text("latency_ms\n" + "".join(f"{v}\n" for v in (2.5, 3.0, 3.5, 2.75)))
     flags = ["--fn", "14", "--t-tau", "1", "--t-qd", "1", "--f-qd", "50", "--f-taud", "100"]
-    J = sc.design(14, delays_ms=(1, 2, 1), filters_hz=(50, 100)).jitter_margins()
+    J = sc.design(14, delays_ms={"torque": 1, "stiffness": 2, "damping": 1},
+                  filters_hz=(50, 100)).jitter_margins()
     j_ms = float(np.ravel(J.stiffness_s)[0]) * 1e3
     for t_qs, covered in (("2", 3.5 <= 2 + j_ms), ("3", False)):   # 2.5 < 3: below the band
         assert main(["jitter", *flags, "--t-qs", t_qs, "--trace", f"stiffness={trace}",
@@ -146,7 +147,8 @@ def test_measured_trace_is_checked_against_the_analysed_band(tmp_path, capsys):
 # one at 100.6 Hz, half as high; the scan's samples of the sharp one were below half of
 # the broad one, so it reported the broad one (0.168 ms, twice the true margin).
 MISSED = dict(fn=34.18107122581371,
-              delays_ms=(0.6815216590974069, 8.493127627673957, 1.0745445570933905),
+              delays_ms={"torque": 0.6815216590974069, "stiffness": 8.493127627673957,
+                         "damping": 1.0745445570933905},
               filters_hz=(50, 100))
 
 
@@ -174,11 +176,13 @@ def test_jitter_margins_never_exceed_a_dense_scan(seed):
     n = 8
     fn = rng.uniform(15, 45, n)
     delays = np.stack([rng.uniform(0, 1, n), rng.uniform(0, 6, n), rng.uniform(0, 2, n)], 1)
-    j = sea_jitter_margins(sc.design(fn, delays_ms=tuple(delays.T), filters_hz=(50, 100)).sea)
+    loops = ("torque", "stiffness", "damping")
+    j = sea_jitter_margins(sc.design(fn, delays_ms=dict(zip(loops, delays.T)),
+                                     filters_hz=(50, 100)).sea)
     D = sea_split_diagram()
     assert j.stable.sum() >= 4
     for i in np.nonzero(j.stable)[0]:
-        one = sc.design(fn[i], delays_ms=tuple(delays[i]), filters_hz=(50, 100)).sea
+        one = sc.design(fn[i], delays_ms=dict(zip(loops, delays[i])), filters_hz=(50, 100)).sea
         for k, tap in SEA_TAPS.items():
             ref = 1 / _dense_peak(D, one, tap, 1.0, 1e5)
             got = float(getattr(j, f"{k}_s")[i])

@@ -106,8 +106,8 @@ def test_non_passive_bands_recur_above_the_report_scan():
     d = SEADesign(UT_SEA, critically_damped_gains(UT_SEA, 30.0), Timing.from_ms(tt, ts, td))
     bands = [b for b in passivity(d, (0.1, 10_000.0)).bands_hz[()] if b[1] > 1000.0]
     f = np.linspace(1000.0, 10_000.0, 180_001)
-    frd = sc.design(30.0, delays_ms=(tt, ts, td)).to_control("frd", transfer="impedance",
-                                                              f_hz=f)
+    d = sc.design(30.0, delays_ms={"torque": tt, "stiffness": ts, "damping": td})
+    frd = d.to_control("frd", transfer="impedance", f_hz=f)
     neg = np.real(np.squeeze(frd.frdata)) < 0
     runs = int(np.sum(neg[1:] & ~neg[:-1]) + neg[0])
     assert len(bands) == runs and runs > 20

@@ -23,7 +23,7 @@ from seactl.roots import characteristic_roots
 from seactl.sea import sea_margins
 
 # The issue's counterexample: a PM of 18 degrees was reported "stable".
-COUNTER = dict(fn=15.93, gs=1.867, ms=(1.99, 1.96, 18.54))
+COUNTER = dict(fn=15.93, gs=1.867, ms={"torque": 1.99, "stiffness": 1.96, "damping": 18.54})
 
 
 def counter_design():
@@ -85,7 +85,7 @@ def test_scan_and_roots_never_disagree_in_hard_regions(kind, filters):
 
 def test_long_torque_delay_counts_every_unstable_root():
     """f_n 70 Hz, T_tau 25 ms: once reported stable with PM -30 degrees."""
-    d = sc.design(70.0, delays_ms=(25.0, 0.5, 0.5))
+    d = sc.design(70.0, delays_ms={"torque": 25.0, "stiffness": 0.5, "damping": 0.5})
     m, r = d.margins(), d.roots(count=30)
     assert not bool(m.stable)
     assert int(m.unstable_poles) == int(r.unstable_count) >= 12
@@ -143,7 +143,8 @@ def test_growth_rate_matches_a_simulation():
     """Delays on the simulator's 50 us grid (no rounding of the delay buffers)."""
     from seactl.sea import sea_step
 
-    d = sc.design(COUNTER["fn"], gs=COUNTER["gs"], delays_ms=(2.0, 2.0, 18.5))
+    d = sc.design(COUNTER["fn"], gs=COUNTER["gs"], delays_ms={"torque": 2.0, "stiffness": 2.0,
+                                                              "damping": 18.5})
     sigma = float(d.roots(count=1).spectral_abscissa)
     r = sea_step(d.sea, t_end_s=2.2, dt=5e-5)
     y, t = np.ravel(r.position) - 1.0, r.t_s
@@ -156,8 +157,8 @@ def test_growth_rate_matches_a_simulation():
 def test_rigid_roots_and_verdict_agree():
     """15 ms on the damping loop loses f_n = 8 and 12 Hz; on the stiffness loop it does
     not (the README's rigid-actuator finding)."""
-    r = sc.rigid(np.array([8.0, 12.0])[:, None], delays_ms=(np.array([1.0, 15.0]),
-                                                              np.array([15.0, 1.0])))
+    r = sc.rigid(np.array([8.0, 12.0])[:, None], delays_ms={"stiffness": np.array([1.0, 15.0]),
+                                                            "damping": np.array([15.0, 1.0])})
     roots, m = r.roots(count=2), r.margins()
     np.testing.assert_array_equal(m.stable, roots.spectral_abscissa < 0)
     np.testing.assert_array_equal(m.stable, [[False, True], [False, True]])
@@ -201,7 +202,7 @@ def test_a_negligible_delay_gives_the_undelayed_roots():
 
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", sc.UnitWarning)
-        tiny = sc.design(14.0, delays_ms=(0.0, 1e-308, 0.0)).roots(4)
+        tiny = sc.design(14.0, delays_ms={"stiffness": 1e-308}).roots(4)
     none = sc.design(14.0).roots(4)
     assert bool(tiny.converged)
     np.testing.assert_allclose(tiny.roots, none.roots, rtol=1e-12)
@@ -216,7 +217,7 @@ def test_a_short_delay_keeps_its_root_cluster():
     import control as ct
 
     with pytest.warns(UserWarning, match="below 1 us"):
-        d = sc.design([30.0], delays_ms=(0.0, 0.0, 1e-6))
+        d = sc.design([30.0], delays_ms={"torque": 0.0, "stiffness": 0.0, "damping": 1e-6})
     r = d.roots(count=2)
     got = np.sort_complex(np.ravel(r.roots))
     p = ct.poles(d[0].to_control("pade", transfer="closed", order=4))

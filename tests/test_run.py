@@ -80,7 +80,7 @@ def test_run_end_to_end(tmp_path, capsys, transport):
 def test_lost_peer_ends_the_worker(monkeypatch, tmp_path):
     """A controller process that hears nothing ends with a clear error (exit 3)."""
     monkeypatch.setattr(runtime, "PEER_TIMEOUT_S", 0.2)
-    d = sc.design(14, delays_ms=(1, 2, 1), filters_hz=(50, 100))
+    d = sc.design(14, delays_ms={"torque": 1, "stiffness": 2, "damping": 1}, filters_hz=(50, 100))
     (tmp_path / "export").mkdir()
     d.export(tmp_path / "export", lang="python")
     sock = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
@@ -144,7 +144,7 @@ def test_rigid_run_listens_on_loopback_only(transport):
 
     from seactl.rigid import RIGID_DIAGRAM
 
-    rig = sc.rigid(8, delays_ms=(1.5, 1.5)).rigid
+    rig = sc.rigid(8, delays_ms={"stiffness": 1.5, "damping": 1.5}).rigid
     res = runtime.run_distributed(RIGID_DIAGRAM, rig, saturation={"F_des": rig.actuator.max_force},
                                   step=0.004, duration_s=1.0, transport=transport,
                                   on_start=watch)
@@ -160,9 +160,10 @@ def test_rigid_run_listens_on_loopback_only(transport):
 def test_python_api_runs_both_systems():
     """Design.run and RigidBatch.run (public API): message counts known from the rate and
     the duration; the replay reproduces the measured response."""
-    sea = sc.design(14, delays_ms=(1, 2, 1), filters_hz=(50, 100)).run(duration_s=0.3,
+    sea = sc.design(14, delays_ms={"torque": 1, "stiffness": 2, "damping": 1},
+                    filters_hz=(50, 100)).run(duration_s=0.3, transport="udp")
+    rig = sc.rigid(8, delays_ms={"stiffness": 1.5, "damping": 1.5}).run(duration_s=0.3,
                                                                         transport="udp")
-    rig = sc.rigid(8, delays_ms=(1.5, 1.5)).run(duration_s=0.3, transport="udp")
     for res, out in ((sea, "q_j"), (rig, "x")):
         s = res.summary
         assert s["output"] == out and s["links"]["plant->embedded"]["count"] == 301

@@ -135,7 +135,8 @@ def test_certificate_counts_known_spectra_and_refuses_the_unit_circle():
 def test_tutorial_design_unstable_at_27_5_hz_matches_its_simulation():
     # Oracle: the simulation of the same loop (no saturation) diverges, and the
     # continuous verdict of the same design (certified scan) is stable.
-    d = sc.design(14, delays_ms=(0.5, 2, 0.5), filters_hz=(50, 100))
+    d = sc.design(14, delays_ms={"torque": 0.5, "stiffness": 2, "damping": 0.5},
+                  filters_hz=(50, 100))
     m = d.margins(rate_hz=27.5)
     assert bool(d.margins().stable) and str(m.verdict) == "unstable"
     r = d.step(mode="sampled", rate_hz=27.5, t_end_s=2.0, saturation_a=float("inf"))
@@ -147,7 +148,8 @@ def test_sampled_margins_approach_the_continuous_ones_with_matching_effective_de
     # Oracle: the continuous loop of the paper's effective-delay model.  With requested
     # delays T/2 + nT (realized exactly) the sampled loop at 10 kHz differs from the
     # continuous one only by Tustin warping and the hold's higher harmonics.
-    d = sc.design(14, delays_ms=(0.55, 2.05, 0.55), filters_hz=(50, 100))
+    d = sc.design(14, delays_ms={"torque": 0.55, "stiffness": 2.05, "damping": 0.55},
+                  filters_hz=(50, 100))
     c, s = d.margins(), d.margins(rate_hz=10_000)
     assert float(s.phase_margin_deg) == pytest.approx(float(c.phase_margin_deg), abs=0.05)
     assert float(s.crossover_hz) == pytest.approx(float(c.crossover_hz), rel=1e-3)
@@ -159,7 +161,8 @@ def test_rate_none_is_the_continuous_result_and_multi_rate_gives_verdict_only():
     # Oracle: the continuous analysis itself (sea_margins), bit for bit.
     from seactl.sea import sea_margins
 
-    d = sc.design([12, 14], delays_ms=(0.5, 2, 0.5), filters_hz=(50, 100))
+    d = sc.design([12, 14], delays_ms={"torque": 0.5, "stiffness": 2, "damping": 0.5},
+                  filters_hz=(50, 100))
     assert np.array_equal(d.margins(rate_hz=None).phase_margin_deg,
                           sea_margins(d.sea).phase_margin_deg)
     m = d.margins(rate_hz={"embedded": 1000.0, "high-level": 250.0})
@@ -170,7 +173,8 @@ def test_rate_none_is_the_continuous_result_and_multi_rate_gives_verdict_only():
 def test_too_large_analyses_are_refused_up_front():
     # Oracle: the documented limits (SAMPLED_MAX_STATES, SEACTL_MAX_SECONDS).
     with pytest.raises(InputError, match="states"):
-        sc.design(14, delays_ms=(0.5, 100, 0.5)).margins(rate_hz=50_000)
+        d = sc.design(14, delays_ms={"torque": 0.5, "stiffness": 100, "damping": 0.5})
+        d.margins(rate_hz=50_000)
     with pytest.raises(InputError, match="estimate"):
         check_sampled_analysis(10**9, 50, 1200, 10)
     for bad in (5.0, "1000", True, [1000.0], {"embedded": 1000.0}):
@@ -192,7 +196,8 @@ def test_cli_gains_roots_jitter_step_show_the_sampled_verdict(capsys):
     # the verdict words of the issue.
     args = ["--fn", "14", "--t-tau", "0.5", "--t-qs", "2", "--t-qd", "0.5", "--f-qd", "50",
             "--f-taud", "100"]
-    api = sc.design(14, delays_ms=(0.5, 2, 0.5), filters_hz=(50, 100)).margins(rate_hz=27.5)
+    api = sc.design(14, delays_ms={"torque": 0.5, "stiffness": 2, "damping": 0.5},
+                    filters_hz=(50, 100)).margins(rate_hz=27.5)
     out = json.loads(cli_run(["gains", *args, "--rate", "27.5", "--json"], capsys).stdout)
     assert out[0]["sampled"]["verdict"] == "unstable"
     assert out[0]["sampled"]["phase_margin_deg"] == pytest.approx(
@@ -220,7 +225,8 @@ def test_loop_file_of_the_paper_sea_gives_the_design_api_sampled_margins():
     loop = sc.load_loop(Path(__file__).resolve().parents[1] / "examples" / "loops"
                         / "paper-sea.toml")
     m = loop.margins(rate_hz={})
-    d = sc.design(14, delays_ms=(0.5, 2, 0.5), filters_hz=(50, 100)).margins(rate_hz=1000)
+    d = sc.design(14, delays_ms={"torque": 0.5, "stiffness": 2, "damping": 0.5},
+                  filters_hz=(50, 100)).margins(rate_hz=1000)
     assert set(m) == set(loop.breaks)
     for key in ("phase_margin_deg", "crossover_hz", "gain_margin", "delay_margin_s"):
         assert float(getattr(m["outer"], key)) == pytest.approx(float(getattr(d, key)),
@@ -264,7 +270,8 @@ def test_sea_loop_poles_match_python_control_near_the_boundary(t_qs_ms, ns, unst
     # 10.5 ms leaves the dominant pair 1.3e-4 inside the unit circle.
     from seactl.loops import SEA_DIAGRAM
 
-    d = sc.design(30, delays_ms=(0.5, t_qs_ms, 0.5), filters_hz=(50, 100))
+    d = sc.design(30, delays_ms={"torque": 0.5, "stiffness": t_qs_ms, "damping": 0.5},
+                  filters_hz=(50, 100))
     r = sampled_roots(SEA_DIAGRAM, d.sea, RATE)
     poles = _python_control_sea_poles(d, ns)
     ours = np.sort(np.abs(r.z))[::-1]
@@ -281,7 +288,8 @@ def test_multi_rate_verdict_matches_the_lifted_map_over_the_buffers(t_qs_ms):
     from seactl.loops import SEA_DIAGRAM
     from seactl.simulate import Step, compile_sampled, lifted_map
 
-    d = sc.design(30, delays_ms=(0.5, t_qs_ms, 0.5), filters_hz=(50, 100))
+    d = sc.design(30, delays_ms={"torque": 0.5, "stiffness": t_qs_ms, "damping": 0.5},
+                  filters_hz=(50, 100))
     rates = {"embedded": 1000.0, "high-level": 250.0}
     r = sampled_roots(SEA_DIAGRAM, d.sea, rates)
     plan = compile_sampled(SEA_DIAGRAM, d.sea, {"q_des": Step(1.0)}, 0.01, ("q_j",),
@@ -297,7 +305,8 @@ def test_sampled_jitter_margin_tends_to_kao_lincoln():
     # Oracle: the continuous Kao-Lincoln jitter margin of the same outer loop (seactl.jitter,
     # its peak proven); the sampled bound T / max |e^{jwT} - 1| |T(e^{jwT})| tends to it as
     # the rate grows (|e^{jwT} - 1| / T -> w, effective delays -> requested ones).
-    d = sc.design([12, 16, 20], delays_ms=(0.5, 2, 0.5), filters_hz=(50, 100))
+    d = sc.design([12, 16, 20], delays_ms={"torque": 0.5, "stiffness": 2, "damping": 0.5},
+                  filters_hz=(50, 100))
     cont = d.jitter_margins().ms("overall")
     s = d.margins(rate_hz=10_000)
     np.testing.assert_allclose(s.jitter_margin_ms, cont, rtol=5e-3)

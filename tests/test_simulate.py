@@ -502,7 +502,8 @@ def test_buffer_samples_is_the_shortest_realizable_delay_not_below_the_request()
 def test_requested_and_effective_delays_side_by_side(capsys):
     # Oracle: n = ceil((T - T_s/2)/T_s) by hand: at 1 kHz 1 -> 1.5, 2.2 -> 2.5, 0.5 -> 0.5 ms;
     # continuous mode runs the requested delays exactly.
-    d = sc.design(14, delays_ms=(1.0, 2.2, 0.5), filters_hz=(50, 100))
+    d = sc.design(14, delays_ms={"torque": 1.0, "stiffness": 2.2, "damping": 0.5},
+                  filters_hz=(50, 100))
     r = d.step(mode="sampled", t_end_s=0.05)
     req = {k: float(v) * 1e3 for k, v in r.requested_delays_s.items()}
     eff = {k: float(v) * 1e3 for k, v in r.effective_delays_s.items()}

@@ -31,7 +31,7 @@ from seactl.timing import (
     sea_monte_carlo,
 )
 
-TABLE_I = dict(delays_ms=(0.5, 2, 0.5), filters_hz=(50, 100))
+TABLE_I = dict(delays_ms={"torque": 0.5, "stiffness": 2, "damping": 0.5}, filters_hz=(50, 100))
 
 
 def _brute_schedule(wait, lost):
@@ -89,7 +89,8 @@ def test_hold_last_value_against_scalar_loop():
 
 
 def test_deterministic_latency_equals_fixed_delay_sampled_run():
-    d5 = sc.design([14, 18], delays_ms=(0.5, 5, 0.5), filters_hz=(50, 100))
+    d5 = sc.design([14, 18], delays_ms={"torque": 0.5, "stiffness": 5, "damping": 0.5},
+                   filters_hz=(50, 100))
     d2 = sc.design([14, 18], **TABLE_I)
     ref = sea_step(d2.sea, mode="sampled", amplitude=0.01)
     for model in (Constant(2e-3), Empirical((2e-3,), (7.0,))):
@@ -98,7 +99,8 @@ def test_deterministic_latency_equals_fixed_delay_sampled_run():
         assert np.array_equal(q, np.broadcast_to(ref.position, q.shape))
     # random latency that always rounds up to the same whole samples (2.5 ms at 1 kHz) goes
     # through the arrival schedules and must still equal the fixed 2.5 ms run bit for bit
-    d15 = sc.design([14, 18], delays_ms=(0.5, 2.5, 0.5), filters_hz=(50, 100))
+    d15 = sc.design([14, 18], delays_ms={"torque": 0.5, "stiffness": 2.5, "damping": 0.5},
+                    filters_hz=(50, 100))
     ref15 = sea_step(d15.sea, mode="sampled", amplitude=0.01)
     mc = sea_monte_carlo(d2.sea, latency={"stiffness": Uniform(1.55e-3, 1.95e-3)}, runs=3,
                          amplitude=0.01)
@@ -210,7 +212,8 @@ def test_multirate_schedule_in_slow_process_ticks():
     from seactl.timing import timed_simulation
 
     rates = {"embedded": 2000.0, "high-level": 500.0}
-    d = sc.design([14, 16], delays_ms=(0.5, 3.0, 0.5), filters_hz=(50, 100))
+    d = sc.design([14, 16], delays_ms={"torque": 0.5, "stiffness": 3.0, "damping": 0.5},
+                  filters_hz=(50, 100))
     kw = dict(rates_hz=rates, outputs=("q_j",), saturation={"i_m": 30.0})
     ref = simulate(sea_diagram(), d.sea, {"q_des": Step(0.01)}, 0.3, mode="sampled", **kw)
     res = timed_simulation(sea_diagram(), d.sea, {"q_des": Step(0.01)}, 0.3,

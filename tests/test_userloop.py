@@ -22,7 +22,7 @@ from seactl.cli import main
 from seactl.errors import LoopFileError
 
 EXAMPLES = Path(__file__).resolve().parents[1] / "examples" / "loops"
-TABLE_I_14 = dict(delays_ms=(0.5, 2, 0.5), filters_hz=(50, 100))
+TABLE_I_14 = dict(delays_ms={"torque": 0.5, "stiffness": 2, "damping": 0.5}, filters_hz=(50, 100))
 
 
 @pytest.fixture(scope="module")

@@ -27,7 +27,8 @@ HARD = [(14, 0.5, 20, 0.5), (20, 1, 20, 3), (30, 2, 2, 6), (20, 0.5, 2, 8), (30,
 
 
 def _pade_dominant(fn, delays):
-    ctl = sc.design([fn], delays_ms=delays)[0].to_control("pade", transfer="closed", order=4)
+    named = dict(zip(("torque", "stiffness", "damping"), delays))
+    ctl = sc.design([fn], delays_ms=named)[0].to_control("pade", transfer="closed", order=4)
     import control as ct
 
     p = ct.poles(ctl)
@@ -39,7 +40,7 @@ def _pade_dominant(fn, delays):
 def hard_verdicts():
     fn = np.array([h[0] for h in HARD], float)
     delays = tuple(np.array([h[k] for h in HARD], float) for k in (1, 2, 3))
-    d = sc.design(fn, delays_ms=delays)
+    d = sc.design(fn, delays_ms=dict(zip(("torque", "stiffness", "damping"), delays)))
     return judge_response(sea_step(d.sea, t_end_s=2.0, record_dt=5e-4), band=0.02)
 
 
@@ -85,7 +86,8 @@ def test_quick_start_impulse_without_filters_is_a_limit_cycle(capsys):
 
 
 def test_filtered_sampled_design_settles():
-    d = sc.design([14], delays_ms=(0.5, 2, 0.5), filters_hz=(50, 100))
+    d = sc.design([14], delays_ms={"torque": 0.5, "stiffness": 2, "damping": 0.5},
+                  filters_hz=(50, 100))
     v = judge_response(sea_impulse(d.sea, mode="sampled"), band=0.05)
     assert v.verdict == ["settled"] and v.warnings == [[]]
 
@@ -215,7 +217,8 @@ def test_the_python_api_gives_the_command_lines_verdicts(capsys):
     included.  Oracles: the command line (itself checked against the roots and long
     simulations above) and, for the rigid actuator, the Nyquist verdict of its margins."""
     for fn, mode in (("30", "continuous"), ("30.2", "sampled")):
-        d = sc.design(float(fn), delays_ms=(0.5, [10.5, 10.53], 0.5), filters_hz=(50, 100))
+        d = sc.design(float(fn), delays_ms={"torque": 0.5, "stiffness": [10.5, 10.53],
+                                            "damping": 0.5}, filters_hz=(50, 100))
         v = d.step(mode=mode).verdict()
         for i, t_qs in enumerate(("10.5", "10.53")):
             assert main(["step", "--fn", fn, "--t-tau", "0.5", "--t-qs", t_qs, "--t-qd",
@@ -228,7 +231,7 @@ def test_the_python_api_gives_the_command_lines_verdicts(capsys):
         # continuous: T_qs either side of 10.5217 ms; sampled: both buffers are 10.5 ms
         assert v.verdict == (["not settled", "unstable"] if mode == "continuous" else
                              ["unstable", "unstable"])
-    r = sc.rigid([8, 30], delays_ms=(1.5, 1.5))
+    r = sc.rigid([8, 30], delays_ms={"stiffness": 1.5, "damping": 1.5})
     counts = [r.step(t_end_s=1.0).verdict().evidence(i)["right_half_plane_roots"]
               for i in range(2)]
     assert [c == 0 for c in counts] == r.margins().stable.tolist()

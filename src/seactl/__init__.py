@@ -8,7 +8,8 @@ the rigid actuator, latency maps, loop placement, design-space sweeps and a mobi
 The public API is this namespace (``__all__``); the submodules hold the implementation.
 
 >>> import seactl as sc
->>> d = sc.design([12, 14, 16], gs=1.0, delays_ms=(0.5, 2, 0.5), filters_hz=(50, 100))
+>>> d = sc.design([12, 14, 16], gs=1.0, delays_ms={"torque": 0.5, "stiffness": 2, "damping": 0.5},
+                  filters_hz=(50, 100))
 >>> d.margins().phase_margin_deg.round(2)
 array([45.13, 43.26, 40.03])
 """

@@ -95,7 +95,8 @@ class MarginsResult(_Columns):
     Examples
     --------
     >>> import seactl as sc
-    >>> m = sc.design([12, 14], delays_ms=(0.5, 2, 0.5), filters_hz=(50, 100)).margins()
+    >>> m = sc.design([12, 14], delays_ms={"torque": 0.5, "stiffness": 2, "damping": 0.5},
+                      filters_hz=(50, 100)).margins()
     >>> round(m.records()[1]["phase_margin_deg"], 2), m.to_dict()["stable"]
     (43.26, [True, True])
     """
@@ -185,7 +186,8 @@ class SampledMarginsResult(_Columns):
     Examples
     --------
     >>> import seactl as sc
-    >>> m = sc.design(14, delays_ms=(0.5, 2, 0.5), filters_hz=(50, 100)).margins(rate_hz=1000)
+    >>> m = sc.design(14, delays_ms={"torque": 0.5, "stiffness": 2, "damping": 0.5},
+                      filters_hz=(50, 100)).margins(rate_hz=1000)
     >>> r = m.records()[0]
     >>> r["verdict"], round(r["phase_margin_deg"], 1), r["delay_margin_samples"]
     ('stable', 42.0, 9)
@@ -330,21 +332,28 @@ class ResponseResult(_Wrapped):
     links : mapping, optional
         Loop name -> delayed block name (e.g. ``{"stiffness": "Kq_fb"}``): the keys of
         :attr:`requested_delays_s` and :attr:`effective_delays_s` (default: block names).
+    amplitude : float, optional
+        The step or impulse applied, in ``amplitude_unit`` (``"rad"`` or ``"m"`` for a
+        step, ``"N m s"`` or ``"N s"`` for an impulse).
+    amplitude_unit : str
+        Its unit.
 
     Examples
     --------
     >>> import seactl as sc
     >>> r = sc.design([14, 20], filters_hz=(50, 100)).step(t_end_s=0.3)
     >>> r.position.shape[0], sorted(r.to_dict())[:3]
-    (2, ['current', 'effective_delays_ms', 'final_value'])
+    (2, ['amplitude', 'amplitude_unit', 'current'])
     """
 
     def __init__(self, response: Any, labels: list[str], right_roots: Any = None,
-                 links: Any = None):
+                 links: Any = None, amplitude: float | None = None, amplitude_unit: str = ""):
         self._inner = response
         self.labels = labels
         self._right_roots = right_roots
         self._links = dict(links) if links is not None else None
+        self.amplitude = amplitude
+        self.amplitude_unit = amplitude_unit
 
     def _delays(self, key: str) -> dict[str, np.ndarray]:
         info = self._inner.result.info.get(key, {})
@@ -392,7 +401,8 @@ class ResponseResult(_Wrapped):
         cannot tell them apart, the certified count can.
 
         >>> import seactl as sc
-        >>> d = sc.design(30, delays_ms=(0.5, [10.5, 10.53], 0.5), filters_hz=(50, 100))
+        >>> d = sc.design(30, delays_ms={"torque": 0.5, "stiffness": [10.5, 10.53],
+                                         "damping": 0.5}, filters_hz=(50, 100))
         >>> v = d.step().verdict()
         >>> v.verdict, [v.evidence(i)["right_half_plane_roots"] for i in range(2)]
         (['not settled', 'unstable'], [0, 2])
@@ -417,12 +427,14 @@ class ResponseResult(_Wrapped):
         Returns
         -------
         dict
-            ``kind``, ``mode``, ``t_s``, ``position``, ``current``,
-            ``requested_delays_ms``, ``effective_delays_ms`` (per loop), ``stable`` and the
-            metrics' fields (e.g. ``overshoot_pct``).
+            ``kind``, ``mode``, ``amplitude``, ``amplitude_unit``, ``t_s``, ``position``,
+            ``current``, ``requested_delays_ms``, ``effective_delays_ms`` (per loop),
+            ``stable`` and the metrics' fields (e.g. ``overshoot_pct``).
         """
         r = self._inner
-        out = {"kind": r.kind, "mode": r.result.mode, "t_s": json_array(r.t_s),
+        out = {"kind": r.kind, "mode": r.result.mode,
+               "amplitude": None if self.amplitude is None else json_value(self.amplitude),
+               "amplitude_unit": self.amplitude_unit, "t_s": json_array(r.t_s),
                "position": json_array(r.position), "current": json_array(r.current),
                "requested_delays_ms": {k: json_array(1e3 * np.asarray(v))
                                        for k, v in self.requested_delays_s.items()},
@@ -485,7 +497,8 @@ class JitterResult(_Columns):
     Examples
     --------
     >>> import seactl as sc
-    >>> j = sc.design(14, delays_ms=(0.5, 2, 0.5), filters_hz=(50, 100)).jitter_margins()
+    >>> j = sc.design(14, delays_ms={"torque": 0.5, "stiffness": 2, "damping": 0.5},
+                      filters_hz=(50, 100)).jitter_margins()
     >>> r = j.records()[0]
     >>> round(r["jitter_margin_ms"], 2), round(r["delay_margin_ms"], 2)
     (8.04, 9.45)
@@ -588,7 +601,8 @@ class RootsResult(_Wrapped):
     Examples
     --------
     >>> import seactl as sc
-    >>> r = sc.design(14, delays_ms=(0.5, 2, 0.5), filters_hz=(50, 100)).roots(count=2)
+    >>> r = sc.design(14, delays_ms={"torque": 0.5, "stiffness": 2, "damping": 0.5},
+                      filters_hz=(50, 100)).roots(count=2)
     >>> round(r.records()[0]["spectral_abscissa"], 2), len(r.records()[0]["roots"])
     (-39.85, 2)
     """

@@ -39,7 +39,7 @@ class InputError(SeactlError, ValueError):
     --------
     >>> import seactl as sc
     >>> try:
-    ...     sc.design(14, delays_ms=(0.5, 2000, 0.5))
+    ...     sc.design(14, delays_ms={"torque": 0.5, "stiffness": 2000, "damping": 0.5})
     ... except sc.InputError as exc:
     ...     print(exc)
     invalid T_qs [ms] = 2000.0: must be <= 1000 ms (delays_ms takes milliseconds)

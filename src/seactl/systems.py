@@ -9,25 +9,19 @@ Each function is a thin, documented front to the module that does the work
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+import math
+from collections.abc import Mapping, Sequence
 from dataclasses import asdict, dataclass
 from pathlib import Path
 from typing import Any, ClassVar
 
 import numpy as np
 
-from ._results import (
-    ImpedanceResult,
-    MarginsResult,
-    ResponseResult,
-    _axes,
-    json_array,
-    json_value,
-)
+from ._results import _axes, json_array, json_value
 from ._validate import finite_array
-from .api import check_batch, delays_from_ms, resolve_actuator
+from .api import check_batch, delays_by_loop, delays_from_ms, resolve_actuator
 from .errors import InputError
-from .runtime import run_doc
+from .system import System
 
 KINDS = ("sea", "rigid")
 
@@ -50,9 +44,23 @@ def _jsonify(obj: Any) -> Any:
 
 
 # ------------------------------------------------------------------ rigid actuator
+RIGID_LOOPS = ("stiffness", "damping")
+"""The rigid actuator's delayed loops, the keys of its ``delays_ms``."""
+
+
+def _saturate_to_limit(saturate: bool) -> float | None:
+    """The deprecated ``saturate=`` flag as ``saturation_a``: the actuator's limit, or
+    none."""
+    return None if saturate else math.inf
+
+
 @dataclass(frozen=True, eq=False)
-class RigidBatch:
+class RigidBatch(System):
     """A batch of critically-damped rigid-actuator designs (build with :func:`rigid`).
+
+    The views are those of :class:`seactl.System`; the rigid actuator adds
+    :meth:`delay_margins` and its force limit :attr:`max_force_n` (``beta`` times the
+    current limit ``saturation_a``).
 
     Parameters
     ----------
@@ -64,20 +72,98 @@ class RigidBatch:
     Examples
     --------
     >>> import seactl as sc
-    >>> r = sc.rigid([8, 12], delays_ms=(15, 1))
-    >>> r.shape, r.margins().stable.tolist()
-    ((2,), [True, True])
+    >>> r = sc.rigid([8, 12], delays_ms={"stiffness": 15, "damping": 1})
+    >>> r.shape, r.margins().stable.tolist(), isinstance(r, sc.System)
+    ((2,), [True, True], True)
     """
 
-    default_step: ClassVar[float] = 0.004
-    step_unit: ClassVar[str] = "m"
     rigid: Any
     fn_hz: np.ndarray
+
+    kind: ClassVar[str] = "rigid"
+    loops: ClassVar[tuple[str, ...]] = RIGID_LOOPS
+    step_unit: ClassVar[str] = "m"
+    default_step: ClassVar[float] = 0.004
+    impulse_unit: ClassVar[str] = "N s"
+    default_impulse: ClassVar[float] = 10.0
+    default_t_end_s: ClassVar[dict[str, float]] = {"step": 1.0, "impulse": 1.0}
+    reference: ClassVar[str] = "x_des"
+    disturbance: ClassVar[str] = "F_ext"
+    output: ClassVar[str] = "x"
+    actuation: ClassVar[str] = "F_des"
+    sensor: ClassVar[str] = "x_sens"
+    ports: ClassVar[tuple[str, ...]] = ("output",)
+    export_step: ClassVar[float] = 0.004
+    renamed: ClassVar[dict[str, Any]] = {
+        "step": {"saturate": ("saturation_a", _saturate_to_limit)},
+        "export": {"saturate": ("saturation_a", _saturate_to_limit)},
+        "run": {"step_m": ("amplitude", None),
+                "saturate": ("saturation_a", _saturate_to_limit)}}
 
     @property
     def shape(self) -> tuple[int, ...]:
         """The batch shape."""
         return self.rigid.shape
+
+    @property
+    def design(self) -> Any:
+        """The design batch the diagram's blocks read (:attr:`rigid`)."""
+        return self.rigid
+
+    @property
+    def diagram(self) -> Any:
+        """The rigid actuator's block diagram (:data:`seactl.rigid.RIGID_DIAGRAM`)."""
+        from .rigid import RIGID_DIAGRAM
+
+        return RIGID_DIAGRAM
+
+    @property
+    def actuator(self) -> Any:
+        """The actuator (:class:`~seactl.rigid.RigidParams`)."""
+        return self.rigid.actuator
+
+    @property
+    def gains(self) -> Any:
+        """``K`` [N/m] and ``B`` [N s/m], broadcast to the batch shape."""
+        from .rigid import RigidGains
+
+        return RigidGains(*(np.broadcast_to(x, self.shape) for x in (self.rigid.K,
+                                                                     self.rigid.B)))
+
+    @property
+    def delays_s(self) -> dict[str, np.ndarray]:
+        """Loop name -> delay [s]: ``stiffness`` (T_s), ``damping`` (T_d)."""
+        return {"stiffness": self.rigid.T_s, "damping": self.rigid.T_d}
+
+    @property
+    def links(self) -> dict[str, str]:
+        """Loop name -> delayed block of the diagram."""
+        from .timing import MODEL_LINKS
+
+        return MODEL_LINKS["rigid"]
+
+    @property
+    def max_current_a(self) -> float:
+        """The actuator's current limit [A]."""
+        return float(self.actuator.max_current)
+
+    @property
+    def max_force_n(self) -> float:
+        """The actuator's force limit [N], ``beta * max_current``."""
+        return float(self.actuator.max_force)
+
+    @property
+    def amperes_per_actuation(self) -> float:
+        """The actuation signal is the force command: ``beta`` [N/A] per ampere."""
+        return float(self.actuator.beta)
+
+    def reference_frequency(self) -> np.ndarray:
+        """The delay-free natural frequency ``sqrt(K/m)`` [rad/s] per design."""
+        return self.rigid.wn
+
+    def impulse_inertia(self) -> np.ndarray:
+        """The mass ``m`` [kg] an impulse of external force hits."""
+        return np.asarray(self.rigid.m)
 
     def __getitem__(self, idx: Any) -> RigidBatch:
         from dataclasses import replace
@@ -97,91 +183,10 @@ class RigidBatch:
                       f_v=pick(self.rigid.f_v))
         return RigidBatch(sub, pick(self.fn_hz))
 
-    def margins(self, rate_hz: Any = None) -> Any:
-        """Whole-loop phase, gain and delay margins and Nyquist stability.
-
-        Parameters
-        ----------
-        rate_hz : float or dict, optional
-            ``None`` (default): the continuous loop.  A rate [Hz] (both processes) or
-            ``{"embedded": ..., "high-level": ...}``: the sampled-data loop that
-            ``step(mode="sampled")`` runs, with a certified verdict and margins from its
-            discrete frequency response (:func:`seactl.sampled.sampled_margins`).
-
-        Returns
-        -------
-        MarginsResult or SampledMarginsResult
-            Arrays of the batch shape, labelled by ``fn_hz``, ``K`` and ``B``.
-
-        Examples
-        --------
-        >>> import seactl as sc
-        >>> round(float(sc.rigid(8, delays_ms=(1.5, 1.5)).margins().phase_margin_deg), 1)
-        52.6
-        """
+    def label_columns(self, gains: bool = True) -> dict[str, Any]:
+        """``fn_hz``, and with ``gains`` ``K`` and ``B`` (batch shape)."""
         r = self.rigid
-        labels = {"fn_hz": self.fn_hz, "K": r.K, "B": r.B}
-        if rate_hz is not None:
-            from ._results import SampledMarginsResult
-            from .rigid import RIGID_DIAGRAM
-            from .sampled import sampled_margins
-
-            return SampledMarginsResult(sampled_margins(RIGID_DIAGRAM, r, "x_sens", rate_hz,
-                                                        r.wn), labels)
-        from .rigid import rigid_margins
-
-        return MarginsResult(rigid_margins(r), labels)
-
-    def roots(self, count: int = 6) -> Any:
-        """Rightmost roots of the closed loop (exact delays), per design.
-
-        Parameters
-        ----------
-        count : int
-            Roots per design (a conjugate pair counts once).
-
-        Returns
-        -------
-        RootsResult
-            ``roots`` [rad/s], ``spectral_abscissa`` [1/s], labelled by ``fn_hz``.
-
-        Examples
-        --------
-        >>> import seactl as sc
-        >>> r = sc.rigid(8, delays_ms=(1.5, 1.5)).roots(count=1)
-        >>> bool(r.spectral_abscissa < 0)
-        True
-        """
-        from ._results import RootsResult
-        from .limits import check_roots
-        from .rigid import RIGID_DIAGRAM
-        from .roots import characteristic_roots
-
-        r = self.rigid
-        check_roots(int(np.prod(self.shape)), count,
-                    any(np.any(np.asarray(x) > 0) for x in (r.T_s, r.T_d)))
-        return RootsResult(characteristic_roots(RIGID_DIAGRAM, self.rigid, count=count),
-                           {"fn_hz": self.fn_hz})
-
-    def delay_margins(self) -> Any:
-        """Extra latency the stiffness loop alone, the damping loop alone, and both tolerate.
-
-        Returns
-        -------
-        seactl.latency.LoopDelayMargins
-            ``stiffness_s``, ``damping_s``, ``overall_s`` [s] and their ``ratio``.
-
-        Examples
-        --------
-        >>> import seactl as sc
-        >>> dm = sc.rigid(8, delays_ms=(1.5, 1.5)).delay_margins()
-        >>> round(float(dm.stiffness_s) * 1e3, 2), round(float(dm.damping_s) * 1e3, 2)
-        (55.47, 9.55)
-        """
-        from .latency import rigid_model
-
-        model = rigid_model(self.rigid.actuator)
-        return model.delay_margins(self.rigid)
+        return {"fn_hz": self.fn_hz, "K": r.K, "B": r.B} if gains else {"fn_hz": self.fn_hz}
 
     def labels(self) -> list[str]:
         """One legend label per design (flattened batch).
@@ -194,7 +199,7 @@ class RigidBatch:
         Examples
         --------
         >>> import seactl as sc
-        >>> sc.rigid(8, delays_ms=(1.5, 1.5)).labels()
+        >>> sc.rigid(8, delays_ms={"stiffness": 1.5, "damping": 1.5}).labels()
         ['f_n=8 Hz, T_s=1.5 ms, T_d=1.5 ms']
         """
         r = self.rigid
@@ -202,231 +207,57 @@ class RigidBatch:
         return [f"f_n={f:g} Hz, T_s={ts * 1e3:g} ms, T_d={td * 1e3:g} ms"
                 for f, ts, td in zip(*cols)]
 
-    def step(self, *, t_end_s: float = 1.0, mode: str = "continuous", rate_hz: float = 1000.0,
-             saturate: bool = False) -> ResponseResult:
-        """Response of the position ``x`` to a unit step of ``x_des`` (normalized).
-
-        Parameters
-        ----------
-        t_end_s : float
-            Simulated time [s].
-        mode : {"continuous", "sampled"}
-            Exact continuous-time delays, or both loops sampled at ``rate_hz`` with
-            whole-sample delay buffers (Tustin velocity filter, zero-order hold).
-        rate_hz : float
-            Controller rate of the sampled mode [Hz].
-        saturate : bool
-            Sampled mode: clip the force at ``beta * max_current`` (the response is then
-            that of a 1 m step; use :func:`seactl.rigid.step_experiment` for the paper's
-            4 mm step).
+    # ------------------------------------------------------------ the rigid actuator's own
+    def delay_margins(self) -> Any:
+        """Extra latency the stiffness loop alone, the damping loop alone, and both tolerate.
 
         Returns
         -------
-        ResponseResult
-            ``t_s``, ``position`` (``x / step``), ``current`` (force command / ``beta``
-            [A]) and ``metrics`` (rise, overshoot, settling).
+        seactl.latency.LoopDelayMargins
+            ``stiffness_s``, ``damping_s``, ``overall_s`` [s] and their ``ratio``.
 
         Examples
         --------
         >>> import seactl as sc
-        >>> r = sc.rigid([8, 12], delays_ms=(1.5, 1.5)).step(t_end_s=1.0)
-        >>> r.metrics.stable.tolist(), bool(abs(r.position[0, -1] - 1) < 1e-3)
-        ([True, True], True)
+        >>> dm = sc.rigid(8, delays_ms={"stiffness": 1.5, "damping": 1.5}).delay_margins()
+        >>> round(float(dm.stiffness_s) * 1e3, 2), round(float(dm.damping_s) * 1e3, 2)
+        (55.47, 9.55)
         """
-        from .margins import closed_loop_right_roots
-        from .rigid import RIGID_DIAGRAM
-        from .simulate import SEAResponse, SimResult, Step, simulate, step_metrics
-        from .timing import MODEL_LINKS
+        from .latency import rigid_model
 
-        r = self.rigid
-        limit = r.actuator.max_force if (saturate and mode == "sampled") else None
-        res = simulate(RIGID_DIAGRAM, r, {"x_des": Step(1.0)}, t_end_s, mode=mode,
-                       rates_hz=rate_hz, outputs=("x", "F_des"),
-                       saturation={"F_des": limit} if limit else None)
-        if mode == "sampled":   # the simulated loop's certified verdict beside it
-            from .sampled import sampled_roots
+        model = rigid_model(self.rigid.actuator)
+        return model.delay_margins(self.rigid)
 
-            sr = sampled_roots(RIGID_DIAGRAM, r, rate_hz)
-            res.info.update(sampled_verdict=sr.verdict, sampled_unstable_modes=sr.unstable_modes,
-                            sampled_rate=sr.rate_label, unstable_modes=np.where(
-                                sr.unstable_modes >= 0, sr.unstable_modes,
-                                res.info.get("unstable_modes", -1)))
-        force = res.outputs["F_des"] if limit is None else np.clip(res.outputs["F_des"],
-                                                                   -limit, limit)
-        res = SimResult(res.mode, res.t_s, {"q_j": res.outputs["x"],
-                                            "i_m": force / r.actuator.beta},
-                        res.stable, res.left_bounds_s, res.bound, res.info)
-        met = step_metrics(res.t_s, res.outputs["q_j"], res.stable, res.left_bounds_s)
-        return ResponseResult(SEAResponse("step", res, met), self.labels(),
-                              lambda: closed_loop_right_roots(RIGID_DIAGRAM, r, r.wn),
-                              links=MODEL_LINKS["rigid"])
-
-    def impedance(self, f_hz: Any) -> ImpedanceResult:
-        """Impedance ``Z(j 2 pi f) = F_ext / (j 2 pi f x)`` [N s/m] felt at the output.
-
-        The inverse of the closed-loop compliance ``x / F_ext`` divided by ``s``, from
-        :data:`seactl.rigid.RIGID_DIAGRAM` with exact delays; it includes the mass.
-
-        Parameters
-        ----------
-        f_hz : array_like
-            Frequencies [Hz] > 0 (the last axis of the result).
-
-        Returns
-        -------
-        ImpedanceResult
-            ``z`` of shape ``shape + (len(f_hz),)`` [N s/m], ``magnitude``, ``stiffness``...
-
-        Examples
-        --------
-        >>> import seactl as sc
-        >>> r = sc.rigid(8, delays_ms=(1.5, 1.5))
-        >>> z = r.impedance([1e-4])               # s Z -> K at low frequency
-        >>> round(float(z.stiffness[..., 0].real) / float(r.rigid.K), 6)
-        1.0
-        """
+    def impedance_response(self, f_hz: Any, port: str) -> Any:
+        """``Z(j 2 pi f) = F_ext / (j 2 pi f x)`` [N s/m] felt at the output: the inverse of
+        the closed-loop compliance ``x / F_ext`` (:data:`seactl.rigid.RIGID_DIAGRAM`, exact
+        delays) divided by ``s``; it includes the mass (:meth:`impedance`)."""
         from .impedance import ImpedanceResponse
         from .rigid import rigid_compliance
 
         f = finite_array("f_hz [Hz]", f_hz, minimum=0.0, strict=True).reshape(-1)
         s = 2j * np.pi * f
         z = 1.0 / (s * rigid_compliance()(self.rigid, s))
-        return ImpedanceResult(ImpedanceResponse("block-diagram", f, z, "linear", True),
-                               self.labels())
+        return ImpedanceResponse("block-diagram", f, z, "linear", True)
 
-    def export(self, out: Any, *, lang: Any = ("c", "python", "json"),
-               rates_hz: Any = 1000.0, saturate: bool = True, verify: bool = False) -> Any:
-        """Write the discrete controller of each process as C99, Python and JSON.
+    def jitter_core(self) -> Any:
+        """Jitter margins of the whole loop and the stiffness and damping loops
+        (:func:`seactl.jitter.model_jitter_margins` of the rigid loop model)."""
+        from .jitter import model_jitter_margins
+        from .latency import rigid_model
 
-        Stiffness (``K``, with the reference) on ``high-level``, damping (filtered velocity)
-        on ``embedded``, which sums them into the force command (docs/export.md).
+        return model_jitter_margins(rigid_model(self.rigid.actuator), self.rigid)
 
-        Parameters
-        ----------
-        out : str or path
-            A new or empty directory (or one an earlier export wrote).
-        lang : sequence of str or str
-            Any of ``"c"``, ``"python"``, ``"json"``.
-        rates_hz : float or mapping
-            Rate of every process [Hz], or per process (integer divisors of the fastest).
-        saturate : bool
-            Clip the force command at ``actuator.max_force``.
-        verify : bool
-            Compile and run the C and the Python against seactl's own sampled controller
-            (a 4 mm step response and random signals) before writing.
+    @staticmethod
+    def control_transfers(name: str) -> Any:
+        """``"loop"``, ``"closed"``, ``"compliance"`` -> (transfer, divide by ``-s``) for
+        :meth:`to_control`."""
+        from ._export import rigid_transfer
 
-        Returns
-        -------
-        seactl.export.ExportResult
-            ``files``, ``controllers`` and ``verification`` (``max_error``, ``compiler``).
-
-        Examples
-        --------
-        >>> import tempfile
-        >>> import seactl as sc
-        >>> res = sc.rigid(8, delays_ms=(1.5, 1.5)).export(tempfile.mkdtemp(), lang="json")
-        >>> [p.name for p in res.controllers.processes]
-        ['high-level', 'embedded']
-        """
-
-        from .export import export_design
-        from .rigid import RIGID_DIAGRAM
-
-        return export_design(RIGID_DIAGRAM, self.rigid, out, languages=lang,
-                             rates_hz=rates_hz, saturation=self._force_limit(saturate),
-                             verify_export=verify, step=0.004)
-
-    def _force_limit(self, saturate: bool) -> dict[str, float]:
-        """The force limit of ``export`` and ``run`` (``inf``: none)."""
-        import math
-
-        return {"F_des": self.rigid.actuator.max_force if saturate else math.inf}
-
-    @run_doc
-    def run(self, *, duration_s: float = 2.0, rates_hz: Any = 1000.0, step_m: float = 0.004,
-            transport: str = "zenoh", extra_latency_s: float = 0.0, loss: float = 0.0,
-            seed: int = 0, saturate: bool = True) -> Any:
-        """Run the exported controllers as three OS processes on loopback.
-
-        As :meth:`seactl.Design.run`: a plant process (the mass integrated exactly), the
-        exported ``embedded`` (damping) and ``high-level`` (stiffness) controllers over
-        Zenoh or UDP on 127.0.0.1, and the comparison with the sampled simulation.
-
-        Parameters
-        ----------
-        duration_s : float
-            Run time [s], 0.1 to 60.
-        rates_hz : float or mapping
-            As :meth:`export` (at most 5000 Hz).
-        step_m : float
-            Step of ``x_des`` [m].
-        {link_parameters}
-        saturate : bool
-            Clip the force command at ``actuator.max_force``.
-
-        Returns
-        -------
-        seactl.runtime.RunResult
-            ``summary`` (latency per link with histograms, ``replay_max_diff``, ...), the
-            responses and the latency samples.
-
-        Examples
-        --------
-        >>> import seactl as sc
-        >>> res = sc.rigid(8, delays_ms=(1.5, 1.5)).run(duration_s=0.2)  # doctest: +SKIP
-        >>> res.summary["links"]["high-level->embedded"]["count"]         # doctest: +SKIP
-        200
-        """
-
-        from .rigid import RIGID_DIAGRAM
-        from .runtime import run_distributed
-
-        return run_distributed(RIGID_DIAGRAM, self.rigid,
-                               saturation=self._force_limit(saturate),
-                               step=step_m, duration_s=duration_s, rates_hz=rates_hz,
-                               transport=transport, extra_latency_s=extra_latency_s,
-                               loss=loss, seed=seed)
-
-    def to_control(self, kind: str = "frd", *, transfer: str = "loop", f_hz: Any = None,
-                   order: int = 3) -> Any:
-        """Export to python-control: exact-delay frequency response or a Padé model.
-
-        Parameters
-        ----------
-        kind : {"frd", "pade", "pade-ss"}
-            As :meth:`seactl.Design.to_control`.
-        transfer : {"loop", "closed", "compliance"}
-            Whole loop ``L`` (broken at the sensor), ``x / x_des``, or ``x / F_ext``
-            [m/N].
-        f_hz : array_like, optional
-            Frequencies of the FRD [Hz] (default: 2000 points from 0.01 Hz to 10 kHz).
-        order : int
-            Padé order per delay, 1 to 4.
-
-        Returns
-        -------
-        control.FrequencyResponseData or control.TransferFunction or control.StateSpace
-            For a single design; a list (flattened batch order) for a batch.
-
-        Examples
-        --------
-        >>> import control as ct
-        >>> import seactl as sc
-        >>> L = sc.rigid(8, delays_ms=(1.5, 1.5)).to_control("frd")
-        >>> round(float(ct.margin(L)[1]), 1)
-        52.6
-        """
-        from ._export import rigid_transfer, to_control
-
-        if not self.shape:
-            return to_control(self.rigid, kind, transfer, f_hz, order, rigid_transfer)
-        n = int(np.prod(self.shape))
-        flat = self[np.unravel_index(np.arange(n), self.shape)]
-        return [to_control(flat[i].rigid, kind, transfer, f_hz, order, rigid_transfer)
-                for i in range(n)]
+        return rigid_transfer(name)
 
 
-def rigid(fn_hz: Any, *, actuator: Any = "ut-linear", delays_ms: Sequence[Any] = (0.0, 0.0),
+def rigid(fn_hz: Any, *, actuator: Any = "ut-linear", delays_ms: Mapping[str, Any] | None = None,
           velocity_filter_hz: float | None = 50.0, passive_damping: bool = True) -> RigidBatch:
     """Critically-damped rigid-actuator designs ``K = m w_n^2``, ``B = 2 m w_n - b``.
 
@@ -436,8 +267,10 @@ def rigid(fn_hz: Any, *, actuator: Any = "ut-linear", delays_ms: Sequence[Any] =
         Natural frequency [Hz].
     actuator : str or path or RigidParams
         Preset (``"ut-linear"``), TOML file or :class:`~seactl.rigid.RigidParams`.
-    delays_ms : tuple of array_like
-        ``(T_s, T_d)``: stiffness-loop and damping-loop delays [ms].
+    delays_ms : dict, optional
+        Loop name -> delay [ms] (array_like): ``"stiffness"`` (``T_s``), ``"damping"``
+        (``T_d``); a loop not named has no delay.  The positional ``(T_s, T_d)`` is
+        deprecated.
     velocity_filter_hz : float or None
         Cut-off of the first-order velocity filter [Hz]; None: no filter.
     passive_damping : bool
@@ -451,17 +284,17 @@ def rigid(fn_hz: Any, *, actuator: Any = "ut-linear", delays_ms: Sequence[Any] =
     Examples
     --------
     >>> import seactl as sc
-    >>> r = sc.rigid(12, delays_ms=(1, 15))
+    >>> r = sc.rigid(12, delays_ms={"stiffness": 1, "damping": 15})
     >>> bool(r.margins().stable)                # 15 ms on the damping loop: unstable
     False
-    >>> bool(sc.rigid(12, delays_ms=(15, 1)).margins().stable)
+    >>> bool(sc.rigid(12, delays_ms={"stiffness": 15, "damping": 1}).margins().stable)
     True
     """
     from .rigid import RigidDesign, RigidParams, load_rigid
 
     act = resolve_actuator(actuator, load_rigid, RigidParams)
     fn = finite_array("fn_hz [Hz]", fn_hz, minimum=0.0, strict=True, nonempty=True)
-    t_s, t_d = delays_from_ms(delays_ms, ("T_s", "T_d"))
+    t_s, t_d = delays_by_loop(delays_ms, RIGID_LOOPS, ("T_s", "T_d"))
     check_batch(fn_hz=fn, delays_ms=(np.asarray(t_s) * 1e3, np.asarray(t_d) * 1e3))
     d = RigidDesign.from_fn(act, fn, T_s=t_s, T_d=t_d, f_v=velocity_filter_hz,
                             passive_damping=passive_damping)

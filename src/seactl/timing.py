@@ -26,7 +26,8 @@ number of runs.
 Examples
 --------
 >>> import seactl as sc
->>> d = sc.design(14, delays_ms=(0.5, 2, 0.5), filters_hz=(50, 100))
+>>> d = sc.design(14, delays_ms={"torque": 0.5, "stiffness": 2, "damping": 0.5},
+...               filters_hz=(50, 100))
 >>> mc = sea_monte_carlo(d.sea, latency={"damping": Uniform(0.5e-3, 3e-3)},
 ...                      loss={"damping": 0.05}, runs=8, seed=1, t_end_s=0.3)
 >>> float(mc.fraction_stable), mc.runs
@@ -248,16 +249,16 @@ def timed_simulation(diagram: Any, design: Any, inputs: Mapping[str, Any], t_end
 # ----------------------------------------------------------------------------- SEA
 @dataclass(frozen=True)
 class MonteCarloSummary:
-    """Monte Carlo over timing realizations of a batch of SEA designs.
+    """Monte Carlo over timing realizations of a batch of designs.
 
     Attributes
     ----------
     kind : ``"step"`` or ``"impulse"``.
     runs : realizations per design.
     stable : ``(runs,) + shape`` bool, per run.
-    rms_error : ``(runs,) + shape``: RMS tracking error over the window (step: ``q_j`` /
-        step - 1; impulse: ``q_j`` [rad]); NaN for unstable runs.
-    peak_current_a : ``(runs,) + shape``: largest ``|i_m|`` [A] (NaN if unstable).
+    rms_error : ``(runs,) + shape``: RMS tracking error over the window (step: position /
+        step - 1; impulse: position [rad or m]); NaN for unstable runs.
+    peak_current_a : ``(runs,) + shape``: largest motor current [A] (NaN if unstable).
     fraction_stable : ``shape``: fraction of runs that stayed stable.
     rms_error_mean, rms_error_worst : ``shape``: mean and worst RMS error of stable runs.
     peak_current_worst_a : ``shape``: largest current of stable runs [A].
@@ -355,14 +356,31 @@ def sea_monte_carlo(design: Any, kind: str = "step", *, latency: Mapping[str, An
     else:
         inputs = {"tau_ext": Impulse(impulse_nms)}
         bound = 1e3 * abs(impulse_nms) / float(np.min(design.Ij)) * t_end_s
-    res = timed_simulation(sea_diagram(zero), design, inputs, t_end_s, latency=latency,
-                           loss=loss, runs=runs, seed=seed, links=SEA_LINKS, bound=bound,
-                           rates_hz=float(rate_hz), saturation={"i_m": sat},
-                           outputs=("q_j", "i_m"))
-    q = res.outputs["q_j"]
+    return response_monte_carlo(sea_diagram(zero), design, kind, inputs, t_end_s,
+                                amplitude=amplitude, output="q_j", actuation="i_m",
+                                latency=latency, loss=loss, runs=runs, seed=seed,
+                                links=SEA_LINKS, bound=bound, rate_hz=rate_hz,
+                                saturation={"i_m": sat})
+
+
+def response_monte_carlo(diagram: Any, design: Any, kind: str, inputs: Mapping[str, Any],
+                         t_end_s: float, *, amplitude: float, output: str, actuation: str,
+                         amperes_per_unit: float = 1.0, latency: Mapping[str, Any] | None,
+                         loss: Mapping[str, Any] | None, runs: int, seed: int,
+                         links: Mapping[str, str], bound: float | None, rate_hz: float,
+                         saturation: Mapping[str, float]) -> MonteCarloSummary:
+    """Monte Carlo of the step (``amplitude`` of the reference in ``inputs``) or impulse
+    responses of any diagram under random latency and loss (:func:`timed_simulation`):
+    the RMS error of ``output`` (normalized by ``amplitude`` for a step) and the peak of
+    ``actuation`` times ``amperes_per_unit`` (the current [A])."""
+    res = timed_simulation(diagram, design, inputs, t_end_s, latency=latency, loss=loss,
+                           runs=runs, seed=seed, links=links, bound=bound,
+                           rates_hz=float(rate_hz), saturation=saturation,
+                           outputs=(output, actuation))
+    q = res.outputs[output]
     err = q / amplitude - 1.0 if kind == "step" else q
     rms = np.sqrt(np.mean(err ** 2, axis=-1))
-    peak = np.max(np.abs(res.outputs["i_m"]), axis=-1)
+    peak = np.max(np.abs(res.outputs[actuation]), axis=-1) * amperes_per_unit
     return MonteCarloSummary(kind, int(runs), res.stable, np.where(res.stable, rms, np.nan),
                              np.where(res.stable, peak, np.nan), res)
 

@@ -21,7 +21,8 @@ joint barely moves.  :func:`judge` reads the recorded signals and decides, in th
     exceeds 10 % of the current limit (of the peak current without a limit), and it is not
     decaying (its amplitude, from the last two quarters, would keep 90 % over the window);
 ``saturated``
-    the actuation sat at its limit for more than 10 % of the time;
+    the actuation reached its limit (the response then depends on the step size, and
+    linear metrics such as the overshoot do not describe it);
 ``not settled``
     the final deviation (largest in the last 5 % of the window) is outside the band;
 ``settled``
@@ -54,8 +55,8 @@ SUSTAINED = 0.9
 measured from the last two quarters) is sustained."""
 CURRENT_FRACTION = 0.1
 """Current oscillation, as a fraction of the limit, that counts as a limit cycle."""
-SATURATED_FRACTION = 0.1
-"""Fraction of the time at the limit above which the response is ``saturated``."""
+SATURATED_FRACTION = 0.0
+"""Fraction of the time at the limit above which the response is ``saturated``: any."""
 STEP_BAND = 0.02
 """Settling band of a step (2 % of the step), as in the settling-time metric."""
 RECOVERY_BAND = 0.05
@@ -251,8 +252,9 @@ def _warnings(v: TimeVerdict, k: int, left: float, band: float) -> list[str]:
         out.append(f"{what} of the {v.oscillating_signal[k]} at {v.oscillation_hz[k]:.4g} Hz, "
                    f"amplitude {v.oscillation_amplitude[k]:.3g}{unit} at the end")
     if v.saturated_fraction[k] > SATURATED_FRACTION:
-        out.append(f"saturated: the current was at its limit {v.saturated_fraction[k]:.0%} of "
-                   "the time (linear metrics do not describe this response)")
+        out.append(f"saturated: the current was at its limit {v.saturated_fraction[k]:.1%} of "
+                   "the time (the response depends on the step size; linear metrics do not "
+                   "describe it)")
     if verdict != "settled" and v.final_deviation[k] > band:
         out.append(f"not settled: final deviation {v.final_deviation[k]:.3g} of the scale "
                    f"(band {band:g}; envelope growth rate {v.growth_rate_per_s[k]:.3g} /s)")
@@ -262,7 +264,8 @@ def _warnings(v: TimeVerdict, k: int, left: float, band: float) -> list[str]:
 def judge_response(resp: Any, band: float, right_half_plane_roots: Any = None
                    ) -> TimeVerdict:
     """:func:`judge` on a :class:`seactl.simulate.SEAResponse` (step: target 1 of the
-    normalized position, scale 1; impulse: target 0, scale the peak deviation).  Without
+    normalized position, scale 1; impulse: target 0, scale the peak deviation; the current
+    limit [A] is ``info["current_limit_a"]``, else the ``i_m`` saturation).  Without
     ``right_half_plane_roots``, a sampled simulation's own count of growing modes
     (``info["unstable_modes"]``, :func:`seactl.simulate.sampled_unstable_modes`) is used."""
     res = resp.result
@@ -272,7 +275,8 @@ def judge_response(resp: Any, band: float, right_half_plane_roots: Any = None
     info = res.info or {}
     if right_half_plane_roots is None:
         right_half_plane_roots = info.get("unstable_modes")
-    limit = float((info.get("saturation") or {}).get("i_m", np.inf))
+    limit = float(info.get("current_limit_a",
+                            (info.get("saturation") or {}).get("i_m", np.inf)))
     step = resp.kind == "step"
     return judge(t, y, target=1.0 if step else 0.0,
                  scale=1.0 if step else np.abs(y).max(-1), band=band,

@@ -19,7 +19,8 @@ def _batch():
 
     fn = np.linspace(12.0, 40.0, 100)[:, None]
     gs = np.linspace(0.5, 2.0, N_DESIGNS // 100)
-    return sc.design(fn, gs=gs, delays_ms=(0.5, 2.0, 0.5), filters_hz=(50, 100))
+    return sc.design(fn, gs=gs, delays_ms={"torque": 0.5, "stiffness": 2.0, "damping": 0.5},
+                     filters_hz=(50, 100))
 
 
 def _control_jitter(d, f_hz: np.ndarray) -> float:

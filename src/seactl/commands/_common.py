@@ -128,7 +128,8 @@ class DesignSpec:
         with units_given():
             return design(self.fn_hz[:, None], actuator=self.actuator, gs=self.gs[None, :],
                           zeta1=self.zeta1, zeta2=self.zeta2, ratio=self.ratio,
-                          delays_ms=(self.t_tau_ms, self.t_qs_ms, self.t_qd_ms),
+                          delays_ms={"torque": self.t_tau_ms, "stiffness": self.t_qs_ms,
+                                     "damping": self.t_qd_ms},
                           filters_hz=(self.f_qd_hz, self.f_taud_hz), solution=solution)
 
     def all_designs(self) -> list[Any]:

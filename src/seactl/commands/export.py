@@ -99,7 +99,8 @@ class SystemChoice:
 
         fv = None if self.f_v.strip().lower() == "none" else _number("--f-v [Hz]", self.f_v)
         d = rigid(float(spec.fn_hz.reshape(-1)[0]), actuator=self.rigid_actuator,
-                  delays_ms=(self.t_s, self.t_d), velocity_filter_hz=fv).rigid
+                  delays_ms={"stiffness": self.t_s,
+                             "damping": self.t_d}, velocity_filter_hz=fv).rigid
         sat = _saturation(self.saturation, d.actuator.max_force, "N")
         return RIGID_DIAGRAM, d, {"F_des": sat}, 0.004, self.rates_hz
 

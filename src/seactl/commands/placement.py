@@ -186,8 +186,8 @@ def rigid(fn, t_s, t_d, f_v, actuator, no_passive_damping, step, as_json) -> Non
     for name, value in (("--t-s", t_s), ("--t-d", t_d)):
         _ms(name, value)   # the range check names the flag
     with units_given():
-        d = rigid_batch(fn_hz, actuator=a, delays_ms=(t_s, t_d), velocity_filter_hz=fv,
-                        passive_damping=not no_passive_damping)
+        d = rigid_batch(fn_hz, actuator=a, delays_ms={"stiffness": t_s, "damping": t_d},
+                        velocity_filter_hz=fv, passive_damping=not no_passive_damping)
     exp = None
     if step:
         buf = (max(t_s - 0.5, 0.0), max(t_d - 0.5, 0.0))

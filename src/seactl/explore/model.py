@@ -89,7 +89,8 @@ class Controls:
             raise InputError("rate [Hz]", self.rate_hz, "a finite rate > 0")
         return sc.design(self.fn_hz, actuator=self.actuator, gs=self.gs, zeta1=self.zeta1,
                          zeta2=self.zeta2, ratio=self.ratio,
-                         delays_ms=(self.t_tau_ms, self.t_qs_ms, self.t_qd_ms),
+                         delays_ms={"torque": self.t_tau_ms, "stiffness": self.t_qs_ms,
+                                    "damping": self.t_qd_ms},
                          filters_hz=(self.f_qd_hz, self.f_taud_hz))
 
     def loop_key(self) -> tuple:
@@ -259,7 +260,8 @@ def pm_map(key: tuple) -> dict[str, np.ndarray]:
     lo, hi = _fn_range(act, z1, z2, ratio)
     fn = np.linspace(lo, hi, PM_MAP_N_FN)
     d = sc.design(fn[:, None], actuator=act, gs=PM_MAP_GS[None, :], zeta1=z1, zeta2=z2,
-                  ratio=ratio, delays_ms=(t_tau, t_qs, t_qd), filters_hz=(f_qd, f_taud))
+                  ratio=ratio, delays_ms={"torque": t_tau, "stiffness": t_qs,
+                                          "damping": t_qd}, filters_hz=(f_qd, f_taud))
     m = d.margins()
     return _cells(fn, PM_MAP_GS, np.where(m.stable, m.phase_margin_deg, np.nan), log_y=True)
 
@@ -274,7 +276,8 @@ def latency_map(key: tuple) -> dict[str, np.ndarray]:
     # broadcast first: sc.design's delays_ms check wants equal shapes inside its tuple
     delays = tuple(np.broadcast_arrays(np.asarray(t_tau, float), ms[:, None], ms[None, :]))
     d = sc.design(fn, actuator=act, gs=gs, zeta1=z1, zeta2=z2, ratio=ratio,
-                  delays_ms=delays, filters_hz=(f_qd, f_taud))
+                  delays_ms=dict(zip(("torque", "stiffness", "damping"), delays)),
+                  filters_hz=(f_qd, f_taud))
     m = d.margins()  # [i_qs, i_qd] -> transpose to [i_qd (x), i_qs (y)]
     return _cells(ms, ms, np.where(m.stable, m.phase_margin_deg, np.nan).T)
 

@@ -33,6 +33,7 @@ the keywords of :func:`seactl.design`)."""
 
 def design_keywords(t_tau_ms=0.0, t_qs_ms=0.0, t_qd_ms=0.0, f_qd_hz=None, f_taud_hz=None):
     """Delays [ms] and filters [Hz] given by name (as :data:`TABLE_I_TIMING`) as the
-    keywords of :func:`seactl.design`: ``delays_ms=(T_tau, T_qs, T_qd)``,
-    ``filters_hz=(f_qd, f_taud)``."""
-    return {"delays_ms": (t_tau_ms, t_qs_ms, t_qd_ms), "filters_hz": (f_qd_hz, f_taud_hz)}
+    keywords of :func:`seactl.design`: ``delays_ms={"torque": T_tau, "stiffness": T_qs,
+    "damping": T_qd}``, ``filters_hz=(f_qd, f_taud)``."""
+    return {"delays_ms": {"torque": t_tau_ms, "stiffness": t_qs_ms, "damping": t_qd_ms},
+            "filters_hz": (f_qd_hz, f_taud_hz)}

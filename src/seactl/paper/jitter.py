@@ -22,7 +22,8 @@ PM_FLOOR_DEG = 30.0
 def _table_i(fn):
     from ..api import design
 
-    return design(fn, delays_ms=TABLE_I_MS, filters_hz=(50.0, 100.0))
+    return design(fn, delays_ms=dict(zip(("torque", "stiffness", "damping"), TABLE_I_MS)),
+                  filters_hz=(50.0, 100.0))
 
 
 def _monte_carlo(d, jm):
@@ -148,7 +149,8 @@ def _rigid_claim(sec: Section) -> None:
     from ..latency import rigid_model
     from ..systems import rigid
 
-    rd = rigid(np.array(RIGID_FN), delays_ms=(1.5, 1.5), velocity_filter_hz=50.0)
+    rd = rigid(np.array(RIGID_FN), delays_ms={"stiffness": 1.5, "damping": 1.5},
+               velocity_filter_hz=50.0)
     # RigidBatch has no jitter_margins() on this branch: the per-loop model's
     rj = model_jitter_margins(rigid_model(), rd.rigid)
     ok = bool(np.all(rj.damping_s < rj.stiffness_s))

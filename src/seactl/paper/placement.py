@@ -162,7 +162,8 @@ def _rigid_damping_claim() -> Claim:
     """Rigid actuator: the damping loop is the latency-sensitive one."""
     from ..systems import rigid
 
-    dm = rigid(np.array(STEP_FN), delays_ms=(1.5, 1.5), velocity_filter_hz=50.0).delay_margins()
+    dm = rigid(np.array(STEP_FN), delays_ms={"stiffness": 1.5, "damping": 1.5},
+               velocity_filter_hz=50.0).delay_margins()
     ok = bool(np.all(dm.damping_s < dm.stiffness_s))
     return Claim(
         "latency.rigid.damping_more_sensitive", "Introduction",

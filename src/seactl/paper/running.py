@@ -72,9 +72,10 @@ def running(ctx: Context) -> Section:
 
     from ..errors import SeactlError
 
-    d = sc.design(FN_HZ, delays_ms=DELAYS_MS, filters_hz=FILTERS_HZ)
+    d = sc.design(FN_HZ, delays_ms=dict(zip(("torque", "stiffness", "damping"), DELAYS_MS)),
+                  filters_hz=FILTERS_HZ)
     try:
-        res = d.run(duration_s=DURATION_S, rates_hz=RATES_HZ, step_rad=STEP_RAD)
+        res = d.run(duration_s=DURATION_S, rates_hz=RATES_HZ, amplitude=STEP_RAD)
     except SeactlError as exc:   # the machine could not run it: say so, keep the report
         return _not_run(str(exc))
     s = res.summary

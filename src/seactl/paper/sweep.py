@@ -138,8 +138,8 @@ MC_SAMPLES = 4000
 
 @section(71, "robustness-mc")
 def robustness_mc(ctx: Context) -> Section:
-    from ..plots import robust_histogram_figure
     # the parameter Monte Carlo of `seactl robust` has no function in the sc namespace
+    from ..plots import robust_histogram_figure
     from ..sweep import monte_carlo, relative_interval
 
     sec = Section(
