@@ -111,15 +111,12 @@ def _monte_carlo(spec: DesignSpec, kind: str, timing: dict[str, Any], outs: Outp
                  **kwargs: Any) -> None:
     """Run and print a Monte Carlo over timing realizations (``seactl.timing``)."""
     from ..errors import InputError as _IE
-    from ..timing import sea_monte_carlo
 
     if csv_path:
         raise _IE("--csv", csv_path, "not used with --latency/--loss/--runs (use --json)")
     try:
-        # Design.monte_carlo has no zero / saturation_a / amplitude keywords: the core call
-        mc = sea_monte_carlo(spec.designs().sea, kind, latency=timing["latency"],
-                             loss=timing["loss"], runs=timing["runs"], seed=timing["seed"],
-                             **kwargs)
+        mc = spec.designs().monte_carlo(kind, latency=timing["latency"], loss=timing["loss"],
+                                        runs=timing["runs"], seed=timing["seed"], **kwargs)
     except _IE as exc:
         if exc.field == "link":
             raise _IE("--latency/--loss link", exc.value, exc.valid) from None
@@ -137,7 +134,8 @@ def _monte_carlo(spec: DesignSpec, kind: str, timing: dict[str, Any], outs: Outp
         outs.figure(plot, fig, dpi=110)
     outs.commit()
     if as_json:
-        amp = {"amplitude_rad": kwargs["amplitude"]} if kind == "step" else {}
+        amp = {"amplitude_rad": kwargs["amplitude"]} if kind == "step" else \
+            {"impulse_nms": kwargs["amplitude"]}
         echo_json({"mode": "sampled", "kind": kind, **amp, "runs": mc.runs,
                    "seed": timing["seed"], **timing["text"], "designs": rows})
         return
@@ -471,8 +469,8 @@ def impulse(spec: DesignSpec, impulse_nms: float, band: float, mode: str, rate_h
         return _monte_carlo(spec, "impulse", timing, outs, plot, csv_path, as_json,
                             f"Impulse response, {impulse_nms:g} N m s (sampled, {rate_hz:g} Hz)",
                             rate_hz=rate_hz, t_end_s=t_end or 1.0, zero=zero,
-                            saturation_a=saturation, impulse_nms=impulse_nms)
-    # Design.impulse has no zero / band keywords on this branch: the core call it makes
+                            saturation_a=saturation, amplitude=impulse_nms)
+    # Design.impulse has no band keyword (the recovery band): the core call it makes
     design = spec.designs().sea
     resp = sea_impulse(design, impulse_nms=impulse_nms, zero=zero, mode=mode, rate_hz=rate_hz,
                        t_end_s=t_end or 1.0, saturation_a=saturation, band=band)
