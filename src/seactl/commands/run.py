@@ -73,7 +73,7 @@ def run(spec: DesignSpec, loop: Any, system: SystemChoice, duration: str, step: 
 
     diagram, design, sat, _, rates = system.build(spec, loop)
     kind = Design if system.system == "sea" else RigidBatch
-    # a loop file's step is in its reference's units (no class attribute on this branch)
+    # a loop file's step: UserLoop.run's default, in its reference's units
     default_step = 0.01 if loop is not None else kind.default_step
     unit = "reference units" if loop is not None else kind.step_unit
     amplitude = default_step if step is None else _float(f"--step [{unit}]", step, 1e-6, 1.0)
