@@ -146,7 +146,24 @@ def test_sampled_mode_reaches_the_command_line():
     v = model.views(replace(TABLE_I, mode="sampled", rate_hz=500.0, f_qd_hz=None))
     step = v["exports"]["command"].splitlines()[1]
     assert step.endswith("--mode sampled --rate 500") and "--f-qd" not in step
+    assert "--amplitude 0.01 --t-end" in step
     assert v["step"]["t_ms"][-1] == pytest.approx(model.t_end_s(14.0) * 1e3, abs=2.0)  # 1/rate
+
+
+@pytest.mark.parametrize("mode", ["continuous", "sampled"])
+def test_step_is_the_one_of_the_command_line_the_app_offers(mode, capsys):
+    """Oracle: ``seactl step --json`` run on the exported command line (the CLI's own
+    simulation path): same amplitude, same overshoot.  Sampled at 1 kHz the 30 A current
+    limit is what a 1 rad step would hit, so the amplitude decides the answer there."""
+    v = model.views(replace(TABLE_I, mode=mode))
+    r = v["results"]
+    step_line = v["exports"]["command"].splitlines()[1]
+    assert main(shlex.split(step_line)[1:] + ["--json"]) == 0
+    cli = json.loads(capsys.readouterr().out)
+    assert r["step_amplitude_rad"] == cli["amplitude_rad"] == sc.Design.default_step == 0.01
+    assert r["step_overshoot_pct"] == pytest.approx(cli["metrics"]["overshoot_pct"], rel=1e-9)
+    assert f"Step of {sc.Design.default_step:g} rad" in r["verdict"]
+    assert r.get("step_verdict", cli["verdict"]) == cli["verdict"]   # sampled: same verdict
 
 
 def test_sampled_step_shows_the_sampled_loop_verdict():

@@ -292,7 +292,12 @@ def evaluate_points(spec: SweepSpec, values: dict[str, np.ndarray], n: int
     """Gains, margins (and ``|Z|``) for ``n`` points whose swept axes are ``values``.
 
     Returns numpy columns; rows that are infeasible hold NaN in the float outputs
-    and the ``feasible`` mask says so (converted to nulls by :func:`to_table`)."""
+    and the ``feasible`` mask says so (converted to nulls by :func:`to_table`).
+
+    The same gains, margins and ``|Z|`` as ``sc.design(...).margins()`` and
+    ``.impedance()``, but built from the core: :func:`seactl.design` refuses a batch with
+    one infeasible point (here masked) and takes no actuator-parameter axes, and a chunk is
+    the hot path of the sweep (no per-design objects)."""
     from .design import solve_gains
     from .loops import SEADesign, Timing
     from .sea import sea_margins

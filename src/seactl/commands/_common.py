@@ -7,11 +7,13 @@ Options listed in :data:`VARIADIC` take several values after one flag
 
 from __future__ import annotations
 
+import contextlib
 import functools
 import json
 import math
 import sys
-from collections.abc import Callable, Sequence
+import warnings
+from collections.abc import Callable, Iterator, Sequence
 from dataclasses import dataclass
 from typing import Any
 
@@ -91,6 +93,17 @@ def expand_variadic(argv: Sequence[str]) -> list[str]:
 
 
 # ------------------------------------------------------------------ design options
+@contextlib.contextmanager
+def units_given() -> Iterator[None]:
+    """Build systems with the public API without its unit warnings: the flags name their
+    unit (``--t-qs [ms]``), so a small delay is not a unit slip."""
+    from ..api import UnitWarning
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", UnitWarning)
+        yield
+
+
 @dataclass(frozen=True)
 class DesignSpec:
     """What the shared design options describe (CLI units converted to SI)."""
@@ -107,24 +120,20 @@ class DesignSpec:
     f_qd_hz: float | None
     f_taud_hz: float | None
 
-    def timing(self):
-        from ..loops import Timing
-
-        return Timing.from_ms(self.t_tau_ms, self.t_qs_ms, self.t_qd_ms, self.f_qd_hz,
-                              self.f_taud_hz)
-
     def designs(self, solution: int = 0):
-        """The (f_n x GS) batch of designs, shape ``(len(fn), len(gs))``."""
-        from ..design import critically_damped_gains
-        from ..loops import SEADesign
+        """The (f_n x GS) batch of designs, shape ``(len(fn), len(gs))``: the public
+        :func:`seactl.design` (:class:`seactl.Design`) with these options."""
+        from ..api import design
 
-        gains = critically_damped_gains(self.actuator, self.fn_hz[:, None], zeta1=self.zeta1,
-                                        zeta2=self.zeta2, ratio=self.ratio,
-                                        gs=self.gs[None, :], solution=solution)
-        return SEADesign(self.actuator, gains, self.timing())
+        with units_given():
+            return design(self.fn_hz[:, None], actuator=self.actuator, gs=self.gs[None, :],
+                          zeta1=self.zeta1, zeta2=self.zeta2, ratio=self.ratio,
+                          delays_ms={"torque": self.t_tau_ms, "stiffness": self.t_qs_ms,
+                                     "damping": self.t_qd_ms},
+                          filters_hz=(self.f_qd_hz, self.f_taud_hz), solution=solution)
 
     def all_designs(self) -> list[Any]:
-        """One design batch per valid solution index (usually just one)."""
+        """One :class:`seactl.Design` batch per valid solution index (usually just one)."""
         from ..design import solve_gains
 
         n = int(solve_gains(self.actuator, self.fn_hz, zeta1=self.zeta1, zeta2=self.zeta2,

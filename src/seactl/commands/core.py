@@ -6,7 +6,6 @@ from pathlib import Path
 from typing import Any
 
 import click
-import numpy as np
 from rich.markup import escape
 from rich.table import Table
 
@@ -32,12 +31,8 @@ def gains_rows(spec: DesignSpec, rate_hz: float | None = None) -> list[dict[str,
     public API's :meth:`seactl.MarginsResult.records` of each solution's (f_n x GS) batch,
     plus the closed loop's ``spectral_abscissa`` [1/s] (:meth:`seactl.Design.roots`), and
     with ``rate_hz`` the sampled loop's (:data:`SAMPLED_KEYS` under ``"sampled"``)."""
-    from ..api import Design
-
     rows = []
-    for design in spec.all_designs():
-        fn, gs = np.broadcast_arrays(spec.fn_hz[:, None], spec.gs[None, :])
-        d = Design(design, fn, gs)
+    for d in spec.all_designs():
         recs = d.margins().records()
         for rec, root in zip(recs, d.roots(count=1).records()):
             rec["spectral_abscissa"] = root["spectral_abscissa"]
@@ -58,6 +53,8 @@ def _fmt(x: float | None, spec: str) -> str:
 @json_option
 def gains(spec: DesignSpec, rate_hz: float | None, as_json: bool) -> None:
     """Critically-damped gains (Table I units) with phase, gain and delay margins.
+
+    Python: sc.design(...).margins() (abscissa: .roots(count=1); --rate: .margins(rate_hz=...)).
 
     \b
     Example (the paper's Table I):
@@ -120,7 +117,10 @@ def gains(spec: DesignSpec, rate_hz: float | None, as_json: bool) -> None:
 @click.option("--jobs", type=click.IntRange(1, 64), default=None,
               help="Worker processes for the sections [default: one per core].")
 def reproduce(out: str, only: tuple[str, ...], jobs: int | None) -> None:
-    """Regenerate every table, figure and numeric claim of the paper into a report."""
+    """Regenerate every table, figure and numeric claim of the paper into a report.
+
+    Python: seactl.paper.reproduce(out).
+    """
     from ..paper import reproduce as run
 
     if not out.strip():   # (Path("") is the working directory)
@@ -137,7 +137,10 @@ def reproduce(out: str, only: tuple[str, ...], jobs: int | None) -> None:
 @click.option("--repeat", type=click.IntRange(1, 50), default=5, show_default=True,
               help="Timed repetitions (the median is reported).")
 def bench(as_json: bool, only: tuple[str, ...], repeat: int) -> None:
-    """Benchmarks with throughput and the ratio to a baseline measured in the same run."""
+    """Benchmarks with throughput and the ratio to a baseline measured in the same run.
+
+    Python: seactl.bench.run_benchmarks(...).
+    """
     from ..bench import run_benchmarks
 
     results = run_benchmarks(only=only or None, repeat=repeat,

@@ -29,6 +29,9 @@ def check_address(host: str, port: int, allow_remote: bool) -> None:
 def explore(host: str, port: int, no_browser: bool, allow_remote: bool) -> None:
     """Tune one SEA design by hand in the browser; every view updates live.
 
+    Python: seactl.explore.model.views(...) (its numbers: sc.design(...).margins(), .roots(),
+    .impedance(), .step(), .impulse(), .jitter_margins()).
+
     \b
     Controls: actuator (preset or uploaded TOML), f_n, GS, zeta1/zeta2/ratio, the three
     delays, both filters, continuous or sampled at a rate. Views: Bode and Nyquist of

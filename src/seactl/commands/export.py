@@ -92,7 +92,7 @@ class SystemChoice:
 
             lim = _saturation(self.saturation, spec.actuator.max_current, "A")
             with np.errstate(over="ignore"):   # extreme --gs: infinite gains, refused later
-                design = spec.designs()
+                design = spec.designs().sea
             return sea_diagram(self.zero), design, {"i_m": lim}, 0.1, self.rates_hz
         from ..rigid import RIGID_DIAGRAM
         from ..systems import rigid
@@ -167,6 +167,9 @@ def system_options(func: Callable[..., Any]) -> Callable[..., Any]:
 def export(spec: DesignSpec, loop: Any, out: str, lang: str, system: SystemChoice,
            verify: bool, cc: str | None, as_json: bool) -> None:
     """Write the discrete controller of each process (C99, Python, JSON).
+
+    Python: sc.design(...).export(out), sc.rigid(...).export(out),
+    sc.load_loop(...).export(out).
 
     \b
     The sampled controller of the design split by process, each at its own rate:

@@ -100,6 +100,9 @@ def impedance(spec: DesignSpec, freq: tuple[str, ...], model: str, load: bool, u
               loop: Any) -> None:
     """SEA impedance Z(jw) = tau_j / (-jw q_j) with exact delays and filters.
 
+    Python: sc.design(...).impedance(f_hz, model=..., load=..., units=...); --loop:
+    sc.load_loop(...).impedance(f_hz, port).
+
     Reports the low-frequency virtual stiffness, the high-frequency asymptote, stability
     and the bands where Re Z < 0 (non-passive: the actuator can inject energy into its
     environment), scanned densely over the --freq range with exact band edges; "passive"
@@ -134,14 +137,15 @@ def _impedance(spec: DesignSpec, f: np.ndarray, model: str, load: bool, units: s
         passivity,
         scan_range,
     )
-    from ..impedance import impedance as compute
-    from ..sea import sea_margins
 
-    designs = spec.designs()
-    resp = compute(designs, f, model=model, load=load, units=units)
+    d = spec.designs()
+    resp = d.impedance(f, model=model, load=load, units=units)
+    stable = d.margins().stable
+    # no public view gives the asymptotes, the passivity proof or the low-frequency
+    # stiffness (a Design.passivity() is wanted): the impedance module's functions
+    designs = d.sea
     asym = asymptotes(designs, f, model=model, load=load, units=units)
     pas = passivity(designs, scan_range(f), model=model, load=load)
-    stable = sea_margins(designs).stable
     k_low = np.broadcast_to(low_frequency_stiffness(designs, model), designs.shape)
     case = np.broadcast_to(asymptote_case(designs), designs.shape)
     unit = UNITS[units]
@@ -297,6 +301,8 @@ def zregion(spec: DesignSpec, freq: tuple[str, ...], model: str, load: bool, min
     """Z-region of an f_n x GS design range: Z-width (admissible |Z| range per frequency)
     and Z-depth (frequency range where the width stays above a threshold).
 
+    Python: seactl.impedance.zregion(sc.design(...).sea, f_hz) (no method of sc.Design).
+
     Definition (this project's; the original is not public): docs/zregion.md.
 
     \b
@@ -316,7 +322,8 @@ def _zregion(spec: DesignSpec, f: np.ndarray, model: str, load: bool, min_pm: fl
     from ..impedance import UNITS
     from ..impedance import zregion as compute
 
-    designs = spec.designs()
+    # no public Z-region view (sc has none): the impedance module's function
+    designs = spec.designs().sea
     reg = compute(designs, f, min_pm_deg=min_pm, require_passive=require_passive,
                   threshold_db=threshold_db, model=model, load=load)
     unit = UNITS["rotary"]

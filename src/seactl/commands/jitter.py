@@ -32,10 +32,7 @@ JSON_KEYS = ("fn_hz", "gs", "jitter_margin_ms", "stiffness_jitter_margin_ms",
 def jitter_rows(spec: DesignSpec) -> list[dict[str, Any]]:
     """One row per (f_n, GS) design: the public API's :meth:`seactl.JitterResult.records`
     (:data:`JSON_KEYS` and ``stable``)."""
-    from ..api import Design
-
-    fn, gs = np.broadcast_arrays(spec.fn_hz[:, None], spec.gs[None, :])
-    return Design(spec.designs(), fn, gs).jitter_margins().records()
+    return spec.designs().jitter_margins().records()
 
 
 def _ms(x: float | None, stable: bool) -> str:
@@ -93,6 +90,8 @@ def jitter(spec: DesignSpec, traces: tuple[str, ...], rate_hz: float | None,
     is guaranteed to tolerate (Kao-Lincoln small-gain bound, exact delays), next to the
     whole outer loop's margin for a constant extra delay.
 
+    Python: sc.design(...).jitter_margins() (--rate: .margins(rate_hz=...)).
+
     \b
     Example (Table I):
       seactl jitter --fn 12 14 16 18 20 --t-tau 0.5 --t-qs 2 --t-qd 0.5 --f-qd 50 --f-taud 100
@@ -107,10 +106,7 @@ def jitter(spec: DesignSpec, traces: tuple[str, ...], rate_hz: float | None,
     checks = trace_checks(spec, rows, measured)
     keys = JSON_KEYS
     if rate_hz is not None:
-        from ..api import Design
-
-        fn, gs = np.broadcast_arrays(spec.fn_hz[:, None], spec.gs[None, :])
-        for r, sm in zip(rows, Design(spec.designs(), fn, gs).margins(rate_hz).records()):
+        for r, sm in zip(rows, spec.designs().margins(rate_hz).records()):
             r["sampled"] = {k: sm[k] for k in SAMPLED_KEYS}
         keys = JSON_KEYS + ("sampled",)
     if as_json:

@@ -145,6 +145,8 @@ def analyze(loop_file: str, sets: tuple[str, ...], no_jitter: bool, plot: str | 
     """Margins at every named break of a loop file, delay and jitter margins per loop,
     stability of the whole loop.
 
+    Python: sc.load_loop(FILE).analyze().
+
     \b
     Example (the paper's Table I loop at f_n = 14 Hz, written as a loop file):
       seactl analyze --loop examples/loops/paper-sea.toml

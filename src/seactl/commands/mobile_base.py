@@ -62,6 +62,8 @@ def base(arch: str, extra_delay: float | None, circle_radius: float | None,
          circle_period: float | None, plot: str | None, as_json: bool) -> None:
     """Trikey mobile base: tune COSC and DOSC with the paper's procedure, track a circle.
 
+    Python: sc.compare_mobile_base(...).
+
     \b
     The procedure, automated with one measurable criterion for both architectures:
       1. K_x = 0: raise the damping until the base vibrates or oscillates;

@@ -23,6 +23,7 @@ from ._common import (
     json_option,
     parse_values,
     pm_text,
+    units_given,
     verdict_text,
 )
 from .loops import loop_options, loop_place
@@ -167,6 +168,8 @@ def _rigid_table(a: Any, rows: list[dict[str, Any]], t_s: float, t_d: float, fv:
 def rigid(fn, t_s, t_d, f_v, actuator, no_passive_damping, step, as_json) -> None:
     """Rigid actuator: critically-damped gains, margins, per-loop delay margins, step.
 
+    Python: sc.rigid(...).margins() and sc.rigid(...).delay_margins().
+
     \b
     Example (the paper's step experiment, 15 ms on the damping loop):
       seactl rigid --fn 4 8 12 --t-s 1.5 --t-d 15.5
@@ -174,21 +177,25 @@ def rigid(fn, t_s, t_d, f_v, actuator, no_passive_damping, step, as_json) -> Non
     DM stiffness / DM damping: extra latency the stiffness (damping) loop alone
     tolerates before the closed loop goes unstable. 'none' (null): no such crossing.
     """
-    from ..latency import rigid_model
     from ..rigid import load_rigid, step_experiment
+    from ..systems import rigid as rigid_batch
 
     a = load_rigid(actuator)
     fv = _f_v(f_v)
     fn_hz = _rigid_fn(fn, step)
-    ts, td = _ms("--t-s", t_s), _ms("--t-d", t_d)
-    model = rigid_model(a, f_v=fv, passive_damping=not no_passive_damping)
-    d = model.design(fn_hz, ts, td)
+    for name, value in (("--t-s", t_s), ("--t-d", t_d)):
+        _ms(name, value)   # the range check names the flag
+    with units_given():
+        d = rigid_batch(fn_hz, actuator=a, delays_ms={"stiffness": t_s, "damping": t_d},
+                        velocity_filter_hz=fv, passive_damping=not no_passive_damping)
     exp = None
     if step:
         buf = (max(t_s - 0.5, 0.0), max(t_d - 0.5, 0.0))
         exp = step_experiment(a, fn_hz, delays_ms=(buf,), f_v=fv,
                               passive_damping=not no_passive_damping)
-    rows = _rigid_rows(fn_hz, d, model.margins(d), model.delay_margins(d), exp)
+    # the sampled step experiment (buffers of round(T - 0.5 ms) samples, the paper's) has no
+    # public view: seactl.rigid.step_experiment
+    rows = _rigid_rows(fn_hz, d.rigid, d.margins(), d.delay_margins(), exp)
     if as_json:
         echo_json({"actuator": a.name, "T_s_ms": t_s, "T_d_ms": t_d, "f_v_hz": fv,
                    "passive_damping": not no_passive_damping,
@@ -227,6 +234,8 @@ def rigid(fn, t_s, t_d, f_v, actuator, no_passive_damping, step, as_json) -> Non
 def latency_map_cmd(actuators, fn_rigid, fn_sea, t_max, t_min, n, max_fn, f_v, plot, csv,
                     as_json) -> None:
     """Phase margin over (stiffness delay, damping delay) for each actuator.
+
+    Python: sc.latency_map(...) (one actuator and f_n).
 
     \b
     Example:
@@ -458,6 +467,8 @@ def place(high_latency, low_latency, actuator, min_pm, latency_margin, f_v,
           high_timing, low_timing, high_loss, low_loss, rate_hz, runs, seed,
           as_json, loop) -> None:
     """Which process should run the stiffness and damping loops?
+
+    Python: sc.place(...); --loop: sc.load_loop(...).placements().
 
     \b
     Example (the mobile base: 7 ms + 15 ms centralized, 0.5 ms embedded):

@@ -5,7 +5,6 @@ from __future__ import annotations
 from typing import Any
 
 import click
-import numpy as np
 from rich.markup import escape
 from rich.table import Table
 
@@ -27,12 +26,9 @@ def roots_rows(spec: DesignSpec, count: int) -> list[dict[str, Any]]:
     ``spectral_abscissa`` [1/s], ``roots`` ``[{"re", "im", "radius", "count"}, ...]``
     [rad/s], ``clusters``, ``complete``, ``stable``, ``uncertain`` and
     ``right_half_plane_roots`` (:meth:`seactl.api.RootsResult.records`)."""
-    from ..api import Design
-
     rows = []
-    for design in spec.all_designs():
-        fn, gs = np.broadcast_arrays(spec.fn_hz[:, None], spec.gs[None, :])
-        rows += Design(design, fn, gs).roots(count=count).records()
+    for d in spec.all_designs():
+        rows += d.roots(count=count).records()
     return rows
 
 
@@ -67,8 +63,9 @@ def sampled_root_rows(spec: DesignSpec, count: int, rate_hz: float) -> list[dict
     from ..sea import sea_sampled_roots
 
     rows = []
-    for design in spec.all_designs():
-        r = sea_sampled_roots(design, rate_hz)
+    for d in spec.all_designs():
+        # the public Design.roots() has no sampled form (rate_hz) yet: the core call
+        r = sea_sampled_roots(d.sea, rate_hz)
         z = r.z.reshape(-1, r.z.shape[-1])
         s = r.s.reshape(z.shape)
         for i, (f, g) in enumerate((f, g) for f in spec.fn_hz for g in spec.gs):
@@ -102,6 +99,8 @@ def _z_text(z: dict[str, Any]) -> str:
 def roots(spec: DesignSpec, count: int, rate_hz: float | None, as_json: bool,
           loop: Any) -> None:
     """Rightmost closed-loop roots [rad/s] with exact delays, and the spectral abscissa.
+
+    Python: sc.design(...).roots(count=...).
 
     \b
     Example (a design the phase margin alone calls safe):

@@ -15,7 +15,9 @@ import click
 from rich.markup import escape
 from rich.table import Table
 
+from ..api import Design
 from ..errors import InputError
+from ..systems import RigidBatch
 from ._common import DesignSpec, cli, console, design_options, echo_json, json_option
 from .export import SystemChoice, system_options
 from .loops import loop_options
@@ -37,8 +39,9 @@ def _float(name: str, text: str, lo: float, hi: float) -> float:
 @system_options
 @click.option("--duration", default="2", show_default=True, help="Run time [s] (0.1 to 60).")
 @click.option("--step", "step", default=None,
-              help="Step of the reference: q_des [rad] (SEA, default 0.01) or x_des [m] "
-                   "(rigid, default 0.004); --loop: the file's reference_step, else 0.01.")
+              help=f"Step of the reference: q_des [{Design.step_unit}] (SEA, default "
+                   f"{Design.default_step:g}) or x_des [{RigidBatch.step_unit}] (rigid, default "
+                   f"{RigidBatch.default_step:g}); --loop: the file's reference_step, else 0.01.")
 @click.option("--extra-latency", default="0", show_default=True,
               help="Latency added to the high-level -> embedded link [ms].")
 @click.option("--loss", default="0", show_default=True,
@@ -55,6 +58,8 @@ def run(spec: DesignSpec, loop: Any, system: SystemChoice, duration: str, step: 
         as_json: bool) -> None:
     """Run the design's controllers as three processes (plant, embedded, high-level).
 
+    Python: sc.design(...).run(), sc.rigid(...).run(), sc.load_loop(...).run().
+
     \b
     The plant integrates the actuator at the fastest rate; the embedded and high-level
     processes run the exported Python controllers; messages go over Zenoh (or UDP) on
@@ -67,23 +72,26 @@ def run(spec: DesignSpec, loop: Any, system: SystemChoice, duration: str, step: 
     from ..runtime import RUN_MARKER, run_distributed, run_files
 
     diagram, design, sat, default_step, rates = system.build(spec, loop)
+    kind = Design if system.system == "sea" else RigidBatch
     if loop is None:
-        default_step = 0.004 if system.system == "rigid" else 0.01
-    unit = loop.step_unit if loop is not None else "rad" if system.system == "sea" else "m"
+        default_step = kind.default_step
+    unit = loop.step_unit if loop is not None else kind.step_unit
+    amplitude = default_step if step is None else _float(f"--step [{unit}]", step, 1e-6, 1.0)
     if out is not None:
         check_export_dir(out, RUN_MARKER, "a run")
     res = run_distributed(
-        diagram, design, saturation=sat, rates_hz=rates, transport=transport,
-        step=default_step if step is None else _float(f"--step [{unit}]", step, 1e-6, 1.0),
+        diagram, design, saturation=sat, rates_hz=rates, transport=transport, step=amplitude,
         duration_s=_float("--duration [s]", duration, 0.1, 60),
         extra_latency_s=_float("--extra-latency [ms]", extra_latency, 0, 1000) / 1e3,
         loss=_float("--loss", loss, 0.0, 0.99), seed=seed)
     files = write_export(run_files(res), out, RUN_MARKER, "a run") if out else []
+    key = "amplitude" if loop is not None else f"amplitude_{unit}"
     if as_json:
-        echo_json(res.summary | {"files": [str(f) for f in files]})
+        echo_json(res.summary | {key: amplitude, "files": [str(f) for f in files]})
         return
     s = res.summary
-    t = Table(title=f"seactl run ({s['system']}): {s['duration_s']:g} s over {transport}, rates "
+    t = Table(title=f"seactl run ({s['system']}): step {amplitude:g} {unit}, "
+              f"{s['duration_s']:g} s over {transport}, rates "
               + ", ".join(f"{k} {v:g} Hz" for k, v in s["rates_hz"].items()))
     for col in ("link", "messages", "mean [ms]", "p50 [ms]", "p99 [ms]", "max [ms]"):
         t.add_column(escape(col))

@@ -54,6 +54,7 @@ from rich.markup import escape
 from rich.table import Table
 
 from .. import limits
+from ..api import Design
 from ..errors import InputError
 from ..limits import check_range
 from ..outputs import CSV_SUFFIXES, FIGURE_SUFFIXES, OutputSet
@@ -110,14 +111,12 @@ def _monte_carlo(spec: DesignSpec, kind: str, timing: dict[str, Any], outs: Outp
                  **kwargs: Any) -> None:
     """Run and print a Monte Carlo over timing realizations (``seactl.timing``)."""
     from ..errors import InputError as _IE
-    from ..timing import sea_monte_carlo
 
     if csv_path:
         raise _IE("--csv", csv_path, "not used with --latency/--loss/--runs (use --json)")
     try:
-        mc = sea_monte_carlo(spec.designs(), kind, latency=timing["latency"],
-                             loss=timing["loss"], runs=timing["runs"], seed=timing["seed"],
-                             **kwargs)
+        mc = spec.designs().monte_carlo(kind, latency=timing["latency"], loss=timing["loss"],
+                                        runs=timing["runs"], seed=timing["seed"], **kwargs)
     except _IE as exc:
         if exc.field == "link":
             raise _IE("--latency/--loss link", exc.value, exc.valid) from None
@@ -135,8 +134,10 @@ def _monte_carlo(spec: DesignSpec, kind: str, timing: dict[str, Any], outs: Outp
         outs.figure(plot, fig, dpi=110)
     outs.commit()
     if as_json:
-        echo_json({"mode": "sampled", "kind": kind, "runs": mc.runs, "seed": timing["seed"],
-                   **timing["text"], "designs": rows})
+        amp = {"amplitude_rad": kwargs["amplitude"]} if kind == "step" else \
+            {"impulse_nms": kwargs["amplitude"]}
+        echo_json({"mode": "sampled", "kind": kind, **amp, "runs": mc.runs,
+                   "seed": timing["seed"], **timing["text"], "designs": rows})
         return
     tab = Table(title=escape(f"{title}: {mc.runs} timing realizations, seed {timing['seed']}"))
     for c in ("f_n [Hz]", "GS", "stable runs", "RMS error mean", "RMS error worst",
@@ -213,11 +214,12 @@ def sim_options(func: Callable) -> Callable:
 
 
 def check_simulation(spec: DesignSpec, mode: str, rate_hz: float, t_end_s: float) -> None:
-    """Enough samples to judge the response, and memory and time within the machine's."""
+    """Enough samples to judge the response, and memory and time within the machine's
+    (every step recorded, as the library's ``step`` and ``impulse`` record it)."""
     limits.check_simulation(
         spec.fn_hz.size * spec.gs.size, mode, rate_hz, t_end_s,
         [d * 1e-3 for d in (spec.t_tau_ms, spec.t_qs_ms, spec.t_qd_ms)],
-        record_dt_s=limits.RECORD_DT_S, rate_name="--rate [Hz]", t_end_name="--t-end [s]",
+        rate_name="--rate [Hz]", t_end_name="--t-end [s]",
         hint="shorten --t-end, lower --rate, or give fewer designs")
 
 
@@ -248,7 +250,7 @@ def _right_roots(spec: DesignSpec, mode: str, zero: bool) -> np.ndarray | None:
         return None
     from ..sea import sea_right_roots
 
-    return sea_right_roots(spec.designs(), zero)
+    return sea_right_roots(spec.designs().sea, zero)
 
 
 def _output(spec: DesignSpec, resp: Any, mode: str, zero: bool, extra: dict[str, Any],
@@ -258,11 +260,15 @@ def _output(spec: DesignSpec, resp: Any, mode: str, zero: bool, extra: dict[str,
 
     res, m = resp.result, resp.metrics
     labels = _labels(spec)
-    pos = resp.position.reshape(len(labels), -1)
-    cur = resp.current.reshape(len(labels), -1)
+    # metrics and verdicts from every step (the library's); the curves printed every
+    # RECORD_DT_S in continuous mode
+    every = max(1, round(limits.RECORD_DT_S / res.info["dt_s"])) if mode == "continuous" else 1
+    pos = resp.position.reshape(len(labels), -1)[:, ::every]
+    cur_all = resp.current.reshape(len(labels), -1)
+    cur = cur_all[:, ::every]
     stable = res.stable.reshape(-1)
     left = res.left_bounds_s.reshape(-1)
-    t = res.t_s
+    t = res.t_s[::every]
     names = [f"fn={f:g}Hz gs={g:g}" for f, g in labels]
     if csv_path:
         buf = io.StringIO()
@@ -286,7 +292,7 @@ def _output(spec: DesignSpec, resp: Any, mode: str, zero: bool, extra: dict[str,
                      "verdict": verdict.verdict[i], "evidence": verdict.evidence(i),
                      "warnings": verdict.warnings[i],
                      "left_bounds_s": finite_or_none(left[i]),
-                     "peak_current_a": finite_or_none(np.max(np.abs(cur[i]))),
+                     "peak_current_a": finite_or_none(np.max(np.abs(cur_all[i]))),
                      "metrics": _metrics_json(m, i)})
     loop_lines = _sampled_loop(spec, res, runs, zero)
     warnings = [f"f_n={r['fn_hz']:g} Hz, GS={r['gs']:g}: {w}" for r in runs
@@ -346,7 +352,7 @@ def _sampled_loop(spec: DesignSpec, res: Any, runs: list[dict[str, Any]], zero: 
         return []
     from ..sea import sea_right_roots
 
-    return sampled_loop_lines(res.info, runs, sea_right_roots(spec.designs(), zero),
+    return sampled_loop_lines(res.info, runs, sea_right_roots(spec.designs().sea, zero),
                               [f"f_n={r['fn_hz']:g} Hz, GS={r['gs']:g}" for r in runs])
 
 
@@ -389,9 +395,9 @@ def _extra(res: Any, mode: str, rate_hz: float, saturation: float | None) -> dic
 
 @cli.command()
 @design_options
-@click.option("--amplitude", type=float, default=0.01, show_default=True,
-              help="Step size [rad] (responses are normalized by it; it matters only with "
-                   "saturation).")
+@click.option("--amplitude", type=float, default=Design.default_step, show_default=True,
+              help=f"Step size [{Design.step_unit}] (responses are normalized by it; it matters "
+                   "only with saturation).")
 @sim_options
 @loop_options
 def step(spec: DesignSpec, amplitude: float, mode: str, rate_hz: float, zero: bool,
@@ -400,13 +406,13 @@ def step(spec: DesignSpec, amplitude: float, mode: str, rate_hz: float, zero: bo
          timing: dict[str, Any] | None, loop: Any) -> None:
     """Step response of the joint position to a position reference step.
 
+    Python: sc.design(...).step(amplitude=...) (default step: sc.Design.default_step).
+
     \b
     Example (the paper's Fig. ExperimentGS conditions):
       seactl step --fn 14 --t-tau 1 --t-qs 1 --t-qd 1 --f-qd 50 --f-taud 100 --gs 2 \\
           --mode sampled --plot s.png
     """
-    from ..sea import sea_step
-
     check_range("--amplitude [rad]", abs(amplitude), "amplitude_rad")
     check_simulation(spec, mode, rate_hz, t_end or 0.5)
     if loop is not None:  # without --amplitude: the loop's default step (its file's)
@@ -416,15 +422,15 @@ def step(spec: DesignSpec, amplitude: float, mode: str, rate_hz: float, zero: bo
                              as_json, outs, plot, csv_path)
     if timing is not None:
         return _monte_carlo(spec, "step", timing, outs, plot, csv_path, as_json,
-                            f"Step response (sampled, {rate_hz:g} Hz)", rate_hz=rate_hz,
+                            f"Step response to {amplitude:g} {Design.step_unit} (sampled, "
+                            f"{rate_hz:g} Hz)", rate_hz=rate_hz,
                             t_end_s=t_end or 0.5, zero=zero, saturation_a=saturation,
                             amplitude=amplitude)
-    design = spec.designs()
-    resp = sea_step(design, zero=zero, mode=mode, rate_hz=rate_hz, t_end_s=t_end or 0.5,
-                    saturation_a=saturation, amplitude=amplitude,
-                    record_dt=limits.RECORD_DT_S if mode == "continuous" else None)
+    resp = spec.designs().step(t_end_s=t_end or 0.5, amplitude=amplitude, mode=mode,
+                               rate_hz=rate_hz, saturation_a=saturation, zero=zero)
     extra = _extra(resp.result, mode, rate_hz, saturation) | {"amplitude_rad": amplitude}
-    title = (f"Step response ({mode}{f', {rate_hz:g} Hz' if mode == 'sampled' else ''}, "
+    title = (f"Step response to {amplitude:g} {Design.step_unit} ({mode}"
+             f"{f', {rate_hz:g} Hz' if mode == 'sampled' else ''}, "
              f"{'with' if zero else 'without'} the torque-derivative zero)")
     _output(spec, resp, mode, zero, extra, outs, plot, csv_path, as_json, title,
             "joint position / step size")
@@ -445,6 +451,8 @@ def impulse(spec: DesignSpec, impulse_nms: float, band: float, mode: str, rate_h
     """Joint position after an impulse of external torque (q_des = 0), e.g. a ball hitting
     the arm (Fig. ExperimentImpulse). Position in rad; recovery = last exit from the band.
 
+    Python: sc.design(...).impulse().
+
     \b
     Example:
       seactl impulse --fn 14 --t-tau 0.5 --t-qs 2 --t-qd 0.5 --f-qd 50 --f-taud 100 \\
@@ -463,11 +471,11 @@ def impulse(spec: DesignSpec, impulse_nms: float, band: float, mode: str, rate_h
         return _monte_carlo(spec, "impulse", timing, outs, plot, csv_path, as_json,
                             f"Impulse response, {impulse_nms:g} N m s (sampled, {rate_hz:g} Hz)",
                             rate_hz=rate_hz, t_end_s=t_end or 1.0, zero=zero,
-                            saturation_a=saturation, impulse_nms=impulse_nms)
-    design = spec.designs()
+                            saturation_a=saturation, amplitude=impulse_nms)
+    # Design.impulse has no band keyword (the recovery band): the core call it makes
+    design = spec.designs().sea
     resp = sea_impulse(design, impulse_nms=impulse_nms, zero=zero, mode=mode, rate_hz=rate_hz,
-                       t_end_s=t_end or 1.0, saturation_a=saturation, band=band,
-                       record_dt=limits.RECORD_DT_S if mode == "continuous" else None)
+                       t_end_s=t_end or 1.0, saturation_a=saturation, band=band)
     extra = _extra(resp.result, mode, rate_hz, saturation) | {"impulse_nms": impulse_nms}
     title = (f"Impulse response, {impulse_nms:g} N m s ({mode}"
              f"{f', {rate_hz:g} Hz' if mode == 'sampled' else ''})")

@@ -157,6 +157,8 @@ def sweep(actuator, sampling, n_samples, seed, chunk_size, unc_points, z_freq, o
           as_json, loop_file, sets, **axes) -> None:
     """Sweep the design space: gains, margins (and |Z|) for every point, as Parquet.
 
+    Python: sc.sweep(...).
+
     \b
     Any design option takes values, START:STOP:STEP ranges or comma lists; actuator
     parameters (--im --ij --bm --bj --k --beta, rotary SI) also take P% for the
@@ -379,6 +381,8 @@ def _robust_options(func):
 @click.option("--json", "as_json", is_flag=True, help="Print machine-readable JSON.")
 def robust(actuator, n_samples, seed, plot_file, as_json, **axes) -> None:
     """Monte Carlo of one design over actuator parameter uncertainty.
+
+    Python: seactl.sweep.monte_carlo(...).
 
     \b
     The gains are designed for the nominal actuator; each sample draws the plant's

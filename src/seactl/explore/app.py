@@ -38,6 +38,8 @@ from bokeh.models import (
 )
 from bokeh.plotting import figure
 
+import seactl as sc
+
 from ..actuators import SEA_PRESETS
 from .model import (
     BOUNDS,
@@ -472,7 +474,8 @@ class Explorer:
         return f
 
     def _responses(self) -> list[Any]:
-        step = figure(title="step response q_j / q_des", x_axis_label="t [ms]", **FIG)
+        step = figure(title=f"step response q_j / q_des (step of {sc.Design.default_step:g} "
+                      f"{sc.Design.step_unit})", x_axis_label="t [ms]", **FIG)
         step.line("t_ms", "y", source=self.sources["step"], line_width=2)
         step.add_layout(Span(location=1, dimension="width", line_color="gray"))
         imp = figure(title="impulse response q_j [deg] (0.05 N m s)", x_axis_label="t [ms]",

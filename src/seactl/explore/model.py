@@ -197,7 +197,8 @@ def actuator_option(actuator: Any) -> str:
 
 
 def command_line(c: Controls) -> str:
-    """The ``seactl gains`` and ``seactl step`` commands that reproduce this design."""
+    """The ``seactl gains`` and ``seactl step`` commands that reproduce this design: the
+    step with the page's amplitude (:attr:`seactl.Design.default_step`) and window."""
     def num(x: float) -> str:
         return f"{x:.10g}"
 
@@ -209,7 +210,8 @@ def command_line(c: Controls) -> str:
              f"--t-qd {num(c.t_qd_ms)}"]
     opts += [f"--{k} {num(v)}" for k, v in (("f-qd", c.f_qd_hz), ("f-taud", c.f_taud_hz))
              if v is not None]
-    sim = f" --mode sampled --rate {num(c.rate_hz)}" if c.mode == "sampled" else ""
+    sim = (f" --amplitude {num(sc.Design.default_step)} --t-end {num(t_end_s(c.fn_hz))}"
+           + (f" --mode sampled --rate {num(c.rate_hz)}" if c.mode == "sampled" else ""))
     return f"seactl gains {' '.join(opts)}\nseactl step {' '.join(opts)}{sim}"
 
 
@@ -320,10 +322,15 @@ def t_end_s(fn_hz: float) -> float:
 
 
 def response_views(d: sc.Design, c: Controls) -> dict[str, Any]:
-    """Step (normalized) and impulse (q_j in degrees) responses with their metrics."""
+    """Step (normalized; of :attr:`seactl.Design.default_step`, as ``seactl step``) and
+    impulse (q_j in degrees) responses with their metrics."""
     kw = {"t_end_s": t_end_s(c.fn_hz), "mode": c.mode, "rate_hz": c.rate_hz}
-    st, im = d.step(**kw), d.impulse(**kw)
+    amplitude = type(d).default_step
+    st, im = d.step(amplitude=amplitude, **kw), d.impulse(**kw)
     return {"step": {"t_ms": st.t_s * 1e3, "y": np.reshape(st.position, -1)},
+            "step_amplitude_rad": amplitude,
+            # the current limit acts in sampled mode only: its verdict says if it clips
+            "step_verdict": st.verdict().verdict[0] if c.mode == "sampled" else None,
             "impulse": {"t_ms": im.t_s * 1e3, "y": np.degrees(np.reshape(im.position, -1))},
             "step_metrics": st.metrics, "impulse_metrics": im.metrics,
             "requested_delays_ms": {k: float(v) * 1e3 for k, v in st.requested_delays_s.items()},
@@ -362,6 +369,8 @@ def response_results(resp: dict[str, Any]) -> dict[str, Any]:
                    "sampled_unstable_modes": int(np.ravel(info["sampled_unstable_modes"])[0]),
                    "sampled_rate": info["sampled_rate"]}
     return {**sampled,
+        "step_amplitude_rad": resp["step_amplitude_rad"],
+        **({"step_verdict": resp["step_verdict"]} if resp["step_verdict"] else {}),
         "step_rise_ms": json_value(_ms(sm.rise_time_s) or math.nan),
         "step_overshoot_pct": json_value(sm.overshoot_pct),
         "step_settling_ms": json_value(_ms(sm.settling_time_s) or math.nan),
@@ -440,8 +449,13 @@ def verdict(r: dict[str, Any], bands: np.ndarray) -> str:
             bool(r["stable"]), r["sampled_verdict"], r["sampled_unstable_modes"],
             r["sampled_rate"]) + ".")
     if r.get("step_overshoot_pct") is not None:
-        words.append(f"Step: {r['step_overshoot_pct']:.1f} % overshoot, settles (2 %) in "
+        words.append(f"Step of {r['step_amplitude_rad']:g} rad: "
+                     f"{r['step_overshoot_pct']:.1f} % overshoot, settles (2 %) in "
                      f"{_f(r['step_settling_ms'], '.0f', ' ms')}.")
+    if r.get("step_verdict") not in (None, "settled"):
+        words.append(f"The sampled step's verdict: {r['step_verdict']}"
+                     + (" (the motor current is at its limit for much of it)."
+                        if r["step_verdict"] == "saturated" else "."))
     words += _lengthened_words(r)
     return " ".join(words)
 

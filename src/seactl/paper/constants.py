@@ -27,4 +27,13 @@ FILTERS = dict(f_qd_hz=50.0, f_taud_hz=100.0)
 """The velocity and torque-derivative filter cut-offs of Table I [Hz]."""
 
 TABLE_I_TIMING = dict(t_tau_ms=0.5, t_qs_ms=2.0, t_qd_ms=0.5, **FILTERS)
-"""Table I's delays [ms] and filters [Hz], as keywords of ``Timing.from_ms``."""
+"""Table I's delays [ms] and filters [Hz] by name (:func:`design_keywords` makes them
+the keywords of :func:`seactl.design`)."""
+
+
+def design_keywords(t_tau_ms=0.0, t_qs_ms=0.0, t_qd_ms=0.0, f_qd_hz=None, f_taud_hz=None):
+    """Delays [ms] and filters [Hz] given by name (as :data:`TABLE_I_TIMING`) as the
+    keywords of :func:`seactl.design`: ``delays_ms={"torque": T_tau, "stiffness": T_qs,
+    "damping": T_qd}``, ``filters_hz=(f_qd, f_taud)``."""
+    return {"delays_ms": {"torque": t_tau_ms, "stiffness": t_qs_ms, "damping": t_qd_ms},
+            "filters_hz": (f_qd_hz, f_taud_hz)}

@@ -9,19 +9,14 @@ import numpy as np
 
 from ..actuators import UT_SEA
 from ..api import Design, design
-from ..design import critically_damped_gains, feasible_fn_range
-from ..loops import SEADesign, Timing
+from ..design import feasible_fn_range
 from ..report import Claim, Context, Figure, Section, numeric_claim, section
-from ..sea import sea_margins
-from .constants import TABLE_I, TABLE_I_DECIMALS, TABLE_I_TIMING
+from .constants import TABLE_I, TABLE_I_DECIMALS, TABLE_I_TIMING, design_keywords
 
 
 def table_i_designs() -> Design:
     """The designs of Table I, through the public API (as a user would build them)."""
-    t = TABLE_I_TIMING
-    return design(sorted(TABLE_I), delays_ms={"torque": t["t_tau_ms"], "stiffness": t["t_qs_ms"],
-                                              "damping": t["t_qd_ms"]},
-                  filters_hz=(t["f_qd_hz"], t["f_taud_hz"]))
+    return design(sorted(TABLE_I), **design_keywords(**TABLE_I_TIMING))
 
 
 @section(10, "table-i")
@@ -73,8 +68,7 @@ GS_FN = np.array([10.0, 12.0, 14.0, 16.0, 18.0, 20.0, 25.0, 30.0])
 
 def gain_scale_study() -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Ideal-case phase margin over (f_n, GS): returns (fn, gs, pm[fn, gs])."""
-    g = critically_damped_gains(UT_SEA, GS_FN[:, None], gs=GS_GRID[None, :])
-    m = sea_margins(SEADesign(UT_SEA, g))
+    m = design(GS_FN[:, None], gs=GS_GRID[None, :]).margins()
     return GS_FN, GS_GRID, m.phase_margin_deg
 
 
@@ -170,17 +164,18 @@ class GSOptimum:
         return "; ".join(parts) or "the whole range"
 
 
-def gs_optimum(fn_hz: float, timing: Timing | None = None,
+def gs_optimum(fn_hz: float, timing: dict[str, float] | None = None,
                gs_range: tuple[float, float] = GS_RANGE) -> GSOptimum:
-    """The gain scale maximizing the phase margin at ``fn_hz``: a dense scan of
+    """The gain scale maximizing the phase margin at ``fn_hz`` (``timing``: delays [ms]
+    and filters [Hz] by name, as :data:`TABLE_I_TIMING`; default none): a dense scan of
     ``gs_range`` (step :data:`GS_SCAN_STEP`), then a bounded Brent search between the
     scan maximum's neighbours (scipy ``minimize_scalar``, ``xatol`` 1e-6)."""
     from scipy.optimize import minimize_scalar
 
+    keywords = design_keywords(**(timing or {}))
+
     def pm(gs):
-        g = critically_damped_gains(UT_SEA, fn_hz, gs=gs)
-        d = SEADesign(UT_SEA, g) if timing is None else SEADesign(UT_SEA, g, timing)
-        return sea_margins(d).phase_margin_deg
+        return design(fn_hz, gs=gs, **keywords).margins().phase_margin_deg
 
     n = int(round((gs_range[1] - gs_range[0]) / GS_SCAN_STEP)) + 1
     grid = np.round(np.linspace(gs_range[0], gs_range[1], n), 10)
@@ -205,9 +200,8 @@ def gs_optimum(fn_hz: float, timing: Timing | None = None,
 
 def _table_i_optimum(sec: Section) -> None:
     """"GS = 1 is optimal" with Table I's delays and filters: at 14 Hz, and at 30 Hz."""
-    timing = Timing.from_ms(**TABLE_I_TIMING)
     for fn in (14.0, 30.0):
-        o = gs_optimum(fn, timing)
+        o = gs_optimum(fn, TABLE_I_TIMING)
         gs_best, pm_best, pm1 = o.gs, o.pm_deg, o.pm_at_1_deg
         holds = abs(gs_best - 1.0) <= 0.02
         sec.claims.append(Claim(

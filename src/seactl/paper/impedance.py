@@ -4,6 +4,11 @@ loadinertia), the reference MATLAB's four delay sets, the k_tau/beta finding, th
 Every figure is drawn twice: with the ``paper`` model (the printed N_zi/D_zi, which the
 published curves use) and with the ``block-diagram`` model (derived from the loop); the
 caption of each says which.  Parameters the captions leave open are stated as assumptions.
+
+Designs come from :func:`seactl.design`, impedances and margins from its methods; the
+asymptotes, passivity scans, Z-region, a load inertia other than the actuator's and the
+printed form with ``k_tau`` replaced have no public view, so they call
+:mod:`seactl.impedance` on the design's ``sea`` batch.
 """
 
 from __future__ import annotations
@@ -11,7 +16,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..actuators import UT_SEA
-from ..design import critically_damped_gains
+from ..api import Design, design
 from ..impedance import (
     MODELS,
     asymptotes,
@@ -22,10 +27,9 @@ from ..impedance import (
     passivity,
     zregion,
 )
-from ..loops import SEADesign, Timing, closed_loop
+from ..loops import closed_loop
 from ..report import Claim, Context, Figure, Section, numeric_claim, pm_cell, section
-from ..sea import sea_margins
-from .constants import FILTERS, TABLE_I_TIMING
+from .constants import FILTERS, TABLE_I_TIMING, design_keywords
 
 F_HZ = np.logspace(-1, 3, 600)
 F_LOW = np.array([1e-4])
@@ -44,8 +48,13 @@ MODEL_TEXT = {"paper": "paper model (printed N_zi/D_zi with k_tau, as published)
 COLORS = ("tab:red", "tab:blue", "tab:green", "tab:purple", "tab:orange", "tab:brown")
 
 
-def _design(fn_hz, timing: Timing = Timing()) -> SEADesign:
-    return SEADesign(UT_SEA, critically_damped_gains(UT_SEA, fn_hz), timing)
+def _design(fn_hz, **timing) -> Design:
+    """GS = 1 designs with delays [ms] and filters [Hz] by name (``t_qs_ms=10``)."""
+    return design(fn_hz, **design_keywords(**timing))
+
+
+def _delays(t_tau_ms: float, t_qs_ms: float, t_qd_ms: float) -> dict[str, float]:
+    return {"t_tau_ms": t_tau_ms, "t_qs_ms": t_qs_ms, "t_qd_ms": t_qd_ms}
 
 
 def _spring() -> np.ndarray:
@@ -53,7 +62,7 @@ def _spring() -> np.ndarray:
 
 
 def _gain_claims(sec: Section, fn: int, figure: str) -> None:
-    g = critically_damped_gains(UT_SEA, float(fn))
+    g = design(float(fn)).gains
     for name, unit, paper, tol in zip(("Kq", "Bq", "Ktau", "Btau"),
                                       ("Nm/rad", "Nms/rad", "A/Nm", "As/Nm"),
                                       CAPTION_GAINS[fn], GAIN_TOL[fn]):
@@ -62,8 +71,10 @@ def _gain_claims(sec: Section, fn: int, figure: str) -> None:
                                         float(getattr(g, name)), tol))
 
 
-def _z(d, model, **kw) -> np.ndarray:
-    return impedance(d, F_HZ, model=model, **kw).z
+def _z(d: Design, model: str, k_tau: float | None = None) -> np.ndarray:
+    if k_tau is None:
+        return d.impedance(F_HZ, model=model).z
+    return impedance(d.sea, F_HZ, model=model, k_tau=k_tau).z   # no public k_tau keyword
 
 
 def _rms_db(a: np.ndarray, b: np.ndarray) -> float:
@@ -75,7 +86,7 @@ def _filter_delay_figures(sec: Section, ctx: Context, ideal, filt, delayed) -> N
     from ..plots import impedance_bode_figure
 
     for model in MODELS:
-        a_i = asymptotes(ideal, F_HZ, model=model)
+        a_i = asymptotes(ideal.sea, F_HZ, model=model)
         zi = _z(ideal, model)
         cols = [
             ("(a) ideal: Z_i", [
@@ -103,22 +114,22 @@ def _filter_delay_figures(sec: Section, ctx: Context, ideal, filt, delayed) -> N
 
 def _asymptote_claims(sec: Section, ideal, filt, delayed) -> None:
     """Low- and high-frequency asymptotes of Z in every scenario, both models."""
-    both = ideal.with_timing(Timing.from_ms(1.0, 10.0, 3.0, **FILTERS))
+    both = _design(30.0, **_delays(1.0, 10.0, 3.0), **FILTERS)
     cases = {"i": ideal, "f": filt, "d": delayed, "fd": both}
     for model in MODELS:
-        k_low = float(low_frequency_stiffness(ideal, model))
+        k_low = float(low_frequency_stiffness(ideal.sea, model))
         formula = ("K_q k_tau (1/beta + K_tau)/(1 + K_tau k_tau)" if model == "paper"
                    else "K_q")
         for c, d in cases.items():
-            got = float(impedance(d, F_LOW, model=model).stiffness[0].real)
+            got = float(d.impedance(F_LOW, model=model).stiffness[0].real)
             sec.claims.append(numeric_claim(
                 f"{sec.id}.low.{model}.{c}", "Fig. impedanceFilterDelay",
                 f"{model}: jw Z_{c}(jw) -> {formula} as w -> 0 [Nm/rad] (value at 1e-4 Hz)",
                 k_low, got, 1e-3 * k_low))
         # High-frequency asymptotes: ideal, delay-only (twist), filter-only.
         for c, d in (("i", ideal), ("d", delayed), ("f", filt)):
-            z = impedance(d, F_HIGH, model=model).z[0]
-            asym = high_frequency_asymptote(d, F_HIGH, model)[0]
+            z = d.impedance(F_HIGH, model=model).z[0]
+            asym = high_frequency_asymptote(d.sea, F_HIGH, model)[0]
             what = {"i": "k (I_m + g B_tau B_q)/(jw I_m)",
                     "d": "k (I_m + g B_tau B_q e^{-jw T_qd})/(jw I_m) (twist around k/jw)",
                     "f": "k/(jw)"}[c]
@@ -142,9 +153,8 @@ def filter_delay(ctx: Context) -> Section:
                         "Fig. impedanceNaturalFreq.")
     _gain_claims(sec, 30, "Fig. impedanceFilterDelay")
     ideal = _design(30.0)
-    filt = ideal.with_timing(Timing.from_ms(**FILTERS))
-    delayed = [(lbl, ideal.with_timing(Timing.from_ms(tt, ts, td)))
-               for lbl, tt, ts, td in DELAY_SETS[1:]]
+    filt = _design(30.0, **FILTERS)
+    delayed = [(lbl, _design(30.0, **_delays(tt, ts, td))) for lbl, tt, ts, td in DELAY_SETS[1:]]
     _filter_delay_figures(sec, ctx, ideal, filt, delayed)
     _asymptote_claims(sec, ideal, filt, delayed[-1][1])
     # The twist: |jw Z_d / k| sweeps [|1 - x|, 1 + x], x = g B_tau B_q / I_m.
@@ -152,18 +162,19 @@ def filter_delay(ctx: Context) -> Section:
     d = delayed[-1][1]
     for model in MODELS:
         g = UT_SEA.beta if model == "block-diagram" else UT_SEA.motor_torque_constant
-        x = float(g * d.Btau * d.Bq / d.Im)
-        r = np.abs(2j * np.pi * fw * impedance(d, fw, model=model).z / UT_SEA.k)
+        x = float(g * d.sea.Btau * d.sea.Bq / d.sea.Im)
+        r = np.abs(2j * np.pi * fw * d.impedance(fw, model=model).z / UT_SEA.k)
         sec.claims.append(numeric_claim(
             f"{sec.id}.twist.{model}", "Fig. impedanceFilterDelay",
             f"{model}: with delays only, |Z_d| twists around k/(jw): max |jw Z_d / k| over "
             f"100-105 kHz -> 1 + g B_tau B_q / I_m", 1 + x, float(r.max()), 1e-2 * (1 + x)))
+    s = ideal.sea
     sec.notes.append("With the block diagram the high-frequency factor g B_tau B_q / I_m is "
-                     f"{UT_SEA.beta * ideal.Btau * ideal.Bq / ideal.Im:.3g} (g = beta), so "
+                     f"{UT_SEA.beta * s.Btau * s.Bq / s.Im:.3g} (g = beta), so "
                      "without filters the ideal and delayed impedances sit about 19 dB above "
                      "the spring at high frequency and the delay twist is large; with the "
                      "printed form (g = k_tau) the factor is "
-                     f"{UT_SEA.motor_torque_constant * ideal.Btau * ideal.Bq / ideal.Im:.3g} "
+                     f"{UT_SEA.motor_torque_constant * s.Btau * s.Bq / s.Im:.3g} "
                      "and the curves hug k/(jw), as the paper describes.")
     return sec
 
@@ -185,11 +196,11 @@ def natural_freq(ctx: Context) -> Section:
                         "does not list them).")
     fn = np.array(NATFREQ_FN)
     ideal = _design(fn)
-    td = ideal.with_timing(Timing.from_ms(**NATFREQ_DELAYS))
-    tf = ideal.with_timing(Timing.from_ms(**FILTERS))
-    tb = ideal.with_timing(Timing.from_ms(**NATFREQ_DELAYS, **FILTERS))
+    td = _design(fn, **NATFREQ_DELAYS)
+    tf = _design(fn, **FILTERS)
+    tb = _design(fn, **NATFREQ_DELAYS, **FILTERS)
     rows = []
-    mb = sea_margins(tb)
+    mb = tb.margins()
     for model in MODELS:
         zi, zd, zf, zb = (_z(x, model) for x in (ideal, td, tf, tb))
         cols = []
@@ -223,7 +234,7 @@ def natural_freq(ctx: Context) -> Section:
                              "filters remove it (Z_f -> k/jw), so at high f_n filtering moves "
                              "|Z| more than these delays. It holds for the printed form, "
                              "where that factor is 1 + k_tau B_tau B_q / I_m ~ 1."))
-        klow = np.asarray(low_frequency_stiffness(ideal, model))
+        klow = np.asarray(low_frequency_stiffness(ideal.sea, model))
         mag_low = np.abs(zb[:, 0])
         inc = bool(np.all(np.diff(klow) > 0) and np.all(np.diff(mag_low) > 0))
         sec.claims.append(Claim(
@@ -259,7 +270,7 @@ def load_inertia(ctx: Context) -> Section:
                         "as in Fig. impedanceNaturalFreq). Spike = largest rise of |Z_l| above "
                         "the envelope of its asymptotes.")
     _gain_claims(sec, 20, "Fig. loadinertia")
-    d = _design(20.0, Timing.from_ms(**NATFREQ_DELAYS, **FILTERS))
+    d = _design(20.0, **NATFREQ_DELAYS, **FILTERS).sea   # load inertias: no public keyword
     ij = np.array(LOAD_INERTIAS)
     rows = []
     for model in MODELS:
@@ -306,7 +317,7 @@ def delay_sets(ctx: Context) -> Section:
                   intro="No filters (assumption), GS = 1. Passivity is scanned over "
                         "0.1-1000 Hz (Re Z < 0: the actuator can inject energy).")
     base = _design(30.0)
-    ds = [(lbl, base.with_timing(Timing.from_ms(tt, ts, td))) for lbl, tt, ts, td in DELAY_SETS]
+    ds = [(lbl, _design(30.0, **_delays(tt, ts, td))) for lbl, tt, ts, td in DELAY_SETS]
     cols = []
     rows = []
     for model in MODELS:
@@ -319,9 +330,9 @@ def delay_sets(ctx: Context) -> Section:
                               " | ".join(f"{side}: {MODEL_TEXT[m]}" for side, m in
                                          zip(("left", "right"), MODELS)) + "."))
     for lbl, d in ds:
-        m = sea_margins(d)
+        m = d.margins()
         for model in MODELS:
-            p = passivity(d, (0.1, 1000.0), model=model)
+            p = passivity(d.sea, (0.1, 1000.0), model=model)
             b = p.bands_hz[()]
             rows.append([lbl, model, "yes" if m.stable else "NO",
                          pm_cell(float(m.phase_margin_deg), bool(m.stable)),
@@ -333,31 +344,31 @@ def delay_sets(ctx: Context) -> Section:
                         "non-passive bands [Hz]"], rows))
     recur = []
     for lbl, d in ds[1:]:
-        above = [b for b in passivity(d, (0.1, 10_000.0)).bands_hz[()] if b[1] > 1000.0]
+        above = [b for b in passivity(d.sea, (0.1, 10_000.0)).bands_hz[()] if b[1] > 1000.0]
         recur.append(f"{lbl}: {len(above)} bands between 1 and 10 kHz")
     sec.notes.append("The table's bands are those of the 0.1-1000 Hz scan. Without filters "
                      "they recur above it: the same scan to 10 kHz finds " + "; ".join(recur)
                      + " (the delays make Re Z periodic in frequency).")
-    ideal_p = passivity(ds[0][1], (0.1, 1000.0)).passive
+    ideal_p = passivity(ds[0][1].sea, (0.1, 1000.0)).passive
     sec.claims.append(Claim(
         f"{sec.id}.delays_break_passivity", "Impedance analysis",
         "block diagram: the delay-free design is passive over 0.1-1000 Hz, every delayed set "
         "is not",
         "finding", f"ideal passive: {bool(ideal_p)}; delayed passive: "
-        + ", ".join(str(bool(passivity(d, (0.1, 1000.0)).passive)) for _, d in ds[1:]),
+        + ", ".join(str(bool(passivity(d.sea, (0.1, 1000.0)).passive)) for _, d in ds[1:]),
         "", "info"))
     _passivity_causes(sec, base, ds[1:])
     return sec
 
 
-def _passivity_causes(sec: Section, base: SEADesign, delayed: list) -> None:
+def _passivity_causes(sec: Section, base: Design, delayed: list) -> None:
     """Which cause applies to which delay set: low-frequency non-passivity needs
     ``K_q T_qs > B_q`` (``Re Z(0) ~ B_q - K_q T_qs`` plus small ``b_m``, ``T_tau`` and
     ``T_qd`` terms); otherwise the non-passive bands lie at high frequency."""
     kq, bq = float(base.gains.Kq), float(base.gains.Bq)
     causes, where = [], {}
     for lbl, d in delayed:
-        bands = passivity(d, (0.1, 1000.0)).bands_hz[()]
+        bands = passivity(d.sea, (0.1, 1000.0)).bands_hz[()]
         low = any(a < 1.0 for a, _ in bands)
         span = ", ".join(f"{a:.3g}-{b:.3g}" for a, b in bands)
         t_qs = float(d.timing.T_qs)
@@ -371,8 +382,8 @@ def _passivity_causes(sec: Section, base: SEADesign, delayed: list) -> None:
         "finding", where, "", "info", "Per delay set: " + "; ".join(causes) + "."))
     low = {}
     for t_ms in (8.0, 9.0):
-        d = base.with_timing(Timing.from_ms(0.0, t_ms, 0.0))
-        low[t_ms] = not any(a < 1.0 for a, _ in passivity(d, (0.1, 1000.0)).bands_hz[()])
+        d = _design(30.0, t_qs_ms=t_ms)
+        low[t_ms] = not any(a < 1.0 for a, _ in passivity(d.sea, (0.1, 1000.0)).bands_hz[()])
     ok = low[8.0] and not low[9.0]
     sec.claims.append(Claim(
         f"{sec.id}.low_freq_threshold", "Impedance analysis",
@@ -397,31 +408,30 @@ def ktau_finding(ctx: Context) -> Section:
                         "low-frequency stiffness is about a quarter of K_q, while the block "
                         "diagram's is exactly K_q, consistent with P_CL(0) = 1.")
     fn = np.array([12.0, 20.0, 30.0])
-    timings = [Timing(), Timing.from_ms(1.0, 10.0, 3.0), Timing.from_ms(**FILTERS),
-               Timing.from_ms(**TABLE_I_TIMING)]
+    timings = [{}, _delays(1.0, 10.0, 3.0), FILTERS, TABLE_I_TIMING]
     err = 0.0
     for t in timings:
-        d = _design(fn, t)
-        zb = impedance(d, F_HZ).z
-        zp = impedance(d, F_HZ, model="paper", k_tau=UT_SEA.beta).z
+        d = _design(fn, **t)
+        zb = d.impedance(F_HZ).z
+        zp = _z(d, "paper", k_tau=UT_SEA.beta)
         err = max(err, float(np.max(np.abs(zp / zb - 1))))
     sec.claims.append(numeric_claim(
         f"{sec.id}.equal_with_beta", "Impedance transfer function",
         "printed N_zi/D_zi with k_tau := beta equal the block diagram (max relative difference "
         "over f_n = 12/20/30 Hz, four timing sets, 0.1-1000 Hz)", 0.0, err, 1e-9))
     d30 = _design(30.0)
-    kp = float(low_frequency_stiffness(d30, "paper"))
+    kp = float(low_frequency_stiffness(d30.sea, "paper"))
     sec.claims.append(numeric_claim(
         f"{sec.id}.low_paper", "Impedance transfer function",
         "printed form: low-frequency stiffness at f_n = 30 Hz [Nm/rad] "
         "(docs/theory/ktau-beta.md: 72.9)",
         72.9, kp, 0.05))
-    kb = float(impedance(d30, F_LOW).stiffness[0].real)
+    kb = float(d30.impedance(F_LOW).stiffness[0].real)
     sec.claims.append(numeric_claim(
         f"{sec.id}.low_block", "Impedance transfer function",
         "block diagram: low-frequency stiffness at f_n = 30 Hz equals K_q = 293.6 Nm/rad",
         293.6, kb, 0.05))
-    pcl0 = complex(closed_loop()(d30, np.array([1e-9j]))[0])
+    pcl0 = complex(closed_loop()(d30.sea, np.array([1e-9j]))[0])
     sec.claims.append(numeric_claim(
         f"{sec.id}.pcl0", "Impedance transfer function",
         "P_CL(0) = 1 (static tracking), consistent with a static stiffness of exactly K_q",
@@ -434,9 +444,8 @@ def ktau_finding(ctx: Context) -> Section:
         "info", "a finding, not a pass/fail check: the published curves use the printed form; "
                 "seactl defaults to the block diagram and offers --model paper"))
     cols = []
-    for title, t in (("ideal", Timing()),
-                     ("T_qs=10, T_qd=3, T_tau=1 ms", Timing.from_ms(1.0, 10.0, 3.0))):
-        d = d30.with_timing(t)
+    for title, t in (("ideal", {}), ("T_qs=10, T_qd=3, T_tau=1 ms", _delays(1.0, 10.0, 3.0))):
+        d = _design(30.0, **t)
         cols.append((f"f_n = 30 Hz, {title}", [
             dict(f=F_HZ, z=_z(d, "block-diagram"), color="tab:blue",
                  label="block diagram"),
@@ -470,8 +479,8 @@ def zregion_section(ctx: Context) -> Section:
                         "margin >= 30 deg. Z-width = 20 log10(max |Z| / min |Z|) over the "
                         "admissible designs; Z-depth = band from 0.1 Hz where the width stays "
                         ">= 6 dB.")
-    g = critically_damped_gains(UT_SEA, ZR_FN[:, None], gs=ZR_GS[None, :])
-    d = SEADesign(UT_SEA, g, Timing.from_ms(**TABLE_I_TIMING))
+    designs = design(ZR_FN[:, None], gs=ZR_GS[None, :], **design_keywords(**TABLE_I_TIMING))
+    g, d = designs.gains, designs.sea   # the Z-region has no public view
     reg = zregion(d, ZR_F, min_pm_deg=30.0, threshold_db=6.0)
     fig = zregion_figure(reg, ZR_FN, ZR_GS, spring=UT_SEA.k / (2j * np.pi * ZR_F))
     sec.figures.append(Figure(ctx.savefig(fig, "zregion.png"),

@@ -20,21 +20,15 @@ PM_FLOOR_DEG = 30.0
 
 
 def _table_i(fn):
-    from ..actuators import UT_SEA
-    from ..api import Design
-    from ..design import critically_damped_gains
-    from ..loops import SEADesign, Timing
+    from ..api import design
 
-    fn = np.asarray(fn, float)
-    sea = SEADesign(UT_SEA, critically_damped_gains(UT_SEA, fn),
-                    Timing.from_ms(*TABLE_I_MS, 50.0, 100.0))
-    return Design(sea, fn, np.ones_like(fn))
+    return design(fn, delays_ms=dict(zip(("torque", "stiffness", "damping"), TABLE_I_MS)),
+                  filters_hz=(50.0, 100.0))
 
 
 def _monte_carlo(d, jm):
     """Fraction of stable runs of impulse responses at f_n = MC_FN for uniform latency
-    ``[nominal, nominal + factor x J]`` on each link."""
-    from ..timing import sea_monte_carlo
+    ``[nominal, nominal + factor x J]`` on each link (``d.monte_carlo``)."""
     from ..timing_models import Uniform
 
     nominal = {"torque": TABLE_I_MS[0] * 1e-3, "damping": TABLE_I_MS[2] * 1e-3,
@@ -42,8 +36,8 @@ def _monte_carlo(d, jm):
     out = {}
     for link in ("torque", "damping", "stiffness"):
         J = float(getattr(jm, f"{link}_jitter_margin_s"))
-        out[link] = [float(sea_monte_carlo(
-            d.sea, "impulse", latency={link: Uniform(nominal[link], nominal[link] + f * J)},
+        out[link] = [float(d.monte_carlo(
+            "impulse", latency={link: Uniform(nominal[link], nominal[link] + f * J)},
             runs=MC_RUNS, seed=0, t_end_s=MC_T_END_S).fraction_stable) for f in MC_FACTORS]
     return out
 
@@ -51,7 +45,7 @@ def _monte_carlo(d, jm):
 def _loss_cost():
     """Distributed SEA placement (Table I timing, PM >= floor): highest f_n without loss,
     guaranteed with 1 % loss on the embedded process, and the Monte Carlo at the lossless
-    optimum."""
+    optimum.  ``sc.place`` has no process-timing keyword: the advisor's own call."""
     from ..latency import sea_model
     from ..placement import ProcessTiming, advise
     from ..timing import verify_placement
@@ -157,11 +151,12 @@ def _table_claims(sec: Section) -> None:
 def _rigid_claim(sec: Section) -> None:
     from ..jitter import model_jitter_margins
     from ..latency import rigid_model
-    from ..rigid import UT_LINEAR, RigidDesign
+    from ..systems import rigid
 
-    rm = rigid_model()
-    rd = RigidDesign.from_fn(UT_LINEAR, np.array(RIGID_FN), T_s=1.5e-3, T_d=1.5e-3, f_v=50.0)
-    rj = model_jitter_margins(rm, rd)
+    rd = rigid(np.array(RIGID_FN), delays_ms={"stiffness": 1.5, "damping": 1.5},
+               velocity_filter_hz=50.0)
+    # RigidBatch has no jitter_margins() on this branch: the per-loop model's
+    rj = model_jitter_margins(rigid_model(), rd.rigid)
     ok = bool(np.all(rj.damping_s < rj.stiffness_s))
     sec.claims.append(Claim(
         "jitter.rigid.damping_first", "Jitter (issue 14)",

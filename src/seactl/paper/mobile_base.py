@@ -8,6 +8,7 @@ import math
 
 from .. import mobile_base as mb
 from ..report import Claim, Context, Figure, Section, section
+from ..systems import compare_mobile_base, mobile_base_params
 
 PAPER = {"cosc_kx": 30.0, "dosc_kx": 140.0, "ratio": 4.7, "pos_red": (62.0, 65.0),
          "vel_red": (45.0, 67.0)}
@@ -105,7 +106,7 @@ def _sensitivity_table(comp: mb.MobileBaseComparison) -> tuple[tuple, list[float
     for label, changes in SENSITIVITY:
         # Coarser searches than the main run keep the report quick (limits within ~10%).
         q = comp.params.with_(grid_points=16, refine_points=6, **changes)
-        s = comp if not changes else mb.tune(q, track=False)
+        s = comp if not changes else compare_mobile_base(q, track=False)
         sc, sd = s.results["cosc"], s.results["dosc"]
         ratios.append(s.kx_ratio)
         rows.append([label, f"{q.central_delay * 1e3:g}", _limit(sc, "max_damping"),
@@ -188,8 +189,8 @@ S = "Mobile base"
 
 @section(80, "mobile-base")
 def mobile_base(ctx: Context) -> Section:
-    p = mb.TRIKEY
-    comp = mb.tune(p)
+    p = mobile_base_params("trikey")
+    comp = compare_mobile_base(p)
     sec = Section("mobile-base", "Mobile base: distributed (DOSC) vs centralized (COSC) OSC, "
                   "simulated", intro=_intro(p))
     _figures(sec, ctx, comp)

@@ -6,7 +6,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..report import Claim, Context, Figure, Section, section
-from .constants import TABLE_I_FN, TABLE_I_TIMING
+from .constants import TABLE_I_FN, TABLE_I_TIMING, design_keywords
 
 STEP_FN = (4.0, 8.0, 12.0)
 MAP_N = 81                      # grid points per axis of the phase-margin maps
@@ -124,6 +124,8 @@ def rigid_step(ctx: Context) -> Section:
 
 
 def _maps():
+    # grids of thousands of designs per map and f_n bisections: the vectorized kernels of
+    # seactl.latency (sc.latency_map is one map of one actuator at a time)
     from ..latency import latency_map, max_stable_fn, rigid_model, sea_model
 
     rm, sm = rigid_model(), sea_model()
@@ -156,12 +158,12 @@ def _sensitivity_and_reach(sec: Section, models, maps, mfs) -> None:
         f"... at T_s = {MAP_T[1] * 1e3:g} ms", f"... at T_d = {MAP_T[1] * 1e3:g} ms"], rows))
 
 
-def _rigid_damping_claim(rm) -> Claim:
+def _rigid_damping_claim() -> Claim:
     """Rigid actuator: the damping loop is the latency-sensitive one."""
-    from ..rigid import UT_LINEAR, RigidDesign
+    from ..systems import rigid
 
-    d = RigidDesign.from_fn(UT_LINEAR, np.array(STEP_FN), T_s=1.5e-3, T_d=1.5e-3, f_v=50.0)
-    dm = rm.delay_margins(d)
+    dm = rigid(np.array(STEP_FN), delays_ms={"stiffness": 1.5, "damping": 1.5},
+               velocity_filter_hz=50.0).delay_margins()
     ok = bool(np.all(dm.damping_s < dm.stiffness_s))
     return Claim(
         "latency.rigid.damping_more_sensitive", "Introduction",
@@ -175,15 +177,15 @@ def _rigid_damping_claim(rm) -> Claim:
 
 
 def _sea_per_fn(sec: Section, sm) -> None:
-    """UT-SEA at Table I timing: which loop is the latency-sensitive one, per f_n."""
-    from ..actuators import UT_SEA
-    from ..design import critically_damped_gains
+    """UT-SEA at Table I timing: which loop is the latency-sensitive one, per f_n (the
+    designs of :func:`seactl.design`; per-loop delay margins and their sensitivity from the
+    split diagram ``sm``, :func:`seactl.loop_model`'s)."""
+    from ..api import design
     from ..latency import pm_sensitivity
-    from ..loops import SEADesign, Timing
 
     fn = np.array(TABLE_I_FN)
-    ds = SEADesign(UT_SEA, critically_damped_gains(UT_SEA, fn), Timing.from_ms(**TABLE_I_TIMING))
-    dms = sm.delay_margins(ds)
+    ds = design(fn, **design_keywords(**TABLE_I_TIMING))
+    dms = sm.delay_margins(ds.sea)
     sens = pm_sensitivity(sm, fn, 2e-3, 0.5e-3)
     srows = []
     for i, f in enumerate(fn):
@@ -230,7 +232,7 @@ def latency_maps(ctx: Context) -> Section:
                               "hatched: unstable, dotted: equal delays) and highest stable f_n "
                               "(right) over the stiffness-loop and damping-loop delays."))
     _sensitivity_and_reach(sec, (rm, sm), maps, mfs)
-    sec.claims.append(_rigid_damping_claim(rm))
+    sec.claims.append(_rigid_damping_claim())
     _sea_per_fn(sec, sm)
     sec.notes.append(
         "Finding: for the rigid actuator the damping delay costs about ten times more phase "

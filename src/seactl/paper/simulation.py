@@ -1,6 +1,10 @@
 """Sections: the paper's step-response figures (Fig. ImpedanceDelay, Fig. GainScale(b),
 Fig. ExperimentGS) and the impulse test (Fig. ExperimentImpulse), simulated with exact
-delays (continuous) and as on the hardware (sampled), from the one block diagram."""
+delays (continuous) and as on the hardware (sampled), from the one block diagram.
+
+Designs come from :func:`seactl.design`, margins and responses from its methods; the
+continuous figures are of the unit step (``amplitude=1.0``: the normalized response of the
+linear loop), the sampled ones of :data:`STEP_RAD`."""
 
 from __future__ import annotations
 
@@ -8,13 +12,10 @@ from typing import Any
 
 import numpy as np
 
-from ..actuators import UT_SEA
-from ..design import critically_damped_gains
-from ..loops import SEADesign, Timing
+from ..api import Design, design
 from ..report import Claim, Context, Figure, Section, numeric_claim, section
-from ..sea import sea_impulse, sea_margins, sea_step
 from ..simulate import impulse_metrics
-from .constants import TABLE_I_TIMING
+from .constants import TABLE_I_TIMING, design_keywords
 
 FN_A = np.array([14.0, 16.0, 18.0, 20.0])
 TIMING_A = dict(t_tau_ms=1.0, t_qs_ms=1.0, t_qd_ms=1.0, f_qd_hz=50.0, f_taud_hz=100.0)
@@ -32,8 +33,8 @@ def _fmt_pm(pm: float, stable: bool = True) -> str:
     return text if stable else f"{text} (unstable)"
 
 
-def _design(fn, gs=1.0, **timing) -> SEADesign:
-    return SEADesign(UT_SEA, critically_damped_gains(UT_SEA, fn, gs=gs), Timing.from_ms(**timing))
+def _design(fn, gs=1.0, **timing) -> Design:
+    return design(fn, gs=gs, **design_keywords(**timing))
 
 
 def _pm_search() -> list[tuple[str, float, float]]:
@@ -51,7 +52,7 @@ def _pm_search() -> list[tuple[str, float, float]]:
     for label, (tt, ts, td) in timings.items():
         for filt, (fq, ft) in (("filters 50/100 Hz", (50.0, 100.0)), ("no filters", (None, None))):
             d = _design(fn, t_tau_ms=tt, t_qs_ms=ts, t_qd_ms=td, f_qd_hz=fq, f_taud_hz=ft)
-            pm = sea_margins(d).phase_margin_deg
+            pm = d.margins().phase_margin_deg
             out.extend((f"{label}, {filt}", float(f), float(p)) for f, p in zip(fn, pm))
     return out
 
@@ -60,9 +61,11 @@ def delay_sensitivity(fn: np.ndarray = FN_SENS) -> dict[str, np.ndarray]:
     """Phase margin and stability versus T_qs (T_qd = T_tau = 1 ms) and versus T_qd
     (T_qs = T_tau = 1 ms), filters 50/100 Hz; arrays of shape ``(len(fn), len(T))``."""
     T = np.round(np.arange(0.0, 30.0001, 0.25), 6)
-    g = critically_damped_gains(UT_SEA, np.asarray(fn, float)[:, None])
-    m_qs = sea_margins(SEADesign(UT_SEA, g, Timing.from_ms(1.0, T, 1.0, 50.0, 100.0)))
-    m_qd = sea_margins(SEADesign(UT_SEA, g, Timing.from_ms(1.0, 1.0, T, 50.0, 100.0)))
+    fn_col = np.asarray(fn, float)[:, None]
+    m_qs = _design(fn_col, t_tau_ms=1.0, t_qs_ms=T, t_qd_ms=1.0, f_qd_hz=50.0,
+                   f_taud_hz=100.0).margins()
+    m_qd = _design(fn_col, t_tau_ms=1.0, t_qs_ms=1.0, t_qd_ms=T, f_qd_hz=50.0,
+                   f_taud_hz=100.0).margins()
     return {"fn": np.asarray(fn, float), "T_ms": T, "pm_qs": m_qs.phase_margin_deg,
             "stable_qs": m_qs.stable, "pm_qd": m_qd.phase_margin_deg, "stable_qd": m_qd.stable}
 
@@ -87,9 +90,9 @@ T_END_S = 0.25
 def _fn_sweep(sec: Section):
     """Panel (a): several f_n, all delays 1 ms, with (solid) and without (dashed) the zero."""
     da = _design(FN_A, **TIMING_A)
-    ma = sea_margins(da)
-    ra = sea_step(da, t_end_s=T_END_S, zero=True)
-    ra0 = sea_step(da, t_end_s=T_END_S, zero=False)
+    ma = da.margins()
+    ra = da.step(t_end_s=T_END_S, amplitude=1.0, zero=True)
+    ra0 = da.step(t_end_s=T_END_S, amplitude=1.0, zero=False)
     curves = []
     for i, f in enumerate(FN_A):
         lab = f"f_n={f:g} Hz, PM {_fmt_pm(ma.phase_margin_deg[i])}"
@@ -112,8 +115,8 @@ def _delay_sweep(sec: Section, key: str, delays_ms: np.ndarray, label: str):
     timing = dict(t_tau_ms=1.0, t_qs_ms=delays_ms if key == "b" else 1.0,
                   t_qd_ms=delays_ms if key == "c" else 1.0, f_qd_hz=50.0, f_taud_hz=100.0)
     d = _design(FN_BC, **timing)
-    m = sea_margins(d)
-    r = sea_step(d, t_end_s=T_END_S)
+    m = d.margins()
+    r = d.step(t_end_s=T_END_S, amplitude=1.0)
     curves = [(r.t_s, r.position[i], f"{label}={T:g} ms, PM {_fmt_pm(m.phase_margin_deg[i])}"
                + ("" if r.result.stable[i] else " (unstable)"), dict(color=COLORS[i]))
               for i, T in enumerate(delays_ms)]
@@ -187,12 +190,12 @@ def sensitivity_intervals(fn: np.ndarray = FN_SENS) -> dict[float, dict[str, lis
     grid = np.round(np.arange(SENS_RANGE_MS[0], SENS_RANGE_MS[1] + 1e-9, SENS_STEP_MS), 9)
     out = {}
     for f in np.asarray(fn, float):
-        g = critically_damped_gains(UT_SEA, f)
         res = {}
-        for name, timing in (("T_qs", lambda T: Timing.from_ms(1.0, T, 1.0, 50.0, 100.0)),
-                             ("T_qd", lambda T: Timing.from_ms(1.0, 1.0, T, 50.0, 100.0))):
-            def stable(T_s, timing=timing, g=g):
-                return sea_margins(SEADesign(UT_SEA, g, timing(np.asarray(T_s) * 1e3))).stable
+        for name, key in (("T_qs", "t_qs_ms"), ("T_qd", "t_qd_ms")):
+            def stable(T_s, key=key, f=f):
+                timing = {"t_tau_ms": 1.0, "t_qs_ms": 1.0, "t_qd_ms": 1.0,
+                          key: np.asarray(T_s) * 1e3}
+                return _design(f, **timing, f_qd_hz=50.0, f_taud_hz=100.0).margins().stable
             iv = stability_intervals(stable, grid * 1e-3, tol_s=1e-7)
             res[name] = [(lo * 1e3, hi * 1e3) for lo, hi in iv]
         out[float(f)] = res
@@ -272,9 +275,9 @@ def _overshoot_trend(sec: Section) -> None:
              ("all 1 ms, no filters", 1, 1, 1, np.inf), ("T_qs=5, T_qd=2, T_tau=1 ms", 1, 5, 2, 50),
              ("T_qs=10, T_qd=3, T_tau=1 ms", 1, 10, 3, 50)]
     arr = np.array([c[1:] for c in cases], float)
-    tim = Timing.from_ms(arr[:, :1], arr[:, 1:2], arr[:, 2:3], arr[:, 3:4], 2 * arr[:, 3:4])
-    ro = sea_step(SEADesign(UT_SEA, critically_damped_gains(UT_SEA, fn[None, :]), tim),
-                  t_end_s=T_END_S)
+    ro = _design(fn[None, :], t_tau_ms=arr[:, :1], t_qs_ms=arr[:, 1:2], t_qd_ms=arr[:, 2:3],
+                 f_qd_hz=arr[:, 3:4], f_taud_hz=2 * arr[:, 3:4]
+                 ).step(t_end_s=T_END_S, amplitude=1.0)
     sec.tables.append(("Overshoot [%] versus f_n (with the zero) for several delay sets: the "
                        "trend of panel (a) depends on the delays",
                        ["delays, filters"] + [f"{f:g} Hz" for f in fn],
@@ -325,8 +328,8 @@ def gain_scale_step(ctx: Context) -> Section:
                         f"continuous simulation, GS = {', '.join(f'{g:g}' for g in GS_B)}. "
                         "Unfiltered derivatives are realized with a 1.6 MHz roll-off.")
     d = _design(14.0, gs=GS_B)
-    m = sea_margins(d)
-    r = sea_step(d, t_end_s=0.3)
+    m = d.margins()
+    r = d.step(t_end_s=0.3, amplitude=1.0)
     colors = plt_colors(len(GS_B))
     curves = [(r.t_s, r.position[i], f"GS={g:g}, PM {_fmt_pm(m.phase_margin_deg[i])}",
                dict(color=colors[i], ls="-" if g >= 1 else "--")) for i, g in enumerate(GS_B)]
@@ -399,10 +402,10 @@ def experiment_gs(ctx: Context) -> Section:
                         "limit. Whole-sample buffers give effective delays T_s/2 + n T_s, the "
                         "shortest realizable ones not shorter than the requested 1 ms: ")
     d = _design(14.0, gs=GS_EXP, **timing)
-    m = sea_margins(d)
-    rc = sea_step(d, t_end_s=0.4, amplitude=STEP_RAD)
-    rs = sea_step(d, t_end_s=0.4, mode="sampled", rate_hz=1000.0, amplitude=STEP_RAD)
-    r15 = sea_step(d, t_end_s=0.4, mode="sampled", rate_hz=1500.0, amplitude=STEP_RAD)
+    m = d.margins()
+    rc = d.step(t_end_s=0.4, amplitude=STEP_RAD)
+    rs = d.step(t_end_s=0.4, mode="sampled", rate_hz=1000.0, amplitude=STEP_RAD)
+    r15 = d.step(t_end_s=0.4, mode="sampled", rate_hz=1500.0, amplitude=STEP_RAD)
     sec.intro += "; ".join(f"{rate}: {_delays_text(r)}" for rate, r in (
         ("at 1 kHz (the paper's rate)", rs), ("at 1.5 kHz", r15))) + "."
     colors = plt_colors(len(GS_EXP))
@@ -478,10 +481,10 @@ def experiment_impulse(ctx: Context) -> Section:
 
     timing = TABLE_I_TIMING
     d = _design(14.0, **timing)
-    unit = sea_impulse(d, impulse_nms=1.0, t_end_s=1.0)
+    unit = d.impulse(amplitude=1.0, t_end_s=1.0)
     J = float(np.radians(2.5) / unit.metrics.peak_deviation)
-    rc = sea_impulse(d, impulse_nms=J, t_end_s=1.0)
-    rs = sea_impulse(d, impulse_nms=J, t_end_s=1.0, mode="sampled")
+    rc = d.impulse(amplitude=J, t_end_s=1.0)
+    rs = d.impulse(amplitude=J, t_end_s=1.0, mode="sampled")
     sec = Section("experiment-impulse", "Fig. ExperimentImpulse: impulse disturbance",
                   intro="f_n = 14 Hz gains (Table I), Table I delays and filters, an angular "
                         "impulse of external torque on the joint at t = 0 (q_des = 0). The "

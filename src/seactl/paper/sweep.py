@@ -16,7 +16,8 @@ import numpy as np
 
 from ..actuators import UT_SEA
 from ..report import Claim, Context, Figure, Section, numeric_claim, section
-from ..sweep import SweepSpec, read_sweep, run_sweep
+from ..sweep import SweepSpec
+from ..systems import read_sweep, sweep
 from .constants import TABLE_I_PM
 
 FN_HZ = (12.0, 14.0, 16.0, 20.0)
@@ -24,18 +25,18 @@ DELAYS_MS = tuple(float(x) for x in np.round(np.arange(0.0, 20.0001, 0.5), 10))
 T_QS0, T_QD0 = 2.0, 0.5   # Table I's stiffness and damping delays [ms]
 
 
-def latency_spec(chunk_size: int = 2000) -> SweepSpec:
-    return SweepSpec(UT_SEA, (("fn_hz", FN_HZ), ("t_tau_ms", (0.5,)), ("t_qs_ms", DELAYS_MS),
-                              ("t_qd_ms", DELAYS_MS), ("f_qd_hz", (50.0,)),
-                              ("f_taud_hz", (100.0,))), chunk_size=chunk_size)
+LATENCY_AXES = {"fn_hz": FN_HZ, "t_tau_ms": (0.5,), "t_qs_ms": DELAYS_MS, "t_qd_ms": DELAYS_MS,
+                "f_qd_hz": (50.0,), "f_taud_hz": (100.0,)}
+"""The latency sweep's axes, as keywords of :func:`seactl.sweep`."""
 
 
 def latency_map() -> tuple[np.ndarray, np.ndarray, dict]:
-    """``pm[k, i_qs, i_qd]``, ``stable[...]`` and run info, via a sweep in this process."""
-    spec = latency_spec()
+    """``pm[k, i_qs, i_qd]``, ``stable[...]`` and run info, via :func:`seactl.sweep` in
+    this process."""
     t0 = time.perf_counter()
     with tempfile.TemporaryDirectory(prefix="seactl-latency-") as tmp:
-        res = run_sweep(spec, Path(tmp) / "sweep", workers=0)
+        res = sweep(Path(tmp) / "sweep", actuator=UT_SEA, chunk_size=2000, workers=0,
+                    **LATENCY_AXES)
         t = read_sweep(Path(tmp) / "sweep", ["phase_margin_deg", "stable", "feasible"])
     if not np.all(t.column("feasible").to_numpy()):
         raise RuntimeError("latency map: an f_n of FN_HZ is infeasible")
@@ -137,6 +138,7 @@ MC_SAMPLES = 4000
 
 @section(71, "robustness-mc")
 def robustness_mc(ctx: Context) -> Section:
+    # the parameter Monte Carlo of `seactl robust` has no function in the sc namespace
     from ..plots import robust_histogram_figure
     from ..sweep import parameter_robustness, relative_interval
 
