@@ -13,7 +13,6 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from numba import njit
 
 from ._borrow import borrowed
 from ._vecmath import (
@@ -29,6 +28,7 @@ from ._vecmath import (
     with_lane,
 )
 from .blockdiagram import EVAL_ROUNDING
+from .jit import njit
 
 # Limits (documented in seactl.margins, which re-exports them).
 MAX_BISECTIONS = 48

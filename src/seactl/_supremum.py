@@ -24,12 +24,12 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from numba import njit
 
 from ._certify import compact, derivatives, horner_row, np_maximum, np_minimum
 from ._parallel import chunk_size, map_in_threads
 from ._realpart import bisect
 from .blockdiagram import EVAL_ROUNDING, QuasiPolynomial, padded_sum, rounding_majorant
+from .jit import njit
 
 EPS = 1e-9
 """Relative slack of the proven bound over the largest value found."""

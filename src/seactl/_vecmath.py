@@ -30,8 +30,8 @@ is keyed on), and as four scalar calls otherwise (other C libraries, other proce
 every target (no library): the scan's moduli four at a time.
 
 numba keys a kernel's on-disk cache on the kernel's own source file: after editing this
-module, touch :mod:`seactl._certify` (or clear its ``__pycache__``) so that its kernels
-are compiled again.
+module, touch :mod:`seactl._certify` (or delete the ``numba`` folder of
+:func:`seactl.usercache.cache_dir`) so that its kernels are compiled again.
 """
 
 from __future__ import annotations

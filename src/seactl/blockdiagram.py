@@ -43,16 +43,15 @@ from __future__ import annotations
 
 import hashlib
 import json
-import os
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from functools import cached_property, lru_cache, reduce
-from pathlib import Path
 from typing import Any
 
 import numpy as np
 
 from .errors import InputError
+from .usercache import cache_dir
 
 Coeffs = Callable[[Any], Sequence[Any]]
 
@@ -315,17 +314,6 @@ class DesignSubset:
         return value.reshape(-1)[self._idx]
 
 
-def _cache_dir() -> Path | None:
-    """Where derived expressions persist between runs (``SEACTL_CACHE_DIR``; ``off``
-    disables)."""
-    env = os.environ.get("SEACTL_CACHE_DIR")
-    if env == "off":
-        return None
-    base = Path(env) if env else Path(os.environ.get("XDG_CACHE_HOME",
-                                                      Path.home() / ".cache")) / "seactl"
-    return base
-
-
 def _structure_key(diagram: BlockDiagram, output: str, input: str, cut: tuple[str, ...],
                    kind: str | None) -> str:
     """Hash of everything the symbolic solution depends on: the wiring, which blocks
@@ -354,7 +342,7 @@ def _symbolic(diagram: BlockDiagram, output: str, input: str, cut: tuple[str, ..
 
 def _cache_read(name: str) -> str | None:
     """The text of disk-cache entry ``name``, or None (absent, or the cache disabled)."""
-    folder = _cache_dir()
+    folder = cache_dir()
     path = folder / name if folder else None
     return path.read_text() if path is not None and path.is_file() else None
 
@@ -364,7 +352,7 @@ def _cache_write(name: str, text: str) -> None:
     from .errors import OutputError
     from .outputs import write_atomic
 
-    folder = _cache_dir()
+    folder = cache_dir()
     if folder is not None:
         try:
             write_atomic(folder / name, text)

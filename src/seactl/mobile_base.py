@@ -48,13 +48,13 @@ from pathlib import Path
 from typing import Annotated, Any
 
 import numpy as np
-from numba import njit
 from pydantic import Field
 
 from ._borrow import borrowed
 from ._parallel import in_threads
 from ._params import check, nonnegative, positive, read_toml, schema_of, validate
 from .errors import InputError
+from .jit import njit
 
 ARCHS = ("cosc", "dosc")
 

@@ -102,11 +102,11 @@ from functools import cached_property
 from typing import Any
 
 import numpy as np
-from numba import njit
 
 from ._parallel import eigvals, in_threads, stacked
 from .blockdiagram import Block, BlockDiagram
 from .errors import InputError, SeactlError
+from .jit import njit
 from .limits import check_budget, simulation_estimate
 from .verdict import RECOVERY_BAND, STEP_BAND
 
