@@ -68,8 +68,8 @@ def _upper(N: QuasiPolynomial, Delta: QuasiPolynomial, majors: tuple, d: np.ndar
     """Upper bounds of ``(w |N| / |Delta|)^2`` on the intervals (inf where ``Delta`` may
     vanish): the smaller of ``(wb sup |N| / inf |Delta|)^2`` and, second order, the larger
     end value plus ``h^2/8 sup |(u/v)''|`` with ``u = w^2 |N|^2``, ``v = |Delta|^2``
-    (compiled, :func:`_upper_rows`: numpy's passes over the intervals were a third of the
-    proof)."""
+    (compiled, :func:`_upper_rows`: one pass over the intervals instead of numpy's
+    temporaries)."""
     f8 = lambda x: np.ascontiguousarray(x, float)  # noqa: E731
     return _upper_rows(f8(pa), f8(pb), np.asarray(d, np.intp), f8(N.bound3_coeffs),
                        f8(Delta.bound3_coeffs), f8(majors[0]), f8(majors[1]),

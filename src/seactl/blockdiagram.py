@@ -669,8 +669,8 @@ def evaluate_forms(forms: Sequence[QuasiForm], design: Any) -> tuple[QuasiPolyno
 
 def _powers_first(coeffs: Sequence[np.ndarray], shape: tuple[int, ...]) -> np.ndarray:
     """Coefficients (descending powers, each broadcastable to ``shape``) as one array of
-    ascending powers on the first axis (filled by assignment, which broadcasts: a third of
-    :meth:`QuasiForm.evaluate` for one design went to ``broadcast_to`` and ``stack``)."""
+    ascending powers on the first axis (filled by assignment, which broadcasts, rather
+    than through ``broadcast_to`` and ``stack``, which cost a lone design more)."""
     out = np.empty((len(coeffs),) + shape)
     for i, c in enumerate(coeffs[::-1]):
         out[i] = c
@@ -694,7 +694,7 @@ def _polyadd(a: np.ndarray, b: np.ndarray) -> np.ndarray:
 
 def _last_true(mask: np.ndarray) -> np.ndarray:
     """Index of the last ``True`` along the last axis (-1 where none), a few powers one
-    column at a time (numpy's reductions over a short last axis took ten times as long)."""
+    column at a time (cheaper than numpy's reduction over a short last axis)."""
     last = np.full(mask.shape[:-1], -1)
     for j in range(mask.shape[-1]):
         last = np.where(mask[..., j], j, last)
@@ -703,7 +703,7 @@ def _last_true(mask: np.ndarray) -> np.ndarray:
 
 def columnwise(ufunc: np.ufunc, a: np.ndarray) -> np.ndarray:
     """``ufunc.reduce(a, axis=-1)`` for a few columns, one column at a time (numpy's
-    reduction over a short last axis took ten times as long); for idempotent ``ufunc``
+    reduction over a short last axis costs more); for idempotent ``ufunc``
     (``maximum``, ``minimum``, ``logical_or``, ...), whose result does not depend on the
     order (the first column enters twice: a new array of the reduction's type)."""
     columns = np.moveaxis(a, -1, 0)

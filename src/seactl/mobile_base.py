@@ -481,7 +481,7 @@ def _matrices(p: MobileBaseParams) -> np.ndarray:
 
 
 # The per-sample loop is compiled (numba, cached on disk): thousands of samples of a few
-# scalar operations each, where numpy's per-call overhead dominated (issue: reproduce time).
+# scalar operations each, where numpy's per-call overhead would outweigh the arithmetic.
 @njit(cache=True, nogil=True)
 def _simulate_batch(c, mats, gains, ref, V0, out, sat):  # pragma: no cover - compiled
     """The multi-rate base, one batch element at a time.
@@ -506,8 +506,7 @@ def _simulate_batch(c, mats, gains, ref, V0, out, sat):  # pragma: no cover - co
 def _simulate_one(c, mats, gains, ref, out, sat, b, X, V, PHI, QM, WM, meas, cmd, central,
                   work):  # pragma: no cover - compiled
     """Batch element ``b`` of :func:`_simulate_batch`, its arrays borrowed
-    (:mod:`seactl._borrow`: the reference counts of the arrays passed at every step were
-    40 % of the time)."""
+    (:mod:`seactl._borrow`: no reference counting of the arrays passed at every step)."""
     mats, gains, ref, out, sat = borrowed(mats), borrowed(gains), borrowed(ref), \
         borrowed(out), borrowed(sat)
     X, V, PHI, QM, WM = borrowed(X), borrowed(V), borrowed(PHI), borrowed(QM), borrowed(WM)
