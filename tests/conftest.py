@@ -2,12 +2,38 @@ import os
 import tempfile
 
 import matplotlib
+import pytest
+
+from seactl.cli import main
+from seactl.usercache import numba_cache_dir
 
 matplotlib.use("Agg")
 
 # Derive block-diagram transfers afresh in every test session (the on-disk cache of
-# derived expressions is tested explicitly in test_blockdiagram.py).
+# derived expressions is tested explicitly in test_blockdiagram.py); the compiled kernels
+# keep their cache in the user's cache directory (NUMBA_CACHE_DIR takes precedence over
+# SEACTL_CACHE_DIR for them), so a session does not compile them all again.
+_kernels = numba_cache_dir()
+if _kernels is not None:
+    os.environ.setdefault("NUMBA_CACHE_DIR", str(_kernels))
 os.environ["SEACTL_CACHE_DIR"] = tempfile.mkdtemp(prefix="seactl-test-cache-")
+
+
+def pytest_configure(config):
+    # the snapshot is rewritten by a slow test: that option runs the slow tests too
+    if config.getoption("--update-claims-snapshot"):
+        config.option.markexpr = "not fuzz"
+
+
+@pytest.fixture(scope="session")
+def first_sections_report(tmp_path_factory):
+    """The report's first sections (``table-i``, ``feasibility``: seconds, where the whole
+    report takes minutes) built once per session through the command line, for the tests
+    of the report and of its snapshot."""
+    out = tmp_path_factory.mktemp("report") / "seactl-report"
+    assert main(["reproduce", "--out", str(out), "--only", "table-i", "--only",
+                 "feasibility"]) == 0
+    return out
 
 
 def pytest_addoption(parser):

@@ -3,7 +3,9 @@
 Oracle: ``tests/data/claims_snapshot.json``, a reviewed earlier run.  A claim whose status
 changes, whose value moves by more than its own tolerance, or that appears or disappears makes
 this test fail, so a change to margins, simulation or design that flips a paper claim is a
-reviewed change.  After reviewing such a change, refresh the snapshot with::
+reviewed change.  The whole report is a slow test (``pytest -m slow``); the default run
+compares the report's first sections.  After reviewing a change, refresh the snapshot with
+(the option selects the slow tests too)::
 
     .venv/bin/python -m pytest tests/test_claims_snapshot.py --update-claims-snapshot
 """
@@ -65,13 +67,9 @@ def _close(ours, snap, tol) -> bool:
     return ours == snap
 
 
-def test_claims_match_snapshot(report_dir, request):
-    claims = json.loads((report_dir / "claims.json").read_text())
-    current = _snapshot_of(claims)
-    if request.config.getoption("--update-claims-snapshot"):
-        SNAPSHOT.write_text(json.dumps(current, indent=1, sort_keys=True) + "\n")
-        pytest.skip(f"snapshot rewritten: {SNAPSHOT}")
-    snap = {c["id"]: c for c in json.loads(SNAPSHOT.read_text())}
+def _problems(current: list[dict], snapshot: list[dict]) -> list[str]:
+    """What changed from ``snapshot`` to ``current`` (claims as :func:`_snapshot_of`)."""
+    snap = {c["id"]: c for c in snapshot}
     now = {c["id"]: c for c in current}
     problems = [f"{i}: new claim" for i in sorted(now.keys() - snap.keys())]
     problems += [f"{i}: claim disappeared" for i in sorted(snap.keys() - now.keys())]
@@ -82,17 +80,50 @@ def test_claims_match_snapshot(report_dir, request):
         elif not _close(a["our_value"], b["our_value"], b["tolerance"]):
             problems.append(f"{i}: value {b['our_value']!r} -> {a['our_value']!r} "
                             f"(tolerance {b['tolerance']!r})")
+    return problems
+
+
+@pytest.mark.slow
+def test_claims_match_snapshot(report_dir, request):
+    claims = json.loads((report_dir / "claims.json").read_text())
+    current = _snapshot_of(claims)
+    if request.config.getoption("--update-claims-snapshot"):
+        SNAPSHOT.write_text(json.dumps(current, indent=1, sort_keys=True) + "\n")
+        pytest.skip(f"snapshot rewritten: {SNAPSHOT}")
+    problems = _problems(current, json.loads(SNAPSHOT.read_text()))
     assert not problems, "claims changed (review, then --update-claims-snapshot):\n" + \
         "\n".join(problems)
 
 
+def test_first_sections_match_snapshot(first_sections_report):
+    # The same comparison on the report's first sections (conftest.first_sections_report),
+    # against the snapshot's claims of those sections (their ids' first component).
+    current = _snapshot_of(json.loads((first_sections_report / "claims.json").read_text()))
+    prefixes = {c["id"].split(".")[0] for c in current}
+    snapshot = [c for c in json.loads(SNAPSHOT.read_text()) if c["id"].split(".")[0] in prefixes]
+    assert len(current) >= 20
+    problems = _problems(current, snapshot)
+    assert not problems, "claims changed (review, then --update-claims-snapshot):\n" + \
+        "\n".join(problems)
+
+
+def _html_lists_every_claim_and_figure(report: Path) -> list[str]:
+    """Oracle: claims.json and the figures directory of the same run; the figures."""
+    html = (report / "index.html").read_text()
+    claims = json.loads((report / "claims.json").read_text())
+    assert claims and all(c["id"] in html for c in claims)
+    figures = sorted(p.name for p in (report / "figures").iterdir())
+    assert all(f"figures/{name}" in html for name in figures)
+    return figures
+
+
+@pytest.mark.slow
 def test_report_html_lists_every_claim_and_figure(report_dir):
-    """Oracle: claims.json and the figures directory of the same run."""
-    html = (report_dir / "index.html").read_text()
-    claims = json.loads((report_dir / "claims.json").read_text())
-    assert all(c["id"] in html for c in claims)
-    figures = sorted(p.name for p in (report_dir / "figures").iterdir())
-    assert figures and all(f"figures/{name}" in html for name in figures)
+    assert _html_lists_every_claim_and_figure(report_dir)
+
+
+def test_first_sections_html_lists_every_claim_and_figure(first_sections_report):
+    _html_lists_every_claim_and_figure(first_sections_report)
 
 
 @pytest.mark.parametrize("ours, snap, same", [

@@ -398,6 +398,7 @@ def _wait(predicate, timeout_s: float = 30.0):
     raise AssertionError("timed out")
 
 
+@pytest.mark.slow  # (a browser and a server per test; the callbacks: above)
 def test_browser_slider_moves_the_displayed_phase_margin(server, browser):
     """Oracle: sc.design(...).margins() in this process, for the f_n the page shows."""
     from selenium.webdriver.common.keys import Keys
@@ -436,6 +437,7 @@ def _click(driver, label: str) -> None:
                           "b => b.textContent.trim() === arguments[0]).click();", label)
 
 
+@pytest.mark.slow  # (a browser and a server per test; the callbacks: above)
 def test_browser_upload_export_and_copy(server, browser, tmp_path):
     """A bad upload shows the library's message; a good one changes the design to the
     one :func:`seactl.design` computes for that file (oracle); the JSON export downloads

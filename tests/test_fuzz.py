@@ -8,7 +8,8 @@ directory (with a user's files and directories in it) is byte-for-byte unchanged
 exit 2 (nothing left behind, nothing overwritten) and the user's files not named as an
 output are unchanged after an exit 0; every vector finishes within a time bound.
 
-CI runs :data:`CI_EXAMPLES` vectors (deterministic); ``pytest -m fuzz`` runs 10,000.
+The default run draws :data:`QUICK_EXAMPLES` vectors and ``pytest -m slow`` (CI)
+:data:`CI_EXAMPLES`, both deterministic; ``pytest -m fuzz`` runs 10,000.
 Commands run in process (``seactl.cli.main``).  ``base`` (10 s or more per valid run) is
 drawn with at least one invalid value, ``reproduce``/``bench`` always get a cheap ``--only``,
 ``latency-map`` and ``robust`` small default grids; ``sweep`` runs in process
@@ -33,6 +34,7 @@ from hypothesis import strategies as st
 from seactl import UnitWarning
 from seactl.cli import main
 
+QUICK_EXAMPLES = 50
 CI_EXAMPLES = 200
 FULL_EXAMPLES = 10_000
 TIME_BOUND_S = 60.0
@@ -226,10 +228,18 @@ def _small_time_budget(monkeypatch):
     monkeypatch.setenv("SEACTL_MAX_SECONDS", "10")
 
 
-@settings(max_examples=CI_EXAMPLES, deadline=None, derandomize=True, database=None,
+@settings(max_examples=QUICK_EXAMPLES, deadline=None, derandomize=True, database=None,
           suppress_health_check=list(HealthCheck))
 @given(argv(full=False))
 def test_fuzz_cli(args):
+    check_vector(args)
+
+
+@pytest.mark.slow
+@settings(max_examples=CI_EXAMPLES, deadline=None, derandomize=True, database=None,
+          suppress_health_check=list(HealthCheck))
+@given(argv(full=False))
+def test_fuzz_cli_more(args):
     check_vector(args)
 
 

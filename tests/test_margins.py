@@ -281,6 +281,7 @@ def test_compiled_evaluation_with_more_delay_terms_than_a_phasor_call():
                                            refD[2][i, 0]]), rtol=1e-12)
 
 
+@pytest.mark.slow  # (compiles its own kernel around _point and _points4: tens of seconds)
 def test_base_grid_points_four_at_a_time_are_the_single_points_bits():
     """The scan evaluates its base grid four points at a time (vector operations across
     the points, ``_certify._points4``): every column of every row the bits of the single

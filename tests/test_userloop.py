@@ -735,6 +735,7 @@ def _loop_argv():
     return draw_argv()
 
 
+@pytest.mark.slow
 def test_fuzz_loop_commands():
     """The README's error contract for the loop commands, checked as tests/test_fuzz.py
     checks every command (exit 0 or 2, one-line errors, no traceback, no numpy warning,

@@ -3,8 +3,8 @@
 Numba counts the references of every array that a compiled function passes to another
 one it does not inline: two atomic (``lock``-prefixed) instructions per array per call.
 In the margin scan, which calls its per-point and per-interval helpers some hundred
-times per design with half a dozen arrays each, those counts took a fifth of the time
-(measured with ``perf``: 40 % of the samples were in ``NRT_incref`` and ``NRT_decref``).
+times per design with half a dozen arrays each, those counts would cost more than much of
+the arithmetic they guard.
 
 :func:`borrowed` gives a view of an array whose memory-info pointer is null, so that its
 counts are no-ops (numba's ``NRT_incref`` returns at once on a null pointer).  The view

@@ -5,7 +5,7 @@ operations on two small quasi-polynomials: in numpy the temporaries of every pas
 than the arithmetic, so the per-design loop is compiled (numba, cached on disk), and so is
 the solution of the crossings it brackets (:func:`refine`).  Each design's intervals are
 refined depth-first from its base grid; the soundness argument and the tolerances are
-those of :func:`seactl.margins.certified_margins`.
+those of :func:`seactl.margins.certified_margins` (docs/theory/certified-scan.md).
 """
 
 from __future__ import annotations
@@ -13,7 +13,6 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from numba import njit
 
 from ._borrow import borrowed
 from ._vecmath import (
@@ -29,6 +28,7 @@ from ._vecmath import (
     with_lane,
 )
 from .blockdiagram import EVAL_ROUNDING
+from .jit import njit
 
 # Limits (documented in seactl.margins, which re-exports them).
 MAX_BISECTIONS = 48
@@ -56,9 +56,9 @@ def _eval(coeffs, delays, d, w, order):  # pragma: no cover - compiled
 def _eval_pair(Nc, Nt, Dc, Dt, kd, d, w, order):  # pragma: no cover - compiled
     """:func:`_eval` of ``N`` and of the first ``kd`` terms of ``D``: their delay phasors
     four at a time (:func:`seactl._vecmath.cis4`: two vector calls for the SEA loop's
-    three delays instead of six scalar ones, a tenth of the scan)."""
+    three delays instead of six scalar ones)."""
     kn = Nc.shape[0]
-    if kn + kd <= 4:  # (one group: 6 % of the scan faster than the loop)
+    if kn + kd <= 4:  # (one group: straight-line code, no loop over groups)
         cos_, sin_ = _phasors(Nt, Dt, kn, kd, d, w, 0)
         N, dN, d2N = _terms(Nc, Nt, 0, kn, 0, d, w, order, cos_, sin_)
         D, dD, d2D = _terms(Dc, Dt, 0, kd, kn, d, w, order, cos_, sin_)
@@ -172,8 +172,8 @@ def compact(q) -> tuple[np.ndarray, np.ndarray]:
     k = q.coeffs.shape[0]
     terms = (q.coeffs.reshape(k, -1) != 0).any(axis=1)
     terms[0] |= not terms.any()
-    # (a sum of moduli is 0 only where all are: numpy's any() over the designs' few
-    # powers took ten times as long)
+    # (a sum of moduli is 0 only where all are: one reduction instead of numpy's any()
+    # over the designs' few powers)
     powers = np.nonzero(q.abs_coeffs.reshape(-1, q.coeffs.shape[-1]).sum(axis=0) != 0)[0]
     top = powers[-1] + 1 if powers.size else 1
     return descending(q.coeffs[terms, :, :top]), np.ascontiguousarray(q.delays[terms], float)
@@ -359,9 +359,8 @@ def _dlog(N, dN, D, dD):  # pragma: no cover - compiled
 
 @njit(cache=True, inline="always")
 def _mag4(z0, z1, z2, z3):  # pragma: no cover - compiled
-    """:func:`_mag_v4` of four complex numbers (a point's eleven moduli one at a time were
-    3 % of the scan), its range test on the four scalar sums (through :func:`_mag_v4`'s
-    vectors, the scan was 0.7 % slower)."""
+    """:func:`_mag_v4` of four complex numbers (a point's eleven moduli, four at a time),
+    its range test on the four scalar sums rather than on :func:`_mag_v4`'s vectors."""
     s0 = z0.real * z0.real + z0.imag * z0.imag
     s1 = z1.real * z1.real + z1.imag * z1.imag
     s2 = z2.real * z2.real + z2.imag * z2.imag
@@ -376,7 +375,7 @@ def _mag4(z0, z1, z2, z3):  # pragma: no cover - compiled
 @njit(cache=True)
 def _mag(z):  # pragma: no cover - compiled
     """``|z|``: the square root of the squares where they cannot overflow or underflow
-    (several times faster than ``hypot``), ``hypot`` elsewhere."""
+    (cheaper than ``hypot``, which scales to avoid them), ``hypot`` elsewhere."""
     m = max(abs(z.real), abs(z.imag))
     if 1e-150 < m < 1e150:
         return math.sqrt(z.real * z.real + z.imag * z.imag)
@@ -400,7 +399,7 @@ def _div(a, b):  # pragma: no cover - compiled
 def _certified(P, a, b, bN, bD, stability_only, no_loop, final, band):  # pragma: no cover
     """``(Delta certified, no unseen gain crossing, no unseen phase crossing)`` for the
     interval between the points in rows ``a`` and ``b`` of ``P`` (step 3 of
-    :func:`seactl.margins.certified_margins`); ``band``: the design's row of
+    docs/theory/certified-scan.md); ``band``: the design's row of
     :func:`band_table`, the band of ``|L|`` whose phase crossings are certified.  The
     points are passed as row numbers, not as rows: each row view costs numba an atomic
     reference count (the scan spent 20 % of its time in them).  Unless ``final`` (the
@@ -434,7 +433,7 @@ def _certified(P, a, b, bN, bD, stability_only, no_loop, final, band):  # pragma
     xN, xD = min(0.5 * (P[a, A_N] + P[b, A_N] + h * sN), max(P[a, A_N], P[b, A_N]) + rN), \
         min(0.5 * (P[a, A_D] + P[b, A_D] + h * sD), max(P[a, A_D], P[b, A_D]) + rD)
     # outside the band throughout: |N|, |D| apart (no gain crossing) and no phase
-    # crossing that matters; decided before the paths' lengths (3 % of the scan)
+    # crossing that matters; decided before the paths' lengths, which it spares
     if xN < band[0] * mD or mN > band[1] * xD:
         return ok, True, True
     # sup |Q'' Q - Q'^2| from its ends and (Q'' Q - Q'^2)' = Q''' Q - Q'' Q'
@@ -686,7 +685,7 @@ def _scan(Nc, Nt, Dc, Dt, bounds, w_lo, per_decade, step, top, stability_only,
           no_loop, band, winding, uncertain, out, d0, d1, P, stack, powers,
           ws):  # pragma: no cover - compiled
     """:func:`scan` with its work arrays ``P``, ``stack`` and ``ws``; every array borrowed
-    (:mod:`seactl._borrow`: 20 % of the scan was reference counting).  The base grid's
+    (:mod:`seactl._borrow`: no reference counting in the per-point loop).  The base grid's
     points are evaluated four at a time (:func:`_points4`) into rows 1 to 4 of ``P``."""
     Nc, Nt, Dc, Dt, bounds = borrowed(Nc), borrowed(Nt), borrowed(Dc), borrowed(Dt), \
         borrowed(bounds)
@@ -853,9 +852,9 @@ def _hermite_root(xl, xr, fl, fr, dl, dr):  # pragma: no cover - compiled
     opposite signs: the root in ``(xl, xr)`` of the cubic matching them and the slopes
     ``dl``, ``dr`` (Newton's method on the cubic kept inside the bracket by bisection, to
     ``1e-6`` of the bracket: the cubic models the function no closer, and Newton's
-    method on the function takes it from there; at ``1e-13`` the iteration ran 5.7
-    steps instead of 1.7, and to its limit of 40 where rounding stalled it, a fifth of
-    the crossings' solution); without finite slopes, the regula falsi point."""
+    method on the function takes it from there; a tighter tolerance only adds steps,
+    up to the iteration limit where rounding stalls them); without finite slopes, the
+    regula falsi point."""
     h = xr - xl
     t = fl / (fl - fr)
     ml, mr = dl * h, dr * h

@@ -18,7 +18,7 @@ from .errors import InputError
 KINDS = ("frd", "pade", "pade-ss")
 SEA_TRANSFERS = ("loop", "inner", "closed", "impedance")
 MAX_PADE_ORDER = 4
-"""Beyond this, the SEA's polynomial coefficients exceed 1e60 and margins fail (measured)."""
+"""Beyond this, the SEA's polynomial coefficients exceed 1e60 and margins fail."""
 
 
 RIGID_TRANSFERS = ("loop", "closed", "compliance")

@@ -1,9 +1,8 @@
 """Compiled coefficients of the third-derivative majorant of quasi-polynomials
 (:attr:`seactl.blockdiagram.QuasiPolynomial.bound3_coeffs`).
 
-In numpy the majorant took some twenty passes over ``(terms, designs, powers)`` arrays,
-each a fresh temporary: 1.9 ms for the loop's ``N`` and ``D`` of 10,000 designs, a fiftieth
-of their margins.  One compiled pass does the same operations in the same order (numpy's
+In numpy the majorant takes some twenty passes over ``(terms, designs, powers)`` arrays,
+each a fresh temporary; one compiled pass does the same operations in the same order (numpy's
 sum over terms adds them one after another from the first; ``tau**2`` is a product, and
 ``tau**3`` comes from numpy, whose power is not libm's to the bit), so the coefficients
 are numpy's to the bit.
@@ -12,7 +11,8 @@ are numpy's to the bit.
 from __future__ import annotations
 
 import numpy as np
-from numba import njit
+
+from .jit import njit
 
 
 @njit(cache=True, nogil=True, error_model="numpy")

@@ -85,8 +85,8 @@ def stacked(fn: Callable[[np.ndarray], np.ndarray], A: np.ndarray,
     """``fn`` (a numpy ``linalg`` function of a stack of matrices, such as
     ``np.linalg.eigvals`` or ``np.linalg.inv``) with the stack split over one thread per
     core and LAPACK on one thread per call (for many small problems its own threads only
-    contend): 1.8x on two cores, the same result bit for bit (LAPACK solves each matrix
-    alone).  A single matrix goes to ``fn`` as it is.
+    contend), the same result bit for bit (LAPACK solves each matrix alone).  A single
+    matrix goes to ``fn`` as it is.
 
     Examples
     --------

@@ -24,13 +24,13 @@ from __future__ import annotations
 import math
 
 import numpy as np
-from numba import njit
 
 from ._cauchy import cauchy_bound
 from ._certify import compact, derivatives, horner_row, np_maximum, np_minimum
 from ._parallel import chunk_size, map_in_threads
 from ._realpart import bisect
 from .blockdiagram import EVAL_ROUNDING, QuasiPolynomial, padded_sum, rounding_majorant
+from .jit import njit
 
 EPS = 1e-9
 """Relative slack of the proven bound over the largest value found."""
@@ -69,8 +69,8 @@ def _upper(N: QuasiPolynomial, Delta: QuasiPolynomial, majors: tuple, d: np.ndar
     """Upper bounds of ``(w |N| / |Delta|)^2`` on the intervals (inf where ``Delta`` may
     vanish): the smaller of ``(wb sup |N| / inf |Delta|)^2`` and, second order, the larger
     end value plus ``h^2/8 sup |(u/v)''|`` with ``u = w^2 |N|^2``, ``v = |Delta|^2``
-    (compiled, :func:`_upper_rows`: numpy's passes over the intervals were a third of the
-    proof)."""
+    (compiled, :func:`_upper_rows`: one pass over the intervals instead of numpy's
+    temporaries)."""
     f8 = lambda x: np.ascontiguousarray(x, float)  # noqa: E731
     return _upper_rows(f8(pa), f8(pb), np.asarray(d, np.intp), f8(N.bound3_coeffs),
                        f8(Delta.bound3_coeffs), f8(majors[0]), f8(majors[1]),

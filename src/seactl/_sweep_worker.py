@@ -1,8 +1,8 @@
 """Local sweep workers: loaded before their first chunk, and deaf to Ctrl-C.
 
-A worker needs the sweep's modules and compiled kernels. Loading them takes a spawned
-worker about 0.55 s (numba's registries, scipy.linalg through numba's BLAS check, the
-kernels' cache); on a cold numba cache it compiles them. Where the platform has a fork
+A worker needs the sweep's modules and compiled kernels. A spawned worker loads them
+(numba's registries, scipy.linalg through numba's BLAS check, the kernels' cache) before
+its first chunk; on a cold numba cache it compiles them. Where the platform has a fork
 server (Linux, macOS), :func:`seactl.sweep._local_cluster` has it import
 :mod:`seactl._sweep_template`, which calls :func:`warm` once; every worker is then forked
 with all of that loaded. Elsewhere (Windows) the workers spawn, and :func:`dask_setup`
@@ -43,7 +43,7 @@ def warm() -> None:
             from .actuators import UT_SEA
             from .sweep import SweepSpec, evaluate_chunk
 
-            # (not the impedance columns' path: its sympy would cost every sweep 0.3 s)
+            # (not the impedance columns' path: it would load sympy in every sweep)
             evaluate_chunk(SweepSpec(UT_SEA, (("fn_hz", (12.0, 20.0)),)), 0)
             _warm = True
     except Exception:  # noqa: BLE001, S110 - reported by the first chunk instead

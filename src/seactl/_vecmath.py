@@ -3,14 +3,13 @@ compiled kernel.
 
 A design's loop has a few delay terms, and every frequency point of the margin scan needs
 ``e^{-j w tau}`` of each (three sine-cosine pairs for the SEA loop) and ``arg L``, which
-glibc's scalar functions compute one after the other: 60 ns for three sine-cosine pairs
-here, 21 ns for an arctangent.  glibc's vector math library (libmvec) computes four at
-once in one AVX2 call (``_ZGVdN4v_cos``, ``_ZGVdN4v_sin``, ``_ZGVdN4vv_atan2``): 7 ns for
-the same three pairs, 8 ns for an arctangent.
+glibc's scalar functions compute one after the other.  glibc's vector math library
+(libmvec) computes four at once in one AVX2 call (``_ZGVdN4v_cos``, ``_ZGVdN4v_sin``,
+``_ZGVdN4vv_atan2``), for little more than the cost of one scalar call.
 
 Accuracy: glibc states that its vector functions were tested, by random sampling over
-their domains, to stay within 4 ulps (its scalar ones: under 1 ulp); measured here up to
-3.5 ulps (``tests/test_vecmath.py``, against 120-bit references).
+their domains, to stay within 4 ulps (its scalar ones: under 1 ulp);
+``tests/test_vecmath.py`` holds them to 4 ulps of 120-bit references.
 * The phasors: the scan's rounding allowance (:data:`seactl.blockdiagram.EVAL_ROUNDING`,
   1e-13 relative to ``sum |c_kj| w^j``: some 450 ulps) covers a phasor off by
   ``4 sqrt(2)`` ulps with room, each term's error being its polynomial's modulus times
@@ -30,8 +29,8 @@ is keyed on), and as four scalar calls otherwise (other C libraries, other proce
 every target (no library): the scan's moduli four at a time.
 
 numba keys a kernel's on-disk cache on the kernel's own source file: after editing this
-module, touch :mod:`seactl._certify` (or clear its ``__pycache__``) so that its kernels
-are compiled again.
+module, touch :mod:`seactl._certify` (or delete the ``numba`` folder of
+:func:`seactl.usercache.cache_dir`) so that its kernels are compiled again.
 """
 
 from __future__ import annotations

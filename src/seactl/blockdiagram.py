@@ -43,16 +43,15 @@ from __future__ import annotations
 
 import hashlib
 import json
-import os
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from functools import cached_property, lru_cache, reduce
-from pathlib import Path
 from typing import Any
 
 import numpy as np
 
 from .errors import InputError
+from .usercache import cache_dir
 
 Coeffs = Callable[[Any], Sequence[Any]]
 
@@ -315,17 +314,6 @@ class DesignSubset:
         return value.reshape(-1)[self._idx]
 
 
-def _cache_dir() -> Path | None:
-    """Where derived expressions persist between runs (``SEACTL_CACHE_DIR``; ``off``
-    disables)."""
-    env = os.environ.get("SEACTL_CACHE_DIR")
-    if env == "off":
-        return None
-    base = Path(env) if env else Path(os.environ.get("XDG_CACHE_HOME",
-                                                      Path.home() / ".cache")) / "seactl"
-    return base
-
-
 def _structure_key(diagram: BlockDiagram, output: str, input: str, cut: tuple[str, ...],
                    kind: str | None) -> str:
     """Hash of everything the symbolic solution depends on: the wiring, which blocks
@@ -354,7 +342,7 @@ def _symbolic(diagram: BlockDiagram, output: str, input: str, cut: tuple[str, ..
 
 def _cache_read(name: str) -> str | None:
     """The text of disk-cache entry ``name``, or None (absent, or the cache disabled)."""
-    folder = _cache_dir()
+    folder = cache_dir()
     path = folder / name if folder else None
     return path.read_text() if path is not None and path.is_file() else None
 
@@ -364,7 +352,7 @@ def _cache_write(name: str, text: str) -> None:
     from .errors import OutputError
     from .outputs import write_atomic
 
-    folder = _cache_dir()
+    folder = cache_dir()
     if folder is not None:
         try:
             write_atomic(folder / name, text)
@@ -681,8 +669,8 @@ def evaluate_forms(forms: Sequence[QuasiForm], design: Any) -> tuple[QuasiPolyno
 
 def _powers_first(coeffs: Sequence[np.ndarray], shape: tuple[int, ...]) -> np.ndarray:
     """Coefficients (descending powers, each broadcastable to ``shape``) as one array of
-    ascending powers on the first axis (filled by assignment, which broadcasts: a third of
-    :meth:`QuasiForm.evaluate` for one design went to ``broadcast_to`` and ``stack``)."""
+    ascending powers on the first axis (filled by assignment, which broadcasts, rather
+    than through ``broadcast_to`` and ``stack``, which cost a lone design more)."""
     out = np.empty((len(coeffs),) + shape)
     for i, c in enumerate(coeffs[::-1]):
         out[i] = c
@@ -706,7 +694,7 @@ def _polyadd(a: np.ndarray, b: np.ndarray) -> np.ndarray:
 
 def _last_true(mask: np.ndarray) -> np.ndarray:
     """Index of the last ``True`` along the last axis (-1 where none), a few powers one
-    column at a time (numpy's reductions over a short last axis took ten times as long)."""
+    column at a time (cheaper than numpy's reduction over a short last axis)."""
     last = np.full(mask.shape[:-1], -1)
     for j in range(mask.shape[-1]):
         last = np.where(mask[..., j], j, last)
@@ -715,7 +703,7 @@ def _last_true(mask: np.ndarray) -> np.ndarray:
 
 def columnwise(ufunc: np.ufunc, a: np.ndarray) -> np.ndarray:
     """``ufunc.reduce(a, axis=-1)`` for a few columns, one column at a time (numpy's
-    reduction over a short last axis took ten times as long); for idempotent ``ufunc``
+    reduction over a short last axis costs more); for idempotent ``ufunc``
     (``maximum``, ``minimum``, ``logical_or``, ...), whose result does not depend on the
     order (the first column enters twice: a new array of the reduction's type)."""
     columns = np.moveaxis(a, -1, 0)

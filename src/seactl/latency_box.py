@@ -35,8 +35,8 @@ LATTICE_RATIO = 2.0 ** (1.0 / 4.0)
 CHUNK_DESIGNS = 20_000
 """Designs evaluated in one batch (bounds the memory of one margin computation)."""
 SECONDS_PER_POINT = 1e-3
-"""Estimated time per latency combination of a score (about 50 margin evaluations of
-20 us), for refusing work up front."""
+"""Estimated time per latency combination of a score (some 50 margin evaluations), for
+refusing work up front."""
 
 
 def latency_lattice_s(upper_s: float) -> np.ndarray:

@@ -73,7 +73,7 @@ def check_budget(what: str, *, n_bytes: float = 0.0, seconds: float = 0.0,
                  hint: str = "") -> None:
     """Refuse work estimated to need more memory than the machine has, or longer than
     :func:`time_budget_s`; the message gives the estimate, the limit and ``hint``."""
-    # (memory read only when there is some to check: /proc/meminfo costs 50 us a call)
+    # (memory read only when there is some to check: /proc/meminfo is a file read)
     mem = available_memory_bytes() * MEMORY_FRACTION if n_bytes > 0 else 0.0
     if n_bytes > mem:
         raise ResourceError(f"{what} needs about {human_bytes(n_bytes)} of memory, more than "
@@ -137,10 +137,10 @@ def check_range(name: str, value: float, kind: str) -> float:
 # ------------------------------------------------------------------ estimates
 BYTES_PER_DESIGN = 27e3
 """Peak memory of one design's gains and margins, an upper bound for refusing work up
-front (measured in the sweep: 27 kB/point when it was set, 5.3 kB/point on 2026-11-26)."""
+front (above the sweep's peak per point, which ``seactl bench`` reports)."""
 SIM_SECONDS_PER_STEP = 40e-6
-"""Time of one simulation step, plus :data:`SIM_SECONDS_PER_DESIGN_STEP` per design
-(measured: 26-46 us per step for one design, 2 us per extra design; rounded up)."""
+"""Time of one simulation step, plus :data:`SIM_SECONDS_PER_DESIGN_STEP` per design:
+estimates rounded up, for refusing work up front."""
 SIM_SECONDS_PER_DESIGN_STEP = 3e-6
 SIM_BYTES_PER_SAMPLE = 200.0
 """Memory per design and recorded sample: the recorded signals and their JSON text."""
@@ -250,7 +250,7 @@ MAX_LOOP_ORDER = 32
 denominator degree; the examples: 3 to 10).  Its characteristic quasi-polynomial is
 evaluated from expanded coefficients in double precision, which blurs clustered roots as
 the order grows (the limit keeps a margin below the lowest order at which a chain of equal
-filters was judged wrongly) and overflows near order 100."""
+filters is judged wrongly) and overflows near order 100."""
 MAX_LOOP_NAMES = 256
 """Most variables and parameters of a loop file (ordering the parameters grows as the
 cube of their count)."""

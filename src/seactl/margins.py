@@ -18,8 +18,8 @@ of a block diagram), :func:`loop_margins` returns, per design:
 A loop of a block diagram is scanned by :func:`certified_margins`: a grid bounded by
 the loop's delays, bisected until derivative bounds prove that no root, encirclement or
 crossing lies unseen between samples, with the closed loop's right-half-plane roots
-counted on its characteristic quasi-polynomial (the soundness argument is in that
-function's docstring).  Opaque loop callables keep a heuristic grid scan.  Crossings are
+counted on its characteristic quasi-polynomial (the soundness argument:
+docs/theory/certified-scan.md).  Opaque loop callables keep a heuristic grid scan.  Crossings are
 then solved on the exact function with ``scipy.optimize.elementwise.find_root``, so no
 result comes from interpolation alone.
 """
@@ -394,7 +394,7 @@ def _scan_radius(N: QuasiPolynomial, D: QuasiPolynomial, delta: QuasiPolynomial,
                  stability_only: bool, grid_count: Callable[[np.ndarray], np.ndarray],
                  band: tuple[float, float] = (_certify.BAND_LO, _certify.BAND_HI)
                  ) -> tuple[np.ndarray, np.ndarray]:
-    """Per design, the ``R`` of step 4 of :func:`certified_margins`, and whether the
+    """Per design, the ``R`` of step 4 of docs/theory/certified-scan.md, and whether the
     crossings beyond it are unresolved.  Beyond ``R`` the leading term of ``Delta``
     dominates and (crossings wanted) ``|L|`` stays off 1 and off the band's phase
     crossovers: ``|L| < lo`` for a strictly proper loop (``|N| < lo |D|``),
@@ -466,8 +466,8 @@ def _base_grid_count(w_ref: np.ndarray, tau_max: np.ndarray, top: np.ndarray) ->
 
 
 BASE_POINT_SECONDS = 1.5e-6
-"""Time of one base-grid point in the scan, its share of bisections included (1.1 us per
-point measured on the benchmark's designs, 1.2 us on a 2.4e8-point loop file)."""
+"""Time of one base-grid point in the scan, its share of bisections included: an
+estimate rounded up, for refusing work up front."""
 
 
 def _check_grid_budget(count: np.ndarray, tau_max: np.ndarray, top: np.ndarray) -> None:
@@ -564,7 +564,7 @@ class _CertifiedScan:
         """Designs and frequencies of the crossings: compiled safeguarded Newton on each
         bracket, :func:`_rebracket` where its ends no longer bracket."""
         code = _certify.GAIN if kind == "gain" else _certify.PHASE
-        k = self.rows[:, 1]  # (compared, not taken modulo TOUCH: float % is 0.5 ms per 1e4)
+        k = self.rows[:, 1]  # (compared, not taken modulo TOUCH: a float % costs more)
         rows = self.rows[(k == code) | (k == code + _certify.TOUCH)]
         b, x = rows[:, 0].astype(int), np.empty(len(rows))
         touch = rows[:, 1] != code  # (a point: its frequency is the touch)
@@ -591,67 +591,14 @@ def certified_margins(loop: Transfer, design: Any, w_ref: np.ndarray | float, *,
     characteristic quasi-polynomial with ``sensor`` held and ``N + D = Delta`` the one
     of the closed loop (:meth:`~seactl.blockdiagram.BlockDiagram.return_difference`):
     every term is a polynomial ``p_k(s)`` times ``e^{-s tau_k}``, with known
-    coefficients.  Why no root, crossing or encirclement can be skipped:
-
-    1. **Derivative bounds.**  On ``[0, w]``, ``|d^3 Q(jw)/dw^3|`` is at most the sum over
-       terms of ``|c_kj| |d^3/dw^3 (w^j e^{-j w tau_k})|`` majorized with ``|e| = 1``: the
-       delays bound how fast each term turns, the polynomials (whose roots are the
-       resonances of the rational part) how fast it grows.  With ``Q'`` and ``Q''``
-       evaluated exactly at both ends of an interval of width ``h``,
-       ``sup |f| <= (|f_a| + |f_b| + h sup |f'|) / 2`` gives ``sup |Q''|``, then
-       ``sup |Q'|``: the path of ``Q`` is no longer than ``h sup |Q'|``, and those of
-       ``log |L|`` and ``arg L`` (``log L = log N - log D``) no longer than ``h`` times
-       bounds on ``|Re (log L)'|`` and ``|Im (log L)'|`` built the same way from their
-       values at the ends and
-       ``|(log L)''| <= |N''|/m_N + (|N'|/m_N)^2 + |D''|/m_D + (|D'|/m_D)^2`` with
-       ``m`` lower bounds of ``|N|``, ``|D|`` on the interval.
-    2. **Base grid.**  From 0 to the Cauchy bound ``R`` (:func:`cauchy_bound`),
-       ``PER_DECADE`` points per decade and steps on which no delay turns by more than
-       ``TURN_FRACTION`` of a turn, so most intervals pass step 3 at once.
-    3. **Certificate, by bisection.**  An interval is accepted when the path of
-       ``Delta`` is shorter than ``|Delta_a| + |Delta_b|``: a path from ``Delta_a`` to
-       ``Delta_b`` that meets 0, or turns by a different multiple of ``2 pi`` than
-       ``arg(Delta_b / Delta_a)``, must reach the opposite ray of ``Delta_a``, which
-       takes at least that length; or when ``Delta`` stays in a tube around the chord
-       between its ends (the chord's distance to 0 exceeds ``h^2/8 sup |Delta''|``, the
-       error of linear interpolation): a convex set without 0, so the turn is
-       ``arg(Delta_b / Delta_a)``.  The same tubes around the chords of ``N`` and ``D``
-       bound ``|N|`` and ``|D|`` from below and above, and their arguments: within the
-       chord's angular span widened by ``asin(r/g)`` (``r`` the tube's radius, ``g`` the
-       chord's distance to 0), so no phase crossing hides where ``arg N - arg D`` stays
-       within that range off the negative real axis.
-       Likewise ``log |L|`` must travel at least
-       ``|log|L_a|| + |log|L_b||`` to cross the unit circle twice unseen, and ``arg L``
-       the distances to ``+-pi`` for the negative real axis; no gain crossing can hide
-       where ``min |N| > max |D|`` or ``min |D| > max |N|`` on the interval (nor a
-       phase crossing that matters, outside the band ``0.05 < |L| < 20``).  There is no
-       tolerance: a pair of crossings however shallow is bisected apart; a path that
-       touches the level without crossing it (a tangency, which no bound can tell from a
-       shallow pair) reaches ``MAX_BISECTIONS`` and counts as a crossing at that point, so
-       a margin is never reported larger for it.  ``|Delta|`` enters less a bound on its
-       rounding error (:data:`seactl._certify.ROUNDING`), so noise next to a root never
-       certifies.  Near a lightly damped resonance ``|D|`` is small, so intervals there
-       are bisected until the bound resolves it.
-    4. **Beyond R** (taken 1 % beyond the tightest radius, so the dominance does not hang
-       on rounding) the leading term of ``Delta`` outweighs all others, so ``arg Delta(jw)``
-       changes from ``R`` to infinity by exactly ``-arg(Delta(jR) / (a_n (jR)^n))``, and so
-       from any point beyond ``R`` (the scan's grid ends at ``R`` or, where that is
-       further out, a decade above its start: the tail is taken where it ends); and
-       ``L`` stays off the unit circle and off the band's phase crossovers
-       (:func:`_scan_radius`): ``|L| < 0.05`` for a strictly proper loop, ``|L| > 20``
-       for an improper one, ``|L - L_inf| < eps`` for a biproper one (``L_inf`` the ratio
-       of the leading coefficients).  A biproper loop whose ``|L_inf|`` is 1, or whose
-       ``L_inf`` is a phase crossover in the band, has crossings that may gather at
-       infinity: it is never reported stable.
-    5. **Far phase crossovers.**  A design without a phase crossover in the band is
-       scanned again (steps 2-4) with the band widened (:func:`_far_phase_crossovers`),
-       so its gain margin, beyond +-26 dB, is still the one closest to 0 dB; without
-       delay, up to the bound of the roots of ``Im(N conj D)``, every phase crossover.
-    6. **Count.**  For a retarded quasi-polynomial of degree ``n`` with no imaginary
-       root, ``arg Delta`` increases over ``[0, inf)`` by ``pi (n/2 - Z)``, ``Z`` the
-       number of roots with ``Re s > 0`` (Stepan's formula; the delayed terms have lower
-       degree).  A root on the axis makes bisection fail at ``MAX_BISECTIONS``: the
-       design is then reported not stable.
+    coefficients.  The scan bounds the derivatives of ``N``, ``D`` and ``Delta`` from
+    their coefficients and delays, starts from a base grid up to the Cauchy bound ``R``
+    (:func:`cauchy_bound`), and bisects each interval until a certificate shows that no
+    root, gain or phase crossing, or extra turn of ``Delta`` can hide in it; beyond ``R``
+    the leading term decides.  Stability is then counted from the winding of ``Delta``
+    (Stepan's formula).  A tangency counts as a crossing and a root on the axis as not
+    stable, so neither makes a margin larger or a design stable.  The argument step by
+    step: docs/theory/certified-scan.md.
 
     Crossings are bracketed on certified intervals (the first interval, from ``w = 0``,
     is bisected until its part next to 0 is certified free of crossings) and solved on the
@@ -823,7 +770,7 @@ def _replace_designs(old: tuple[np.ndarray, ...], designs: np.ndarray,
 def _stepan_count(delta: QuasiPolynomial, scan: _CertifiedScan
                   ) -> tuple[np.ndarray, np.ndarray]:
     """Right-half-plane roots from the winding of ``Delta`` on ``[0, top]`` plus the tail
-    beyond ``top`` (step 6 of :func:`certified_margins`), ``top`` where the scan ended:
+    beyond ``top`` (step 6 of docs/theory/certified-scan.md), ``top`` where the scan ended:
     the Cauchy radius, or a decade above the grid's start where that is further out (the
     tail taken at the radius then counted the turn between the two twice, up to a root's
     worth); ``Delta(j top)`` from the scan's compiled evaluation
@@ -951,8 +898,9 @@ def first_per_design(groups: np.ndarray, key: np.ndarray) -> np.ndarray:
 
 def count_right_roots(q: QuasiPolynomial, w_ref: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Roots of a flat retarded quasi-polynomial with ``Re s > 0`` (multiplicity and
-    conjugates counted), by the certified scan of :func:`certified_margins` (steps 2-4 and 6);
-    and whether the count is certain (``False`` when a root lies on the axis)."""
+    conjugates counted), by the certified scan of :func:`certified_margins`
+    (docs/theory/certified-scan.md, steps 2-4 and 6); and whether the count is certain
+    (``False`` when a root lies on the axis)."""
     zero = QuasiPolynomial(np.zeros_like(q.coeffs[:1]), np.zeros_like(q.delays[:1]))
     scan = _CertifiedScan(q, zero, stability_only=True)
     top = cauchy_bound(q)

@@ -48,13 +48,13 @@ from pathlib import Path
 from typing import Annotated, Any
 
 import numpy as np
-from numba import njit
 from pydantic import Field
 
 from ._borrow import borrowed
 from ._parallel import in_threads
 from ._params import check, nonnegative, positive, read_toml, schema_of, validate
 from .errors import InputError
+from .jit import njit
 from .results import Result, json_value, new_axes
 
 ARCHS = ("cosc", "dosc")
@@ -482,7 +482,7 @@ def _matrices(p: MobileBaseParams) -> np.ndarray:
 
 
 # The per-sample loop is compiled (numba, cached on disk): thousands of samples of a few
-# scalar operations each, where numpy's per-call overhead dominated (issue: reproduce time).
+# scalar operations each, where numpy's per-call overhead would outweigh the arithmetic.
 @njit(cache=True, nogil=True)
 def _simulate_batch(c, mats, gains, ref, V0, out, sat):  # pragma: no cover - compiled
     """The multi-rate base, one batch element at a time.
@@ -507,8 +507,7 @@ def _simulate_batch(c, mats, gains, ref, V0, out, sat):  # pragma: no cover - co
 def _simulate_one(c, mats, gains, ref, out, sat, b, X, V, PHI, QM, WM, meas, cmd, central,
                   work):  # pragma: no cover - compiled
     """Batch element ``b`` of :func:`_simulate_batch`, its arrays borrowed
-    (:mod:`seactl._borrow`: the reference counts of the arrays passed at every step were
-    40 % of the time)."""
+    (:mod:`seactl._borrow`: no reference counting of the arrays passed at every step)."""
     mats, gains, ref, out, sat = borrowed(mats), borrowed(gains), borrowed(ref), \
         borrowed(out), borrowed(sat)
     X, V, PHI, QM, WM = borrowed(X), borrowed(V), borrowed(PHI), borrowed(QM), borrowed(WM)

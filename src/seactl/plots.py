@@ -38,7 +38,7 @@ def gain_scale_figure(fn: np.ndarray, gs: np.ndarray, pm: np.ndarray):
     return fig
 
 
-# ----------------------------------------------------------------------- impedance (issue 3)
+# ---------------------------------------------------------------------------------- impedance
 def impedance_bode_figure(columns, *, suptitle: str | None = None, unit: str = "N m s/rad",
                           col_width: float = 4.6):
     """Bode magnitude (dB) and unwrapped phase (deg) of impedances, one column per panel.
@@ -223,7 +223,7 @@ def robust_histogram_figure(pm: np.ndarray, stable: np.ndarray, nominal_pm: floa
     return fig
 
 
-# --------------------------------------------------------------- loop placement (issue 5)
+# ----------------------------------------------------------------------------- loop placement
 def latency_map_figure(maps, maxfn=None, title: str = ""):
     """Phase-margin maps over (damping delay, stiffness delay), one row per actuator.
 

@@ -276,7 +276,7 @@ MARKER = ".seactl-report"
 others list every file and directory seactl wrote there (relative, ``/``-separated)."""
 MARKER_HEADER = "written by seactl reproduce; seactl may replace the files listed below"
 LEGACY_FILES = ("index.html", "claims.json", "figures")
-"""What a marker without a list (written before the list existed) stands for, with the
+"""What a marker without a list (the older format) stands for, with the
 ``.png`` figures in ``figures/``."""
 
 

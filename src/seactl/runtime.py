@@ -152,8 +152,7 @@ class ZenohLink:
         key = f"seactl/run/{cfg['run_id']}/"
         # Samples wait in Zenoh's own channel and are polled (``try_recv`` never blocks):
         # blocking calls into Zenoh hold the GIL, and a Python callback on Zenoh's thread
-        # or a blocking ``recv`` in a thread hung a process that also publishes (measured:
-        # about one 2 s run in four).
+        # or a blocking ``recv`` in a thread can hang a process that also publishes.
         self.sub = self.session.declare_subscriber(key + role)
         # reliable, never dropped when the queue is full (a lost sample would stall the
         # plant), and sent at once rather than batched (latency is what is measured)

@@ -102,11 +102,11 @@ from functools import cached_property
 from typing import Any
 
 import numpy as np
-from numba import njit
 
 from ._parallel import eigvals, in_threads, stacked
 from .blockdiagram import Block, BlockDiagram
 from .errors import InputError, SeactlError
+from .jit import njit
 from .limits import check_budget, simulation_estimate
 from .results import Result, flat_records, json_array, new_axes
 from .verdict import RECOVERY_BAND, STEP_BAND
@@ -533,12 +533,12 @@ def expm_batched(A: np.ndarray) -> np.ndarray:
     matrix scaled by its own power of two.
 
     Balancing first matters for a loop's augmented matrices, whose entries span many
-    decades (a fast roll-off next to a slow mechanism): without it the squarings lost up
+    decades (a fast roll-off next to a slow mechanism): without it the squarings lose up
     to seven digits of a Table I loop's step response, and tiny entries entirely.
 
     All work is stacked numpy (``matmul``/``solve``), which avoids per-matrix library
-    calls (``scipy.linalg.expm`` loops over the stack; with multithreaded BLAS on a busy
-    machine that is an order of magnitude slower for thousands of small matrices).
+    calls (``scipy.linalg.expm`` loops over the stack: one call, and one round of
+    multithreaded BLAS, per small matrix).
     Matrices needing more than 12 squarings are handed to :func:`scipy.linalg.expm`.
 
     Examples
@@ -928,7 +928,7 @@ def _continuous_kernel(H, CD, inputs, x0, whole, frac, ring_len, nx, ne, nd, ste
     design whose first output leaves ``bound`` is recorded no further (``left``) and
     restarted from zero (its numbers no longer matter; zeros keep them finite).
     Compiled: thousands of steps of small products, where numpy's per-call overhead and
-    temporaries dominated."""
+    temporaries would outweigh the arithmetic."""
     n, nv = H.shape[2], ne + nd
     nrow = CD.shape[0]
     zb = np.zeros((nx + 2 * nv, n))
@@ -993,8 +993,8 @@ def _nonzero_columns(M, ncol):  # pragma: no cover - compiled
 def _product(M, zb, cols, out):  # pragma: no cover - compiled
     """``out[r, k] = sum_j M[r, j, k] zb[j, k]`` over the non-zero columns ``cols[r]``
     (one matrix per design, batch last).  A batch of a few designs sums in a register
-    (through memory, each term waits for the last one's store: a third of a lone
-    design's step); a larger one vectorizes over the batch."""
+    (through memory, each term would wait for the last one's store); a larger one
+    vectorizes over the batch."""
     n = M.shape[2]
     for r in range(M.shape[0]):
         if n < 4:
@@ -1763,8 +1763,9 @@ def sampled_unstable_modes(plan: SampledPlan) -> np.ndarray:
 _LIFTED_COLUMNS = 20_000
 """Designs x unit states probed at once (bounds the probe's memory to tens of MB)."""
 _LIFTED_WORK = 1e9
-"""Designs x S^3 above which the count is not attempted (-1): about 3 s of eigenvalues on
-2 cores (S = 45 for a 30 ms buffer at 1 kHz: 11,000 designs; S = 1000, a 1 s buffer: none)."""
+"""Designs x S^3 above which the count is not attempted (-1): a bound on one call's
+eigenvalue work (S = 45 for a 30 ms buffer at 1 kHz: 11,000 designs; S = 1000, a 1 s
+buffer: none)."""
 
 
 def _unstable_modes(plan: SampledPlan, designs: slice) -> np.ndarray:
@@ -1814,7 +1815,7 @@ def step_metrics(t: np.ndarray, y: np.ndarray, stable: np.ndarray | None = None,
     settling time (the sample after the last one outside ``band`` of the final value;
     inf if that is the last sample) and steady-state error.  One compiled pass per
     response (:func:`_step_kernel`): the record is time-major, so numpy's passes along
-    the time axis of a batch were strided and cost a fifth of a batch simulation.
+    the time axis of a batch would be strided.
 
     Examples
     --------

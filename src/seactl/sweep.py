@@ -113,8 +113,8 @@ class SweepSpec:
     seed : int
         Seed of the sampling modes (chunk ``i`` draws from ``(seed, i)``).
     chunk_size : int
-        Points per chunk (bounds memory: about 5 kB of arrays per point at peak, i.e.
-        about 27 MB per chunk for the default 5000, measured by ``seactl bench``).
+        Points per chunk (bounds memory: a chunk's arrays grow with it; ``seactl bench``
+        reports the peak of a default chunk).
     z_freqs_hz : tuple of float
         Frequencies [Hz] at which to report the impedance magnitude ``|Z|``.
     """
@@ -410,7 +410,7 @@ def evaluate_and_write(spec: SweepSpec, chunks: Sequence[int], out: Path
 
 def batches(todo: Sequence[int], workers: int, largest: int = 8) -> list[list[int]]:
     """``todo`` in consecutive batches, one task each: up to ``largest`` chunks while many
-    remain (fewer tasks for the scheduler, about 3.5 ms of its CPU each), shrinking to
+    remain (fewer tasks for the scheduler, which spends CPU on each), shrinking to
     single chunks at the end so that no worker waits long for another's last batch."""
     out, at = [], 0
     while at < len(todo):
@@ -757,9 +757,8 @@ def _local_cluster(workers: int, scratch: str | None = None):
 
     Dask's nanny sets ``MALLOC_TRIM_THRESHOLD_=65536`` in its workers (to return
     memory to the OS); with the margin kernel's many short-lived arrays of a few MB
-    this doubles the time per chunk (page faults: sys time equal to user time,
-    measured).  The workers here keep glibc's default, adaptive thresholds; memory
-    stays bounded by the chunk size."""
+    that turns the chunk's allocations into page faults.  The workers here keep glibc's
+    default, adaptive thresholds; memory stays bounded by the chunk size."""
     import logging
 
     import dask
@@ -781,8 +780,7 @@ def _local_cluster(workers: int, scratch: str | None = None):
         # dashboard, and each runs in every process, the parent's scheduler and nannies
         # included, taking time from the chunks.  Logs: a failed chunk reaches the caller
         # as its exception; after Ctrl-C a worker's heartbeat can meet the closing
-        # scheduler and log an ERROR with its traceback (1 to 2 in 100 interruptions,
-        # measured)
+        # scheduler and log an ERROR with its traceback
         with dask.config.set({"distributed.nanny.pre-spawn-environ": environ,
                               "distributed.worker.multiprocessing-method": method,
                               "distributed.worker.profile.enabled": False,
@@ -823,12 +821,9 @@ def _start_worker_template(environ: dict[str, str]) -> str:
     Every worker forked from it starts with them loaded.  ``"spawn"``: the platform
     has no fork server (Windows).
 
-    Measured by ``seactl bench`` on this project's 2-core machine:
-
-    - a spawned worker spends about 0.55 s importing and loading kernels before its
-      first chunk, and its interpreter's exit takes about 0.3 s at the cluster's close;
-    - a forked worker spends neither;
-    - the server's own start takes about 1 s, once per process.
+    A spawned worker imports and loads the kernels before its first chunk, and its
+    interpreter's exit lengthens the cluster's close; a forked worker does neither; the
+    server itself starts once per process (``seactl bench``'s sweep figures include it).
 
     The server gets the workers' environment ``environ`` (:func:`_worker_environ`, which
     the nanny also sets before each worker), so its BLAS starts no threads to fork.  A fork server
@@ -852,7 +847,7 @@ def _start_worker_template(environ: dict[str, str]) -> str:
         forkserver.ensure_running()
     finally:
         os.environ.pop(TEMPLATE_MARKER, None)
-    # wait until it has warmed (8 ms once it has): here Ctrl-C still stops cleanly
+    # wait until it has warmed (at once if it has): here Ctrl-C still stops cleanly
     ready = multiprocessing.get_context("forkserver").Process(target=os.getpid)
     ready.start()
     ready.join()

@@ -14,7 +14,7 @@ workers' CPU time at least 1.8 of the two cores over the run on started workers)
   a template that has loaded the sweep's modules and kernels (``seactl._sweep_template``),
   started once per process; its start, and the cluster's start and close, are reported
   apart in the note, with the whole runs' speed-up.  Where the platform cannot fork
-  (Windows) each worker loads them on its first chunk, about 0.55 s, inside the timing.
+  (Windows) each worker loads them on its first chunk, inside the timing.
 
 The grid is f_n (100 values, 10-40 Hz) x GS (100 values, 0.3-3) x T_qs
 (0-20 ms), Table I's other delays and filters.  ``SEACTL_BENCH_SWEEP_POINTS``
