@@ -214,6 +214,41 @@ class System:
         """Loop name -> its delay [s] (batch shape)."""
         raise NotImplementedError
 
+    @property
+    def links(self) -> dict[str, str]:
+        """Loop name -> the diagram's delayed block of that loop."""
+        raise NotImplementedError
+
+    @property
+    def max_current_a(self) -> float:
+        """The actuator's current limit [A] (the default of ``saturation_a``)."""
+        raise NotImplementedError
+
+    @property
+    def amperes_per_actuation(self) -> float:
+        """Motor current [A] per unit of the actuation signal."""
+        raise NotImplementedError
+
+    def reference_frequency(self) -> np.ndarray:
+        """A frequency scale [rad/s] per design (the margins' and roots' grids)."""
+        raise NotImplementedError
+
+    def impulse_inertia(self) -> np.ndarray:
+        """The inertia (or mass) an impulse of the external load hits."""
+        raise NotImplementedError
+
+    def impedance_response(self, f_hz: Any, port: str, **options: Any) -> Any:
+        """The impedance at ``port`` (:class:`seactl.impedance.ImpedanceResponse`)."""
+        raise self.unsupported("impedance", "a kind of system with an impedance port")
+
+    def jitter_core(self) -> Any:
+        """The jitter margins (:class:`seactl.jitter.JitterMargins`)."""
+        raise self.unsupported("jitter_margins", "a kind of system with named loops")
+
+    def control_transfers(self, name: str) -> Any:
+        """Transfer name -> (transfer, divide by ``-s``) for :meth:`to_control`."""
+        raise self.unsupported("to_control", "a kind of system with named transfers")
+
     # ------------------------------------------------------------ helpers
     def _legacy(self, method: str, options: dict[str, Any], **current: Any
                 ) -> tuple[dict[str, Any], dict[str, Any]]:
