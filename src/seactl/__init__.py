@@ -9,7 +9,7 @@ The public API is this namespace (``__all__``); the submodules hold the implemen
 
 >>> import seactl as sc
 >>> d = sc.design([12, 14, 16], gs=1.0, delays_ms={"torque": 0.5, "stiffness": 2, "damping": 0.5},
-                  filters_hz=(50, 100))
+...               filters_hz=(50, 100))
 >>> d.margins().phase_margin_deg.round(2)
 array([45.13, 43.26, 40.03])
 """

@@ -81,7 +81,7 @@ class MarginsResult(Result):
     --------
     >>> import seactl as sc
     >>> m = sc.design([12, 14], delays_ms={"torque": 0.5, "stiffness": 2, "damping": 0.5},
-                      filters_hz=(50, 100)).margins()
+    ...               filters_hz=(50, 100)).margins()
     >>> round(m.records()[1]["phase_margin_deg"], 2), m.to_dict()["stable"]
     (43.26, [True, True])
     """
@@ -227,7 +227,7 @@ class SampledMarginsResult(Result):
     --------
     >>> import seactl as sc
     >>> m = sc.design(14, delays_ms={"torque": 0.5, "stiffness": 2, "damping": 0.5},
-                      filters_hz=(50, 100)).margins(rate_hz=1000)
+    ...               filters_hz=(50, 100)).margins(rate_hz=1000)
     >>> r = m.records()[0]
     >>> r["verdict"], round(r["phase_margin_deg"], 1), r["delay_margin_samples"]
     ('stable', 42.0, 9)
@@ -582,7 +582,7 @@ class ResponseResult(Result):
 
         >>> import seactl as sc
         >>> d = sc.design(30, delays_ms={"torque": 0.5, "stiffness": [10.5, 10.53],
-                                         "damping": 0.5}, filters_hz=(50, 100))
+        ...                              "damping": 0.5}, filters_hz=(50, 100))
         >>> v = d.step().verdict()
         >>> v.verdict, [v.evidence(i)["right_half_plane_roots"] for i in range(2)]
         (['not settled', 'unstable'], [0, 2])
@@ -720,7 +720,7 @@ class JitterResult(Result):
     --------
     >>> import seactl as sc
     >>> j = sc.design(14, delays_ms={"torque": 0.5, "stiffness": 2, "damping": 0.5},
-                      filters_hz=(50, 100)).jitter_margins()
+    ...               filters_hz=(50, 100)).jitter_margins()
     >>> r = j.records()[0]
     >>> round(r["jitter_margin_ms"], 2), round(r["delay_margin_ms"], 2)
     (8.04, 9.45)
@@ -887,7 +887,7 @@ class RootsResult(Result):
     --------
     >>> import seactl as sc
     >>> r = sc.design(14, delays_ms={"torque": 0.5, "stiffness": 2, "damping": 0.5},
-                      filters_hz=(50, 100)).roots(count=2)
+    ...               filters_hz=(50, 100)).roots(count=2)
     >>> round(r.records()[0]["spectral_abscissa"], 2), len(r.records()[0]["roots"])
     (-39.85, 2)
     """

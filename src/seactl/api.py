@@ -284,8 +284,21 @@ class Design(System):
         return SEA_DIAGRAM
 
     def diagram_for(self, zero: bool = True, **options: Any) -> Any:
-        """The diagram with the torque derivative on the whole error (``zero``, default)
-        or on feedback only."""
+        """The diagram with the torque derivative on the whole error (``zero``, default) or on
+        feedback only.
+
+        Parameters
+        ----------
+        zero : bool
+            Torque derivative on the whole error (default) or on feedback only.
+        **options
+            Other kind-specific keywords (none).
+
+        Returns
+        -------
+        seactl.blockdiagram.BlockDiagram
+            The SEA's diagram.
+        """
         from .loops import sea_diagram
 
         super().diagram_for(**options)
@@ -293,8 +306,8 @@ class Design(System):
 
     @property
     def delays_s(self) -> dict[str, np.ndarray]:
-        """Loop name -> delay [s]: ``torque`` (T_tau), ``stiffness`` (T_qs), ``damping``
-        (T_qd)."""
+        """Loop name -> delay [s]: ``torque`` (T_tau), ``stiffness`` (T_qs), ``damping`` (T_qd).
+        """
         t = self.timing
         return {"torque": t.T_tau, "stiffness": t.T_qs, "damping": t.T_qd}
 
@@ -317,13 +330,25 @@ class Design(System):
 
     def reference_frequency(self) -> np.ndarray:
         """The delay-free closed loop's natural frequency [rad/s] per design
-        (:func:`seactl.sea.sea_reference_frequency`)."""
+        (:func:`seactl.sea.sea_reference_frequency`).
+
+        Returns
+        -------
+        numpy.ndarray
+            Per design [rad/s].
+        """
         from .sea import sea_reference_frequency
 
         return sea_reference_frequency(self.sea)
 
     def impulse_inertia(self) -> np.ndarray:
-        """The joint inertia ``I_j`` [kg m^2] an impulse of external torque hits."""
+        """The joint inertia ``I_j`` [kg m^2] an impulse of external torque hits.
+
+        Returns
+        -------
+        numpy.ndarray
+            Per design, in the kind's rotary or linear unit.
+        """
         return np.asarray(self.sea.Ij)
 
     def __getitem__(self, idx: Any) -> Design:
@@ -371,7 +396,18 @@ class Design(System):
         return [f"f_n={f:g} Hz, GS={g:g}" for f, g in zip(fn, gs)]
 
     def label_columns(self, gains: bool = True) -> dict[str, Any]:
-        """``fn_hz`` and ``gs``, and with ``gains`` the four gains (batch shape)."""
+        """``fn_hz`` and ``gs``, and with ``gains`` the four gains (batch shape).
+
+        Parameters
+        ----------
+        gains : bool
+            Include the controller gains.
+
+        Returns
+        -------
+        dict
+            Column name -> array of the batch shape.
+        """
         cols = {"fn_hz": self.fn_hz, "gs": self.gs}
         if gains:
             g = self.gains
@@ -414,7 +450,13 @@ class Design(System):
 
     def jitter_core(self) -> Any:
         """Jitter margins of the outer, stiffness, damping and torque loops
-        (:func:`seactl.jitter.sea_jitter_margins`)."""
+        (:func:`seactl.jitter.sea_jitter_margins`).
+
+        Returns
+        -------
+        seactl.jitter.JitterMargins
+            Per loop, of the batch shape.
+        """
         from .jitter import sea_jitter_margins
 
         return sea_jitter_margins(self.sea)
@@ -422,7 +464,18 @@ class Design(System):
     @staticmethod
     def control_transfers(name: str) -> Any:
         """``"loop"``, ``"inner"``, ``"closed"``, ``"impedance"`` -> (transfer, divide by
-        ``-s``) for :meth:`to_control`."""
+        ``-s``) for :meth:`to_control`.
+
+        Parameters
+        ----------
+        name : str
+            The transfer's name.
+
+        Returns
+        -------
+        tuple
+            ``(transfer, divide_by_minus_s)``.
+        """
         from ._export import sea_transfer
 
         return sea_transfer(name)

@@ -83,6 +83,19 @@ class System:
     the kind's own options of the simulated and exported diagram (the SEA's ``zero``).  A
     user loop whose views do not all come from one diagram overrides those views; a view a
     kind cannot give calls :meth:`unsupported`.
+
+    Examples
+    --------
+    Every kind of system is a ``System`` with the same views:
+
+    >>> import seactl as sc
+    >>> systems = [sc.design(14), sc.rigid(8, delays_ms={"stiffness": 1.5, "damping": 1.5})]
+    >>> [isinstance(s, sc.System) for s in systems]
+    [True, True]
+    >>> [type(s.margins()).__name__ for s in systems]
+    ['MarginsResult', 'MarginsResult']
+    >>> [s.step().amplitude for s in systems], [s.step_unit for s in systems]
+    ([0.01, 0.004], ['rad', 'm'])
     """
 
     kind: ClassVar[str] = ""
@@ -206,12 +219,24 @@ class System:
         return self.diagram
 
     def label_columns(self, gains: bool = True) -> dict[str, Any]:
-        """Per-design columns (batch shape) that label the results' records."""
+        """Per-design columns (batch shape) that label the results' records.
+
+        Parameters
+        ----------
+        gains : bool
+            Include the controller gains.
+
+        Returns
+        -------
+        dict
+            Column name -> array of the batch shape.
+        """
         raise NotImplementedError
 
     @property
     def delays_s(self) -> dict[str, np.ndarray]:
-        """Loop name -> its delay [s] (batch shape)."""
+        """Loop name -> its delay [s] (batch shape).
+        """
         raise NotImplementedError
 
     @property
@@ -230,23 +255,67 @@ class System:
         raise NotImplementedError
 
     def reference_frequency(self) -> np.ndarray:
-        """A frequency scale [rad/s] per design (the margins' and roots' grids)."""
+        """A frequency scale [rad/s] per design (the margins' and roots' grids).
+
+        Returns
+        -------
+        numpy.ndarray
+            Per design [rad/s].
+        """
         raise NotImplementedError
 
     def impulse_inertia(self) -> np.ndarray:
-        """The inertia (or mass) an impulse of the external load hits."""
+        """The inertia (or mass) an impulse of the external load hits.
+
+        Returns
+        -------
+        numpy.ndarray
+            Per design, in the kind's rotary or linear unit.
+        """
         raise NotImplementedError
 
     def impedance_response(self, f_hz: Any, port: str, **options: Any) -> Any:
-        """The impedance at ``port`` (:class:`seactl.impedance.ImpedanceResponse`)."""
+        """The impedance at ``port`` (:class:`seactl.impedance.ImpedanceResponse`).
+
+        Parameters
+        ----------
+        f_hz : array_like
+            Frequencies [Hz] > 0.
+        port : str
+            The port.
+        **options
+            Kind-specific keywords.
+
+        Returns
+        -------
+        seactl.impedance.ImpedanceResponse
+            The impedance.
+        """
         raise self.unsupported("impedance", "a kind of system with an impedance port")
 
     def jitter_core(self) -> Any:
-        """The jitter margins (:class:`seactl.jitter.JitterMargins`)."""
+        """The jitter margins (:class:`seactl.jitter.JitterMargins`).
+
+        Returns
+        -------
+        seactl.jitter.JitterMargins
+            Per loop, of the batch shape.
+        """
         raise self.unsupported("jitter_margins", "a kind of system with named loops")
 
     def control_transfers(self, name: str) -> Any:
-        """Transfer name -> (transfer, divide by ``-s``) for :meth:`to_control`."""
+        """Transfer name -> (transfer, divide by ``-s``) for :meth:`to_control`.
+
+        Parameters
+        ----------
+        name : str
+            The transfer's name.
+
+        Returns
+        -------
+        tuple
+            ``(transfer, divide_by_minus_s)``.
+        """
         raise self.unsupported("to_control", "a kind of system with named transfers")
 
     # ------------------------------------------------------------ helpers
@@ -566,7 +635,13 @@ class System:
             Simulated time [s] (default :attr:`default_t_end_s` ``["impulse"]``).
         amplitude : float, optional
             The impulse [:attr:`impulse_unit`] (default :attr:`default_impulse`).
-        mode, rate_hz, saturation_a, **options
+        mode : {"continuous", "sampled"}
+            As :meth:`step`.
+        rate_hz : float
+            As :meth:`step`.
+        saturation_a : float, optional
+            As :meth:`step`.
+        **options
             As :meth:`step`.
 
         Returns

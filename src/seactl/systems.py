@@ -136,7 +136,8 @@ class RigidBatch(System):
 
     @property
     def delays_s(self) -> dict[str, np.ndarray]:
-        """Loop name -> delay [s]: ``stiffness`` (T_s), ``damping`` (T_d)."""
+        """Loop name -> delay [s]: ``stiffness`` (T_s), ``damping`` (T_d).
+        """
         return {"stiffness": self.rigid.T_s, "damping": self.rigid.T_d}
 
     @property
@@ -162,11 +163,23 @@ class RigidBatch(System):
         return float(self.actuator.beta)
 
     def reference_frequency(self) -> np.ndarray:
-        """The delay-free natural frequency ``sqrt(K/m)`` [rad/s] per design."""
+        """The delay-free natural frequency ``sqrt(K/m)`` [rad/s] per design.
+
+        Returns
+        -------
+        numpy.ndarray
+            Per design [rad/s].
+        """
         return self.rigid.wn
 
     def impulse_inertia(self) -> np.ndarray:
-        """The mass ``m`` [kg] an impulse of external force hits."""
+        """The mass ``m`` [kg] an impulse of external force hits.
+
+        Returns
+        -------
+        numpy.ndarray
+            Per design, in the kind's rotary or linear unit.
+        """
         return np.asarray(self.rigid.m)
 
     def __getitem__(self, idx: Any) -> RigidBatch:
@@ -188,7 +201,18 @@ class RigidBatch(System):
         return RigidBatch(sub, pick(self.fn_hz))
 
     def label_columns(self, gains: bool = True) -> dict[str, Any]:
-        """``fn_hz``, and with ``gains`` ``K`` and ``B`` (batch shape)."""
+        """``fn_hz``, and with ``gains`` ``K`` and ``B`` (batch shape).
+
+        Parameters
+        ----------
+        gains : bool
+            Include the controller gains.
+
+        Returns
+        -------
+        dict
+            Column name -> array of the batch shape.
+        """
         r = self.rigid
         return {"fn_hz": self.fn_hz, "K": r.K, "B": r.B} if gains else {"fn_hz": self.fn_hz}
 
@@ -233,9 +257,22 @@ class RigidBatch(System):
         return model.delay_margins(self.rigid)
 
     def impedance_response(self, f_hz: Any, port: str) -> Any:
-        """``Z(j 2 pi f) = F_ext / (j 2 pi f x)`` [N s/m] felt at the output: the inverse of
-        the closed-loop compliance ``x / F_ext`` (:data:`seactl.rigid.RIGID_DIAGRAM`, exact
-        delays) divided by ``s``; it includes the mass (:meth:`impedance`)."""
+        """``Z(j 2 pi f) = F_ext / (j 2 pi f x)`` [N s/m] felt at the output: the inverse of the
+        closed-loop compliance ``x / F_ext`` (:data:`seactl.rigid.RIGID_DIAGRAM`, exact
+        delays) divided by ``s``; it includes the mass (:meth:`impedance`).
+
+        Parameters
+        ----------
+        f_hz : array_like
+            Frequencies [Hz] > 0.
+        port : {"output"}
+            The rigid actuator's one port.
+
+        Returns
+        -------
+        seactl.impedance.ImpedanceResponse
+            The impedance [N s/m].
+        """
         from .impedance import ImpedanceResponse
         from .rigid import rigid_compliance
 
@@ -246,7 +283,13 @@ class RigidBatch(System):
 
     def jitter_core(self) -> Any:
         """Jitter margins of the whole loop and the stiffness and damping loops
-        (:func:`seactl.jitter.model_jitter_margins` of the rigid loop model)."""
+        (:func:`seactl.jitter.model_jitter_margins` of the rigid loop model).
+
+        Returns
+        -------
+        seactl.jitter.JitterMargins
+            Per loop, of the batch shape.
+        """
         from .jitter import model_jitter_margins
         from .latency import rigid_model
 
@@ -255,7 +298,18 @@ class RigidBatch(System):
     @staticmethod
     def control_transfers(name: str) -> Any:
         """``"loop"``, ``"closed"``, ``"compliance"`` -> (transfer, divide by ``-s``) for
-        :meth:`to_control`."""
+        :meth:`to_control`.
+
+        Parameters
+        ----------
+        name : str
+            The transfer's name.
+
+        Returns
+        -------
+        tuple
+            ``(transfer, divide_by_minus_s)``.
+        """
         from ._export import rigid_transfer
 
         return rigid_transfer(name)
