@@ -140,12 +140,12 @@ def test_forms_share_blocks_and_products_bit_for_bit():
     on the SEA loop and the impedance forms."""
     from seactl.bench.core import random_designs
     from seactl.blockdiagram import evaluate_forms
-    from seactl.impedance import _impedance_forms
+    from seactl.impedance import impedance_forms
     from seactl.loops import outer_loop
 
     _, d = random_designs(50, seed=3)
     loop = outer_loop()
-    for forms in (loop.diagram.return_difference(loop.input, loop.cut), _impedance_forms()):
+    for forms in (loop.diagram.return_difference(loop.input, loop.cut), impedance_forms()):
         for a, f in zip(evaluate_forms(forms, d), forms):
             b = f.evaluate(d).flat()
             np.testing.assert_array_equal(a.coeffs, b.coeffs)

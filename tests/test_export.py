@@ -2,8 +2,8 @@
 sampled controller.
 
 Oracles: (1) the controller of the sampled plan, stepped by
-:func:`seactl.simulate.run_controller` -- itself checked against the actuation
-:func:`seactl.simulate.run_sampled` applied in a closed-loop simulation; (2) for the
+:func:`seactl.sim_discrete.run_controller` -- itself checked against the actuation
+:func:`seactl.sim_discrete.run_sampled` applied in a closed-loop simulation; (2) for the
 high-level process, the hand-derived law ``-Kq q_j[k - n]`` with ``n`` the whole-sample
 buffer of the module docstring of :mod:`seactl.simulate`; (3) the compiled C is run as a
 separate program through its CSV harness.
@@ -20,6 +20,7 @@ import pytest
 
 import seactl as sc
 from seactl import export as ex
+from seactl import export_split
 from seactl.cli import main
 from seactl.loops import sea_diagram
 from seactl.rigid import RIGID_DIAGRAM
@@ -53,7 +54,7 @@ CASES = {
 @pytest.mark.parametrize("case", sorted(CASES))
 def test_exported_python_and_c_equal_the_sampled_controller(case):
     (diagram, design, sat, step), rates = CASES[case]
-    ctl = ex.compile_processes(diagram, design, rates, sat)
+    ctl = export_split.compile_processes(diagram, design, rates, sat)
     langs = ("c", "python") if CC else ("python",)
     v = ex.verify(diagram, design, ctl, rates_hz=rates, saturation=sat, languages=langs,
                   step=step, t_end_s=0.3, random_ticks=1000)
@@ -69,23 +70,23 @@ def test_reference_is_the_closed_loop_simulation():
     """run_controller on the recorded plant signals gives the actuation run_sampled
     applied (one tick later: zero-order hold), saturation included."""
     diagram, design, sat, _ = _sea((1, 2, 1), (50, 100))[0:4]
-    ctl = ex.compile_processes(diagram, design, SPLIT, sat)
-    base, applied = ex.simulation_signals(diagram, design, ctl, 0.3, SPLIT, sat, 0.1)
-    ref = ex.reference_actuation(diagram, design, ctl, base, SPLIT, sat)
+    ctl = export_split.compile_processes(diagram, design, SPLIT, sat)
+    base, applied = export_split.simulation_signals(diagram, design, ctl, 0.3, SPLIT, sat, 0.1)
+    ref = export_split.reference_actuation(diagram, design, ctl, base, SPLIT, sat)
     assert np.max(np.abs(ref)) == pytest.approx(30.0)          # the step saturates at first
     np.testing.assert_allclose(ref[:-1], applied[1:], rtol=0, atol=1e-12)
-    np.testing.assert_allclose(ex.run_schedule(ctl, base), ref, rtol=0, atol=1e-11)
+    np.testing.assert_allclose(export_split.run_schedule(ctl, base), ref, rtol=0, atol=1e-11)
 
 
 def test_high_level_is_the_delayed_stiffness():
     """T_qs = 2.5 ms at 1 kHz: n = (2.5 - 0.5) / 1 = 2 samples, output -Kq q_j[k - 2]."""
     d = sc.design(14, delays_ms={"torque": 0.5, "stiffness": 2.5, "damping": 0.5},
                   filters_hz=(50, 100))
-    ctl = ex.compile_processes(sea_diagram(), d.sea, 1000.0, {"i_m": 30.0})
+    ctl = export_split.compile_processes(sea_diagram(), d.sea, 1000.0, {"i_m": 30.0})
     hl = ctl.process("high-level")
     assert hl.inputs == ("q_j",) and hl.buffers == (("Kq_fb", 2),) and hl.A.size == 0
     q = np.random.default_rng(3).standard_normal(50)
-    y = ex.run_process(hl, q[:, None])[:, 0]
+    y = export_split.run_process(hl, q[:, None])[:, 0]
     kq = float(d.gains.Kq)
     np.testing.assert_allclose(y, -kq * np.concatenate([[0.0, 0.0], q[:-2]]), rtol=1e-14)
     assert ctl.effective_delays_s["Kq_fb"] == pytest.approx(2.5e-3)
@@ -95,14 +96,14 @@ def test_processes_and_schedule():
     """The diagram's split: stiffness on high-level (sent to embedded), the actuation from
     the fastest process; senders run first."""
     d = sc.design(14, delays_ms={"torque": 1, "stiffness": 2, "damping": 1}, filters_hz=(50, 100))
-    ctl = ex.compile_processes(sea_diagram(), d.sea, SPLIT, {"i_m": 30.0})
+    ctl = export_split.compile_processes(sea_diagram(), d.sea, SPLIT, {"i_m": 30.0})
     assert ctl.names == ("high-level", "embedded")
     emb = ctl.process("embedded")
     assert emb.outputs == ("i_m",) and "tau_fb_from_high_level" in emb.inputs
     assert (emb.rate_hz, emb.period_ticks, ctl.process("high-level").period_ticks) == \
         (2000.0, 1, 4)
     with pytest.raises(sc.InputError, match="single design"):
-        ex.compile_processes(sea_diagram(), sc.design([12, 14]).sea)
+        export_split.compile_processes(sea_diagram(), sc.design([12, 14]).sea)
 
 
 @pytest.mark.parametrize("delays", [(0, 0, 0), (0.3, 0.5, 0.2)])
@@ -112,7 +113,7 @@ def test_zero_and_sub_tick_delays_export_exactly(delays, tmp_path):
     read as a dependency the other way, and the export refused every design without a
     stiffness delay over one tick.  Oracle: the sampled controller (verify, 1e-9)."""
     d = sc.design(30, delays_ms=dict(zip(("torque", "stiffness", "damping"), delays)))
-    ctl = ex.compile_processes(sea_diagram(), d.sea, 1000.0, {"i_m": 30.0})
+    ctl = export_split.compile_processes(sea_diagram(), d.sea, 1000.0, {"i_m": 30.0})
     assert ctl.names == ("high-level", "embedded")
     assert "tau_fb_from_high_level" in ctl.process("embedded").inputs
     assert not any(n.endswith("_from_embedded") for n in ctl.process("high-level").inputs)
@@ -124,10 +125,10 @@ def test_processes_that_need_each_other_within_a_tick_are_refused_clearly():
     """Two processes that do need each other's output within one tick cannot run apart:
     the scheduler's finding becomes an InputError with the delays and the ticks."""
     with pytest.raises(ValueError, match="each other within one tick"):
-        ex._schedule({"embedded": {"high-level"}, "high-level": {"embedded"}})
+        export_split._schedule({"embedded": {"high-level"}, "high-level": {"embedded"}})
     d = sc.design(30, delays_ms={"torque": 0, "stiffness": 0.5, "damping": 0}).sea
     ctrl = [b for b in sea_diagram().blocks if b.role != "plant"]
-    err = ex._cyclic(ctrl, d, {"embedded": 1000.0, "high-level": 500.0}, ValueError("x"))
+    err = export_split._cyclic(ctrl, d, {"embedded": 1000.0, "high-level": 500.0}, ValueError("x"))
     assert isinstance(err, sc.InputError) and err.value["T_qs"] == "0.5 ms"
     assert "high-level 2 ms" in str(err)
 
@@ -159,21 +160,21 @@ def test_cli_end_to_end(tmp_path, capsys):
     u = np.random.default_rng(5).standard_normal((300, len(emb["inputs"]))) * 0.05
     d14 = sc.design(14, delays_ms={"torque": 1, "stiffness": 2, "damping": 1},
                     filters_hz=(50, 100))
-    ctl = ex.compile_processes(sea_diagram(), d14.sea, SPLIT, {"i_m": 30.0})
-    ref = ex.run_process(ctl.process("embedded"), u)
+    ctl = export_split.compile_processes(sea_diagram(), d14.sea, SPLIT, {"i_m": 30.0})
+    ref = export_split.run_process(ctl.process("embedded"), u)
     obj = _load(out / "embedded.py", "Embedded")
     y = np.array([[obj.step(dict(zip(obj.INPUTS, row)))["i_m"]] for row in u])
-    assert ex.relative_error(y, ref) <= TARGET
+    assert export_split.relative_error(y, ref) <= TARGET
     if not CC:
         pytest.skip(NO_CC)
-    subprocess.run([CC, *ex.CFLAGS, "embedded.c", "embedded_main.c", "-o", "emb"], cwd=out,
+    subprocess.run([CC, *export_split.CFLAGS, "embedded.c", "embedded_main.c", "-o", "emb"], cwd=out,
                    check=True)
     csv = ",".join(emb["inputs"]) + "\n" + "".join(",".join(repr(float(v)) for v in r) + "\n"
                                                     for r in u)
     text = subprocess.run([str(out / "emb")], input=csv, capture_output=True, text=True,
                           check=True).stdout
     y_c = np.loadtxt(text.splitlines()[1:], delimiter=",").reshape(-1, 1)
-    assert ex.relative_error(y_c, ref) <= TARGET
+    assert export_split.relative_error(y_c, ref) <= TARGET
 
 
 def test_cli_never_touches_other_files(tmp_path, capsys):

@@ -169,7 +169,7 @@ def test_bounds_refuse_with_the_estimate(argv, needles, tmp_path, monkeypatch, c
 def test_library_errors_name_the_parameter():
     from seactl.errors import InputError
     from seactl.limits import check_range
-    from seactl.sweep import SweepSpec
+    from seactl.sweep_spec import SweepSpec
 
     with pytest.raises(InputError, match="^invalid rate_hz = "):
         check_range("rate_hz", 1e9, "rate_hz")

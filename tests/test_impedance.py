@@ -14,17 +14,10 @@ from seactl.blockdiagram import QuasiPolynomial
 from seactl.cli import main
 from seactl.design import critically_damped_gains
 from seactl.errors import InfeasibleDesignError, InputError
-from seactl.impedance import (
-    asymptotes,
-    excess_over_asymptotes_db,
-    high_frequency_asymptote,
-    impedance,
-    loaded_impedance_from_compliance,
-    low_frequency_stiffness,
-    paper_coefficients,
-    passivity,
-    zregion,
-)
+from seactl.imp_asymptotes import asymptotes, high_frequency_asymptote, low_frequency_stiffness
+from seactl.imp_passivity import passivity
+from seactl.imp_zregion import excess_over_asymptotes_db, zregion
+from seactl.impedance import impedance, loaded_impedance_from_compliance, paper_coefficients
 from seactl.loops import Gains, SEADesign, Timing, outer_loop
 
 A = UT_SEA

@@ -74,7 +74,7 @@ def test_a_call_with_the_wrong_number_of_arguments_is_one_line(expr, needle, tmp
 
 def test_min_and_max_take_any_number_of_arguments():
     """Oracle: Python's min and max of the same numbers."""
-    from seactl.loopfile import CONSTANTS, parse_expr
+    from seactl.loop_expr import CONSTANTS, parse_expr
 
     env = {"a": 3.0, "b": -2.0, "c": 7.5, **CONSTANTS}
     for f, ref in (("min", min), ("max", max)):

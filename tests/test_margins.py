@@ -823,11 +823,13 @@ def test_closed_loop_right_roots_equal_the_nyquist_count():
 
 def _threaded_cases():
     """(name, run) pairs: each run returns a dict of arrays computed in threads."""
+    from seactl import imp_passivity
     from seactl import impedance as imp
     from seactl.bench.impedance import random_designs as imp_designs
     from seactl.jitter import sea_jitter_margins
     from seactl.loops import SEA_DIAGRAM
-    from seactl.mobile_base import TRIKEY, simulate
+    from seactl.mb_simulation import simulate
+    from seactl.mobile_base import TRIKEY
     from seactl.roots import characteristic_roots
 
     d = imp_designs(24, seed=3)
@@ -837,7 +839,7 @@ def _threaded_cases():
         return {"z": imp.impedance(d, np.logspace(-1, 3, 500)).z}
 
     def passivity(monkeypatch):
-        p = imp.passivity(d, points_per_decade=50)
+        p = imp_passivity.passivity(d, points_per_decade=50)
         return {"passive": p.passive, "proven": p.proven}
 
     def jitter(monkeypatch):

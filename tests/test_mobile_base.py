@@ -8,6 +8,7 @@ import math
 import numpy as np
 import pytest
 
+from seactl import mb_baseline, mb_kinematics, mb_simulation, mb_tuning
 from seactl import mobile_base as mb
 from seactl.cli import main
 from seactl.errors import InputError
@@ -32,18 +33,18 @@ def test_wheel_speeds_pure_translation_and_rotation():
     # contact-point geometry.
     r, L = P.wheel_radius, P.wheel_distance
     # translation along x at theta = 0: wheel i turns at -sin(alpha_i) v / r
-    np.testing.assert_allclose(mb.wheel_speeds(P, [1.0, 0, 0]),
+    np.testing.assert_allclose(mb_kinematics.wheel_speeds(P, [1.0, 0, 0]),
                                [0.0, -math.sqrt(3) / 2 / r, math.sqrt(3) / 2 / r], atol=1e-12)
-    np.testing.assert_allclose(mb.wheel_speeds(P, [0, 1.0, 0]), [1 / r, -0.5 / r, -0.5 / r],
+    np.testing.assert_allclose(mb_kinematics.wheel_speeds(P, [0, 1.0, 0]), [1 / r, -0.5 / r, -0.5 / r],
                                atol=1e-12)
-    np.testing.assert_allclose(mb.wheel_speeds(P, [0, 0, 2.0]), np.full(3, 2 * L / r))
+    np.testing.assert_allclose(mb_kinematics.wheel_speeds(P, [0, 0, 2.0]), np.full(3, 2 * L / r))
     rng = np.random.default_rng(1)
     for _ in range(5):
         v, th = rng.normal(size=3), rng.uniform(-4, 4)
-        np.testing.assert_allclose(mb.wheel_speeds(P, v, th), _contact_speeds(P, v, th)[0],
+        np.testing.assert_allclose(mb_kinematics.wheel_speeds(P, v, th), _contact_speeds(P, v, th)[0],
                                    rtol=1e-12, atol=1e-12)
     # batched thetas broadcast
-    assert mb.wheel_jacobian(P, np.zeros((4, 2))).shape == (4, 2, 3, 3)
+    assert mb_kinematics.wheel_jacobian(P, np.zeros((4, 2))).shape == (4, 2, 3, 3)
 
 
 def test_task_inertia_equals_rigid_body_kinetic_energy():
@@ -61,14 +62,14 @@ def test_task_inertia_equals_rigid_body_kinetic_energy():
                          for j in range(3)] for i in range(3)])
         for i in range(3):
             lam[i, i] = 2 * ke(eye[i], th)
-        np.testing.assert_allclose(mb.task_inertia(P, th), lam, rtol=1e-12, atol=1e-12)
+        np.testing.assert_allclose(mb_kinematics.task_inertia(P, th), lam, rtol=1e-12, atol=1e-12)
 
 
 def test_energy_decays_without_input_at_the_viscous_rate():
     # Oracle: the analytic decay of the rigid drivetrain (rate b G / Lambda) and its
     # gyroscopic turn, worked below.
     p = RIGID
-    r = mb.simulate(p, [0.0, 0.0], [0.0, 0.0], [0.0, 0.5], duration=1.0, push=0.1,
+    r = mb_simulation.simulate(p, [0.0, 0.0], [0.0, 0.0], [0.0, 0.5], duration=1.0, push=0.1,
                     record_energy=True)
     e = r.energy
     assert np.all(np.diff(e, axis=0) <= 1e-9 * e[0])          # never increases
@@ -76,9 +77,9 @@ def test_energy_decays_without_input_at_the_viscous_rate():
     # Analytic (rigid drivetrain): the planar speed decays as exp(-b G_xx t / Lambda_xx)
     # (b: viscous friction + joint damping) while the velocity turns by the gyroscopic angle
     # int I G_xx thetadot / Lambda_xx dt of the spinning wheels and rotors (non-holonomic).
-    J = mb.body_jacobian(p)
+    J = mb_kinematics.body_jacobian(p)
     G = J.T @ J
-    lam = mb.task_inertia(p)
+    lam = mb_kinematics.task_inertia(p)
     inertia = p.wheel_spin_inertia + p.reflected_rotor_inertia
     T = r.t[-1]
     for i, b in enumerate((p.viscous_friction, p.viscous_friction + 0.5)):
@@ -101,10 +102,10 @@ def test_vibration_criterion_on_known_unstable_and_stable_damping():
     T = 0.02
     p = RIGID.with_(round_trip=0.0, extra_delay=T, central_period=P.embedded_period)
     d_lim = math.pi / 2 / (T + p.embedded_period)
-    vib = mb.criterion_test(p, 0.0, [0.6 * d_lim, 1.4 * d_lim], 0.0)
+    vib = mb_tuning.criterion_test(p, 0.0, [0.6 * d_lim, 1.4 * d_lim], 0.0)
     assert vib.fired.tolist() == [False, True]
     # the same joint damping on the 0.5 ms embedded processes is far from any limit
-    vib = mb.criterion_test(p, 0.0, 0.0, mb.damping_to_joint(p, 1.4 * d_lim))
+    vib = mb_tuning.criterion_test(p, 0.0, 0.0, mb_kinematics.damping_to_joint(p, 1.4 * d_lim))
     assert not vib.fired[0]
 
 
@@ -113,16 +114,16 @@ def test_cosc_without_delay_behaves_like_dosc():
     # reference); with the paper's 22 ms the same COSC gains fire the criterion.
     p = P.with_(round_trip=0.0, extra_delay=0.0, central_period=P.embedded_period,
                 circle_duration=3.0)
-    circle = mb.Circle(0.5, 4.0, 1.0)
+    circle = mb_simulation.Circle(0.5, 4.0, 1.0)
     d = 30.0
-    r = mb.simulate(p, 200.0, [d, 0.0], [0.0, float(mb.damping_to_joint(p, d))],
+    r = mb_simulation.simulate(p, 200.0, [d, 0.0], [0.0, float(mb_kinematics.damping_to_joint(p, d))],
                     reference=circle, duration=3.0)
     ep, ev = r.rms(after=1.0)
     assert ep[0] == pytest.approx(ep[1], rel=0.15)
     assert ev[0] == pytest.approx(ev[1], rel=0.25)
     assert np.max(np.abs(r.x[:, 0, :2] - r.x[:, 1, :2])) < 1e-3
     # ...whereas with the 22 ms central delay the same COSC gains are unstable
-    vib = mb.criterion_test(P, 200.0, d, 0.0)
+    vib = mb_tuning.criterion_test(P, 200.0, d, 0.0)
     assert vib.fired[0]
 
 
@@ -132,10 +133,10 @@ def test_sampled_simulation_matches_solve_ivp_when_ideal():
 
     p = RIGID.with_(stiffness=3000.0, compliance_damping=2.0, round_trip=0.0,
                     extra_delay=0.0, central_period=P.embedded_period, substeps=4)
-    circle = mb.Circle(0.5, 4.0, 0.5)
+    circle = mb_simulation.Circle(0.5, 4.0, 0.5)
     kx, dx = 100.0, 20.0
-    r = mb.simulate(p, kx, dx, 0.0, reference=circle, duration=1.0)
-    f = mb.continuous_rhs(p, kx, dx, 0.0, circle)
+    r = mb_simulation.simulate(p, kx, dx, 0.0, reference=circle, duration=1.0)
+    f = mb_baseline.continuous_rhs(p, kx, dx, 0.0, circle)
     sol = solve_ivp(f, (0, r.t[-1]), np.zeros(18), t_eval=r.t, rtol=1e-8, atol=1e-10,
                     method="LSODA")
     err = np.max(np.abs(sol.y[:3].T - r.x[:, 0]))
@@ -145,7 +146,7 @@ def test_sampled_simulation_matches_solve_ivp_when_ideal():
 def test_tuning_ranks_dosc_above_cosc_and_cli_json(capsys):
     small = P.with_(grid_points=8, refine_points=2, criterion_duration=1.5,
                     criterion_window=0.5, circle_duration=2.5, kx_max=5000.0)
-    comp = mb.tune(small)
+    comp = mb_tuning.tune(small)
     c, d = comp.results["cosc"], comp.results["dosc"]
     assert d.max_damping > c.max_damping > 0
     # Oracle: the paper's ranking (DOSC tolerates more damping and stiffness than COSC);
@@ -179,6 +180,6 @@ def test_bad_input(tmp_path, capsys):
     good.write_text("[timing]\nextra_delay = 0.0\n")
     assert mb.load_base(good).central_delay == pytest.approx(0.007)
     with pytest.raises(InputError, match="kx"):
-        mb.simulate(P, -1.0, 0.0, 0.0, duration=0.01)
+        mb_simulation.simulate(P, -1.0, 0.0, 0.0, duration=0.01)
     assert main(["base", "--circle-period", "0"]) == 2
     assert "circle-period" in capsys.readouterr().err

@@ -100,7 +100,7 @@ def test_fsolve_fails_far_more_in_log_space_than_in_plain_unknowns():
 def test_non_passive_bands_recur_above_the_report_scan():
     # Oracle: python-control's FRD of the same exact-delay impedance on a dense 1-10 kHz grid
     # (runs of Re Z < 0), against the passivity scan's bands that end above 1 kHz.
-    from seactl.impedance import passivity
+    from seactl.imp_passivity import passivity
 
     tt, ts, td = 1.0, 10.0, 3.0                      # the report's 10/3/1 ms set, no filters
     d = SEADesign(UT_SEA, critically_damped_gains(UT_SEA, 30.0), Timing.from_ms(tt, ts, td))

@@ -296,7 +296,7 @@ def test_plots_draw_on_given_axes():
 
 
 def test_sweep_parameter_robustness_keeps_its_old_name():
-    from seactl.sweep import RobustResult, monte_carlo
+    from seactl.sweep_robust import RobustResult, monte_carlo
 
     assert monte_carlo.__doc__.startswith("Deprecated name of")
     r = RobustResult(40.0, np.array([30.0, 50.0]), np.array([True, False]), {})

@@ -286,7 +286,9 @@ def test_multi_rate_verdict_matches_the_lifted_map_over_the_buffers(t_qs_ms):
     # multiple of the slow period covering every buffer, buffers as ring slots), whose
     # eigenvalues are those of the period map raised to the ratio of the periods.
     from seactl.loops import SEA_DIAGRAM
-    from seactl.simulate import Step, compile_sampled, lifted_map
+    from seactl.sim_discrete import compile_sampled
+    from seactl.sim_inputs import Step
+    from seactl.sim_period import lifted_map
 
     d = sc.design(30, delays_ms={"torque": 0.5, "stiffness": t_qs_ms, "damping": 0.5},
                   filters_hz=(50, 100))

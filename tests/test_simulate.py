@@ -20,15 +20,10 @@ from seactl.design import critically_damped_gains
 from seactl.errors import InputError
 from seactl.loops import SEA_DIAGRAM, SEA_DIAGRAM_NO_ZERO, SEADesign, Timing, closed_loop
 from seactl.sea import sea_impulse, sea_margins, sea_step
-from seactl.simulate import (
-    Friction,
-    Sine,
-    Step,
-    impulse_metrics,
-    realize_tustin,
-    simulate,
-    step_metrics,
-)
+from seactl.sim_inputs import Friction, Sine, Step
+from seactl.sim_metrics import impulse_metrics, step_metrics
+from seactl.sim_realize import realize_tustin
+from seactl.simulate import simulate
 
 G14 = critically_damped_gains(UT_SEA, 14.0)
 
@@ -398,7 +393,7 @@ def test_expm_batched_matches_scipy():
     # Oracle: scipy.linalg.expm.
     from scipy.linalg import expm
 
-    from seactl.simulate import expm_batched
+    from seactl.sim_network import expm_batched
 
     rng = np.random.default_rng(0)
     A = rng.normal(size=(50, 7, 7)) * np.logspace(-3, 2.5, 50)[:, None, None]
@@ -411,10 +406,10 @@ def test_expm_batched_matches_scipy():
 
 def _augmented_matrices(monkeypatch, design, **kw):
     """The matrices the continuous simulation of ``design`` exponentiates."""
-    import seactl.simulate as sim
+    from seactl import sim_network
 
-    seen, expm = [], sim.expm_batched
-    monkeypatch.setattr(sim, "expm_batched", lambda M: (seen.append(M.copy()), expm(M))[1])
+    seen, expm = [], sim_network.expm_batched
+    monkeypatch.setattr(sim_network, "expm_batched", lambda M: (seen.append(M.copy()), expm(M))[1])
     sea_step(design, t_end_s=0.01, **kw)
     return seen[0][0]
 
@@ -428,7 +423,7 @@ def test_expm_batched_is_accurate_entry_by_entry_on_a_loops_matrices(monkeypatch
     errors up to 5e10 on Table I).  Oracle: mpmath's expm at 50 digits."""
     import mpmath
 
-    from seactl.simulate import expm_batched
+    from seactl.sim_network import expm_batched
 
     d = SEADesign(UT_SEA, critically_damped_gains(UT_SEA, 14.0, gs=gs), Timing.from_ms(*ms))
     M = _augmented_matrices(monkeypatch, d)
@@ -487,7 +482,7 @@ def test_a_simulation_larger_than_the_machine_is_refused_up_front(mode, monkeypa
 def test_buffer_samples_is_the_shortest_realizable_delay_not_below_the_request():
     # Oracle: the definition, by enumeration: of the realizable delays T_s/2 + n T_s
     # (n = 0, 1, ...), the smallest one >= T.
-    from seactl.simulate import buffer_samples
+    from seactl.sim_discrete import buffer_samples
 
     rng = np.random.default_rng(3)
     for Ts in (1e-3, 2e-3, 1 / 1500, 1 / 27.5):

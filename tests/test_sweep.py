@@ -15,16 +15,11 @@ from seactl.design import critically_damped_gains
 from seactl.errors import InfeasibleDesignError, InputError
 from seactl.loops import SEADesign, Timing
 from seactl.sea import sea_margins
-from seactl.sweep import (
-    RobustResult,
-    SweepInterrupted,
-    SweepSpec,
-    missing_chunks,
-    parameter_robustness,
-    read_sweep,
-    run_sweep,
-    sweep_map,
-)
+from seactl.sweep import SweepInterrupted, run_sweep
+from seactl.sweep_maps import sweep_map
+from seactl.sweep_robust import RobustResult, parameter_robustness
+from seactl.sweep_spec import SweepSpec
+from seactl.sweep_store import missing_chunks, read_sweep
 
 IJ = UT_SEA.joint_inertia
 # f_n = 8 Hz has no critically-damped gain set (feasible above about 9.5 Hz).
@@ -367,13 +362,13 @@ def test_local_workers_start_warm_and_ignore_ctrl_c(method, reference, tmp_path,
 
     from distributed import Client
 
-    from seactl.sweep import _local_cluster
+    from seactl.sweep import local_cluster
 
     if method not in multiprocessing.get_all_start_methods():
         pytest.skip(f"no {method} here")
     if method == "spawn":
         monkeypatch.setattr(multiprocessing, "get_all_start_methods", lambda: ["spawn"])
-    cluster = _local_cluster(2)
+    cluster = local_cluster(2)
     try:
         with Client(cluster) as client:
             state = client.run(_worker_state)
@@ -396,7 +391,7 @@ def test_the_template_prepares_only_the_fork_server_seactl_starts(marked):
     import os
     import subprocess
 
-    from seactl.sweep import TEMPLATE_MARKER
+    from seactl.sweep_spec import TEMPLATE_MARKER
 
     code = ("import os, signal, sys, seactl._sweep_template; "
             "print(signal.getsignal(signal.SIGINT) == signal.SIG_IGN, "
@@ -436,7 +431,7 @@ def test_a_failed_warm_up_is_left_to_the_first_chunk(monkeypatch):
 
 
 def _report_peak(q):
-    from seactl.sweep import _peak_rss_mb
+    from seactl.sweep_eval import _peak_rss_mb
 
     q.put(_peak_rss_mb())
 
@@ -464,7 +459,7 @@ def test_batches_cover_the_chunks_in_order_and_shrink_to_singles(n, workers):
     """Local workers take chunks in batches (one task each).  Oracle: the definition:
     every chunk once, in order; at most 8 per batch; single chunks at the end, when fewer
     than 4 per worker remain."""
-    from seactl.sweep import batches
+    from seactl.sweep_eval import batches
 
     todo = list(range(3, 3 + n))
     b = batches(todo, workers)

@@ -17,7 +17,8 @@ from seactl.blockdiagram import Block, BlockDiagram
 from seactl.cli import main
 from seactl.errors import InputError
 from seactl.sea import sea_step
-from seactl.simulate import Step, simulate
+from seactl.sim_inputs import Step
+from seactl.simulate import simulate
 from seactl.timing import (
     Bernoulli,
     Constant,

@@ -616,7 +616,8 @@ def test_sweep_over_a_loop_file_variable(tmp_path, capsys):
 def test_rigid_file_equals_builtin_impedance_and_step():
     """Oracle: the built-in rigid diagram (seactl.rigid.RIGID_DIAGRAM) and its simulation."""
     from seactl.rigid import RIGID_DIAGRAM, UT_LINEAR, RigidDesign
-    from seactl.simulate import Step, simulate
+    from seactl.sim_inputs import Step
+    from seactl.simulate import simulate
 
     loop = sc.load_loop(EXAMPLES / "rigid.toml")
     d = RigidDesign.from_fn(UT_LINEAR, 8.0, T_s=1.5e-3, T_d=1.5e-3, f_v=50.0)
@@ -779,7 +780,9 @@ def test_multirate_sampled_growth_rates_match_a_long_simulation(paper):
     phases) and the buffers.  Oracle: the envelope of a 3 s simulation (peaks per 0.25 s, a
     line through their logarithms), one design decaying at about 5.4 /s, one growing at
     0.35 /s."""
-    from seactl.simulate import Step, compile_sampled, lifted_map, run_sampled
+    from seactl.sim_discrete import compile_sampled, run_sampled
+    from seactl.sim_inputs import Step
+    from seactl.sim_period import lifted_map
 
     lp = paper.with_values(T_high=np.array([14.0, 17.0]))
     plan = compile_sampled(lp.diagram, lp.design, {"q_des": Step(1.0)}, 3.0, ("q_j",),
@@ -832,7 +835,7 @@ def test_a_loop_vanishes_exactly_where_its_response_is_zero_on_the_grid(name, ga
     coefficients.  Oracle: the loop's response on its whole frequency grid is exactly 0
     (how it was decided before), for every break with the cuts ``break_margins`` uses, on
     a batch that zeroes each gain, pairs of them, and none."""
-    from seactl.userloop import _vanishes
+    from seactl.loop_analysis import _vanishes
 
     base = sc.load_loop(EXAMPLES / name)
     n = len(gains)

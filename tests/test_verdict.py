@@ -142,7 +142,9 @@ def test_sampled_growing_modes_match_a_long_simulation():
     ``ln(rho) / period``.  Oracle: the envelope of a 20 s sampled simulation without
     limits (peaks per second, a line through their logarithms), on designs 0.1-0.25 /s
     either side of the boundary near f_n = 30.1 Hz, which a 0.5 s window cannot tell."""
-    from seactl.simulate import Step, compile_sampled, lifted_map
+    from seactl.sim_discrete import compile_sampled
+    from seactl.sim_inputs import Step
+    from seactl.sim_period import lifted_map
 
     fn = np.array([29.9, 30.05, 30.2, 30.3])
     d = SEADesign(UT_SEA, critically_damped_gains(UT_SEA, fn),
@@ -199,8 +201,10 @@ def test_judge_refuses_a_bad_root_count(bad):
 
 def test_sampled_counts_too_costly_or_with_friction_are_unknown(monkeypatch):
     # Oracle: the contract (-1 = not decided, the window alone judges), by construction.
-    import seactl.simulate as sim
-    from seactl.simulate import Friction, Step, compile_sampled, sampled_unstable_modes
+    from seactl import sim_period
+    from seactl.sim_discrete import compile_sampled
+    from seactl.sim_inputs import Friction, Step
+    from seactl.sim_period import sampled_unstable_modes
 
     d = SEADesign(UT_SEA, critically_damped_gains(UT_SEA, np.array([14.0, 30.2])),
                   Timing.from_ms(0.5, 10.53, 0.5, 50, 100))
@@ -208,7 +212,7 @@ def test_sampled_counts_too_costly_or_with_friction_are_unknown(monkeypatch):
     assert sampled_unstable_modes(compile_sampled(*args)).tolist() == [0, 2]
     fr = Friction("tau_net_m", "q_m", coulomb=0.1)
     assert sampled_unstable_modes(compile_sampled(*args, friction=fr)).tolist() == [-1, -1]
-    monkeypatch.setattr(sim, "_LIFTED_WORK", 1.0)
+    monkeypatch.setattr(sim_period, "_LIFTED_WORK", 1.0)
     assert sampled_unstable_modes(compile_sampled(*args)).tolist() == [-1, -1]
 
 
@@ -245,7 +249,9 @@ def test_sampled_growth_rates_of_random_designs_match_their_simulations(rate_hz)
     leaves the bound, every decaying one decays (above the rounding floor).  Where the
     rate can be read from two peaks (-6 to 4 /s, the next mode 3 /s slower) it agrees to
     the peaks' resolution (a peak lands anywhere in an oscillation: 0.03 + 4 % /s)."""
-    from seactl.simulate import Step, compile_sampled, lifted_map, run_sampled
+    from seactl.sim_discrete import compile_sampled, run_sampled
+    from seactl.sim_inputs import Step
+    from seactl.sim_period import lifted_map
 
     rng = np.random.default_rng(7)
     n = 60

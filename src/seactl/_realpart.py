@@ -1,6 +1,6 @@
 """Certified sign of ``Re Z(jw)`` on a frequency interval, ``Z = N / (jw D) + b``.
 
-The passivity verdict (:func:`seactl.impedance.passivity`) scans ``Re Z`` on a dense grid,
+The passivity verdict (:func:`seactl.imp_passivity.passivity`) scans ``Re Z`` on a dense grid,
 which cannot see a band narrower than its spacing.  Where the scan finds none, this module
 proves it: ``w |D|^2 Re Z = f(w) = Im(N conj(D)) + b w |D|^2`` has the sign of ``Re Z``,
 and an interval ``[wa, wb]`` is certified where ``f > 0`` throughout: ``f`` stays above

@@ -462,7 +462,7 @@ class ResponseResult(Result):
 
     Parameters
     ----------
-    response : seactl.simulate.SEAResponse
+    response : seactl.sim_results.SEAResponse
         The simulated response.
     labels : list of str
         One legend label per design (flattened batch).
@@ -497,10 +497,10 @@ class ResponseResult(Result):
         step, in the system's position unit (rad or m) for an impulse.
     current_a : ndarray
         Motor current [A], batch shape + ``(T,)`` (SEA; the actuation for other systems).
-    metrics : seactl.simulate.StepMetrics or seactl.simulate.ImpulseMetrics
+    metrics : seactl.sim_results.StepMetrics or seactl.sim_results.ImpulseMetrics
         Rise, overshoot and settling (step) or peak and recovery (impulse); every field
         is also a key of :meth:`to_dict`.
-    result : seactl.simulate.SimResult
+    result : seactl.sim_results.SimResult
         The simulation itself (all outputs, boundedness, details in ``info``).
     requested_delays_s, effective_delays_s : dict
         Per loop, the delay asked for and the delay simulated [s].
@@ -561,7 +561,7 @@ class ResponseResult(Result):
         A loop with growing modes is unstable however slowly they grow and whatever the
         simulated window shows: in continuous mode by the certified count of closed-loop
         roots in the right half-plane, in sampled mode by the eigenvalues of the loop's
-        map over one period (:func:`seactl.simulate.sampled_unstable_modes`).
+        map over one period (:func:`seactl.sim_period.sampled_unstable_modes`).
         ``metrics.stable`` only says the simulated response stayed bounded and decayed.
 
         Parameters

@@ -1,9 +1,9 @@
 """The fork server's preload: the template local sweep workers are forked from.
 
 multiprocessing's fork server imports this module once, before it forks the first
-worker (:func:`seactl.sweep._start_worker_template`); importing is all a preload can
+worker (:func:`seactl.sweep.start_worker_template`); importing is all a preload can
 do. In that server, and only there, the import calls :func:`prepare`: seactl starts the
-server with :data:`seactl.sweep.TEMPLATE_MARKER` in its environment, which the server then
+server with :data:`seactl.sweep_spec.TEMPLATE_MARKER` in its environment, which the server then
 drops (its children do not carry it). Every worker then starts with the sweep's kernels
 loaded (:func:`seactl._sweep_worker.warm`) and SIGINT ignored; other processes this fork
 server starts inherit both as well. Imported anywhere else (pytest's doctest collection,
@@ -14,7 +14,7 @@ import os
 import signal
 
 from ._sweep_worker import warm
-from .sweep import TEMPLATE_MARKER
+from .sweep_spec import TEMPLATE_MARKER
 
 
 def prepare() -> None:

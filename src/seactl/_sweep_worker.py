@@ -3,7 +3,7 @@
 A worker needs the sweep's modules and compiled kernels. A spawned worker loads them
 (numba's registries, scipy.linalg through numba's BLAS check, the kernels' cache) before
 its first chunk; on a cold numba cache it compiles them. Where the platform has a fork
-server (Linux, macOS), :func:`seactl.sweep._local_cluster` has it import
+server (Linux, macOS), :func:`seactl.sweep.local_cluster` has it import
 :mod:`seactl._sweep_template`, which calls :func:`warm` once; every worker is then forked
 with all of that loaded. Elsewhere (Windows) the workers spawn, and :func:`dask_setup`
 warms each one as it starts.
@@ -41,7 +41,8 @@ def warm() -> None:
             import distributed.worker  # noqa: F401 - what every worker runs
 
             from .actuators import UT_SEA
-            from .sweep import SweepSpec, evaluate_chunk
+            from .sweep_eval import evaluate_chunk
+            from .sweep_spec import SweepSpec
 
             # (not the impedance columns' path: it would load sympy in every sweep)
             evaluate_chunk(SweepSpec(UT_SEA, (("fn_hz", (12.0, 20.0)),)), 0)

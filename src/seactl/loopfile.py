@@ -17,443 +17,37 @@ a variable given as an array makes a batch of designs.
 
 from __future__ import annotations
 
-import ast
-import functools
 import keyword
-import math
 import re
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
-from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_validator
+from pydantic import ValidationError
 
 from ._validate import float_array
 from .blockdiagram import Block, BlockDiagram, DesignBatch
 from .errors import LoopFileError
 from .limits import (
-    MAX_EXPR_CHARS,
-    MAX_EXPR_DEPTH,
-    MAX_LOOP_BLOCKS,
     MAX_LOOP_NAMES,
-    MAX_LOOP_ORDER,
-    MAX_LOOP_SIGNALS,
-    MAX_NESTING,
-    RANGES,
-    derive_seconds,
-    human_seconds,
 )
-
-# ------------------------------------------------------------------ expressions
-FUNCTIONS: dict[str, Callable[..., Any]] = {
-    "sqrt": np.sqrt, "exp": np.exp, "log": np.log, "log10": np.log10, "sin": np.sin,
-    "cos": np.cos, "tan": np.tan, "atan": np.arctan, "abs": np.abs,
-    "min": lambda *a: functools.reduce(np.minimum, a),
-    "max": lambda *a: functools.reduce(np.maximum, a), "hypot": np.hypot}
-"""Functions an expression may call."""
-
-ARITY: dict[str, tuple[int, int | None]] = {
-    **{f: (1, 1) for f in FUNCTIONS}, "min": (2, None), "max": (2, None), "hypot": (2, 2)}
-"""Each function's fewest and most arguments (``None``: any number)."""
-
-CONSTANTS = {"pi": math.pi, "e": math.e}
-"""Names every expression knows."""
-
-_BINOPS = {ast.Add: np.add, ast.Sub: np.subtract, ast.Mult: np.multiply,
-           ast.Div: np.true_divide, ast.Pow: np.power}
-_ALLOWED = ("numbers, names, + - * / ^ ** ( ) and the functions "
-            + ", ".join(FUNCTIONS))
-NAME_RE = re.compile(r"^[A-Za-z][A-Za-z0-9_]*$")
-
-
-@dataclass(frozen=True)
-class Expr:
-    """A parsed numeric field: a number, or an arithmetic expression of names."""
-
-    text: str
-    tree: Any
-    names: frozenset[str]
-
-    def __call__(self, env: Mapping[str, Any]) -> np.ndarray:
-        with np.errstate(all="ignore"):
-            return np.asarray(_eval(self.tree, env), float)
-
-
-def parse_expr(value: Any, file: str, where: str, known: Sequence[str] | None = None
-               ) -> Expr:
-    """Parse a number or an expression string (``^`` is the power, as ``**``).
-
-    Only numbers, names, ``+ - * / ^ **``, parentheses and :data:`FUNCTIONS` are
-    accepted (the syntax tree is checked against that whitelist; nothing is executed).
-    ``known`` (if given) lists the names it may use besides :data:`CONSTANTS`.
-
-    Examples
-    --------
-    >>> e = parse_expr("m * (2*pi*fn)^2", "f.toml", "parameter 'Kq'", ["m", "fn"])
-    >>> round(float(e({"m": 0.014, "fn": 14.0, **CONSTANTS})), 4)
-    108.3288
-    """
-    if isinstance(value, bool) or not isinstance(value, (int, float, str)):
-        raise LoopFileError(file, where, value, "a number or an expression string")
-    if not isinstance(value, str):
-        number = _number(value)
-        if number is None or math.isnan(number):  # inf passes: "no filter" for filter_hz
-            raise LoopFileError(file, where, value, "a number within the floating-point "
-                                "range")
-        return Expr(repr(number), ast.Constant(number), frozenset())
-    if len(value) > MAX_EXPR_CHARS:
-        raise LoopFileError(file, where, value[:40] + "...", f"an expression of at most "
-                            f"{MAX_EXPR_CHARS} characters (this one has {len(value)})")
-    try:
-        tree = ast.parse(value.replace("^", "**").strip(), mode="eval").body
-    except (SyntaxError, ValueError, RecursionError, MemoryError):
-        raise LoopFileError(file, where, value, "an expression of " + _ALLOWED
-                            + f", nested at most {MAX_EXPR_DEPTH} deep") from None
-    if _depth(tree) > MAX_EXPR_DEPTH:
-        raise LoopFileError(file, where, value, f"an expression nested at most "
-                            f"{MAX_EXPR_DEPTH} deep (operators, parentheses and calls)")
-    names: set[str] = set()
-    for node in ast.walk(tree):
-        if isinstance(node, ast.Call):
-            if not (isinstance(node.func, ast.Name) and node.func.id in FUNCTIONS
-                    and not node.keywords):
-                raise LoopFileError(file, where, value, "calls only to " + ", ".join(FUNCTIONS))
-            _check_arity(node, value, file, where)
-        elif isinstance(node, ast.Name):
-            names.add(node.id)
-        elif isinstance(node, ast.Constant):
-            if _number(node.value) is None:
-                raise LoopFileError(file, where, value, "an expression of " + _ALLOWED
-                                    + " (numbers within the floating-point range)")
-        elif not isinstance(node, (ast.BinOp, ast.UnaryOp, ast.Load, ast.UAdd, ast.USub,
-                                   *(_BINOPS))):
-            raise LoopFileError(file, where, value, f"an expression of {_ALLOWED} "
-                                f"(found {type(node).__name__})")
-    calls = {n.func.id for n in ast.walk(tree) if isinstance(n, ast.Call)}
-    names = {n for n in names if n not in calls or _is_operand(tree, n)} - set(CONSTANTS)
-    if known is not None:
-        unknown = sorted(names - set(known))
-        if unknown:
-            raise LoopFileError(file, where, value, f"unknown name {unknown[0]!r}; known: "
-                                + ", ".join([*known, *CONSTANTS]))
-    return Expr(value, tree, frozenset(names))
-
-
-def _number(value: Any) -> float | None:
-    """``value`` as a float, or None if it is no number (a bool, a string) or too large."""
-    if isinstance(value, bool) or not isinstance(value, (int, float)):
-        return None
-    try:
-        return float(value)
-    except OverflowError:
-        return None
-
-
-def _depth(tree: Any) -> int:
-    """Nesting depth of a syntax tree (iterative: a deep one must not exhaust the stack)."""
-    deepest, stack = 0, [(tree, 1)]
-    while stack:
-        node, d = stack.pop()
-        deepest = max(deepest, d)
-        stack.extend((child, d + 1) for child in ast.iter_child_nodes(node)
-                     if not isinstance(child, (ast.Load, ast.operator, ast.unaryop)))
-    return deepest
-
-
-def _check_arity(node: ast.Call, value: str, file: str, where: str) -> None:
-    name = node.func.id  # type: ignore[attr-defined]
-    lo, hi = ARITY[name]
-    n = len(node.args)
-    if n < lo or (hi is not None and n > hi) or any(isinstance(a, ast.Starred)
-                                                      for a in node.args):
-        count = f"{lo}" if lo == hi else f"at least {lo}" if hi is None else f"{lo} to {hi}"
-        raise LoopFileError(file, where, value, f"{name}() with {count} argument"
-                            f"{'' if lo == hi == 1 else 's'} (it has {n})")
-
-
-def _is_operand(tree: Any, name: str) -> bool:
-    """Whether ``name`` appears other than as a called function."""
-    funcs = {id(n.func) for n in ast.walk(tree) if isinstance(n, ast.Call)}
-    return any(isinstance(n, ast.Name) and n.id == name and id(n) not in funcs
-               for n in ast.walk(tree))
-
-
-def _eval(node: Any, env: Mapping[str, Any]) -> Any:
-    if isinstance(node, ast.Constant):
-        return float(node.value)
-    if isinstance(node, ast.Name):
-        return env[node.id] if node.id in env else CONSTANTS[node.id]
-    if isinstance(node, ast.BinOp):
-        return _BINOPS[type(node.op)](_eval(node.left, env), _eval(node.right, env))
-    if isinstance(node, ast.UnaryOp):
-        val = _eval(node.operand, env)
-        return -val if isinstance(node.op, ast.USub) else val
-    return FUNCTIONS[node.func.id](*(_eval(a, env) for a in node.args))
-
-
-# ------------------------------------------------------------------ block kinds
-@dataclass(frozen=True)
-class Kind:
-    """A block kind: role, parameters (name -> (default or None if required, check)) and
-    its transfer ``tf(values) -> (num, den)`` (coefficients highest power first)."""
-
-    role: str
-    params: dict[str, tuple[Any, str]]
-    tf: Callable[[dict[str, Any]], tuple[list[Any], list[Any]]]
-    doc: str
-    derivative: bool = False  # numerator one degree above the denominator allowed
-
-
-def _tc(f_hz: Any) -> Any:
-    """Time constant 1/(2 pi f) [s]; inf -> 0 (no filter)."""
-    return np.where(np.isinf(f_hz), 0.0, 1.0 / (2 * np.pi * np.asarray(f_hz, float)))
-
-
-def _pid(v: dict[str, Any]) -> tuple[list[Any], list[Any]]:
-    tf = _tc(v["filter_hz"])
-    return ([v["kp"] * tf + v["kd"], v["kp"] + v["ki"] * tf, v["ki"]], [tf, 1.0, 0.0])
-
-
-def _w(v: dict[str, Any], key: str = "f_hz") -> Any:
-    return 2 * np.pi * v[key]
-
-
-_R, _P, _N, _A = "required", "> 0", ">= 0", "any"
-KINDS: dict[str, Kind] = {
-    # physics (role plant)
-    "inertia": Kind("plant", {"inertia": (None, _P), "damping": (0.0, _N)},
-                    lambda v: ([1.0], [v["inertia"], v["damping"], 0.0]),
-                    "position = torque / (inertia s^2 + damping s)"),
-    "load": Kind("plant", {"inertia": (None, _P), "damping": (0.0, _N), "stiffness": (0.0, _N)},
-                 lambda v: ([1.0], [v["inertia"], v["damping"], v["stiffness"]]),
-                 "position = torque / (inertia s^2 + damping s + stiffness)"),
-    "spring": Kind("plant", {"stiffness": (None, _P)}, lambda v: ([v["stiffness"]], [1.0]),
-                   "torque = stiffness * deflection"),
-    "damper": Kind("plant", {"damping": (None, _N)}, lambda v: ([v["damping"], 0.0], [0.0, 1.0]),
-                   "torque = damping * s * deflection", derivative=True),
-    "plant_tf": Kind("plant", {"num": (None, "list"), "den": (None, "list")},
-                     lambda v: (list(v["num"]), list(v["den"])), "num(s) / den(s), proper"),
-    "current_to_torque": Kind("plant", {"constant": (None, _P)},
-                              lambda v: ([v["constant"]], [1.0]), "torque = constant * current"),
-    # controllers (role controller) and sensors
-    "gain": Kind("controller", {"gain": (None, _A)}, lambda v: ([v["gain"]], [1.0]), "gain"),
-    "sum": Kind("controller", {}, lambda v: ([1.0], [1.0]), "sum of the signed inputs"),
-    "delay": Kind("controller", {}, lambda v: ([1.0], [1.0]), "pure delay (delay_ms)"),
-    "sensor": Kind("sensor", {"gain": (1.0, _A)}, lambda v: ([v["gain"]], [1.0]),
-                   "measurement of a plant signal"),
-    "pd": Kind("controller", {"kp": (0.0, _A), "kd": (0.0, _A), "filter_hz": (math.inf, _P)},
-               lambda v: ([v["kp"] * _tc(v["filter_hz"]) + v["kd"], v["kp"]],
-                          [_tc(v["filter_hz"]), 1.0]),
-               "kp + kd s / (s/(2 pi filter_hz) + 1)", derivative=True),
-    "pid": Kind("controller", {"kp": (0.0, _A), "ki": (0.0, _A), "kd": (0.0, _A),
-                               "filter_hz": (math.inf, _P)}, _pid,
-                "kp + ki/s + kd s / (s/(2 pi filter_hz) + 1)", derivative=True),
-    "lowpass1": Kind("controller", {"f_hz": (None, _P), "gain": (1.0, _A)},
-                     lambda v: ([v["gain"]], [1.0 / _w(v), 1.0]), "gain / (s/(2 pi f_hz) + 1)"),
-    "lowpass2": Kind("controller", {"f_hz": (None, _P), "zeta": (math.sqrt(0.5), _P),
-                                    "gain": (1.0, _A)},
-                     lambda v: ([v["gain"] * _w(v) ** 2], [1.0, 2 * v["zeta"] * _w(v),
-                                                           _w(v) ** 2]),
-                     "gain w^2 / (s^2 + 2 zeta w s + w^2), w = 2 pi f_hz"),
-    "notch": Kind("controller", {"f_hz": (None, _P), "zeta_num": (0.0, _N),
-                                 "zeta_den": (0.5, _P)},
-                  lambda v: ([1.0, 2 * v["zeta_num"] * _w(v), _w(v) ** 2],
-                             [1.0, 2 * v["zeta_den"] * _w(v), _w(v) ** 2]),
-                  "(s^2 + 2 zeta_num w s + w^2) / (s^2 + 2 zeta_den w s + w^2)"),
-    "leadlag": Kind("controller", {"gain": (1.0, _A), "zero_hz": (None, _P),
-                                   "pole_hz": (None, _P)},
-                    lambda v: ([v["gain"] / _w(v, "zero_hz"), v["gain"]],
-                               [1.0 / _w(v, "pole_hz"), 1.0]),
-                    "gain (s/(2 pi zero_hz) + 1) / (s/(2 pi pole_hz) + 1)"),
-    "tf": Kind("controller", {"num": (None, "list"), "den": (None, "list")},
-               lambda v: (list(v["num"]), list(v["den"])), "num(s) / den(s), proper"),
-    "dob": Kind("controller", {"nominal_num": (None, "list"), "nominal_den": (None, "list"),
-                               "q_hz": (None, _P), "q_order": (2, "int")},
-                lambda v: ([1.0], [1.0]),
-                "u = input - Q (Pn^-1 measurement - u), Q = 1/(s/(2 pi q_hz) + 1)^q_order"),
-}
-"""The block library (docs/loops.md lists each kind's fields)."""
-
-_COMMON = {"name", "kind", "input", "output", "process", "delay_ms", "measurement",
-           "description"}
-
-
-# ------------------------------------------------------------------ file schema
-class _Model(BaseModel):
-    model_config = ConfigDict(extra="forbid")
-
-
-class ProcessModel(_Model):
-    rate_hz: float = Field(1000.0, gt=0, allow_inf_nan=False, description="rate [Hz]")
-    latency_ms: float | str = Field(0.0, description="latency of a block with delay_ms = "
-                                    "'process' [ms]: number or expression")
-
-
-class BreakModel(_Model):
-    name: str
-    signal: str
-    description: str = ""
-
-
-class PortModel(_Model):
-    name: str
-    position: str
-    force: str
-    sign: float = Field(-1.0, description="Z = sign * force / (s position)")
-
-
-class SignalsModel(_Model):
-    inputs: list[str] = []
-    reference: str | None = None
-    disturbance: str | None = None
-    output: str | None = None
-    reference_step: float | None = Field(None, allow_inf_nan=False, description="the "
-                                         "default step of the reference (its unit)")
-    reference_unit: str | None = Field(None, max_length=40, description="the unit of the "
-                                       "reference, e.g. rad or m")
-
-    @field_validator("reference_step")
-    @classmethod
-    def _nonzero_step(cls, v: float | None) -> float | None:
-        if v is not None and v == 0:
-            raise ValueError("a non-zero step")
-        return v
-
-
-class AnalysisModel(_Model):
-    f_min_hz: float | None = Field(None, ge=RANGES["freq_hz"][0], le=RANGES["freq_hz"][1],
-                                   allow_inf_nan=False)
-    f_max_hz: float | None = Field(None, ge=RANGES["freq_hz"][0], le=RANGES["freq_hz"][1],
-                                   allow_inf_nan=False)
-
-
-class BlockModel(BaseModel):
-    model_config = ConfigDict(extra="allow")
-
-    name: str
-    kind: str
-    input: str | list[str]
-    output: str
-    process: str | None = None
-    delay_ms: float | str | None = None
-    measurement: str | None = None
-    description: str = ""
-
-
-class LoopFileModel(_Model):
-    name: str = "loop"
-    description: str = ""
-    default_process: str | None = None
-    variables: dict[str, float] = {}
-    parameters: dict[str, float | str] = {}
-    processes: dict[str, ProcessModel] = {}
-    blocks: list[BlockModel] = Field(min_length=1)
-    breaks: list[BreakModel] = []
-    ports: list[PortModel] = []
-    signals: SignalsModel = SignalsModel()
-    analysis: AnalysisModel = AnalysisModel()
-
-
-def validation_error(exc: ValidationError, file: str, data: Mapping[str, Any]) -> LoopFileError:
-    """The first pydantic error as a :class:`LoopFileError` naming block and field."""
-    err = exc.errors()[0]
-    loc = list(err["loc"])
-    where = ".".join(str(p) for p in loc)
-    if len(loc) >= 2 and loc[0] in ("blocks", "breaks", "ports") and isinstance(loc[1], int):
-        items = data.get(loc[0]) or []
-        item = items[loc[1]] if loc[1] < len(items) and isinstance(items[loc[1]], dict) else {}
-        label = f"{loc[0][:-1]} {item.get('name', '#' + str(loc[1] + 1))!r}"
-        where = label + (f", field {'.'.join(str(p) for p in loc[2:])!r}" if loc[2:] else "")
-    elif loc and loc[0] == "variables" and len(loc) > 1:
-        where = f"variable {loc[1]!r}"
-    if err["type"] == "missing":
-        return LoopFileError(file, where, None, "required field missing")
-    if err["type"] == "extra_forbidden":
-        return LoopFileError(file, where, err.get("input"), "unknown key")
-    if loc and loc[0] == "variables":
-        return LoopFileError(file, where, err.get("input"),
-                             "a number (expressions go under [parameters])")
-    return LoopFileError(file, where, err.get("input"), err["msg"].lower())
-
-
-def _known_keys(model: type[BaseModel], loc: Sequence[Any]) -> str:
-    """The keys valid where an unknown key was found (for the error message)."""
-    fields = model.model_fields
-    for part in loc[:-1]:
-        info = fields.get(str(part)) if isinstance(part, str) else None
-        ann = getattr(info, "annotation", None) if info is not None else None
-        sub = next((a for a in getattr(ann, "__args__", (ann,)) if isinstance(a, type)
-                    and issubclass(a, BaseModel)), None)
-        if sub is None:
-            continue
-        fields = sub.model_fields
-    return ", ".join(fields)
-
-
-# ------------------------------------------------------------------ size
-_TOML_STRINGS = re.compile(r'"""[\s\S]*?"""|\'\'\'[\s\S]*?\'\'\'|"(?:\\.|[^"\\\n])*"'
-                           r"|'[^'\n]*'|#[^\n]*")
-_TOML_KEY = re.compile(r"^\s*([^=\s\[\]{}][^=\n]*?)\s*=", re.M)
-
-
-def check_toml_nesting(text: str, file: str) -> None:
-    """Refuse TOML text whose arrays or inline tables nest deeper than
-    :data:`~seactl.limits.MAX_NESTING` (before parsing it: the parser recurses), naming
-    the key where it happens."""
-    bare = _TOML_STRINGS.sub(lambda m: "\n" * m.group().count("\n") or "s", text)
-    depth, key, table = 0, "", ""
-    for lineno, line in enumerate(bare.splitlines(), 1):
-        if depth == 0:
-            head = line.strip()
-            if head.startswith("["):
-                table = head.strip("[] ")
-                continue
-            m = _TOML_KEY.match(line)
-            key = (f"{table}." if table else "") + (m.group(1).strip() if m else "")
-        for ch in line:
-            depth += 1 if ch in "[{" else -1 if ch in "]}" else 0
-            if depth > MAX_NESTING:
-                raise LoopFileError(file, f"key {key!r} (line {lineno})", None,
-                                    f"arrays and tables nested at most {MAX_NESTING} deep")
-        depth = max(depth, 0)
-
-
-def check_nesting(data: Any, file: str) -> None:
-    """Refuse loop tables (as parsed, or collected by a builder) nested deeper than
-    :data:`~seactl.limits.MAX_NESTING`, naming the path (iterative: no recursion)."""
-    stack: list[tuple[Any, str, int]] = [(data, "", 0)]
-    while stack:
-        node, path, d = stack.pop()
-        if d > MAX_NESTING:
-            shown = path if len(path) <= 60 else path[:57] + "..."
-            raise LoopFileError(file, f"key {shown!r}", None,
-                                f"arrays and tables nested at most {MAX_NESTING} deep")
-        if isinstance(node, Mapping):
-            stack.extend((v, f"{path}.{k}" if path else str(k), d + 1) for k, v in node.items())
-        elif isinstance(node, (list, tuple)):
-            stack.extend((v, f"{path}[{i}]", d + 1) for i, v in enumerate(node))
-
-
-def check_size(file: str, n_blocks: int, n_signals: int = 0, order: int = 0) -> None:
-    """Refuse a loop larger than :mod:`seactl.limits` allows, with the estimate: more
-    blocks or signals than :data:`~seactl.limits.MAX_LOOP_BLOCKS` /
-    :data:`~seactl.limits.MAX_LOOP_SIGNALS` (the symbolic derivation grows as the cube
-    of the signals) or an order above :data:`~seactl.limits.MAX_LOOP_ORDER`."""
-    if n_blocks > MAX_LOOP_BLOCKS or n_signals > MAX_LOOP_SIGNALS:
-        what, n, lim = (("blocks", n_blocks, MAX_LOOP_BLOCKS) if n_blocks > MAX_LOOP_BLOCKS
-                        else ("signals", n_signals, MAX_LOOP_SIGNALS))
-        n_sig = max(n_signals, n_blocks)
-        raise LoopFileError(file, "[[blocks]]", None, f"at most {lim} {what} (this loop has "
-                            f"{n}: deriving its transfers would take about "
-                            f"{human_seconds(derive_seconds(n_sig))} or more, growing as the "
-                            "cube of its signals)")
-    if order > MAX_LOOP_ORDER:
-        raise LoopFileError(file, "[[blocks]]", None, f"a loop of order at most "
-                            f"{MAX_LOOP_ORDER} (this one has order {order}, the sum of its "
-                            "blocks' orders: its characteristic polynomial's coefficients "
-                            "would lose its roots in double precision, and overflow near "
-                            "order 100)")
+from .loop_expr import CONSTANTS, FUNCTIONS, NAME_RE, Expr, parse_expr
+from .loop_schema import (
+    ANY,
+    COMMON_BLOCK_KEYS,
+    GE0,
+    GT0,
+    KINDS,
+    BlockModel,
+    Kind,
+    LoopFileModel,
+    SignalsModel,
+    check_nesting,
+    check_size,
+    known_keys,
+    validation_error,
+)
 
 
 # ------------------------------------------------------------------ compiled loops
@@ -580,7 +174,7 @@ def parse_block(data: Mapping[str, Any], file: str, known: Sequence[str],
         if key not in kind.params:
             raise LoopFileError(file, f"{label}, field {key!r}", extra[key],
                                 f"a field of kind {bm.kind!r}: " + ", ".join(
-                                    [*kind.params, *sorted(_COMMON - {'name', 'kind'})]))
+                                    [*kind.params, *sorted(COMMON_BLOCK_KEYS - {'name', 'kind'})]))
     params = {}
     for key, (default, _check) in kind.params.items():
         if key not in extra and default is None:
@@ -699,7 +293,7 @@ def block_edges(b: BlockSpec) -> list[Edge]:
 
 
 # ------------------------------------------------------------------ the compiled loop
-_RANGE_OK = {_P: lambda v: v > 0, _N: lambda v: v >= 0, _A: lambda v: np.isfinite(v)}
+_RANGE_OK = {GT0: lambda v: v > 0, GE0: lambda v: v >= 0, ANY: lambda v: np.isfinite(v)}
 
 
 @dataclass(frozen=True, eq=False)
@@ -765,7 +359,7 @@ class CompiledLoop:
                     bad = float(np.asarray(v)[~np.asarray(ok)].flat[0]) if np.ndim(v) \
                         else float(v)
                     raise LoopFileError(self.file, f"block {b.name!r}, field {key!r}", bad,
-                                        "finite" if check in (_A, "list") else f"{check} "
+                                        "finite" if check in (ANY, "list") else f"{check} "
                                         "and finite")
             out[key] = vals if check == "list" else vals[0]
         return out
@@ -859,7 +453,7 @@ def compile_loop(data: Mapping[str, Any], file: str) -> CompiledLoop:
         err = validation_error(exc, file, data)
         if exc.errors()[0]["type"] == "extra_forbidden":
             err = LoopFileError(file, err.where, err.value, "unknown key; valid here: "
-                                + _known_keys(LoopFileModel, exc.errors()[0]["loc"]))
+                                + known_keys(LoopFileModel, exc.errors()[0]["loc"]))
         raise err from None
     for p in model.processes:
         check_name(p.replace("-", "_"), file, f"process name {p!r}")

@@ -293,7 +293,7 @@ class LoopResponseResult(ResponseResult):
     requested_delays_s, effective_delays_s : dict
         Delayed block -> delay [s]: as asked, and as simulated (sampled: ``T_s/2 + n T_s``,
         never shorter).
-    result : seactl.simulate.SimResult
+    result : seactl.sim_results.SimResult
         The simulation itself.
     stable : ndarray
         Whether each simulated response stayed bounded and decayed.

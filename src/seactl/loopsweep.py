@@ -19,7 +19,7 @@ from typing import Any
 import numpy as np
 
 from .errors import InputError
-from .sweep import remove_sweep_files, write_chunk
+from .sweep_store import remove_sweep_files, write_chunk
 
 FORMAT = "seactl-loop-sweep-1"
 

@@ -165,7 +165,7 @@ def zregion_figure(region, fn_hz, gs, *, spring=None, unit: str = "N m s/rad"):
 
 
 def sweep_map_figure(m: dict, title: str = ""):
-    """Heatmap (with contours) of a sweep output over two axes (:func:`seactl.sweep.sweep_map`);
+    """Heatmap (with contours) of a sweep output over two axes (:func:`seactl.sweep_maps.sweep_map`);
     grey: no feasible design; red line: stability boundary of the cells' designs."""
     plt = _pyplot()
     fig, ax = plt.subplots(figsize=(6.4, 4.6))

@@ -45,7 +45,9 @@ from .blockdiagram import Block, BlockDiagram, DesignBatch, Transfer
 from .errors import InfeasibleDesignError, InputError
 from .loops import filter_time_constant
 from .margins import Margins, default_grid, loop_margins
-from .simulate import Step, simulate, step_metrics
+from .sim_inputs import Step
+from .sim_metrics import step_metrics
+from .simulate import simulate
 
 
 # ------------------------------------------------------------------ parameters

@@ -1,7 +1,7 @@
 """``seactl run``: the exported controllers as real OS processes on loopback.
 
 Three processes, each a ``python -m seactl.runtime ROLE CONFIG`` child, for an SEA or a
-rigid actuator (any diagram :func:`seactl.export.compile_processes` splits into a
+rigid actuator (any diagram :func:`seactl.export_split.compile_processes` splits into a
 ``high-level`` and an ``embedded`` process):
 
 ``plant``
@@ -37,13 +37,9 @@ each tick), so measured and simulated responses differ only if the model is wron
 
 from __future__ import annotations
 
-import heapq
 import json
 import math
-import random
-import select
 import socket
-import struct
 import subprocess
 import sys
 import tempfile
@@ -55,301 +51,9 @@ from typing import Any
 import numpy as np
 
 from .results import Result, json_value, new_axes
-
-SENSE, CENTRAL, ACT, STOP, HELLO, START = 0, 1, 2, 3, 4, 5
-HEADER = struct.Struct("<Bqd")
-PEER_TIMEOUT_S = 2.0
-POLL_S = 50e-6
-"""Zenoh: how often a process looks for a new message while none is waiting."""
-STARTUP_TIMEOUT_S = 30.0
-"""Longest start-up (imports, sessions, every link proven by a message) before the run."""
-ROLES = ("plant", "embedded", "high-level")
-TRANSPORTS = ("zenoh", "udp")
-PEERS = {"plant": (), "embedded": ("plant",), "high-level": ("plant", "embedded")}
-"""Zenoh: whom each process connects to (the others listen): no cycle, so no process
-waits for one that waits for it."""
-
-
-def pack(kind: int, tick: int, values: Any = (), sent: float | None = None) -> bytes:
-    """A message: kind, tick, send time (now unless given), values."""
-    vals = [float(v) for v in values]
-    t = time.monotonic() if sent is None else sent
-    return HEADER.pack(kind, tick, t) + struct.pack(f"<{len(vals)}d", *vals)
-
-
-def unpack(data: bytes) -> tuple[int, int, float, tuple[float, ...]]:
-    kind, tick, sent = HEADER.unpack_from(data)
-    n = (len(data) - HEADER.size) // 8
-    return kind, tick, sent, struct.unpack_from(f"<{n}d", data, HEADER.size)
-
-
-LINK_PARAMETERS = """transport : {"zenoh", "udp"}
-    Message transport (loopback only).
-extra_latency_s : float
-    Latency [s] injected on the high-level -> embedded link (0 to 1).
-loss : float
-    Probability of losing a high-level -> embedded message (0 to 0.99).
-seed : int
-    Seed of the losses."""
-"""The parameters every ``run`` method shares, documented once (:func:`run_doc`)."""
-
-
-def run_doc(method: Any) -> Any:
-    """Put :data:`LINK_PARAMETERS` where ``method``'s docstring says ``{link_parameters}``
-    (a method's docstring: indented by eight spaces)."""
-    text = "\n".join(("        " + line) if line else line
-                     for line in LINK_PARAMETERS.splitlines())
-    method.__doc__ = method.__doc__.replace("        {link_parameters}", text)
-    return method
-
-
-class LostPeer(RuntimeError):
-    pass
-
-
-# ----------------------------------------------------------------------------- transports
-class UdpLink:
-    """Datagrams between sockets bound to 127.0.0.1 (the parent binds them)."""
-
-    def __init__(self, cfg: dict[str, Any], role: str):
-        self.sock = socket.socket(fileno=cfg["fds"][role])
-        self.peers = {r: ("127.0.0.1", port) for r, port in cfg["ports"].items()}
-
-    def send(self, to: str, data: bytes) -> None:
-        self.sock.sendto(data, self.peers[to])
-
-    def recv(self, timeout_s: float) -> tuple[bytes, float] | None:
-        """A message and its receive time, or None after ``timeout_s``."""
-        ready, _, _ = select.select([self.sock], [], [], max(timeout_s, 0.0))
-        return (self.sock.recv(4096), time.monotonic()) if ready else None
-
-    def close(self) -> None:
-        self.sock.close()
-
-
-def zenoh_config(cfg: dict[str, Any], role: str) -> Any:
-    """A peer listening on its loopback port only, connected to ``PEERS[role]``, with
-    multicast and gossip scouting off (nothing is discovered or announced)."""
-    import zenoh
-
-    conf = zenoh.Config()
-    ep = {r: f"tcp/127.0.0.1:{port}" for r, port in cfg["ports"].items()}
-    for key, value in (("mode", "peer"), ("listen/endpoints", [ep[role]]),
-                       ("connect/endpoints", [ep[r] for r in PEERS[role]]),
-                       ("scouting/multicast/enabled", False),
-                       ("scouting/gossip/enabled", False)):
-        conf.insert_json5(key, json.dumps(value))
-    return conf
-
-
-class ZenohLink:
-    """A Zenoh session: one key per receiving process (``seactl/run/<run>/<role>``)."""
-
-    def __init__(self, cfg: dict[str, Any], role: str):
-        import zenoh
-
-        self.session = zenoh.open(zenoh_config(cfg, role))
-        key = f"seactl/run/{cfg['run_id']}/"
-        # Samples wait in Zenoh's own channel and are polled (``try_recv`` never blocks):
-        # blocking calls into Zenoh hold the GIL, and a Python callback on Zenoh's thread
-        # or a blocking ``recv`` in a thread can hang a process that also publishes.
-        self.sub = self.session.declare_subscriber(key + role)
-        # reliable, never dropped when the queue is full (a lost sample would stall the
-        # plant), and sent at once rather than batched (latency is what is measured)
-        self.pubs = {r: self.session.declare_publisher(
-            key + r, congestion_control=zenoh.CongestionControl.BLOCK,
-            reliability=zenoh.Reliability.RELIABLE, express=True)
-            for r in ROLES if r != role}
-
-    def send(self, to: str, data: bytes) -> None:
-        self.pubs[to].put(data)
-
-    def recv(self, timeout_s: float) -> tuple[bytes, float] | None:
-        end = time.monotonic() + max(timeout_s, 0.0)
-        while True:
-            sample = self.sub.try_recv()
-            now = time.monotonic()
-            if sample is not None:
-                return sample.payload.to_bytes(), now
-            if now >= end:
-                return None
-            time.sleep(min(POLL_S, end - now))
-
-    def close(self) -> None:
-        self.session.close()
-
-
-def _timeout(cfg: dict[str, Any]) -> float:
-    """Silence that means a lost peer (longer before the plant's clock starts)."""
-    return max(PEER_TIMEOUT_S, cfg["t0"] - time.monotonic() + PEER_TIMEOUT_S)
-
-
-def _load_class(path: Path, name: str) -> Any:
-    import importlib.util
-
-    spec = importlib.util.spec_from_file_location(f"_seactl_run_{path.stem}", path)
-    mod = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(mod)
-    return getattr(mod, name)()
-
-
-def handshake(cfg: dict[str, Any], role: str, link: Any) -> None:
-    """Prove every link before the clock starts: each process says HELLO to the others
-    every 20 ms (flagged *ready* once it has heard all of them); when the plant has heard
-    both controllers ready it sends START with the common start time ``t0`` (set in
-    ``cfg``).  A message that arrives proves its path works (for Zenoh, that the sender
-    knows the receiver's subscription), so no sample of the run is lost to start-up."""
-    index = ROLES.index(role)
-    others = [r for r in ROLES if r != role]
-    heard: dict[int, float] = {}
-    give_up = time.monotonic() + STARTUP_TIMEOUT_S
-    next_hello = 0.0
-    while True:
-        now = time.monotonic()
-        if now > give_up:
-            raise LostPeer(f"{role}: the other processes did not all answer during start-up")
-        if role == "plant" and len(heard) == 2 and all(heard.values()):
-            t0 = now + 0.1
-            for r in others:
-                link.send(r, pack(START, 0, [t0]))
-            cfg["t0"] = t0
-            return
-        if now >= next_hello:
-            ready = float(len(heard) == len(others))
-            for r in others:
-                link.send(r, pack(HELLO, 0, [index, ready]))
-            next_hello = now + 0.02
-        got = link.recv(min(next_hello - now, 0.02))
-        if got is None:
-            continue
-        kind, _tick, _sent, vals = unpack(got[0])
-        if kind == START:
-            cfg["t0"] = vals[0]
-            return
-        if kind == HELLO:
-            heard[int(vals[0])] = bool(vals[1])
-
-
-# ----------------------------------------------------------------------------- plant
-def run_plant(cfg: dict[str, Any], link: Any) -> dict[str, np.ndarray]:
-    m = np.load(cfg["plant_npz"])
-    Hx, Ha, Cx, Ca = m["Hx"], m["Ha"], m["Cx"], m["Ca"]
-    Tb, K = 1.0 / cfg["base_rate_hz"], int(cfg["ticks"])
-    x = np.zeros(Hx.shape[0])
-    act, act_tick = np.zeros(Ha.shape[1]), -1
-    q = np.full(K + 1, np.nan)
-    used = np.full(K + 1, -2)
-    recv = []
-    late = 0
-    t0 = cfg["t0"]
-    for k in range(K + 1):
-        # the tick's time; then, the drive's command for the period just ended (a command
-        # not there at the tick is late: counted, and waited for up to PEER_TIMEOUT_S)
-        give_up = None
-        while True:
-            now = time.monotonic()
-            wait = t0 + k * Tb - now
-            if wait <= 0:
-                if k == 0 or act_tick >= k - 1:
-                    break
-                if give_up is None:
-                    give_up = now + PEER_TIMEOUT_S
-                    late += 1
-                wait = give_up - now
-                if wait <= 0:
-                    raise LostPeer(f"plant: no command from the embedded process for 2 s "
-                                   f"(tick {k}, last command for tick {act_tick})")
-            got = link.recv(wait)
-            if got:
-                kind, tick, t_s, vals = unpack(got[0])
-                if kind != ACT:
-                    continue  # a late start-up HELLO
-                recv.append((tick, t_s, got[1]))
-                if tick > act_tick:
-                    act, act_tick = np.array(vals), tick
-        if k > 0:
-            used[k - 1] = act_tick   # the command applied over [k-1, k]
-            x = Hx @ x + Ha @ act
-        y = Cx @ x + Ca @ act
-        q[k] = y[0]   # the first sensed signal: the output _analyse compares
-        msg = pack(SENSE, k, y[:len(cfg["sensed"])])
-        for r in ("embedded", "high-level"):
-            link.send(r, msg)
-    for r in ("embedded", "high-level"):
-        link.send(r, pack(STOP, K))
-    return {"q": q, "act_used": used, "recv": np.array(recv).reshape(-1, 3),
-            "late": np.array(late)}
-
-
-# ----------------------------------------------------------------------------- controllers
-def _inputs(cfg: dict[str, Any], ctl: Any, sensed: tuple[float, ...],
-            held: dict[str, float]) -> dict[str, float]:
-    """A controller's inputs by name: sensed signals, references (the step), messages."""
-    u = dict(zip(cfg["sensed"], sensed)) | {r: cfg["step"] for r in cfg["references"]}
-    return {n: u[n] if n in u else held[n] for n in ctl.INPUTS}
-
-
-def run_embedded(cfg: dict[str, Any], link: Any) -> dict[str, np.ndarray]:
-    ctl = _load_class(Path(cfg["export_dir"]) / "embedded.py", "Embedded")
-    K, every = int(cfg["ticks"]), int(cfg["period_ticks"]["embedded"])
-    names = list(cfg["message"])
-    held, hl_tick = dict(cfg["message"]), -1   # the high-level's message at rest
-    used = np.full(K + 1, -1)
-    sense_lat, central = [], []
-    while True:
-        got = link.recv(_timeout(cfg))
-        if got is None:
-            raise LostPeer(f"embedded: no message for 2 s (a peer is gone; last sample "
-                           f"{sense_lat[-1][0] if sense_lat else None})")
-        kind, tick, t_s, vals = unpack(got[0])
-        if kind == STOP:
-            break
-        if kind == CENTRAL:
-            central.append((tick, t_s, got[1]))
-            if tick > hl_tick:
-                held, hl_tick = dict(zip(names, vals)), tick
-        elif kind == SENSE:
-            sense_lat.append((tick, t_s, got[1]))
-            if tick % every == 0:
-                out = ctl.step(_inputs(cfg, ctl, vals, held))
-                link.send("plant", pack(ACT, tick, [out[n] for n in cfg["actuation"]]))
-                used[tick] = hl_tick
-    return {"central_used": used, "sense": np.array(sense_lat).reshape(-1, 3),
-            "central": np.array(central).reshape(-1, 3)}
-
-
-def run_high_level(cfg: dict[str, Any], link: Any) -> dict[str, np.ndarray]:
-    ctl = _load_class(Path(cfg["export_dir"]) / "high_level.py", "HighLevel")
-    every = int(cfg["period_ticks"]["high-level"])
-    extra, loss = float(cfg["extra_latency_s"]), float(cfg["loss"])
-    rng = random.Random(cfg["seed"])
-    queue: list[tuple[float, int, list[float], float]] = []
-    sense_lat, dropped = [], 0
-    while True:
-        limit = _timeout(cfg)
-        due = queue[0][0] - time.monotonic() if queue else limit
-        got = link.recv(min(due, limit))
-        while queue and queue[0][0] <= time.monotonic():
-            _t, tick, values, made = heapq.heappop(queue)
-            link.send("embedded", pack(CENTRAL, tick, values, sent=made))   # injected
-        if got is None:
-            if due < limit:
-                continue
-            raise LostPeer("high-level: no message for 2 s (a peer is gone)")
-        kind, tick, t_s, vals = unpack(got[0])
-        if kind == STOP:
-            break
-        if kind != SENSE:
-            continue  # a late start-up HELLO
-        sense_lat.append((tick, t_s, got[1]))
-        if tick % every == 0:
-            out = ctl.step(_inputs(cfg, ctl, vals, {}))
-            if rng.random() < loss:
-                dropped += 1
-                continue
-            now = time.monotonic()
-            heapq.heappush(queue, (now + extra, tick, [out[n] for n in cfg["message"]], now))
-    return {"sense": np.array(sense_lat).reshape(-1, 3), "dropped": np.array(dropped)}
+from .rt_processes import run_embedded, run_high_level, run_plant
+from .rt_protocol import ROLES, STARTUP_TIMEOUT_S, TRANSPORTS, LostPeer
+from .rt_transports import UdpLink, ZenohLink, handshake, load_controller_class
 
 
 # ----------------------------------------------------------------------------- parent
@@ -561,13 +265,14 @@ def run_distributed(diagram: Any, design: Any, *, saturation: dict[str, float] |
     """Run a design's exported controllers as three OS processes on loopback for
     ``duration_s`` and compare with the sampled simulation (module doc).
 
-    ``diagram``/``design``/``saturation``: as for :func:`seactl.export.compile_processes`;
+    ``diagram``/``design``/``saturation``: as for :func:`seactl.export_split.compile_processes`;
     ``step``: the reference step (rad or m); ``on_start(pids)`` is called with the
     children's process ids once they are started."""
     from .errors import InputError
-    from .export import compile_processes, export_files
+    from .export_code import export_files
+    from .export_split import compile_processes
     from .limits import MIN_SAMPLES
-    from .simulate import compile_sampled
+    from .sim_discrete import compile_sampled
 
     _check_run(duration_s, extra_latency_s, loss, step, transport, seed)
     ctl = compile_processes(diagram, design, rates_hz, saturation)
@@ -599,7 +304,7 @@ def run_distributed(diagram: Any, design: Any, *, saturation: dict[str, float] |
                "seed": int(seed), "transport": transport, "run_id": run_dir.name[-8:]}
         _start(cfg, run_dir, on_start)
         logs = {r: dict(np.load(run_dir / f"log-{r}.npz")) for r in ROLES}
-    return _analyse(diagram, design, ctl, logs, K, step, saturation, rates_hz,
+    return analyse_run(diagram, design, ctl, logs, K, step, saturation, rates_hz,
                     {"transport": transport, "extra_latency_ms": extra_latency_s * 1e3,
                      "loss": loss})
 
@@ -607,7 +312,7 @@ def run_distributed(diagram: Any, design: Any, *, saturation: dict[str, float] |
 def _message_at_rest(export_dir: Path, ctl: Any, step: float) -> dict[str, float]:
     """The high-level's first message with the plant at rest (sensed signals zero), which
     the embedded process holds until a real message arrives."""
-    hl = _load_class(export_dir / "high_level.py", "HighLevel")
+    hl = load_controller_class(export_dir / "high_level.py", "HighLevel")
     refs = set(ctl.references)
     out = hl.step({n: float(step) if n in refs else 0.0 for n in hl.INPUTS})
     return {n: float(out[n]) for n in hl.OUTPUTS}
@@ -631,11 +336,12 @@ def _start(cfg: dict[str, Any], run_dir: Path, on_start: Any) -> None:
             s.close()
 
 
-def _analyse(diagram: Any, design: Any, ctl: Any, logs: dict[str, dict[str, np.ndarray]],
+def analyse_run(diagram: Any, design: Any, ctl: Any, logs: dict[str, dict[str, np.ndarray]],
              K: int, step: float, sat: dict[str, float], rates_hz: Any,
              injected: dict[str, Any]) -> RunResult:
     """Latency per link, tracking error, and the replayed and nominal simulations."""
-    from .simulate import Step, simulate
+    from .sim_inputs import Step
+    from .simulate import simulate
 
     Tb = 1.0 / ctl.base_rate_hz
     hl = ctl.process("high-level")

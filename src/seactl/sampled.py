@@ -2,8 +2,8 @@
 
 The loop is the one ``simulate(..., mode="sampled")`` runs (:mod:`seactl.simulate`):
 controllers discretized with Tustin at their process rates, whole-sample delay buffers
-(:func:`~seactl.simulate.buffer_samples`), the continuous plant under a zero-order hold.
-Its state map over one period of the slowest process (:func:`~seactl.simulate.period_map`,
+(:func:`~seactl.sim_discrete.buffer_samples`), the continuous plant under a zero-order hold.
+Its state map over one period of the slowest process (:func:`~seactl.sim_period.period_map`,
 one tick when all processes share a rate) is a matrix ``A``; the closed loop is stable
 when every eigenvalue of ``A`` lies inside the unit circle.
 
@@ -37,7 +37,9 @@ from ._parallel import eigvals
 from .blockdiagram import Block, BlockDiagram
 from .errors import InputError
 from .limits import check_range, check_sampled_analysis
-from .simulate import balance_batched, compile_sampled, period_map
+from .sim_discrete import compile_sampled
+from .sim_network import balance_batched
+from .sim_period import period_map
 
 __all__ = ["SampledMargins", "SampledRoots", "schur_count", "sampled_margins",
            "sampled_roots", "sampled_verdict_text", "rate_text", "verdict_word"]

@@ -15,15 +15,10 @@ import numpy as np
 from .errors import InputError
 from .loops import outer_loop, sea_diagram
 from .margins import Margins, default_grid, loop_margins
-from .simulate import (
-    Impulse,
-    SEAResponse,
-    SimResult,
-    Step,
-    impulse_metrics,
-    simulate,
-    step_metrics,
-)
+from .sim_inputs import Impulse, Step
+from .sim_metrics import impulse_metrics, step_metrics
+from .sim_results import SEAResponse, SimResult
+from .simulate import simulate
 from .verdict import RECOVERY_BAND
 
 __all__ = ["sea_impulse", "sea_margins", "sea_reference_frequency", "sea_sampled_margins",

@@ -26,7 +26,7 @@ from ._results import (
     SampledMarginsResult,
 )
 from .errors import InputError
-from .runtime import run_doc
+from .rt_protocol import run_doc
 
 MODES = ("continuous", "sampled")
 KINDS = ("step", "impulse")
@@ -614,7 +614,7 @@ class System:
         >>> bool(r.metrics.stable), r.amplitude, r.amplitude_unit
         (True, 0.004, 'm')
         """
-        from .simulate import Step
+        from .sim_inputs import Step
 
         kw, options = self._legacy("step", options, amplitude=amplitude,
                                    saturation_a=saturation_a)
@@ -657,7 +657,7 @@ class System:
         >>> bool(r.metrics.stable), bool(r.metrics.recovery_time_s < 0.2), r.amplitude
         (True, True, 0.05)
         """
-        from .simulate import Impulse
+        from .sim_inputs import Impulse
 
         kw, options = self._legacy("impulse", options, amplitude=amplitude,
                                    saturation_a=saturation_a)
@@ -675,7 +675,9 @@ class System:
         import functools
 
         from .margins import closed_loop_right_roots
-        from .simulate import SEAResponse, SimResult, impulse_metrics, simulate, step_metrics
+        from .sim_metrics import impulse_metrics, step_metrics
+        from .sim_results import SEAResponse, SimResult
+        from .simulate import simulate
         from .verdict import RECOVERY_BAND
 
         diagram = self.diagram_for(**options)
@@ -766,7 +768,7 @@ class System:
         >>> float(mc.fraction_stable)
         1.0
         """
-        from .simulate import Impulse, Step
+        from .sim_inputs import Impulse, Step
         from .timing import response_monte_carlo
         from .timing_models import parse_latency, parse_loss
 

@@ -44,7 +44,10 @@ import numpy as np
 
 from .errors import InputError
 from .results import Result, flat_records, new_axes
-from .simulate import Impulse, SimResult, Step, buffer_samples, simulate
+from .sim_discrete import buffer_samples
+from .sim_inputs import Impulse, Step
+from .sim_results import SimResult
+from .simulate import simulate
 from .timing_models import (  # noqa: F401  (re-exported: the models live in timing_models)
     Bernoulli,
     Constant,
@@ -66,7 +69,7 @@ SEA_LINKS: dict[str, str] = {"stiffness": "Kq_fb", "damping": "Bq_fb", "torque":
 # ----------------------------------------------------------------------------- schedules
 def buffer_ticks(latency_s: np.ndarray, period_s: float, ticks: int = 1) -> np.ndarray:
     """Whole samples a message waits (in base ticks) for latency ``latency_s``: the rule of
-    the deterministic sampled mode (:func:`seactl.simulate.buffer_samples`, never shorter
+    the deterministic sampled mode (:func:`seactl.sim_discrete.buffer_samples`, never shorter
     than the latency) at the block's period ``T_s`` (``ticks`` base ticks)."""
     return buffer_samples(latency_s, period_s) * ticks
 
@@ -265,7 +268,7 @@ class MonteCarloSummary(Result):
         ``(runs,) + shape``: RMS tracking error over the window.
     peak_current_a : numpy.ndarray
         ``(runs,) + shape``: largest motor current [A].
-    result : seactl.simulate.SimResult
+    result : seactl.sim_results.SimResult
         The batched simulation.
 
     Attributes
@@ -291,7 +294,7 @@ class MonteCarloSummary(Result):
     worst_run : ndarray of int
         ``shape``: index of the worst run (an unstable one first, else the largest RMS
         error).
-    result : seactl.simulate.SimResult
+    result : seactl.sim_results.SimResult
         The batched simulation.
     """
 

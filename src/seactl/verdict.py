@@ -14,7 +14,7 @@ joint barely moves.  :func:`judge` reads the recorded signals and decides, in th
     closed-loop roots in the right half-plane is not 0 (a slowly growing or weakly
     excited mode that the simulated window cannot show is still unstable); for a sampled
     loop the count is of the lifted map's eigenvalues outside the unit circle
-    (:func:`seactl.simulate.sampled_unstable_modes`);
+    (:func:`seactl.sim_period.sampled_unstable_modes`);
 ``limit cycle``
     a sustained oscillation: in the last quarter of the window the oscillation (signal
     minus its linear trend) of the position exceeds the band, or that of the current
@@ -263,11 +263,11 @@ def _warnings(v: TimeVerdict, k: int, left: float, band: float) -> list[str]:
 
 def judge_response(resp: Any, band: float, right_half_plane_roots: Any = None
                    ) -> TimeVerdict:
-    """:func:`judge` on a :class:`seactl.simulate.SEAResponse` (step: target 1 of the
+    """:func:`judge` on a :class:`seactl.sim_results.SEAResponse` (step: target 1 of the
     normalized position, scale 1; impulse: target 0, scale the peak deviation; the current
     limit [A] is ``info["current_limit_a"]``, else the ``i_m`` saturation).  Without
     ``right_half_plane_roots``, a sampled simulation's own count of growing modes
-    (``info["unstable_modes"]``, :func:`seactl.simulate.sampled_unstable_modes`) is used."""
+    (``info["unstable_modes"]``, :func:`seactl.sim_period.sampled_unstable_modes`) is used."""
     res = resp.result
     t = res.t_s
     y = np.asarray(resp.position, float).reshape(-1, t.size)

@@ -38,8 +38,8 @@ def _paper_loop():
 
 @benchmark("loop-file")
 def bench_loop_file(repeat: int) -> BenchResult:
+    from ..loop_analysis import break_margins
     from ..sea import sea_margins
-    from ..userloop import break_margins
 
     builtin, values, latency = _designs(10_000)
     loop = _paper_loop().with_values(**values).with_latencies(**latency)

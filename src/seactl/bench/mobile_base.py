@@ -20,14 +20,15 @@ def bench_circle(repeat: int) -> BenchResult:
     """
     from scipy.integrate import solve_ivp
 
+    from .. import mb_baseline, mb_simulation
     from .. import mobile_base as mb
 
     p = mb.TRIKEY.with_(encoder_counts=0, round_trip=0.0, extra_delay=0.0,
                         central_period=mb.TRIKEY.embedded_period)
-    circle = mb.Circle(p.circle_radius, p.circle_period, p.circle_ramp)
+    circle = mb_simulation.Circle(p.circle_radius, p.circle_period, p.circle_ramp)
     kx, dx = 100.0, 20.0
-    ours = mb.simulate(p, kx, dx, 0.0, reference=circle, duration=10.0)
-    f = mb.continuous_rhs(p, kx, dx, 0.0, circle)
+    ours = mb_simulation.simulate(p, kx, dx, 0.0, reference=circle, duration=10.0)
+    f = mb_baseline.continuous_rhs(p, kx, dx, 0.0, circle)
 
     def baseline():
         return solve_ivp(f, (0.0, ours.t[-1]), np.zeros(18), t_eval=ours.t, rtol=1e-7,
@@ -35,11 +36,11 @@ def bench_circle(repeat: int) -> BenchResult:
 
     sol = baseline()
     err = float(np.max(np.abs(sol.y[:3].T - ours.x[:, 0])))
-    t_ours = median_time(lambda: mb.simulate(p, kx, dx, 0.0, reference=circle,
+    t_ours = median_time(lambda: mb_simulation.simulate(p, kx, dx, 0.0, reference=circle,
                                              duration=10.0), repeat)
     t_base = median_time(baseline, max(1, min(repeat, 3)))
     batch = 64
-    t_batch = median_time(lambda: mb.simulate(p, np.full(batch, kx), dx, 0.0,
+    t_batch = median_time(lambda: mb_simulation.simulate(p, np.full(batch, kx), dx, 0.0,
                                               reference=circle, duration=10.0), 1)
     return BenchResult("base-circle", 1.0 / t_ours, "scipy solve_ivp (LSODA), continuous",
                        1.0 / t_base, err,
@@ -53,16 +54,17 @@ def bench_circle(repeat: int) -> BenchResult:
 def bench_tuning(repeat: int) -> BenchResult:
     """The full tuning procedure (both architectures, searches + circle) versus the same
     candidates simulated one at a time (estimated: one unbatched criterion run x count)."""
+    from .. import mb_tuning
     from .. import mobile_base as mb
 
     p = mb.TRIKEY
     n = max(1, min(repeat, 2))            # each run takes seconds
-    comp = mb.tune(p)
-    t_tune = median_time(lambda: mb.tune(p), n, warmup=0)
+    comp = mb_tuning.tune(p)
+    t_tune = median_time(lambda: mb_tuning.tune(p), n, warmup=0)
     candidates = sum(r.damping_search.gains.size + r.kx_search.gains.size
                      for r in comp.results.values())
     t0 = time.perf_counter()
-    mb.criterion_test(p, 100.0, 0.0, 1.0)
+    mb_tuning.criterion_test(p, 100.0, 0.0, 1.0)
     t_one = time.perf_counter() - t0
     t_loop = t_one * candidates
     return BenchResult("base-tuning", 1.0 / t_tune, "one candidate per simulation (est.)",

@@ -44,7 +44,7 @@ _ONE_BY_ONE = 120  # points of the scalar baseline
 
 def bench_spec(n_points: int, chunk_size: int = 5000):
     from ..actuators import UT_SEA
-    from ..sweep import SweepSpec
+    from ..sweep_spec import SweepSpec
 
     n_tqs = max(1, -(-n_points // 10_000))
     axes = (("fn_hz", tuple(np.linspace(10.0, 40.0, 100))),
@@ -56,11 +56,11 @@ def bench_spec(n_points: int, chunk_size: int = 5000):
 
 def _template_start_s() -> float:
     """Seconds until the workers' template is started and ready to fork (a few ms once
-    done in this process; :func:`seactl.sweep._start_worker_template`)."""
-    from ..sweep import _start_worker_template, _worker_environ
+    done in this process; :func:`seactl.sweep.start_worker_template`)."""
+    from ..sweep import start_worker_template, worker_environ
 
     t0 = time.perf_counter()
-    _start_worker_template(_worker_environ())
+    start_worker_template(worker_environ())
     return time.perf_counter() - t0
 
 
@@ -70,11 +70,11 @@ def _timed_run(spec, workers: int, root: Path) -> tuple[float, float, float, obj
     from the template, their imports included)."""
     from distributed import Client
 
-    from ..sweep import _local_cluster, run_sweep
+    from ..sweep import local_cluster, run_sweep
 
     out = root / f"w{workers}"
     t0 = time.perf_counter()
-    cluster = _local_cluster(workers)
+    cluster = local_cluster(workers)
     try:
         with Client(cluster) as client:
             client.wait_for_workers(workers)
@@ -125,7 +125,7 @@ def _one_by_one(spec, points: np.ndarray) -> tuple[float, np.ndarray]:
 
 def chunk_peak_memory_mb(spec) -> float:
     """Peak traced allocation [MB] while evaluating chunk 0 in this process."""
-    from ..sweep import evaluate_chunk
+    from ..sweep_eval import evaluate_chunk
 
     evaluate_chunk(spec, 0)  # warm caches so only the chunk's arrays are traced
     tracemalloc.start()
@@ -140,7 +140,7 @@ def chunk_peak_memory_mb(spec) -> float:
 def bench_sweep(repeat: int) -> list[BenchResult]:
     import pyarrow.parquet as pq
 
-    from ..sweep import read_sweep
+    from ..sweep_store import read_sweep
 
     n = int(os.environ.get("SEACTL_BENCH_SWEEP_POINTS", "1000000"))
     spec = bench_spec(n)

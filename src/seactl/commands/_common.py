@@ -97,7 +97,7 @@ def expand_variadic(argv: Sequence[str]) -> list[str]:
 def units_given() -> Iterator[None]:
     """Build systems with the public API without its unit warnings: the flags name their
     unit (``--t-qs [ms]``), so a small delay is not a unit slip."""
-    from ..api import UnitWarning
+    from ..api_arguments import UnitWarning
 
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", UnitWarning)

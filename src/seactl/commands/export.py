@@ -95,7 +95,7 @@ class SystemChoice:
                 design = spec.designs().sea
             return sea_diagram(self.zero), design, {"i_m": lim}, 0.1, self.rates_hz
         from ..rigid import RIGID_DIAGRAM
-        from ..systems import rigid
+        from ..rigid_system import rigid
 
         fv = None if self.f_v.strip().lower() == "none" else _number("--f-v [Hz]", self.f_v)
         d = rigid(float(spec.fn_hz.reshape(-1)[0]), actuator=self.rigid_actuator,
@@ -178,7 +178,8 @@ def export(spec: DesignSpec, loop: Any, out: str, lang: str, system: SystemChoic
       seactl export --fn 14 --t-tau 1 --t-qs 2 --t-qd 1 --f-qd 50 --f-taud 100 \\
           --rate embedded=2000 --rate high-level=500 --out ctl --verify
     """
-    from ..export import check_export_dir, check_languages, export_design
+    from ..export import check_export_dir, export_design
+    from ..export_code import check_languages
 
     langs = check_languages(lang)
     check_export_dir(out)

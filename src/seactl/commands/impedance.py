@@ -129,14 +129,9 @@ def impedance(spec: DesignSpec, freq: tuple[str, ...], model: str, load: bool, u
 
 def _impedance(spec: DesignSpec, f: np.ndarray, model: str, load: bool, units: str,
                plot: Path | None, csv: Path | None, outs: OutputSet, as_json: bool) -> None:
-    from ..impedance import (
-        UNITS,
-        asymptote_case,
-        asymptotes,
-        low_frequency_stiffness,
-        passivity,
-        scan_range,
-    )
+    from ..imp_asymptotes import asymptote_case, asymptotes, low_frequency_stiffness
+    from ..imp_passivity import passivity, scan_range
+    from ..impedance import UNITS
 
     d = spec.designs()
     resp = d.impedance(f, model=model, load=load, units=units)
@@ -209,7 +204,7 @@ def _impedance_csv(out: list[dict[str, Any]], f: np.ndarray, zf: np.ndarray, uni
 def _print_impedance(spec: DesignSpec, out: list[dict[str, Any]], f: np.ndarray, resp: Any,
                      asym: Any, pas: Any, model: str, load: bool, unit: str) -> None:
     """The summary table (one row per design) and, for one design, Z at each frequency."""
-    from ..impedance import excess_over_asymptotes_db
+    from ..imp_zregion import excess_over_asymptotes_db
 
     t = Table(title=f"SEA impedance, model '{model}'{' with load' if load else ''}, actuator "
               f"'{spec.actuator.name}' ({_timing_text(spec)}); passivity scanned over "
@@ -301,7 +296,7 @@ def zregion(spec: DesignSpec, freq: tuple[str, ...], model: str, load: bool, min
     """Z-region of an f_n x GS design range: Z-width (admissible |Z| range per frequency)
     and Z-depth (frequency range where the width stays above a threshold).
 
-    Python: seactl.impedance.zregion(sc.design(...).sea, f_hz) (no method of sc.Design).
+    Python: seactl.imp_zregion.zregion(sc.design(...).sea, f_hz) (no method of sc.Design).
 
     Definition (this project's; the original is not public): docs/zregion.md.
 
@@ -319,8 +314,8 @@ def zregion(spec: DesignSpec, freq: tuple[str, ...], model: str, load: bool, min
 def _zregion(spec: DesignSpec, f: np.ndarray, model: str, load: bool, min_pm: float,
              require_passive: bool, threshold_db: float, plot: Path | None,
              csv: Path | None, outs: OutputSet, as_json: bool) -> None:
+    from ..imp_zregion import zregion as compute
     from ..impedance import UNITS
-    from ..impedance import zregion as compute
 
     # no public Z-region view (sc has none): the impedance module's function
     designs = spec.designs().sea

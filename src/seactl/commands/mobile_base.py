@@ -84,6 +84,7 @@ def base(arch: str, extra_delay: float | None, circle_radius: float | None,
 def _base(arch: str, extra_delay: float | None, circle_radius: float | None,
           circle_period: float | None, outs: OutputSet, plot: Path | None,
           as_json: bool) -> None:
+    from .. import mb_tuning
     from .. import mobile_base as mb
     from .._validate import finite_array
     from ..errors import InputError
@@ -108,7 +109,7 @@ def _base(arch: str, extra_delay: float | None, circle_radius: float | None,
     if changes:
         p = p.with_(**changes)
     archs = mb.ARCHS if arch == "both" else (arch,)
-    comp = mb.tune(p, archs)
+    comp = mb_tuning.tune(p, archs)
     if plot:
         _save_plot(comp, outs, plot)
     if as_json:

@@ -178,7 +178,7 @@ def rigid(fn, t_s, t_d, f_v, actuator, no_passive_damping, step, as_json) -> Non
     tolerates before the closed loop goes unstable. 'none' (null): no such crossing.
     """
     from ..rigid import load_rigid, step_experiment
-    from ..systems import rigid as rigid_batch
+    from ..rigid_system import rigid as rigid_batch
 
     a = load_rigid(actuator)
     fv = _f_v(f_v)

@@ -17,7 +17,7 @@ from rich.table import Table
 
 from ..api import Design
 from ..errors import InputError
-from ..systems import RigidBatch
+from ..rigid_system import RigidBatch
 from ._common import DesignSpec, cli, console, design_options, echo_json, json_option
 from .export import SystemChoice, system_options
 from .loops import loop_options

@@ -228,7 +228,7 @@ def _labels(spec: DesignSpec) -> list[tuple[float, float]]:
 
 
 def _metrics_json(m: Any, i: int) -> dict[str, Any]:
-    from ..simulate import StepMetrics
+    from ..sim_results import StepMetrics
 
     if isinstance(m, StepMetrics):
         return {"rise_time_s": finite_or_none(m.rise_time_s.flat[i]),

@@ -61,7 +61,7 @@ def parse_axis(actuator: Any, name: str, tokens: tuple[str, ...], *, sampling: s
                     pct = float(part[:-1])
                 except ValueError:
                     raise InputError(info.option, part, "P% with a number P") from None
-                from ..sweep import relative_interval
+                from ..sweep_robust import relative_interval
 
                 lo, hi = relative_interval(actuator, name, pct)
                 if pct == 0:
@@ -93,7 +93,7 @@ def _axis_options(func):
 def _spec_from_options(opts: dict[str, Any], *, actuator: str, sampling: str, n_samples: int,
                        seed: int, chunk_size: int, unc_points: int, z_freq: tuple[str, ...]):
     from ..actuators import load_sea
-    from ..sweep import SweepSpec
+    from ..sweep_spec import SweepSpec
 
     act = load_sea(actuator)
     axes = []
@@ -342,7 +342,7 @@ def _parse_plot_axes(text: str, spec) -> tuple[str, str]:
 def _plot(out: Path, xy: tuple[str, str], z: str, reduce: str, outs: OutputSet,
           plot_file: Path | None) -> str:
     from ..plots import save_figure, sweep_map_figure
-    from ..sweep import sweep_map
+    from ..sweep_maps import sweep_map
 
     m = sweep_map(out, xy[0], xy[1], z, reduce)
     fig = sweep_map_figure(m)
@@ -382,7 +382,7 @@ def _robust_options(func):
 def robust(actuator, n_samples, seed, plot_file, as_json, **axes) -> None:
     """Monte Carlo of one design over actuator parameter uncertainty.
 
-    Python: seactl.sweep.monte_carlo(...).
+    Python: seactl.sweep_robust.monte_carlo(...).
 
     \b
     The gains are designed for the nominal actuator; each sample draws the plant's
@@ -397,7 +397,7 @@ def robust(actuator, n_samples, seed, plot_file, as_json, **axes) -> None:
     The same samples, on Dask and stored as Parquet:
     seactl sweep --sample random --n N --seed S with the same options.
     """
-    from ..sweep import parameter_robustness
+    from ..sweep_robust import parameter_robustness
 
     fn, gs = axes["fn_hz"], axes["gs"]
     opts = {n: ("none" if axes[n] is None else str(axes[n]),) for n in DESIGN_AXES}

@@ -4,7 +4,7 @@
 page; the Bokeh callbacks only copy them into the page.  Every number comes from the
 public API (:func:`seactl.design` and its ``margins``, ``to_control("frd")``,
 ``impedance``, ``step``, ``impulse``; :func:`seactl.loop_model` for the per-loop delay
-margins) and from :func:`seactl.impedance.passivity`, the function ``seactl impedance``
+margins) and from :func:`seactl.imp_passivity.passivity`, the function ``seactl impedance``
 reports; nothing is modelled twice.  The two maps are design batches of the same
 API on a coarse grid, cached (:func:`pm_map`, :func:`latency_map`) so that a change of a
 control recomputes only the map it moves.
@@ -304,7 +304,7 @@ def loop_views(d: sc.Design) -> dict[str, dict[str, np.ndarray]]:
 
 def impedance_views(d: sc.Design) -> dict[str, Any]:
     """|Z(jw)| of both models and the non-passive bands of the block-diagram model."""
-    from ..impedance import passivity
+    from ..imp_passivity import passivity
 
     bd = d.impedance(F_BODE_HZ)
     paper = d.impedance(F_BODE_HZ, model="paper")

@@ -17,16 +17,10 @@ import numpy as np
 
 from ..actuators import UT_SEA
 from ..api import Design, design
-from ..impedance import (
-    MODELS,
-    asymptotes,
-    excess_over_asymptotes_db,
-    high_frequency_asymptote,
-    impedance,
-    low_frequency_stiffness,
-    passivity,
-    zregion,
-)
+from ..imp_asymptotes import asymptotes, high_frequency_asymptote, low_frequency_stiffness
+from ..imp_passivity import passivity
+from ..imp_zregion import excess_over_asymptotes_db, zregion
+from ..impedance import MODELS, impedance
 from ..loops import closed_loop
 from ..report import Claim, Context, Figure, Section, numeric_claim, pm_cell, section
 from .constants import FILTERS, TABLE_I_TIMING, design_keywords

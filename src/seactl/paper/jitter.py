@@ -151,7 +151,7 @@ def _table_claims(sec: Section) -> None:
 def _rigid_claim(sec: Section) -> None:
     from ..jitter import model_jitter_margins
     from ..latency import rigid_model
-    from ..systems import rigid
+    from ..rigid_system import rigid
 
     rd = rigid(np.array(RIGID_FN), delays_ms={"stiffness": 1.5, "damping": 1.5},
                velocity_filter_hz=50.0)

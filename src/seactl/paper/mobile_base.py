@@ -6,9 +6,10 @@ from __future__ import annotations
 
 import math
 
+from .. import mb_tuning
 from .. import mobile_base as mb
+from ..mobile_base_api import compare_mobile_base, mobile_base_params
 from ..report import Claim, Context, Figure, Section, section
-from ..systems import compare_mobile_base, mobile_base_params
 
 PAPER = {"cosc_kx": 30.0, "dosc_kx": 140.0, "ratio": 4.7, "pos_red": (62.0, 65.0),
          "vel_red": (45.0, 67.0)}
@@ -60,7 +61,7 @@ def _intro(p: mb.MobileBaseParams) -> str:
         "assumption in presets/trikey.toml.")
 
 
-def _figures(sec: Section, ctx: Context, comp: mb.MobileBaseComparison) -> None:
+def _figures(sec: Section, ctx: Context, comp: mb_tuning.MobileBaseComparison) -> None:
     from ..plots import base_animation, base_tracking_figure
 
     sec.figures.append(Figure(ctx.savefig(base_tracking_figure(
@@ -74,7 +75,7 @@ def _figures(sec: Section, ctx: Context, comp: mb.MobileBaseComparison) -> None:
                               "(one period, real time; the cross is the reference)."))
 
 
-def _results_table(comp: mb.MobileBaseComparison):
+def _results_table(comp: mb_tuning.MobileBaseComparison):
     c, d = comp.results["cosc"], comp.results["dosc"]
     return (
         "Results beside the paper (acceleration gains: damping in N s/(m kg), DOSC as the "
@@ -100,7 +101,7 @@ def _limit(r, key: str) -> str:
     return ("" if srch.reached else ">= ") + f"{getattr(r, key):.3g}"
 
 
-def _sensitivity_table(comp: mb.MobileBaseComparison) -> tuple[tuple, list[float]]:
+def _sensitivity_table(comp: mb_tuning.MobileBaseComparison) -> tuple[tuple, list[float]]:
     """The limits under each model variant of :data:`SENSITIVITY`, and their K_x ratios."""
     rows, ratios = [], []
     for label, changes in SENSITIVITY:
@@ -119,7 +120,7 @@ def _sensitivity_table(comp: mb.MobileBaseComparison) -> tuple[tuple, list[float
     return table, ratios
 
 
-def _kx_claims(comp: mb.MobileBaseComparison, ratios: list[float]) -> list[Claim]:
+def _kx_claims(comp: mb_tuning.MobileBaseComparison, ratios: list[float]) -> list[Claim]:
     c, d = comp.results["cosc"], comp.results["dosc"]
     higher = d.max_kx > c.max_kx
     always = all(r > 1 for r in ratios)
@@ -147,7 +148,7 @@ def _kx_claims(comp: mb.MobileBaseComparison, ratios: list[float]) -> list[Claim
     return claims
 
 
-def _tracking_claims(comp: mb.MobileBaseComparison) -> list[Claim]:
+def _tracking_claims(comp: mb_tuning.MobileBaseComparison) -> list[Claim]:
     claims = []
     for cid, name, ours, rng in (
             ("base.position_rms_reduction", "position", comp.position_rms_reduction_pct,

@@ -160,7 +160,7 @@ def _sensitivity_and_reach(sec: Section, models, maps, mfs) -> None:
 
 def _rigid_damping_claim() -> Claim:
     """Rigid actuator: the damping loop is the latency-sensitive one."""
-    from ..systems import rigid
+    from ..rigid_system import rigid
 
     dm = rigid(np.array(STEP_FN), delays_ms={"stiffness": 1.5, "damping": 1.5},
                velocity_filter_hz=50.0).delay_margins()

@@ -14,7 +14,7 @@ import numpy as np
 
 from ..api import Design, design
 from ..report import Claim, Context, Figure, Section, numeric_claim, section
-from ..simulate import impulse_metrics
+from ..sim_metrics import impulse_metrics
 from .constants import TABLE_I_TIMING, design_keywords
 
 FN_A = np.array([14.0, 16.0, 18.0, 20.0])

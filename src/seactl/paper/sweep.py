@@ -16,8 +16,8 @@ import numpy as np
 
 from ..actuators import UT_SEA
 from ..report import Claim, Context, Figure, Section, numeric_claim, section
-from ..sweep import SweepSpec
-from ..systems import read_sweep, sweep
+from ..sweep_api import read_sweep, sweep
+from ..sweep_spec import SweepSpec
 from .constants import TABLE_I_PM
 
 FN_HZ = (12.0, 14.0, 16.0, 20.0)
@@ -140,7 +140,7 @@ MC_SAMPLES = 4000
 def robustness_mc(ctx: Context) -> Section:
     # the parameter Monte Carlo of `seactl robust` has no function in the sc namespace
     from ..plots import robust_histogram_figure
-    from ..sweep import parameter_robustness, relative_interval
+    from ..sweep_robust import parameter_robustness, relative_interval
 
     sec = Section(
         "robustness-mc", "Robustness to actuator parameter uncertainty (Monte Carlo)",
