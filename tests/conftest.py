@@ -4,8 +4,8 @@ import tempfile
 import matplotlib
 import pytest
 
-from seactl.cli import main
-from seactl.usercache import numba_cache_dir
+from seactl.apps.cli import main
+from seactl.base.usercache import numba_cache_dir
 
 matplotlib.use("Agg")
 

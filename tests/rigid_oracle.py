@@ -1,5 +1,5 @@
 """Test oracle: a minimal sampled simulation of the rigid loop, written independently of
-:mod:`seactl.simulate` (exact ZOH discretization of the plant, explicit delay buffers)."""
+:mod:`seactl.simulate.engine` (exact ZOH discretization of the plant, explicit delay buffers)."""
 
 import numpy as np
 from scipy.signal import cont2discrete
@@ -8,7 +8,7 @@ from scipy.signal import cont2discrete
 def simulate_rigid_sampled(design, step_m: float, *, t_end_s: float = 1.0,
                            rate_hz: float = 1000.0, force_limit: float | None = None
                            ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Minimal sampled simulation of the rigid loop, independent of :mod:`seactl.simulate`.
+    """Minimal sampled simulation of the rigid loop, independent of :mod:`seactl.simulate.engine`.
 
     The plant ``1/(m s^2 + b s)`` is discretized exactly under a zero-order hold
     (:func:`scipy.signal.cont2discrete`).  Every tick ``k`` the position is sampled, the

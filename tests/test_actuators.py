@@ -1,7 +1,7 @@
 import pytest
 
-from seactl.actuators import UT_SEA, SEAParams, load_sea
 from seactl.errors import InputError
+from seactl.systems.sea.actuators import UT_SEA, SEAParams, load_sea
 
 VALID = dict(motor_inertia=0.2, joint_inertia=0.01, motor_damping=1.0, joint_damping=0.1,
              spring_stiffness=200.0, current_to_torque=5.0)

@@ -17,7 +17,7 @@ import numpy as np
 import pytest
 
 import seactl as sc
-from seactl.loops import Timing
+from seactl.systems.sea.loops import Timing
 
 TABLE_I = dict(delays_ms={"torque": 0.5, "stiffness": 2, "damping": 0.5}, filters_hz=(50, 100))
 

@@ -5,8 +5,8 @@ from types import SimpleNamespace
 import numpy as np
 import sympy as sp
 
-from seactl import blockdiagram as bd
-from seactl.blockdiagram import (
+from seactl.diagram import blockdiagram as bd
+from seactl.diagram.blockdiagram import (
     EVAL_ROUNDING,
     Block,
     BlockDiagram,
@@ -95,7 +95,7 @@ def test_rounding_majorant_covers_the_phase_error_of_long_delays():
 
 
 def test_third_derivative_majorant():
-    """QuasiPolynomial.bound3_coeffs (compiled, seactl._majorants) on random
+    """QuasiPolynomial.bound3_coeffs (compiled, seactl.diagram.majorants) on random
     quasi-polynomials with 1-4 terms, up to degree 8, batch shapes (), (5,) and (3, 4):
     (a) the polynomial equals the definition summed term by term in Python,
     sum_kji |c_kj| C(3, i) j!/(j - i)! w^(j - i) tau_k^(3 - i) (oracle), at random w;
@@ -138,10 +138,10 @@ def test_forms_share_blocks_and_products_bit_for_bit():
     blocks' coefficients and partial products, as the margins, jitter and passivity
     proofs do) equal each evaluated alone, bit for bit (oracle: the unshared evaluation),
     on the SEA loop and the impedance forms."""
-    from seactl.bench.core import random_designs
-    from seactl.blockdiagram import evaluate_forms
-    from seactl.impedance import impedance_forms
-    from seactl.loops import outer_loop
+    from seactl.apps.bench.core import random_designs
+    from seactl.diagram.blockdiagram import evaluate_forms
+    from seactl.systems.sea.impedance import impedance_forms
+    from seactl.systems.sea.loops import outer_loop
 
     _, d = random_designs(50, seed=3)
     loop = outer_loop()
@@ -154,10 +154,10 @@ def test_forms_share_blocks_and_products_bit_for_bit():
 
 def test_degrees_and_columnwise_reductions_by_definition():
     """``degree``, ``delayed_degree`` (the last nonzero power, column by column) and
-    :func:`~seactl.blockdiagram.columnwise`.  Oracle: the definitions, element by element
+    :func:`~seactl.diagram.blockdiagram.columnwise`.  Oracle: the definitions, element by element
     in Python, on random sparse coefficients (batch shapes (7,) and (3, 4); rows all zero,
     NaN and inf among them) and numpy's reductions over the last axis."""
-    from seactl.blockdiagram import QuasiPolynomial, columnwise
+    from seactl.diagram.blockdiagram import QuasiPolynomial, columnwise
 
     rng = np.random.default_rng(11)
     for shape in ((7,), (3, 4)):

@@ -18,7 +18,7 @@ from pathlib import Path
 
 import pytest
 
-from seactl.cli import main
+from seactl.apps.cli import main
 
 SNAPSHOT = Path(__file__).parent / "data" / "claims_snapshot.json"
 REL_TOL = 1e-6  # for claims whose tolerance is a relation, not a number

@@ -6,7 +6,7 @@ import sys
 
 import pytest
 
-from seactl.cli import expand_variadic, main, parse_values
+from seactl.apps.cli import expand_variadic, main, parse_values
 from seactl.errors import InputError
 
 TABLE_I = "--fn 12 14 16 18 20 --t-tau 0.5 --t-qs 2 --t-qd 0.5 --f-qd 50 --f-taud 100"
@@ -96,7 +96,7 @@ def test_bad_toml_actuator(tmp_path, capsys):
 
 def test_console_script_exit_code_and_no_traceback():
     # Oracle: the exit status and stderr of a real subprocess.
-    res = subprocess.run([sys.executable, "-c", "from seactl.cli import run; run()",
+    res = subprocess.run([sys.executable, "-c", "from seactl.apps.cli import run; run()",
                           "gains", "--fn", "8"], capture_output=True, text=True)
     assert res.returncode == 2
     assert "Traceback" not in res.stderr and "9.45" in res.stderr
@@ -114,8 +114,8 @@ def test_value_parsing():
 
 def test_library_errors_name_parameters_and_cli_names_flags(tmp_path, capsys):
     """The library names its parameter; the command line re-words it as the typed flag."""
+    from seactl.apps.paper import reproduce
     from seactl.errors import InputError
-    from seactl.paper import reproduce
 
     with pytest.raises(InputError) as info:
         reproduce(tmp_path / "r", only=["nope"])

@@ -12,7 +12,7 @@ import pytest
 from click.testing import CliRunner
 
 import seactl as sc
-from seactl.commands import cli
+from seactl.apps.commands import cli
 
 RETURNS = {"design": sc.Design, "rigid": sc.RigidBatch, "load_loop": sc.UserLoop}
 """The class each public constructor returns (what ``sc.NAME(...).method()`` calls)."""
@@ -43,7 +43,7 @@ def python_line(name):
 def calls(line):
     """``(receiver, name)`` for each call in ``line``: ``("sc", "design")``,
     ``(sc.Design, "margins")`` (a chained or listed method of the last constructor), or
-    ``("seactl.sweep", "monte_carlo")``."""
+    ``("seactl.sweep.engine", "monte_carlo")``."""
     out, receiver = [], None
     for m in re.finditer(r"(\bsc|\bseactl(?:\.\w+)+)?\.(\w+)\(", line):
         module, name = m.group(1), m.group(2)

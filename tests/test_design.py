@@ -2,8 +2,9 @@ import numpy as np
 import pytest
 from scipy.optimize import fsolve
 
-from seactl.actuators import UT_SEA
-from seactl.design import (
+from seactl.errors import InfeasibleDesignError, InputError
+from seactl.systems.sea.actuators import UT_SEA
+from seactl.systems.sea.design import (
     _cubic_roots,
     characteristic_coefficients,
     critically_damped_gains,
@@ -11,8 +12,7 @@ from seactl.design import (
     solve_gains,
     target_polynomial,
 )
-from seactl.errors import InfeasibleDesignError, InputError
-from seactl.loops import SEADesign, closed_loop
+from seactl.systems.sea.loops import SEADesign, closed_loop
 
 # Table I as printed: f_n -> Kq, Bq, Ktau, Btau; tolerance half a unit of the last printed
 # digit (all Table I gains happen to be rounded, not truncated)

@@ -25,13 +25,13 @@ import numpy as np
 import pytest
 
 import seactl as sc
-from seactl.cli import main
+from seactl.apps.cli import main
 from seactl.errors import InputError
 
 pytest.importorskip("bokeh", reason="the explorer needs the app extra (bokeh)")
 
-from seactl.explore import model  # noqa: E402
-from seactl.explore.model import Controls  # noqa: E402
+from seactl.apps.explore import model  # noqa: E402
+from seactl.apps.explore.model import Controls  # noqa: E402
 
 TABLE_I = Controls()  # f_n 14 Hz, delays (0.5, 2, 0.5) ms, filters (50, 100) Hz
 README_TOML = b"""name = "my-sea"
@@ -104,7 +104,7 @@ def test_roots_view_is_the_library_roots_and_agrees_with_the_stability_word(dela
     """Oracle: ``d.roots()`` on the same design (the public API, called here), and the
     Nyquist count of ``d.margins()`` behind the word 'stable' / 'UNSTABLE' (a different
     method: the argument principle on the frequency response, not the roots)."""
-    from seactl.explore.app import results_html
+    from seactl.apps.explore.app import results_html
 
     c = replace(TABLE_I, t_tau_ms=delays_ms[0], t_qs_ms=delays_ms[1], t_qd_ms=delays_ms[2])
     v = model.views(c)
@@ -168,7 +168,7 @@ def test_step_is_the_one_of_the_command_line_the_app_offers(mode, capsys):
 
 def test_sampled_step_shows_the_sampled_loop_verdict():
     # Oracle: the library's certified verdict of the same loop (Design.margins(rate_hz)).
-    from seactl.explore import app
+    from seactl.apps.explore import app
 
     c = replace(TABLE_I, mode="sampled", rate_hz=190.0)   # the page simulates >= 20 samples
     v = model.views(c)
@@ -204,7 +204,7 @@ def test_exported_toml_uploads_back_to_the_same_controls():
 
 # ------------------------------------------------------------------ Bokeh callbacks
 def test_callbacks_update_the_page_and_survive_a_bad_upload():
-    from seactl.explore.app import Explorer
+    from seactl.apps.explore.app import Explorer
 
     ex = Explorer()  # no document: requests update synchronously
     assert ">43.26<" in ex.results.text
@@ -245,7 +245,7 @@ class _QueueDoc:
 
 def test_a_dragged_slider_is_computed_once_for_its_latest_value():
     """Changes arriving before the update runs are merged; stale stages are dropped."""
-    from seactl.explore.app import Explorer
+    from seactl.apps.explore.app import Explorer
 
     doc = _QueueDoc()
     ex = Explorer(doc)
@@ -280,7 +280,7 @@ def test_explore_refuses_a_port_in_use():
         busy.bind(("127.0.0.1", 0))
         busy.listen()
         port = busy.getsockname()[1]
-        r = subprocess.run([sys.executable, "-c", "from seactl.cli import run; run()",
+        r = subprocess.run([sys.executable, "-c", "from seactl.apps.cli import run; run()",
                             "explore", "--port", str(port), "--no-browser"],
                            capture_output=True, text=True, timeout=300)
     assert r.returncode == 2 and r.stdout == ""
@@ -297,8 +297,8 @@ def test_ctrl_c_stops_the_explorer_with_status_130(server):
 
 def test_loopback_addresses_and_allow_remote():
     """Oracle: the loopback range 127.0.0.0/8 and ::1 (RFC 1122, RFC 4291)."""
-    from seactl.commands.explore import check_address
-    from seactl.explore.server import is_loopback, url
+    from seactl.apps.commands.explore import check_address
+    from seactl.apps.explore.server import is_loopback, url
 
     assert all(map(is_loopback, ("127.0.0.1", "127.3.2.1", "::1", "[::1]", "LOCALHOST")))
     assert not any(map(is_loopback, ("0.0.0.0", "::", "10.0.0.1", "example.org", "")))
@@ -332,7 +332,7 @@ def server():
     group is killed at teardown."""
     port = _free_port()
     proc = subprocess.Popen(
-        [sys.executable, "-c", "from seactl.cli import run; run()", "explore", "--port",
+        [sys.executable, "-c", "from seactl.apps.cli import run; run()", "explore", "--port",
          str(port), "--no-browser"], stdout=subprocess.PIPE, stderr=subprocess.STDOUT,
         text=True, start_new_session=True,
         preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL))  # (even from a

@@ -2,10 +2,10 @@
 sampled controller.
 
 Oracles: (1) the controller of the sampled plan, stepped by
-:func:`seactl.sim_discrete.run_controller` -- itself checked against the actuation
-:func:`seactl.sim_discrete.run_sampled` applied in a closed-loop simulation; (2) for the
+:func:`seactl.simulate.discrete.run_controller` -- itself checked against the actuation
+:func:`seactl.simulate.discrete.run_sampled` applied in a closed-loop simulation; (2) for the
 high-level process, the hand-derived law ``-Kq q_j[k - n]`` with ``n`` the whole-sample
-buffer of the module docstring of :mod:`seactl.simulate`; (3) the compiled C is run as a
+buffer of the module docstring of :mod:`seactl.simulate.engine`; (3) the compiled C is run as a
 separate program through its CSV harness.
 """
 
@@ -19,11 +19,11 @@ import numpy as np
 import pytest
 
 import seactl as sc
-from seactl import export as ex
-from seactl import export_split
-from seactl.cli import main
-from seactl.loops import sea_diagram
-from seactl.rigid import RIGID_DIAGRAM
+from seactl.apps.cli import main
+from seactl.codegen import controllers as export_split
+from seactl.codegen import export as ex
+from seactl.systems.rigid.model import RIGID_DIAGRAM
+from seactl.systems.sea.loops import sea_diagram
 
 TARGET = 1e-9
 CC = ex.find_compiler()
@@ -167,7 +167,8 @@ def test_cli_end_to_end(tmp_path, capsys):
     assert export_split.relative_error(y, ref) <= TARGET
     if not CC:
         pytest.skip(NO_CC)
-    subprocess.run([CC, *export_split.CFLAGS, "embedded.c", "embedded_main.c", "-o", "emb"], cwd=out,
+    subprocess.run([CC, *export_split.CFLAGS, "embedded.c", "embedded_main.c", "-o", "emb"],
+                   cwd=out,
                    check=True)
     csv = ",".join(emb["inputs"]) + "\n" + "".join(",".join(repr(float(v)) for v in r) + "\n"
                                                     for r in u)

@@ -10,7 +10,7 @@ output are unchanged after an exit 0; every vector finishes within a time bound.
 
 The default run draws :data:`QUICK_EXAMPLES` vectors and ``pytest -m slow`` (CI)
 :data:`CI_EXAMPLES`, both deterministic; ``pytest -m fuzz`` runs 10,000.
-Commands run in process (``seactl.cli.main``).  ``base`` (10 s or more per valid run) is
+Commands run in process (``seactl.apps.cli.main``).  ``base`` (10 s or more per valid run) is
 drawn with at least one invalid value, ``reproduce``/``bench`` always get a cheap ``--only``,
 ``latency-map`` and ``robust`` small default grids; ``sweep`` runs in process
 (``--workers 0``) and never contacts a network address; ``explore`` always gets a
@@ -32,7 +32,7 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
 from seactl import UnitWarning
-from seactl.cli import main
+from seactl.apps.cli import main
 
 QUICK_EXAMPLES = 50
 CI_EXAMPLES = 200

@@ -8,13 +8,13 @@ import numpy as np
 import pytest
 from scipy.optimize import brentq
 
-from seactl.actuators import UT_SEA
-from seactl.blockdiagram import Block, BlockDiagram
-from seactl.cli import main
-from seactl.design import critically_damped_gains
-from seactl.loops import SEADesign, Timing, outer_loop
-from seactl.margins import default_grid, loop_margins
-from seactl.sea import sea_margins
+from seactl.analysis.margins import default_grid, loop_margins
+from seactl.apps.cli import main
+from seactl.diagram.blockdiagram import Block, BlockDiagram
+from seactl.systems.sea.actuators import UT_SEA
+from seactl.systems.sea.design import critically_damped_gains
+from seactl.systems.sea.loops import SEADesign, Timing, outer_loop
+from seactl.systems.sea.views import sea_margins
 
 
 def rational_loop(num, den):

@@ -9,7 +9,7 @@ from __future__ import annotations
 
 import pytest
 
-from seactl.cli import main
+from seactl.apps.cli import main
 from seactl.errors import OutputError
 
 
@@ -104,12 +104,12 @@ def test_a_bad_output_or_input_leaves_no_file(argv, tmp_path, monkeypatch, capsy
 
 def test_a_failure_while_writing_removes_every_output(tmp_path, monkeypatch, capsys):
     """The CSV is written, then saving the figure fails: neither file is left."""
-    import seactl.outputs
+    import seactl.base.outputs
 
     def boom(fig, tmp, fmt, dpi):
         raise OSError(28, "No space left on device")
 
-    monkeypatch.setattr(seactl.outputs, "save_figure_to", boom)
+    monkeypatch.setattr(seactl.base.outputs, "save_figure_to", boom)
     monkeypatch.chdir(tmp_path)
     assert main(["step", "--csv", "s.csv", "--plot", "s.png"]) == 2
     assert _stderr_line(capsys) == "error: cannot write s.png: no space left on device"
@@ -167,9 +167,9 @@ def test_bounds_refuse_with_the_estimate(argv, needles, tmp_path, monkeypatch, c
 
 
 def test_library_errors_name_the_parameter():
+    from seactl.base.limits import check_range
     from seactl.errors import InputError
-    from seactl.limits import check_range
-    from seactl.sweep_spec import SweepSpec
+    from seactl.sweep.spec import SweepSpec
 
     with pytest.raises(InputError, match="^invalid rate_hz = "):
         check_range("rate_hz", 1e9, "rate_hz")
@@ -179,7 +179,7 @@ def test_library_errors_name_the_parameter():
 
 
 def sc_actuator():
-    from seactl.actuators import load_sea
+    from seactl.systems.sea.actuators import load_sea
 
     return load_sea("ut-sea")
 
@@ -214,7 +214,7 @@ def test_sweep_ctrl_c_prints_one_line_and_keeps_finished_chunks(tmp_path, monkey
     """Ctrl-C arrives while the third chunk is computed (in process)."""
     import importlib
 
-    sw = importlib.import_module("seactl.sweep")   # the module (seactl.sweep is a function)
+    sw = importlib.import_module("seactl.sweep.engine")   # the module (seactl.sweep is a function)
     real = sw.evaluate_chunk
     calls = []
 
@@ -263,8 +263,8 @@ def test_an_output_naming_an_input_is_refused(tmp_path, monkeypatch, capsys):
 def test_inputs_are_recorded_only_during_a_command(tmp_path):
     """In a Python session each call is its own command: a trace read by one call may be
     written by a later one.  Oracle: the bytes written."""
-    from seactl.outputs import command_inputs, write_atomic
-    from seactl.timing_models import Empirical
+    from seactl.base.outputs import command_inputs, write_atomic
+    from seactl.latency.models import Empirical
 
     trace = _trace(tmp_path / "trace.csv")
     Empirical.from_csv(trace)
@@ -366,7 +366,7 @@ def test_an_empty_output_path_is_refused(argv, tmp_path, monkeypatch, capsys):
     (["roots", "--fn", "10:100:0.01", "--t-qs", "1"], ["9,001 design(s)", "would take"]),
 ])
 def test_long_work_is_refused_up_front(argv, needles, monkeypatch, capsys):
-    """Oracle: the estimates of seactl.limits against a 30 s budget (10,000 runs x 1000
+    """Oracle: the estimates of seactl.base.limits against a 30 s budget (10,000 runs x 1000
     steps x 3 placements at 3 us per design and step is 90 s; 9,001 delayed designs at
     6 roots x 8 ms is 441 s)."""
     monkeypatch.setenv("SEACTL_MAX_SECONDS", "30")
@@ -420,7 +420,7 @@ def test_bad_latency_traces_are_one_line(content, needle, tmp_path, capsys):
 
 def test_a_trace_is_read_by_its_header(tmp_path):
     """Oracle: the file's columns by hand (count first, then latency_ms)."""
-    from seactl.timing_models import Empirical
+    from seactl.latency.models import Empirical
 
     f = tmp_path / "h.csv"
     f.write_text("count,latency_ms\n5,1.0\n1,2.0\n")
@@ -519,7 +519,7 @@ def _seactl(args, **kw):
     import subprocess
     import sys
 
-    return subprocess.Popen([sys.executable, "-c", "from seactl.cli import run; run()",
+    return subprocess.Popen([sys.executable, "-c", "from seactl.apps.cli import run; run()",
                              *args], stdout=subprocess.PIPE, stderr=subprocess.PIPE,
                             text=True, preexec_fn=lambda: signal.signal(signal.SIGINT,
                                                                         signal.SIG_DFL),
@@ -585,7 +585,7 @@ def test_ctrl_c_while_the_commands_load_is_one_line():
             "        if name == 'click':\n"
             "            raise KeyboardInterrupt\n"
             "sys.meta_path.insert(0, Stop())\n"
-            "from seactl.cli import run\n"
+            "from seactl.apps.cli import run\n"
             "run()\n")
     res = subprocess.run([sys.executable, "-c", code, "gains"], capture_output=True,
                          text=True, timeout=60)
@@ -599,7 +599,7 @@ def test_closing_a_sweeps_workers_ignores_a_second_ctrl_c():
     import os
     import signal
 
-    sw = importlib.import_module("seactl.sweep")
+    sw = importlib.import_module("seactl.sweep.engine")
     before = signal.getsignal(signal.SIGINT)
     with sw._uninterrupted():
         os.kill(os.getpid(), signal.SIGINT)
@@ -623,8 +623,8 @@ def test_a_sweep_on_local_workers_leaves_no_temporary_directory(tmp_path, monkey
 def test_a_report_marker_without_a_list_stands_for_the_reports_files(tmp_path):
     """A report written before the marker listed its files: its fixed names and figures
     may be replaced, anything else refuses.  Oracle: the names written by hand."""
+    from seactl.apps.report import check_report_dir
     from seactl.errors import OutputError
-    from seactl.report import check_report_dir
 
     rep = tmp_path / "rep"
     (rep / "figures").mkdir(parents=True)

@@ -8,17 +8,25 @@ from types import SimpleNamespace
 import numpy as np
 import pytest
 
-from seactl._realpart import certify_positive
-from seactl.actuators import UT_SEA
-from seactl.blockdiagram import QuasiPolynomial
-from seactl.cli import main
-from seactl.design import critically_damped_gains
+from seactl.apps.cli import main
+from seactl.certify.realpart import certify_positive
+from seactl.diagram.blockdiagram import QuasiPolynomial
 from seactl.errors import InfeasibleDesignError, InputError
-from seactl.imp_asymptotes import asymptotes, high_frequency_asymptote, low_frequency_stiffness
-from seactl.imp_passivity import passivity
-from seactl.imp_zregion import excess_over_asymptotes_db, zregion
-from seactl.impedance import impedance, loaded_impedance_from_compliance, paper_coefficients
-from seactl.loops import Gains, SEADesign, Timing, outer_loop
+from seactl.systems.sea.actuators import UT_SEA
+from seactl.systems.sea.asymptotes import (
+    asymptotes,
+    high_frequency_asymptote,
+    low_frequency_stiffness,
+)
+from seactl.systems.sea.design import critically_damped_gains
+from seactl.systems.sea.impedance import (
+    impedance,
+    loaded_impedance_from_compliance,
+    paper_coefficients,
+)
+from seactl.systems.sea.loops import Gains, SEADesign, Timing, outer_loop
+from seactl.systems.sea.passivity import passivity
+from seactl.systems.sea.zregion import excess_over_asymptotes_db, zregion
 
 A = UT_SEA
 F = np.logspace(-1, 3, 37)
@@ -112,7 +120,7 @@ def test_static_stiffness_and_bare_spring():
 
 def test_batch_shapes_and_chunking(monkeypatch):
     # Oracle: each design evaluated alone, unchunked.
-    import seactl.impedance as imp
+    import seactl.systems.sea.impedance as imp
 
     g = critically_damped_gains(A, np.array([12.0, 20.0, 30.0])[:, None],
                                 gs=np.array([0.8, 1.0])[None, :])

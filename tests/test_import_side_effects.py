@@ -16,7 +16,7 @@ import sys
 from pathlib import Path
 
 import seactl
-from seactl.usercache import cache_dir, numba_cache_dir
+from seactl.base.usercache import cache_dir, numba_cache_dir
 
 SRC = Path(seactl.__file__).parent
 
@@ -82,7 +82,7 @@ def _numba_files(root: Path) -> dict[str, float]:
     return {str(p): p.stat().st_mtime_ns for p in root.rglob("*.nb[ic]")}
 
 
-RUN_KERNEL = "from seactl._certify import np_minimum; assert np_minimum(1.0, 2.0) == 1.0"
+RUN_KERNEL = "from seactl.certify.scan import np_minimum; assert np_minimum(1.0, 2.0) == 1.0"
 
 
 def test_a_compiled_kernel_is_cached_in_the_user_cache_dir(tmp_path):
@@ -92,7 +92,7 @@ def test_a_compiled_kernel_is_cached_in_the_user_cache_dir(tmp_path):
     in_tree = _numba_files(SRC)
     _run(RUN_KERNEL, _env(tmp_path))
     cached = [p.name for p in (tmp_path / "xdg" / "seactl" / "numba").rglob("*.nbi")]
-    assert any(name.startswith("_certify.np_minimum-") for name in cached)
+    assert any(name.startswith("scan.np_minimum-") for name in cached)
     assert _numba_files(SRC) == in_tree
 
 
@@ -101,7 +101,7 @@ def test_numba_cache_dir_and_seactl_cache_dir_are_honoured(tmp_path):
     # kernels' cache, SEACTL_CACHE_DIR=off keeps none.
     explicit = tmp_path / "numba"
     _run(RUN_KERNEL, _env(tmp_path, NUMBA_CACHE_DIR=str(explicit)))
-    assert any(p.name.startswith("_certify.np_minimum-") for p in explicit.rglob("*.nbi"))
+    assert any(p.name.startswith("scan.np_minimum-") for p in explicit.rglob("*.nbi"))
     assert not (tmp_path / "xdg").exists()
     _run(RUN_KERNEL, _env(tmp_path, SEACTL_CACHE_DIR="off"))
     assert not (tmp_path / "xdg").exists()

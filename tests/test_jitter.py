@@ -13,9 +13,9 @@ import numpy as np
 import pytest
 
 import seactl as sc
-from seactl.cli import main
-from seactl.jitter import SEA_TAPS, peak_omega_t, sea_jitter_margins
-from seactl.latency import loop_delay_margins, sea_model, sea_split_diagram
+from seactl.apps.cli import main
+from seactl.latency.jitter import SEA_TAPS, peak_omega_t, sea_jitter_margins
+from seactl.latency.maps import loop_delay_margins, sea_model, sea_split_diagram
 
 TABLE_I = dict(delays_ms={"torque": 0.5, "stiffness": 2, "damping": 0.5}, filters_hz=(50, 100))
 
@@ -125,7 +125,7 @@ def test_measured_trace_is_checked_against_the_analysed_band(tmp_path, capsys):
     import json
 
     import seactl as sc
-    from seactl.cli import main
+    from seactl.apps.cli import main
 
     trace = tmp_path / "latency-stiffness.csv"
     trace.write_text("latency_ms\n" + "".join(f"{v}\n" for v in (2.5, 3.0, 3.5, 2.75)))
@@ -194,7 +194,7 @@ def test_a_supremum_at_infinite_frequency_is_bounded_by_its_limit():
     # Oracle: the per-frequency solve at 1e7 rad/s, where w |T| of the unfiltered torque
     # loop (relative degree 1) has reached its limit to 3e-5: the proven margin is that
     # limit's inverse less the documented 1 % (TAIL_SLACK).
-    from seactl._supremum import TAIL_SLACK
+    from seactl.certify.supremum import TAIL_SLACK
 
     d = sc.design([30.0])
     j = sea_jitter_margins(d.sea)
@@ -206,7 +206,7 @@ def test_a_supremum_at_infinite_frequency_is_bounded_by_its_limit():
 def test_cli_marks_an_unproven_jitter_margin(capsys, monkeypatch):
     # Oracle: the documented contract: a stable design whose bound cannot be proven
     # (forced here: every proof fails) shows "0 (not proven)", not a number.
-    import seactl._supremum as S
+    import seactl.certify.supremum as S
 
     monkeypatch.setattr(S, "MAX_BASE", 1)
     assert main(["jitter", "--fn", "14", "--t-tau", "0.5", "--t-qs", "2", "--t-qd", "0.5",
@@ -219,8 +219,8 @@ def test_a_neutral_design_leaves_the_others_of_its_batch_proven(monkeypatch):
     # Oracle: each design's proven peak computed alone.  A design whose loop is a neutral
     # delay equation (forced here: no built-in SEA loop is one) has no proven peak (inf,
     # so no jitter margin); it once took every other design of its batch with it.
-    from seactl.blockdiagram import QuasiPolynomial
-    from seactl.jitter import sea_jitter_grid
+    from seactl.diagram.blockdiagram import QuasiPolynomial
+    from seactl.latency.jitter import sea_jitter_grid
 
     d = sc.design([12.0, 16.0], **TABLE_I).sea
     omega = sea_jitter_grid(d)
@@ -241,7 +241,7 @@ def _upper_numpy(b3N, b3D, majors, d, pa, pb):
     compiled), the oracle of the next test."""
     from numpy.polynomial.polynomial import polyval
 
-    from seactl.blockdiagram import EVAL_ROUNDING
+    from seactl.diagram.blockdiagram import EVAL_ROUNDING
 
     W_, N0, N1, DR, DI, D1 = 0, 2, 3, 5, 6, 7  # (columns; N1 + 1, D1 + 1: the second derivatives)
     h, W = pb[:, W_] - pa[:, W_], pb[:, W_]
@@ -277,12 +277,12 @@ def _upper_numpy(b3N, b3D, majors, d, pa, pb):
 
 
 def test_compiled_interval_bound_is_the_numpy_form_bit_for_bit():
-    """The supremum proof's bound per interval (seactl._supremum._upper_rows, compiled)
+    """The supremum proof's bound per interval (seactl.certify.supremum._upper_rows, compiled)
     against its numpy form (oracle, above): the same bits on 20,000 random intervals with
     values over twenty decades, zeros, infinities and NaN among them."""
     from types import SimpleNamespace as NS
 
-    from seactl import _supremum
+    from seactl.certify import supremum as _supremum
 
     rng = np.random.default_rng(29)
     n, designs = 20_000, 40

@@ -3,7 +3,7 @@
 ignored option or a silent result.
 
 Oracles: the documented contract (docs/loops.md: options of the built-in loops are refused
-with ``--loop``; README: one-line errors, exit 2), the limits of :mod:`seactl.limits`
+with ``--loop``; README: one-line errors, exit 2), the limits of :mod:`seactl.base.limits`
 counted by hand on the generated files, a factored-form evaluation of the loop transfer
 (numpy, brentq) for a long chain that must still work, the definition of a Latin
 hypercube, and a direct analysis of each sampled point.
@@ -19,8 +19,8 @@ import numpy as np
 import pytest
 
 import seactl as sc
-from seactl.cli import main
-from seactl.limits import MAX_LOOP_BLOCKS, MAX_LOOP_ORDER, MAX_NESTING, derive_seconds
+from seactl.apps.cli import main
+from seactl.base.limits import MAX_LOOP_BLOCKS, MAX_LOOP_ORDER, MAX_NESTING, derive_seconds
 
 EXAMPLES = Path(__file__).resolve().parents[1] / "examples" / "loops"
 RIGID = str(EXAMPLES / "rigid.toml")
@@ -74,7 +74,7 @@ def test_a_call_with_the_wrong_number_of_arguments_is_one_line(expr, needle, tmp
 
 def test_min_and_max_take_any_number_of_arguments():
     """Oracle: Python's min and max of the same numbers."""
-    from seactl.loop_expr import CONSTANTS, parse_expr
+    from seactl.userloop.expressions import CONSTANTS, parse_expr
 
     env = {"a": 3.0, "b": -2.0, "c": 7.5, **CONSTANTS}
     for f, ref in (("min", min), ("max", max)):

@@ -3,10 +3,10 @@
 import numpy as np
 import pytest
 
-from seactl.actuators import UT_SEA
-from seactl.design import critically_damped_gains
 from seactl.errors import InputError
-from seactl.loops import (
+from seactl.systems.sea.actuators import UT_SEA
+from seactl.systems.sea.design import critically_damped_gains
+from seactl.systems.sea.loops import (
     SEADesign,
     Timing,
     closed_loop,

@@ -6,12 +6,12 @@ import control
 import numpy as np
 import pytest
 
-from seactl.actuators import UT_SEA
-from seactl.blockdiagram import DesignSubset
-from seactl.design import critically_damped_gains
-from seactl.loops import SEADesign, Timing, outer_loop
-from seactl.margins import default_grid, loop_margins
-from seactl.sea import sea_margins
+from seactl.analysis.margins import default_grid, loop_margins
+from seactl.diagram.blockdiagram import DesignSubset
+from seactl.systems.sea.actuators import UT_SEA
+from seactl.systems.sea.design import critically_damped_gains
+from seactl.systems.sea.loops import SEADesign, Timing, outer_loop
+from seactl.systems.sea.views import sea_margins
 
 A = UT_SEA
 TABLE_I_PM = {12: 45.1, 14: 43.2, 16: 40.0, 18: 36.5, 20: 33.2}
@@ -200,9 +200,9 @@ def test_close_pair_of_crossings_is_found_on_any_grid(per_decade):
     mag = np.abs(outer_loop()(d, 1j * w))
     idx = np.nonzero((mag[:-1] >= 1) != (mag[1:] >= 1))[0]
     assert idx.size == 3
-    from seactl.sea import sea_reference_frequency
+    from seactl.systems.sea.views import sea_reference_frequency
     grid = default_grid(sea_reference_frequency(d), per_decade=per_decade)
-    from seactl.loops import inner_loop
+    from seactl.systems.sea.loops import inner_loop
     inner = loop_margins(inner_loop(), d, grid, stability_only=True)
     m = loop_margins(outer_loop(), d, grid, open_loop_rhp_poles=inner.unstable_poles)
     # the brute-force grid spacing is 0.003 rad/s (2e-5 relative at the first crossing)
@@ -210,10 +210,10 @@ def test_close_pair_of_crossings_is_found_on_any_grid(per_decade):
 
 
 def test_compiled_scan_evaluates_the_quasi_polynomial_like_numpy():
-    """The certified scan's compiled kernel (seactl._certify) against the numpy Horner
+    """The certified scan's compiled kernel (seactl.certify.scan) against the numpy Horner
     pass of QuasiPolynomial.with_derivative (oracle) on random designs and frequencies:
     Q(jw), dQ/dw = j dQ/ds and d2Q/dw2 = -d2Q/ds2, L = N / D and Delta = N + D."""
-    from seactl import _certify
+    from seactl.certify import scan as _certify
 
     d = sea(np.linspace(10, 40, 7), ms=(np.linspace(0.5, 3, 7), 8.0, 1.5, 50.0, 100.0))
     N, D = (f.evaluate(d).flat() for f in
@@ -236,12 +236,12 @@ def test_compiled_scan_evaluates_the_quasi_polynomial_like_numpy():
 
 
 def test_compiled_evaluation_with_more_delay_terms_than_a_phasor_call():
-    """The kernels compute delay phasors four at a time (seactl._vecmath.cis4): random
+    """The kernels compute delay phasors four at a time (seactl.certify.vecmath.cis4): random
     quasi-polynomials with 5 terms in N and 4 in D (three and two calls) against the
     numpy Horner pass (oracle), through the single evaluation (derivatives), the pair
     (loop_values, delta_values) and the scan's point (N, D and their derivatives' moduli)."""
-    from seactl import _certify
-    from seactl.blockdiagram import QuasiPolynomial
+    from seactl.certify import scan as _certify
+    from seactl.diagram.blockdiagram import QuasiPolynomial
 
     rng = np.random.default_rng(5)
     n = 6
@@ -291,10 +291,10 @@ def test_base_grid_points_four_at_a_time_are_the_single_points_bits():
     a zero frequency and coefficients with NaN and infinities among them."""
     from numba import njit
 
-    from seactl import _certify
-    from seactl._vecmath import v4
-    from seactl.bench.core import random_designs
-    from seactl.blockdiagram import QuasiPolynomial, padded_sum, rounding_majorant
+    from seactl.apps.bench.core import random_designs
+    from seactl.certify import scan as _certify
+    from seactl.certify.vecmath import v4
+    from seactl.diagram.blockdiagram import QuasiPolynomial, padded_sum, rounding_majorant
 
     point, points4 = _certify._point, _certify._points4
 
@@ -338,8 +338,8 @@ def test_a_root_on_the_axis_is_never_counted_certain(delay_s):
     +-10j on the imaginary axis; bisection cannot certify the interval around w = 10,
     so the count is reported uncertain (a design with it is never called stable), while
     Q(s) = (s + 1)^3 + 0.5 e^{-s tau} (roots in the left half-plane) is certain, Z = 0."""
-    from seactl.blockdiagram import QuasiPolynomial
-    from seactl.margins import count_right_roots
+    from seactl.analysis.margins import count_right_roots
+    from seactl.diagram.blockdiagram import QuasiPolynomial
 
     def q(undelayed, delayed):
         c = np.array([undelayed, delayed], float)[:, None, :]
@@ -360,8 +360,8 @@ def test_the_root_count_takes_its_tail_where_the_scan_ends():
     winding of ``Delta`` unwrapped by numpy on 4 million points up to ``1e4 R`` (two roots
     right of the axis); for 400 random quasi-polynomials with lightly damped or unstable
     pairs and up to four delays, the count whose grid ends at ``R`` itself."""
-    from seactl.blockdiagram import QuasiPolynomial
-    from seactl.margins import cauchy_bound, count_right_roots
+    from seactl.analysis.margins import cauchy_bound, count_right_roots
+    from seactl.diagram.blockdiagram import QuasiPolynomial
 
     c = np.array([[[15.70403196, 0.04881618, 1.0]], [[5.42092207, 0.0, 0.0]]])
     q = QuasiPolynomial(c, np.array([[0.0], [0.04370939237311953]]))
@@ -455,8 +455,8 @@ def test_a_phase_tangent_to_minus_180_counts_as_a_crossover(w_ref):
     a pair of crossings, so the bisection ends at its limit there and the touch counts as
     a phase crossover (a gain margin of 2, never "none").  Oracle: the formula (Im L >= 0,
     zero only at w = 1, where L = -0.5); with and without w = 1 on the base grid."""
-    from seactl import margins as M
-    from seactl.blockdiagram import QuasiPolynomial
+    from seactl.analysis import margins as M
+    from seactl.diagram.blockdiagram import QuasiPolynomial
 
     N = QuasiPolynomial(np.array([[[-0.5, 0.1, 0, 0.2, 0, 0.1]]]), np.zeros((1, 1)))
     D = QuasiPolynomial(np.array([[[1.0, 0, 0, 0, 0, 0]]]), np.zeros((1, 1)))
@@ -473,12 +473,12 @@ def test_a_phase_tangent_to_minus_180_counts_as_a_crossover(w_ref):
 
 
 def test_compiled_row_polynomials_are_numpys_polyval_bit_for_bit():
-    """The proofs' bound polynomials (seactl._certify.horner_rows, per row and point).
+    """The proofs' bound polynomials (seactl.certify.scan.horner_rows, per row and point).
     Oracle: numpy's polyval on the same rows, the same bits (infinite and NaN points
     included)."""
     from numpy.polynomial.polynomial import polyval
 
-    from seactl._certify import horner_rows
+    from seactl.certify.scan import horner_rows
 
     rng = np.random.default_rng(23)
     for powers in (1, 3, 8):
@@ -500,8 +500,8 @@ def test_cauchy_bound_is_the_tightest_dominance_radius():
     coefficients spread over ten decades; of degree 2 to 5 the 8 Newton steps come within
     1e-6 of the root (of degree 1 and 6-7 they may stop further above it: a longer grid,
     never a skipped root)."""
-    from seactl import margins as M
-    from seactl.blockdiagram import QuasiPolynomial
+    from seactl.analysis import margins as M
+    from seactl.diagram.blockdiagram import QuasiPolynomial
 
     rng = np.random.default_rng(17)
     n_designs, powers = 400, 8
@@ -533,7 +533,7 @@ def test_cauchy_bound_is_the_tightest_dominance_radius():
 ])
 def test_chord_gap_is_the_distance_from_zero_to_the_segment(a, b, gap):
     """The tube certificate's distance; oracle: elementary geometry."""
-    from seactl import _certify
+    from seactl.certify import scan as _certify
 
     assert _certify._gap(a.real, a.imag, b.real, b.imag) == pytest.approx(gap, rel=1e-12)
     assert _certify._gap(b.real, b.imag, a.real, a.imag) == pytest.approx(gap, rel=1e-12)
@@ -545,7 +545,7 @@ def test_cut_crossings_add_up_to_the_principal_turns():
     numpy's ``angle`` wrapped to ``[-pi, pi]``), on 20,000 random pairs whose turn is
     under half a turn by at least 1e-6 (as certified intervals' are), and on pairs on
     the real axis with either sign of zero (where atan2's convention decides)."""
-    from seactl import _certify
+    from seactl.certify import scan as _certify
 
     rng = np.random.default_rng(11)
     a = rng.normal(size=20_000) + 1j * rng.normal(size=20_000)
@@ -568,8 +568,8 @@ def test_compiled_crossing_solver_agrees_with_scipy():
     """The certified scan solves its brackets by a compiled safeguarded Newton; oracle:
     scipy's bracketing solver (Chandrupatla, ``elementwise.find_root``) on the same
     brackets and the same loop values."""
-    from seactl import margins as M
-    from seactl.bench.core import random_designs
+    from seactl.analysis import margins as M
+    from seactl.apps.bench.core import random_designs
 
     _, d = random_designs(300, seed=7)
     loop = outer_loop()
@@ -593,7 +593,7 @@ def test_tube_turn_contains_the_turn_of_every_path_in_the_tube():
     chord's span widened by ``asin(r/g)``.  Oracle: 4,000 random smooth paths (a quadratic
     plus a fast oscillation, so ``sup |Q''|`` has a closed form), their turn unwrapped
     on 20,001 points; paths whose tube may reach 0 get no bound."""
-    from seactl import _certify
+    from seactl.certify import scan as _certify
 
     rng = np.random.default_rng(3)
     t = np.linspace(0.0, 1.0, 20_001)
@@ -631,8 +631,8 @@ def test_beyond_the_scan_radius_no_crossing_is_possible(kind, num, num_delayed, 
     at 122 rad/s beyond ``R`` (20 rad/s, a radius for ``|L| < 0.05``) and was reported
     with no crossover and an infinite delay margin (true: 25.6 ms).  Oracle: ``L`` and
     ``Delta`` evaluated on 20,001 points from ``R`` to ``10^4 R``."""
-    from seactl import margins as M
-    from seactl.blockdiagram import QuasiPolynomial
+    from seactl.analysis import margins as M
+    from seactl.diagram.blockdiagram import QuasiPolynomial
 
     def qp(terms, delays):
         width = max(len(t) for t in terms)
@@ -659,8 +659,8 @@ def test_margins_split_over_threads_are_the_one_thread_margins(monkeypatch):
     """A batch is scanned in one thread per core, each on its own designs.  Oracle: the
     same batch in one thread, bit for bit, crossings included (400 random designs, delays
     up to 20 ms)."""
-    from seactl import _parallel
-    from seactl.bench.core import random_designs
+    from seactl.apps.bench.core import random_designs
+    from seactl.base import parallel as _parallel
 
     _, d = random_designs(400, seed=11)
     monkeypatch.setattr(_parallel, "THREADS", 1)
@@ -679,8 +679,8 @@ def test_margins_split_over_threads_are_the_one_thread_margins(monkeypatch):
 def test_threads_follow_seactl_threads_and_refuse_a_bad_value(monkeypatch, capsys):
     """``SEACTL_THREADS`` caps the threads of a batch; a bad value is one error naming it.
     Oracle: the parts of a 1000-design batch, and the CLI's exit status and line."""
-    from seactl import _parallel
-    from seactl.cli import main
+    from seactl.apps.cli import main
+    from seactl.base import parallel as _parallel
     from seactl.errors import InputError
 
     monkeypatch.setattr(_parallel, "THREADS", None)
@@ -702,7 +702,7 @@ def test_first_per_design_is_the_minimum_of_a_stable_sort(seed):
     """The linear-time path (sorted groups) and the general one pick, per group, the
     index of the smallest key, the first among equal ones (0.0 and -0.0 equal), NaN only
     where the group has nothing else.  Oracle: numpy's stable lexsort."""
-    from seactl.margins import first_per_design
+    from seactl.analysis.margins import first_per_design
 
     rng = np.random.default_rng(seed)
     for _ in range(500):
@@ -726,8 +726,8 @@ def test_the_base_grid_keeps_its_spacing(w_lo, tau, top):
     estimate used for budgets is exact or one too many.  Oracle: the two rules, checked
     point by point; and the same points, bit for bit, from a table of 8 powers (the rest
     computed) as from the full table."""
-    from seactl import _certify
-    from seactl import margins as M
+    from seactl.analysis import margins as M
+    from seactl.certify import scan as _certify
 
     w_lo_, step, top_ = (float(x[0]) for x in M._base_grid(np.array([100 * w_lo]),
                                                            np.array([tau]), np.array([top])))
@@ -755,7 +755,7 @@ def test_the_newton_start_is_the_root_of_the_hermite_cubic():
     """The crossing solver starts from the root of the cubic matching a bracket's end
     values and slopes; on a cubic with one root in the bracket that is the root itself.
     Oracle: numpy's polynomial roots; without slopes (NaN), the regula falsi point."""
-    from seactl._certify import _hermite_root
+    from seactl.certify.scan import _hermite_root
 
     rng = np.random.default_rng(3)
     checked = 0
@@ -782,8 +782,8 @@ def test_a_design_without_a_usable_grid_is_never_stable():
     scanned as usual; a frequency scale that is not positive is refused by name.  Oracle:
     ``L = 2 / (s (s + 1))``, whose gain crossover solves ``w^4 + w^2 = 4`` (1.25 rad/s),
     and Table I's 12 Hz design (PM 45.1 deg)."""
-    from seactl import margins as M
-    from seactl.blockdiagram import QuasiPolynomial
+    from seactl.analysis import margins as M
+    from seactl.diagram.blockdiagram import QuasiPolynomial
     from seactl.errors import InputError
 
     N = QuasiPolynomial(np.array([[[2.0, 0, 0], [2.0, 0, 0]]]), np.zeros((1, 2)))
@@ -805,9 +805,9 @@ def test_closed_loop_right_roots_equal_the_nyquist_count():
     # Oracle: two derivations of the same count on 600 broad SEA designs (most of them
     # unstable): Nyquist on the outer loop plus the inner loop's own right-half-plane
     # roots (sea_margins), and the whole diagram's characteristic quasi-polynomial.
-    from seactl.loops import SEA_DIAGRAM
-    from seactl.margins import closed_loop_right_roots
-    from seactl.sea import sea_reference_frequency
+    from seactl.analysis.margins import closed_loop_right_roots
+    from seactl.systems.sea.loops import SEA_DIAGRAM
+    from seactl.systems.sea.views import sea_reference_frequency
 
     rng = np.random.default_rng(4)
     n = 600
@@ -823,14 +823,14 @@ def test_closed_loop_right_roots_equal_the_nyquist_count():
 
 def _threaded_cases():
     """(name, run) pairs: each run returns a dict of arrays computed in threads."""
-    from seactl import imp_passivity
-    from seactl import impedance as imp
-    from seactl.bench.impedance import random_designs as imp_designs
-    from seactl.jitter import sea_jitter_margins
-    from seactl.loops import SEA_DIAGRAM
-    from seactl.mb_simulation import simulate
-    from seactl.mobile_base import TRIKEY
-    from seactl.roots import characteristic_roots
+    from seactl.analysis.roots import characteristic_roots
+    from seactl.apps.bench.impedance import random_designs as imp_designs
+    from seactl.latency.jitter import sea_jitter_margins
+    from seactl.systems.mobile_base.model import TRIKEY
+    from seactl.systems.mobile_base.simulation import simulate
+    from seactl.systems.sea import impedance as imp
+    from seactl.systems.sea import passivity as imp_passivity
+    from seactl.systems.sea.loops import SEA_DIAGRAM
 
     d = imp_designs(24, seed=3)
 
@@ -855,7 +855,7 @@ def _threaded_cases():
         return {"x": r.x, "tau": r.tau}
 
     def eigenvalues(monkeypatch):
-        from seactl._parallel import eigvals, stacked
+        from seactl.base.parallel import eigvals, stacked
         A = np.random.default_rng(5).normal(size=(40, 9, 9))
         return {"ev": eigvals(A), "numpy": np.linalg.eigvals(A),
                 "inv": stacked(np.linalg.inv, A), "numpy_inv": np.linalg.inv(A)}
@@ -869,7 +869,7 @@ def test_threaded_batches_are_the_one_thread_results(run, monkeypatch):
     the mobile base's batch and batched eigenvalues and inverses run in one thread per
     core.  Oracle: the same call in one thread (and numpy's own eigenvalues and
     inverses), bit for bit."""
-    from seactl import _parallel
+    from seactl.base import parallel as _parallel
 
     monkeypatch.setattr(_parallel, "THREADS", 1)
     one = run(monkeypatch)
@@ -883,13 +883,13 @@ def test_threaded_batches_are_the_one_thread_results(run, monkeypatch):
 
 
 def test_borrowed_views_are_their_arrays():
-    """``seactl._borrow.borrowed`` (the compiled kernels' arrays without reference counts):
+    """``seactl.base.borrow.borrowed`` (the compiled kernels' arrays without reference counts):
     the view has its array's data, shape and strides, so a helper writing through it
     writes the array, for a contiguous, a strided and a 3-d array.  Oracle: numpy's own
     arithmetic on copies of the same arrays."""
     from numba import njit
 
-    from seactl._borrow import borrowed
+    from seactl.base.borrow import borrowed
 
     @njit
     def scale(v, k):

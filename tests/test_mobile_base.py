@@ -1,4 +1,5 @@
-"""Mobile base (seactl.mobile_base): kinematics, task inertia, energy, criterion, architectures."""
+"""Mobile base (seactl.systems.mobile_base.model): kinematics, task inertia, energy, criterion,
+architectures."""
 
 from __future__ import annotations
 
@@ -8,10 +9,13 @@ import math
 import numpy as np
 import pytest
 
-from seactl import mb_baseline, mb_kinematics, mb_simulation, mb_tuning
-from seactl import mobile_base as mb
-from seactl.cli import main
+from seactl.apps.cli import main
 from seactl.errors import InputError
+from seactl.systems.mobile_base import baseline as mb_baseline
+from seactl.systems.mobile_base import kinematics as mb_kinematics
+from seactl.systems.mobile_base import model as mb
+from seactl.systems.mobile_base import simulation as mb_simulation
+from seactl.systems.mobile_base import tuning as mb_tuning
 
 P = mb.TRIKEY
 # A nearly rigid, frictionless, ideal-sensor variant for comparisons with analytic results.
@@ -35,13 +39,15 @@ def test_wheel_speeds_pure_translation_and_rotation():
     # translation along x at theta = 0: wheel i turns at -sin(alpha_i) v / r
     np.testing.assert_allclose(mb_kinematics.wheel_speeds(P, [1.0, 0, 0]),
                                [0.0, -math.sqrt(3) / 2 / r, math.sqrt(3) / 2 / r], atol=1e-12)
-    np.testing.assert_allclose(mb_kinematics.wheel_speeds(P, [0, 1.0, 0]), [1 / r, -0.5 / r, -0.5 / r],
+    np.testing.assert_allclose(mb_kinematics.wheel_speeds(P, [0, 1.0, 0]),
+                               [1 / r, -0.5 / r, -0.5 / r],
                                atol=1e-12)
     np.testing.assert_allclose(mb_kinematics.wheel_speeds(P, [0, 0, 2.0]), np.full(3, 2 * L / r))
     rng = np.random.default_rng(1)
     for _ in range(5):
         v, th = rng.normal(size=3), rng.uniform(-4, 4)
-        np.testing.assert_allclose(mb_kinematics.wheel_speeds(P, v, th), _contact_speeds(P, v, th)[0],
+        np.testing.assert_allclose(mb_kinematics.wheel_speeds(P, v, th),
+                                   _contact_speeds(P, v, th)[0],
                                    rtol=1e-12, atol=1e-12)
     # batched thetas broadcast
     assert mb_kinematics.wheel_jacobian(P, np.zeros((4, 2))).shape == (4, 2, 3, 3)
@@ -116,7 +122,8 @@ def test_cosc_without_delay_behaves_like_dosc():
                 circle_duration=3.0)
     circle = mb_simulation.Circle(0.5, 4.0, 1.0)
     d = 30.0
-    r = mb_simulation.simulate(p, 200.0, [d, 0.0], [0.0, float(mb_kinematics.damping_to_joint(p, d))],
+    r = mb_simulation.simulate(p, 200.0, [d, 0.0], [0.0, float(mb_kinematics.damping_to_joint(p,
+                                                                                              d))],
                     reference=circle, duration=3.0)
     ep, ev = r.rms(after=1.0)
     assert ep[0] == pytest.approx(ep[1], rel=0.15)
@@ -153,7 +160,7 @@ def test_tuning_ranks_dosc_above_cosc_and_cli_json(capsys):
     # the ratio's value is pinned by claim base.kx_ratio in tests/data/claims_snapshot.json
     assert d.max_kx > c.max_kx > 0
     assert d.rms_position_m < c.rms_position_m
-    from seactl.commands.mobile_base import comparison_json
+    from seactl.apps.commands.mobile_base import comparison_json
 
     js = comparison_json(comp)
     assert set(js) == {"cosc", "dosc", "kx_ratio", "position_rms_reduction_pct",

@@ -12,13 +12,19 @@ import control as ct
 import numpy as np
 import pytest
 
-from seactl.blockdiagram import Block, BlockDiagram
-from seactl.cli import main
+from seactl.analysis.margins import default_grid, loop_margins
+from seactl.apps.cli import main
+from seactl.diagram.blockdiagram import Block, BlockDiagram
 from seactl.errors import InfeasibleDesignError, InputError
-from seactl.latency import loop_delay_margins, max_stable_fn, pm_sensitivity, rigid_model, sea_model
-from seactl.margins import default_grid, loop_margins
-from seactl.placement import PLACEMENTS, advise
-from seactl.rigid import (
+from seactl.latency.maps import (
+    loop_delay_margins,
+    max_stable_fn,
+    pm_sensitivity,
+    rigid_model,
+    sea_model,
+)
+from seactl.latency.placement import PLACEMENTS, advise
+from seactl.systems.rigid.model import (
     RIGID_DIAGRAM,
     UT_LINEAR,
     RigidDesign,
@@ -247,7 +253,7 @@ def test_equal_delay_sensitivity_identity_and_ratio():
 
 def test_latency_map_matches_pointwise_and_max_fn_boundary():
     # Oracle: rigid_margins at each point; the margins at and 0.1 % above each maximum f_n.
-    from seactl.latency import latency_map
+    from seactl.latency.maps import latency_map
 
     model = rigid_model()
     ts = np.array([0.5e-3, 10e-3, 20e-3])
@@ -268,7 +274,7 @@ def test_latency_map_matches_pointwise_and_max_fn_boundary():
 
 # ---------------------------------------------------------------------------- advisor
 def brute_force(model, high, low, min_pm, margin, grid):
-    """The score's definition (docs: seactl.latency_box) on a dense f_n grid: the last grid
+    """The score's definition (docs: seactl.latency.box) on a dense f_n grid: the last grid
     f_n before the first failure at any lattice latency of the placement's box; the
     lattice typed from the stated rule (0 and 0.1 ms x 2^(k/4) up to the first point >= the
     box's end)."""
@@ -407,7 +413,7 @@ def test_cli_latency_map_csv_and_plot(capsys, tmp_path):
 
 # ---------------------------------------------------------------------------- step experiment
 def test_step_experiment():
-    from seactl.rigid import step_experiment
+    from seactl.systems.rigid.model import step_experiment
 
     e = step_experiment(UT_LINEAR, (4.0, 12.0), delays_ms=((1.0, 1.0), (15.0, 1.0), (1.0, 15.0)),
                         t_end_s=0.6)
@@ -426,7 +432,7 @@ def test_step_experiment():
 def test_step_experiment_matches_standalone_oracle():
     """Oracle: tests/rigid_oracle.py, an independent ZOH recursion with explicit buffers."""
     from rigid_oracle import simulate_rigid_sampled
-    from seactl.rigid import RigidDesign, step_experiment
+    from seactl.systems.rigid.model import RigidDesign, step_experiment
 
     kw = dict(delays_ms=((1.0, 1.0), (1.0, 15.0)), t_end_s=0.3)
     a = step_experiment(UT_LINEAR, (4.0, 12.0), **kw)

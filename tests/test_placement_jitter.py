@@ -11,12 +11,12 @@ import math
 import pytest
 
 import seactl as sc
-from seactl.cli import main
-from seactl.jitter import model_jitter_margins
-from seactl.latency import rigid_model
-from seactl.placement import ProcessTiming, advise
-from seactl.timing import verify_placement
-from seactl.timing_models import Bernoulli, Constant, GilbertElliott, ShiftedExponential, Uniform
+from seactl.apps.cli import main
+from seactl.latency.jitter import model_jitter_margins
+from seactl.latency.maps import rigid_model
+from seactl.latency.models import Bernoulli, Constant, GilbertElliott, ShiftedExponential, Uniform
+from seactl.latency.montecarlo import verify_placement
+from seactl.latency.placement import ProcessTiming, advise
 
 
 def test_process_jitter_closed_forms():

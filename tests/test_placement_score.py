@@ -11,11 +11,11 @@ import json
 import numpy as np
 import pytest
 
-from seactl.cli import main
+from seactl.apps.cli import main
 from seactl.errors import InputError
-from seactl.latency import rigid_model, sea_model
-from seactl.latency_box import latency_lattice_s, robust_max_fn
-from seactl.placement import PLACEMENTS, advise, upper_bound
+from seactl.latency.box import latency_lattice_s, robust_max_fn
+from seactl.latency.maps import rigid_model, sea_model
+from seactl.latency.placement import PLACEMENTS, advise, upper_bound
 
 
 def lattice_by_hand(upper_s):

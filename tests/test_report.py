@@ -4,8 +4,8 @@ import json
 
 import pytest
 
-from seactl import paper, report
-from seactl.cli import main
+from seactl.apps import paper, report
+from seactl.apps.cli import main
 
 # The paper's Table I typed here (f_n -> K_q, B_q, K_tau, B_tau, PM) and half a unit of each
 # printed digit (the PM column is truncated: 43.26 is printed 43.2)
@@ -17,7 +17,7 @@ HALF_DIGIT = (0.5, 0.005, 0.005, 0.0005, 0.1)
 
 def test_table_i_section(first_sections_report):
     """Oracle: the paper's Table I typed in this file, against both the claims' paper values
-    (the transcription in seactl.paper) and our values."""
+    (the transcription in seactl.apps.paper) and our values."""
     out = first_sections_report  # (conftest: table-i and feasibility)
     claims = json.loads((out / "claims.json").read_text())
     by_id = {c["id"]: c for c in claims}
@@ -149,9 +149,9 @@ def test_summary_lists_every_claim_that_is_not_a_pass(tmp_path, monkeypatch):
 def test_running_section_without_a_run_fails_its_claims(tmp_path, monkeypatch):
     """Oracle: the section's own claim ids; a run that cannot start (here forced) makes
     both claims fail with the reason in the text, and the report is still written."""
-    from seactl import runtime
+    from seactl.apps.paper import running
+    from seactl.codegen import runtime
     from seactl.errors import SeactlError
-    from seactl.paper import running
 
     def cannot(*args, **kwargs):
         raise SeactlError("run: process 'plant' failed (zenoh): no route")

@@ -9,13 +9,13 @@ import numpy as np
 import pytest
 
 import seactl as sc
-from seactl.actuators import UT_SEA
-from seactl.delay_intervals import interval_containing, stability_intervals
-from seactl.design import critically_damped_gains
-from seactl.loops import SEADesign, Timing
-from seactl.paper.gain_design import gs_optimum
-from seactl.sea import sea_margins
-from seactl.step_peak import step_peak, step_value
+from seactl.analysis.delay_intervals import interval_containing, stability_intervals
+from seactl.analysis.step_peak import step_peak, step_value
+from seactl.apps.paper.gain_design import gs_optimum
+from seactl.systems.sea.actuators import UT_SEA
+from seactl.systems.sea.design import critically_damped_gains
+from seactl.systems.sea.loops import SEADesign, Timing
+from seactl.systems.sea.views import sea_margins
 
 
 def test_gs_optimum_at_10hz_is_inside_the_range_on_a_cliff():
@@ -79,9 +79,10 @@ def test_stability_intervals_of_the_30hz_damping_delay():
 
 
 def test_fsolve_fails_far_more_in_log_space_than_in_plain_unknowns():
-    # Oracle: the closed-form gains (seactl.design.solve_gains) at every converged point;
+    # Oracle: the closed-form gains (seactl.systems.sea.design.solve_gains) at every converged
+    # point;
     # the two formulations' failure counts differ.
-    from seactl.bench.core import fsolve_gains
+    from seactl.apps.bench.core import fsolve_gains
 
     fn = np.linspace(10.0, 200.0, 20)
     fails = {}
@@ -100,7 +101,7 @@ def test_fsolve_fails_far_more_in_log_space_than_in_plain_unknowns():
 def test_non_passive_bands_recur_above_the_report_scan():
     # Oracle: python-control's FRD of the same exact-delay impedance on a dense 1-10 kHz grid
     # (runs of Re Z < 0), against the passivity scan's bands that end above 1 kHz.
-    from seactl.imp_passivity import passivity
+    from seactl.systems.sea.passivity import passivity
 
     tt, ts, td = 1.0, 10.0, 3.0                      # the report's 10/3/1 ms set, no filters
     d = SEADesign(UT_SEA, critically_damped_gains(UT_SEA, 30.0), Timing.from_ms(tt, ts, td))

@@ -2,7 +2,8 @@
 attributes whose names carry their units, and the JSON uses the same names.
 
 Oracles: the class's own numpydoc ``Attributes`` section (read by numpydoc's parser), the
-core modules' results computed directly (``seactl.sea``, ``seactl.jitter``), the command
+core modules' results computed directly (``seactl.systems.sea.views``, ``seactl.latency.jitter``),
+the command
 line's JSON, and the conversion ``<stem>_ms = 1e3 * <stem>_s``.
 """
 
@@ -23,13 +24,13 @@ import pytest
 from numpydoc.docscrape import ClassDoc
 
 import seactl as sc
-from seactl.cli import main
-from seactl.results import Renamed, Result
+from seactl.apps.cli import main
+from seactl.base.result import Renamed, Result
 
 SRC = Path(sc.__file__).parent
 
 # Modules whose import does work (a sweep chunk) or needs an optional front end.
-SKIP_MODULES = {"seactl._sweep_template", "seactl._sweep_worker"}
+SKIP_MODULES = {"seactl.sweep.template", "seactl.sweep.worker"}
 
 # Results that are not named ``*Result``: found by subclassing, but required by name too.
 REQUIRED = {"MonteCarloSummary", "LoopAnalysis", "Placements", "MobileBaseComparison"}
@@ -168,8 +169,9 @@ def _same_name(key: str, obj: object) -> bool:
 
 
 def test_margins_records_are_the_attribute_arrays():
-    # Oracle: the core margins of the same batch (seactl.sea.sea_margins), bit for bit.
-    from seactl.sea import sea_margins
+    # Oracle: the core margins of the same batch (seactl.systems.sea.views.sea_margins), bit for
+    # bit.
+    from seactl.systems.sea.views import sea_margins
 
     d = sc.design([12, 14, 16], **TABLE_I)
     m = d.margins()
@@ -184,8 +186,8 @@ def test_margins_records_are_the_attribute_arrays():
 
 
 def test_jitter_names_match_the_json_and_the_old_names_warn():
-    # Oracle: the core jitter margins (seactl.jitter.sea_jitter_margins) and 1 s = 1e3 ms.
-    from seactl.jitter import sea_jitter_margins
+    # Oracle: the core jitter margins (seactl.latency.jitter.sea_jitter_margins) and 1 s = 1e3 ms.
+    from seactl.latency.jitter import sea_jitter_margins
 
     d = sc.design([12, 14], **TABLE_I)
     j = d.jitter_margins()
@@ -296,7 +298,7 @@ def test_plots_draw_on_given_axes():
 
 
 def test_sweep_parameter_robustness_keeps_its_old_name():
-    from seactl.sweep_robust import RobustResult, monte_carlo
+    from seactl.sweep.robustness import RobustResult, monte_carlo
 
     assert monte_carlo.__doc__.startswith("Deprecated name of")
     r = RobustResult(40.0, np.array([30.0, 50.0]), np.array([True, False]), {})

@@ -7,8 +7,8 @@ import mpmath
 import numpy as np
 import pytest
 
-from seactl.blockdiagram import Block, BlockDiagram
-from seactl.roots import characteristic_roots
+from seactl.analysis.roots import characteristic_roots
+from seactl.diagram.blockdiagram import Block, BlockDiagram
 
 LOOP = BlockDiagram("qp", [Block("plant", "u", "y", num=lambda p: tuple(p.Q),
                                  den=lambda p: tuple(p.P)),

@@ -4,7 +4,7 @@ Oracles: the block diagram's own transfers evaluated at a root (``1 + L = 0``, `
 has a pole there), python-control's ``poles`` of the loop rebuilt with a cascade of Padé
 sections per delay (``control.interconnect`` of the blocks, not the quasi-polynomial),
 the growth rate of a time-domain simulation, the closed-form critically-damped target
-polynomial, and the independent Nyquist scan of :mod:`seactl.margins`.
+polynomial, and the independent Nyquist scan of :mod:`seactl.analysis.margins`.
 """
 
 import json
@@ -14,13 +14,13 @@ import numpy as np
 import pytest
 
 import seactl as sc
-from seactl.actuators import UT_SEA
-from seactl.cli import main
-from seactl.design import critically_damped_gains
-from seactl.loops import SEA_DIAGRAM, SEADesign, Timing, closed_loop, outer_loop
-from seactl.rigid import RIGID_DIAGRAM, UT_LINEAR, RigidDesign
-from seactl.roots import characteristic_roots
-from seactl.sea import sea_margins
+from seactl.analysis.roots import characteristic_roots
+from seactl.apps.cli import main
+from seactl.systems.rigid.model import RIGID_DIAGRAM, UT_LINEAR, RigidDesign
+from seactl.systems.sea.actuators import UT_SEA
+from seactl.systems.sea.design import critically_damped_gains
+from seactl.systems.sea.loops import SEA_DIAGRAM, SEADesign, Timing, closed_loop, outer_loop
+from seactl.systems.sea.views import sea_margins
 
 # The issue's counterexample: a PM of 18 degrees was reported "stable".
 COUNTER = dict(fn=15.93, gs=1.867, ms={"torque": 1.99, "stiffness": 1.96, "damping": 18.54})
@@ -141,7 +141,7 @@ def test_roots_match_a_high_order_pade_cascade(case):
 
 def test_growth_rate_matches_a_simulation():
     """Delays on the simulator's 50 us grid (no rounding of the delay buffers)."""
-    from seactl.sea import sea_step
+    from seactl.systems.sea.views import sea_step
 
     d = sc.design(COUNTER["fn"], gs=COUNTER["gs"], delays_ms={"torque": 2.0, "stiffness": 2.0,
                                                               "damping": 18.5})

@@ -4,7 +4,7 @@ Oracles: the sampled simulation replaying the measured stiffness-link schedule (
 model the export is verified against; it must reproduce the measured response to
 rounding when every drive command arrived in time), message counts known from the rate and
 duration, the operating system's process table (nothing left running), and
-:class:`seactl.timing_models.Empirical` reading the latency trace back.
+:class:`seactl.latency.models.Empirical` reading the latency trace back.
 """
 
 from __future__ import annotations
@@ -19,9 +19,9 @@ import numpy as np
 import pytest
 
 import seactl as sc
-from seactl import runtime
-from seactl.cli import main
-from seactl.timing_models import Empirical
+from seactl.apps.cli import main
+from seactl.codegen import runtime
+from seactl.latency.models import Empirical
 
 FLAGS = ["--fn", "14", "--t-tau", "1", "--t-qs", "2", "--t-qd", "1", "--f-qd", "50",
          "--f-taud", "100"]
@@ -79,7 +79,10 @@ def test_run_end_to_end(tmp_path, capsys, transport):
 
 def test_lost_peer_ends_the_worker(monkeypatch, tmp_path):
     """A controller process that hears nothing ends with a clear error (exit 3)."""
-    monkeypatch.setattr(runtime, "PEER_TIMEOUT_S", 0.2)
+    from seactl.codegen import processes, transports
+
+    monkeypatch.setattr(transports, "PEER_TIMEOUT_S", 0.2)
+    monkeypatch.setattr(processes, "PEER_TIMEOUT_S", 0.2)
     d = sc.design(14, delays_ms={"torque": 1, "stiffness": 2, "damping": 1}, filters_hz=(50, 100))
     (tmp_path / "export").mkdir()
     d.export(tmp_path / "export", lang="python")
@@ -142,7 +145,7 @@ def test_rigid_run_listens_on_loopback_only(transport):
                 time.sleep(0.2)
         threading.Thread(target=poll, daemon=True).start()
 
-    from seactl.rigid import RIGID_DIAGRAM
+    from seactl.systems.rigid.model import RIGID_DIAGRAM
 
     rig = sc.rigid(8, delays_ms={"stiffness": 1.5, "damping": 1.5}).rigid
     res = runtime.run_distributed(RIGID_DIAGRAM, rig, saturation={"F_des": rig.actuator.max_force},

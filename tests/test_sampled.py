@@ -1,4 +1,4 @@
-"""The sampled-data loop's certified verdict, z-plane roots and margins (seactl.sampled).
+"""The sampled-data loop's certified verdict, z-plane roots and margins (seactl.simulate.sampled).
 
 Oracles: characteristic polynomials derived by hand for simple held loops (roots counted
 with numpy.roots), python-control's ``c2d(..., 'zoh')`` / ``'tustin'`` and ``feedback``
@@ -16,10 +16,10 @@ import numpy as np
 import pytest
 
 import seactl as sc
-from seactl.blockdiagram import Block, BlockDiagram
+from seactl.base.limits import check_sampled_analysis
+from seactl.diagram.blockdiagram import Block, BlockDiagram
 from seactl.errors import InputError
-from seactl.limits import check_sampled_analysis
-from seactl.sampled import sampled_margins, sampled_roots, schur_count
+from seactl.simulate.sampled import sampled_margins, sampled_roots, schur_count
 
 RATE = 1000.0
 T = 1.0 / RATE
@@ -82,7 +82,7 @@ def test_held_first_order_plant_with_pd_matches_hand_polynomial(Kp, Kd, expected
 
 
 def _rigid_case(ms_s: float, ms_d: float):
-    from seactl.rigid import UT_LINEAR, RigidDesign
+    from seactl.systems.rigid.model import UT_LINEAR, RigidDesign
 
     return RigidDesign.from_fn(UT_LINEAR, np.array([8.0, 12.0, 20.0]), T_s=ms_s * 1e-3,
                                T_d=ms_d * 1e-3, f_v=100.0)
@@ -97,7 +97,7 @@ def test_rigid_loop_poles_and_margins_match_python_control(ms_s, ms_d, ns, nd):
     # n = ns, nd), unity negative feedback; its closed-loop poles and margin().
     import control as ct
 
-    from seactl.rigid import RIGID_DIAGRAM
+    from seactl.systems.rigid.model import RIGID_DIAGRAM
 
     des = _rigid_case(ms_s, ms_d)
     r = sampled_roots(RIGID_DIAGRAM, des, RATE)
@@ -159,7 +159,7 @@ def test_sampled_margins_approach_the_continuous_ones_with_matching_effective_de
 
 def test_rate_none_is_the_continuous_result_and_multi_rate_gives_verdict_only():
     # Oracle: the continuous analysis itself (sea_margins), bit for bit.
-    from seactl.sea import sea_margins
+    from seactl.systems.sea.views import sea_margins
 
     d = sc.design([12, 14], delays_ms={"torque": 0.5, "stiffness": 2, "damping": 0.5},
                   filters_hz=(50, 100))
@@ -183,7 +183,7 @@ def test_too_large_analyses_are_refused_up_front():
 
 
 def cli_run(args, capsys, code=0):
-    from seactl.cli import main
+    from seactl.apps.cli import main
 
     got = main(args)
     out, err = capsys.readouterr()
@@ -268,7 +268,7 @@ def test_sea_loop_poles_match_python_control_near_the_boundary(t_qs_ms, ns, unst
     # (_python_control_sea_poles).  f_n = 30 Hz is stable in continuous time up to
     # T_qs = 10.52 ms; at 1 kHz the requested T_qs = T/2 + nT is realized exactly, and
     # 10.5 ms leaves the dominant pair 1.3e-4 inside the unit circle.
-    from seactl.loops import SEA_DIAGRAM
+    from seactl.systems.sea.loops import SEA_DIAGRAM
 
     d = sc.design(30, delays_ms={"torque": 0.5, "stiffness": t_qs_ms, "damping": 0.5},
                   filters_hz=(50, 100))
@@ -285,10 +285,10 @@ def test_multi_rate_verdict_matches_the_lifted_map_over_the_buffers(t_qs_ms):
     # Oracle: simulate.lifted_map, a second construction of the same loop's map (over a
     # multiple of the slow period covering every buffer, buffers as ring slots), whose
     # eigenvalues are those of the period map raised to the ratio of the periods.
-    from seactl.loops import SEA_DIAGRAM
-    from seactl.sim_discrete import compile_sampled
-    from seactl.sim_inputs import Step
-    from seactl.sim_period import lifted_map
+    from seactl.simulate.discrete import compile_sampled
+    from seactl.simulate.inputs import Step
+    from seactl.simulate.period import lifted_map
+    from seactl.systems.sea.loops import SEA_DIAGRAM
 
     d = sc.design(30, delays_ms={"torque": 0.5, "stiffness": t_qs_ms, "damping": 0.5},
                   filters_hz=(50, 100))
@@ -304,7 +304,8 @@ def test_multi_rate_verdict_matches_the_lifted_map_over_the_buffers(t_qs_ms):
 
 
 def test_sampled_jitter_margin_tends_to_kao_lincoln():
-    # Oracle: the continuous Kao-Lincoln jitter margin of the same outer loop (seactl.jitter,
+    # Oracle: the continuous Kao-Lincoln jitter margin of the same outer loop
+    # (seactl.latency.jitter,
     # its peak proven); the sampled bound T / max |e^{jwT} - 1| |T(e^{jwT})| tends to it as
     # the rate grows (|e^{jwT} - 1| / T -> w, effective delays -> requested ones).
     d = sc.design([12, 16, 20], delays_ms={"torque": 0.5, "stiffness": 2, "damping": 0.5},

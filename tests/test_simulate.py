@@ -13,17 +13,23 @@ import pytest
 from scipy import signal
 
 import seactl as sc
-from seactl.actuators import UT_SEA
-from seactl.blockdiagram import Block, BlockDiagram
-from seactl.cli import main
-from seactl.design import critically_damped_gains
+from seactl.apps.cli import main
+from seactl.diagram.blockdiagram import Block, BlockDiagram
 from seactl.errors import InputError
-from seactl.loops import SEA_DIAGRAM, SEA_DIAGRAM_NO_ZERO, SEADesign, Timing, closed_loop
-from seactl.sea import sea_impulse, sea_margins, sea_step
-from seactl.sim_inputs import Friction, Sine, Step
-from seactl.sim_metrics import impulse_metrics, step_metrics
-from seactl.sim_realize import realize_tustin
-from seactl.simulate import simulate
+from seactl.simulate.engine import simulate
+from seactl.simulate.inputs import Friction, Sine, Step
+from seactl.simulate.metrics import impulse_metrics, step_metrics
+from seactl.simulate.realize import realize_tustin
+from seactl.systems.sea.actuators import UT_SEA
+from seactl.systems.sea.design import critically_damped_gains
+from seactl.systems.sea.loops import (
+    SEA_DIAGRAM,
+    SEA_DIAGRAM_NO_ZERO,
+    SEADesign,
+    Timing,
+    closed_loop,
+)
+from seactl.systems.sea.views import sea_impulse, sea_margins, sea_step
 
 G14 = critically_damped_gains(UT_SEA, 14.0)
 
@@ -240,7 +246,7 @@ def test_multirate_and_friction_and_quantization():
     # Oracle: the single-rate run for equal rates; the effective delay worked by hand; a
     # larger b_m for viscous friction; the static Coulomb band; whole encoder counts.
     d = SEADesign(UT_SEA, G14, Timing.from_ms(0.5, 2.0, 0.5, 50, 100))
-    from seactl.loops import SEA_DIAGRAM as D
+    from seactl.systems.sea.loops import SEA_DIAGRAM as D
 
     base = simulate(D, d, {"q_des": Step(0.01)}, 0.3, mode="sampled", outputs=("q_j",),
                     rates_hz={"embedded": 1000.0, "high-level": 1000.0})
@@ -393,7 +399,7 @@ def test_expm_batched_matches_scipy():
     # Oracle: scipy.linalg.expm.
     from scipy.linalg import expm
 
-    from seactl.sim_network import expm_batched
+    from seactl.simulate.network import expm_batched
 
     rng = np.random.default_rng(0)
     A = rng.normal(size=(50, 7, 7)) * np.logspace(-3, 2.5, 50)[:, None, None]
@@ -406,7 +412,7 @@ def test_expm_batched_matches_scipy():
 
 def _augmented_matrices(monkeypatch, design, **kw):
     """The matrices the continuous simulation of ``design`` exponentiates."""
-    from seactl import sim_network
+    from seactl.simulate import network as sim_network
 
     seen, expm = [], sim_network.expm_batched
     monkeypatch.setattr(sim_network, "expm_batched", lambda M: (seen.append(M.copy()), expm(M))[1])
@@ -423,7 +429,7 @@ def test_expm_batched_is_accurate_entry_by_entry_on_a_loops_matrices(monkeypatch
     errors up to 5e10 on Table I).  Oracle: mpmath's expm at 50 digits."""
     import mpmath
 
-    from seactl.sim_network import expm_batched
+    from seactl.simulate.network import expm_batched
 
     d = SEADesign(UT_SEA, critically_damped_gains(UT_SEA, 14.0, gs=gs), Timing.from_ms(*ms))
     M = _augmented_matrices(monkeypatch, d)
@@ -440,7 +446,7 @@ def test_a_batch_split_over_threads_is_the_one_thread_result(monkeypatch):
     of the batch.  Oracle: the same batch in one thread, bit for bit (each design's
     arithmetic is independent of the others), on 240 designs of which the long-delay
     ones leave the bounds at different times (the record then held)."""
-    from seactl import _parallel
+    from seactl.base import parallel as _parallel
 
     rng = np.random.default_rng(5)
     fn = rng.uniform(10.0, 30.0, 240)
@@ -465,7 +471,7 @@ def test_a_simulation_larger_than_the_machine_is_refused_up_front(mode, monkeypa
     # call (not only the command line) is refused before it allocates, naming the step.
     import time
 
-    from seactl import limits
+    from seactl.base import limits
     from seactl.errors import ResourceError
 
     monkeypatch.setattr(limits, "available_memory_bytes", lambda: 2.0**30)
@@ -482,7 +488,7 @@ def test_a_simulation_larger_than_the_machine_is_refused_up_front(mode, monkeypa
 def test_buffer_samples_is_the_shortest_realizable_delay_not_below_the_request():
     # Oracle: the definition, by enumeration: of the realizable delays T_s/2 + n T_s
     # (n = 0, 1, ...), the smallest one >= T.
-    from seactl.sim_discrete import buffer_samples
+    from seactl.simulate.discrete import buffer_samples
 
     rng = np.random.default_rng(3)
     for Ts in (1e-3, 2e-3, 1 / 1500, 1 / 27.5):

@@ -9,17 +9,17 @@ import numpy as np
 import pyarrow.parquet as pq
 import pytest
 
-from seactl.actuators import UT_SEA
-from seactl.cli import main
-from seactl.design import critically_damped_gains
+from seactl.apps.cli import main
 from seactl.errors import InfeasibleDesignError, InputError
-from seactl.loops import SEADesign, Timing
-from seactl.sea import sea_margins
-from seactl.sweep import SweepInterrupted, run_sweep
-from seactl.sweep_maps import sweep_map
-from seactl.sweep_robust import RobustResult, parameter_robustness
-from seactl.sweep_spec import SweepSpec
-from seactl.sweep_store import missing_chunks, read_sweep
+from seactl.sweep.dataset import missing_chunks, read_sweep
+from seactl.sweep.engine import SweepInterrupted, run_sweep
+from seactl.sweep.maps import sweep_map
+from seactl.sweep.robustness import RobustResult, parameter_robustness
+from seactl.sweep.spec import SweepSpec
+from seactl.systems.sea.actuators import UT_SEA
+from seactl.systems.sea.design import critically_damped_gains
+from seactl.systems.sea.loops import SEADesign, Timing
+from seactl.systems.sea.views import sea_margins
 
 IJ = UT_SEA.joint_inertia
 # f_n = 8 Hz has no critically-damped gain set (feasible above about 9.5 Hz).
@@ -114,7 +114,7 @@ def test_resume_after_interruption_gives_the_same_dataset(reference, tmp_path):
     assert missing_chunks(SPEC, out) == [3, 4]
     assert json.loads((out / "_manifest.json").read_text())["status"] == "running"
     # a writer killed mid-file leaves only a dot-named temporary, never a part
-    from seactl.outputs import TEMP_TAG
+    from seactl.base.outputs import TEMP_TAG
 
     (out / f".part-00003.parquet{TEMP_TAG}999.parquet").write_bytes(b"partial")
     with pytest.raises(InputError, match="--resume"):
@@ -125,7 +125,7 @@ def test_resume_after_interruption_gives_the_same_dataset(reference, tmp_path):
     assert read_sweep(out).equals(ref_table)
     # the summary merges this run's chunks (kept in memory) with the parts read back;
     # oracle: the summary read entirely from disk, and the uninterrupted run's
-    from seactl.sweep import summarize
+    from seactl.sweep.engine import summarize
 
     written, ref = (json.loads((o / "_summary.json").read_text()) for o in (out, ref_out))
     assert written.pop("run")["chunks_computed"] == 2
@@ -345,7 +345,7 @@ def _worker_state():
     import os
     import signal
 
-    cert = sys.modules.get("seactl._certify")
+    cert = sys.modules.get("seactl.certify.scan")
     loaded = cert is not None and any(getattr(v, "overloads", None) for v in vars(cert).values())
     return loaded, signal.getsignal(signal.SIGINT) == signal.SIG_IGN, os.getppid()
 
@@ -362,7 +362,7 @@ def test_local_workers_start_warm_and_ignore_ctrl_c(method, reference, tmp_path,
 
     from distributed import Client
 
-    from seactl.sweep import local_cluster
+    from seactl.sweep.engine import local_cluster
 
     if method not in multiprocessing.get_all_start_methods():
         pytest.skip(f"no {method} here")
@@ -384,18 +384,18 @@ def test_local_workers_start_warm_and_ignore_ctrl_c(method, reference, tmp_path,
 
 @pytest.mark.parametrize("marked", [False, True])
 def test_the_template_prepares_only_the_fork_server_seactl_starts(marked):
-    """Importing ``seactl._sweep_template`` prepares the process (kernels loaded, SIGINT
-    ignored) only with the marker that ``_start_worker_template`` gives its fork server;
+    """Importing ``seactl.sweep.template`` prepares the process (kernels loaded, SIGINT
+    ignored) only with the marker that ``start_worker_template`` gives its fork server;
     elsewhere (pytest's doctest collection) it only defines things.  Oracle: a fresh
     interpreter's own state after the import."""
     import os
     import subprocess
 
-    from seactl.sweep_spec import TEMPLATE_MARKER
+    from seactl.sweep.spec import TEMPLATE_MARKER
 
-    code = ("import os, signal, sys, seactl._sweep_template; "
+    code = ("import os, signal, sys, seactl.sweep.template; "
             "print(signal.getsignal(signal.SIGINT) == signal.SIG_IGN, "
-            "'seactl._certify' in sys.modules, os.environ.get(sys.argv[1]))")
+            "'seactl.certify.scan' in sys.modules, os.environ.get(sys.argv[1]))")
     env = {k: v for k, v in os.environ.items() if k != TEMPLATE_MARKER}
     if marked:
         env[TEMPLATE_MARKER] = "1"
@@ -409,7 +409,7 @@ def test_a_failed_warm_up_is_left_to_the_first_chunk(monkeypatch):
     the one before it; the workers' preload ``dask_setup`` leaves SIGINT ignored."""
     import signal
 
-    from seactl import _sweep_worker
+    from seactl.sweep import worker as _sweep_worker
 
     calls = []
 
@@ -417,7 +417,7 @@ def test_a_failed_warm_up_is_left_to_the_first_chunk(monkeypatch):
         calls.append(args)
         raise RuntimeError("kernel cache unreadable")
 
-    monkeypatch.setattr(sys.modules["seactl.sweep"], "evaluate_chunk", broken)
+    monkeypatch.setattr(sys.modules["seactl.sweep.evaluate"], "evaluate_chunk", broken)
     monkeypatch.setattr(_sweep_worker, "_warm", False)
     before = signal.getsignal(signal.SIGINT)
     assert _sweep_worker.warm() is None
@@ -431,7 +431,7 @@ def test_a_failed_warm_up_is_left_to_the_first_chunk(monkeypatch):
 
 
 def _report_peak(q):
-    from seactl.sweep_eval import _peak_rss_mb
+    from seactl.sweep.evaluate import _peak_rss_mb
 
     q.put(_peak_rss_mb())
 
@@ -459,7 +459,7 @@ def test_batches_cover_the_chunks_in_order_and_shrink_to_singles(n, workers):
     """Local workers take chunks in batches (one task each).  Oracle: the definition:
     every chunk once, in order; at most 8 per batch; single chunks at the end, when fewer
     than 4 per worker remain."""
-    from seactl.sweep_eval import batches
+    from seactl.sweep.evaluate import batches
 
     todo = list(range(3, 3 + n))
     b = batches(todo, workers)

@@ -13,13 +13,10 @@ import numpy as np
 import pytest
 
 import seactl as sc
-from seactl.blockdiagram import Block, BlockDiagram
-from seactl.cli import main
+from seactl.apps.cli import main
+from seactl.diagram.blockdiagram import Block, BlockDiagram
 from seactl.errors import InputError
-from seactl.sea import sea_step
-from seactl.sim_inputs import Step
-from seactl.simulate import simulate
-from seactl.timing import (
+from seactl.latency.montecarlo import (
     Bernoulli,
     Constant,
     Empirical,
@@ -31,6 +28,9 @@ from seactl.timing import (
     parse_loss,
     sea_monte_carlo,
 )
+from seactl.simulate.engine import simulate
+from seactl.simulate.inputs import Step
+from seactl.systems.sea.views import sea_step
 
 TABLE_I = dict(delays_ms={"torque": 0.5, "stiffness": 2, "damping": 0.5}, filters_hz=(50, 100))
 
@@ -209,8 +209,8 @@ def test_cli_monte_carlo(capsys, tmp_path):
 def test_multirate_schedule_in_slow_process_ticks():
     # High-level process at 500 Hz, embedded at 2 kHz: a stiffness latency in [1.2, 2.9] ms
     # always waits one 2 ms period (effective 3 ms), the fixed-delay run with T_qs = 3 ms.
-    from seactl.loops import sea_diagram
-    from seactl.timing import timed_simulation
+    from seactl.latency.montecarlo import timed_simulation
+    from seactl.systems.sea.loops import sea_diagram
 
     rates = {"embedded": 2000.0, "high-level": 500.0}
     d = sc.design([14, 16], delays_ms={"torque": 0.5, "stiffness": 3.0, "damping": 0.5},

@@ -18,7 +18,7 @@ import numpy as np
 import pytest
 
 import seactl as sc
-from seactl.cli import main
+from seactl.apps.cli import main
 from seactl.errors import LoopFileError
 
 EXAMPLES = Path(__file__).resolve().parents[1] / "examples" / "loops"
@@ -73,8 +73,8 @@ def test_paper_sea_file_gives_table_i_margins_exactly(paper, builtin, capsys):
 
 
 def test_paper_sea_file_equals_builtin_impedance_and_responses(paper, builtin):
-    from seactl.impedance import impedance
-    from seactl.sea import sea_impulse, sea_step
+    from seactl.systems.sea.impedance import impedance
+    from seactl.systems.sea.views import sea_impulse, sea_step
 
     f = np.logspace(-1, 3, 40)
     z_ref = impedance(builtin.sea, f).z
@@ -96,8 +96,8 @@ def test_paper_sea_file_equals_builtin_impedance_and_responses(paper, builtin):
 
 def test_set_overrides_and_ranges_make_a_batch(paper):
     """--set Kq=...: the same loop with other gains equals the built-in with those gains."""
-    from seactl.loops import Gains, SEADesign, Timing
-    from seactl.sea import sea_margins
+    from seactl.systems.sea.loops import Gains, SEADesign, Timing
+    from seactl.systems.sea.views import sea_margins
 
     kq = np.array([60.0, 83.17208068860442, 100.0])
     m = paper.with_values(Kq=kq).analyze(jitter=False)["outer"].margins
@@ -127,8 +127,8 @@ def test_placement_ranks_the_paper_placement_first(paper):
 
 # ------------------------------------------------------------------ rigid = built-in
 def test_rigid_file_equals_builtin_rigid_margins_and_per_loop_delay_margins():
-    from seactl.latency import loop_delay_margins, rigid_model
-    from seactl.rigid import UT_LINEAR, RigidDesign, rigid_margins
+    from seactl.latency.maps import loop_delay_margins, rigid_model
+    from seactl.systems.rigid.model import UT_LINEAR, RigidDesign, rigid_margins
 
     fn = np.array([6.0, 8.0, 12.0])
     a = sc.load_loop(EXAMPLES / "rigid.toml", fn=fn).analyze()
@@ -148,7 +148,7 @@ def test_dob_torque_loop_equals_hand_derived_transfer():
     """Outer loop open: L = (C + Q/Pn) / (1 - Q) P_F e^{-s T_tau}, with the paper's P_F
     (force plant of the built-in diagram), C = Ktau + Btau s/(Tf s + 1),
     Q = 1/(tau s + 1)^2 and Pn = beta k / (Im s^2 + bm s + k)."""
-    from seactl.loops import force_plant
+    from seactl.systems.sea.loops import force_plant
 
     loop = sc.load_loop(EXAMPLES / "sea-dob.toml", q_hz=15.0)
     env = {k: float(v) for k, v in loop.environment().items()}
@@ -260,7 +260,7 @@ def test_random_structures_against_python_control(seed):
 
 def _no_delay(loop):
     """The loop's design with every delay set to zero."""
-    from seactl.loopfile import LoopDesign
+    from seactl.userloop.loopfile import LoopDesign
 
     arrays = {k: (0.0 if k.endswith("__T") else v) for k, v in loop.design._arrays.items()}
     return LoopDesign(arrays)
@@ -392,7 +392,7 @@ def _loop(**over):
 
 
 def _error(data) -> str:
-    from seactl.loopfile import compile_loop
+    from seactl.userloop.loopfile import compile_loop
 
     with pytest.raises(LoopFileError) as exc:
         compile_loop(data, "x.toml")
@@ -400,7 +400,7 @@ def _error(data) -> str:
 
 
 def test_minimal_loop_is_valid():
-    from seactl.loopfile import compile_loop
+    from seactl.userloop.loopfile import compile_loop
 
     assert compile_loop(_loop(), "x.toml").diagram.inputs == ("r",)
 
@@ -614,10 +614,11 @@ def test_sweep_over_a_loop_file_variable(tmp_path, capsys):
 
 
 def test_rigid_file_equals_builtin_impedance_and_step():
-    """Oracle: the built-in rigid diagram (seactl.rigid.RIGID_DIAGRAM) and its simulation."""
-    from seactl.rigid import RIGID_DIAGRAM, UT_LINEAR, RigidDesign
-    from seactl.sim_inputs import Step
-    from seactl.simulate import simulate
+    """Oracle: the built-in rigid diagram (seactl.systems.rigid.model.RIGID_DIAGRAM) and its
+    simulation."""
+    from seactl.simulate.engine import simulate
+    from seactl.simulate.inputs import Step
+    from seactl.systems.rigid.model import RIGID_DIAGRAM, UT_LINEAR, RigidDesign
 
     loop = sc.load_loop(EXAMPLES / "rigid.toml")
     d = RigidDesign.from_fn(UT_LINEAR, 8.0, T_s=1.5e-3, T_d=1.5e-3, f_v=50.0)
@@ -635,7 +636,7 @@ def test_rigid_file_equals_builtin_impedance_and_step():
 def test_each_process_runs_at_its_rate_in_sampled_mode():
     """sea-velocity.toml: 10 kHz drive, 1 kHz embedded, 500 Hz high-level.  Each delayed
     block reads a whole-sample buffer of its own process: effective delay T_s/2 + n T_s
-    with n = ceil((T - T_s/2) / T_s), never shorter than T (seactl.simulate's rule): by hand,
+    with n = ceil((T - T_s/2) / T_s), never shorter than T (seactl.simulate.engine's rule): by hand,
     2 ms at 500 Hz -> n = 1, 3 ms; 0.5 ms at 1 kHz -> n = 0; 0.1 ms at 10 kHz -> n = 1,
     0.15 ms."""
     loop = sc.load_loop(EXAMPLES / "sea-velocity.toml")
@@ -758,8 +759,8 @@ def test_a_loop_files_sampled_growing_modes_are_the_builtins(paper, capsys):
     built-in SEA loop's on the same designs; the command line reports it.  Oracle: the
     built-in diagram (another realization of the same loop), whose counts
     tests/test_verdict.py checks against long simulations."""
-    from seactl.loops import SEADesign, Timing
-    from seactl.sea import sea_step
+    from seactl.systems.sea.loops import SEADesign, Timing
+    from seactl.systems.sea.views import sea_step
 
     t_high = np.array([2.0, 10.0, 30.0, 60.0])
     res = paper.with_values(T_high=t_high).step(t_end_s=0.3, mode="sampled")
@@ -780,9 +781,9 @@ def test_multirate_sampled_growth_rates_match_a_long_simulation(paper):
     phases) and the buffers.  Oracle: the envelope of a 3 s simulation (peaks per 0.25 s, a
     line through their logarithms), one design decaying at about 5.4 /s, one growing at
     0.35 /s."""
-    from seactl.sim_discrete import compile_sampled, run_sampled
-    from seactl.sim_inputs import Step
-    from seactl.sim_period import lifted_map
+    from seactl.simulate.discrete import compile_sampled, run_sampled
+    from seactl.simulate.inputs import Step
+    from seactl.simulate.period import lifted_map
 
     lp = paper.with_values(T_high=np.array([14.0, 17.0]))
     plan = compile_sampled(lp.diagram, lp.design, {"q_des": Step(1.0)}, 3.0, ("q_j",),
@@ -803,8 +804,8 @@ def test_a_loop_files_verdict_from_python_is_the_command_lines(paper, capsys):
     """``UserLoop.verdict`` is what ``seactl step --loop`` prints (the command uses it), and
     its continuous count is the built-in SEA loop's certified count (another realization
     of the same loop; oracle of that one: tests/test_verdict.py, seactl roots)."""
-    from seactl.loops import SEADesign, Timing
-    from seactl.sea import sea_right_roots
+    from seactl.systems.sea.loops import SEADesign, Timing
+    from seactl.systems.sea.views import sea_right_roots
 
     t_high = np.array([2.0, 10.0, 30.0])
     lp = paper.with_values(T_high=t_high)
@@ -835,7 +836,7 @@ def test_a_loop_vanishes_exactly_where_its_response_is_zero_on_the_grid(name, ga
     coefficients.  Oracle: the loop's response on its whole frequency grid is exactly 0
     (how it was decided before), for every break with the cuts ``break_margins`` uses, on
     a batch that zeroes each gain, pairs of them, and none."""
-    from seactl.loop_analysis import _vanishes
+    from seactl.userloop.analysis import _vanishes
 
     base = sc.load_loop(EXAMPLES / name)
     n = len(gains)

@@ -19,7 +19,7 @@ import numpy as np
 import pytest
 
 import seactl as sc
-from seactl.cli import main
+from seactl.apps.cli import main
 
 EXAMPLES = Path(__file__).resolve().parents[1] / "examples" / "loops"
 PAPER = EXAMPLES / "paper-sea.toml"
@@ -82,8 +82,8 @@ def test_roots_of_the_loop_file_are_the_builtin_designs(paper, builtin, capsys):
 
 def test_roots_of_a_batch_and_their_labels(paper):
     """Oracle: the built-in SEA diagram at the same stiffness gains."""
-    from seactl.loops import SEA_DIAGRAM, SEADesign
-    from seactl.roots import characteristic_roots
+    from seactl.analysis.roots import characteristic_roots
+    from seactl.systems.sea.loops import SEA_DIAGRAM, SEADesign
 
     kq = np.array([70.0, 90.0])
     lp = paper.with_values(Kq=kq)

@@ -1,9 +1,9 @@
-"""The margin kernel's four-lane functions (seactl._vecmath: cis4, atan2_4, V4 and its sqrt).
+"""The margin kernel's four-lane functions (seactl.certify.vecmath: cis4, atan2_4, V4 and its sqrt).
 
 Oracle: mpmath's sine, cosine and arctangent at 120 bits; for the square root, the scalar
 one (both correctly rounded).  The bound asserted, 4 ulps, is
 the one glibc states for its vector functions; the scan's rounding allowance assumes it
-(seactl.blockdiagram.EVAL_ROUNDING).
+(seactl.diagram.blockdiagram.EVAL_ROUNDING).
 """
 
 from __future__ import annotations
@@ -15,8 +15,8 @@ import numpy as np
 import pytest
 from numba import njit
 
-from seactl._certify import _mag, _mag4
-from seactl._vecmath import (
+from seactl.certify.scan import _mag, _mag4
+from seactl.certify.vecmath import (
     all_within,
     atan2_4,
     atan2_v4,

@@ -1,4 +1,4 @@
-"""Time-domain verdicts (seactl.verdict) against independent methods.
+"""Time-domain verdicts (seactl.simulate.verdict) against independent methods.
 
 Oracles: the characteristic roots of the closed loop with every delay replaced by its
 order-4 Padé approximant (python-control ``pade`` and ``poles``: a model that shares no code
@@ -15,12 +15,12 @@ import numpy as np
 import pytest
 
 import seactl as sc
-from seactl.actuators import UT_SEA
-from seactl.cli import main
-from seactl.design import critically_damped_gains
-from seactl.loops import SEADesign, Timing, sea_diagram
-from seactl.sea import sea_impulse, sea_step
-from seactl.verdict import judge, judge_response
+from seactl.apps.cli import main
+from seactl.simulate.verdict import judge, judge_response
+from seactl.systems.sea.actuators import UT_SEA
+from seactl.systems.sea.design import critically_damped_gains
+from seactl.systems.sea.loops import SEADesign, Timing, sea_diagram
+from seactl.systems.sea.views import sea_impulse, sea_step
 
 # (f_n [Hz], T_tau, T_qs, T_qd [ms]): hard designs near and past the stability boundary.
 HARD = [(14, 0.5, 20, 0.5), (20, 1, 20, 3), (30, 2, 2, 6), (20, 0.5, 2, 8), (30, 1, 10, 3)]
@@ -142,9 +142,9 @@ def test_sampled_growing_modes_match_a_long_simulation():
     ``ln(rho) / period``.  Oracle: the envelope of a 20 s sampled simulation without
     limits (peaks per second, a line through their logarithms), on designs 0.1-0.25 /s
     either side of the boundary near f_n = 30.1 Hz, which a 0.5 s window cannot tell."""
-    from seactl.sim_discrete import compile_sampled
-    from seactl.sim_inputs import Step
-    from seactl.sim_period import lifted_map
+    from seactl.simulate.discrete import compile_sampled
+    from seactl.simulate.inputs import Step
+    from seactl.simulate.period import lifted_map
 
     fn = np.array([29.9, 30.05, 30.2, 30.3])
     d = SEADesign(UT_SEA, critically_damped_gains(UT_SEA, fn),
@@ -201,10 +201,10 @@ def test_judge_refuses_a_bad_root_count(bad):
 
 def test_sampled_counts_too_costly_or_with_friction_are_unknown(monkeypatch):
     # Oracle: the contract (-1 = not decided, the window alone judges), by construction.
-    from seactl import sim_period
-    from seactl.sim_discrete import compile_sampled
-    from seactl.sim_inputs import Friction, Step
-    from seactl.sim_period import sampled_unstable_modes
+    from seactl.simulate import period as sim_period
+    from seactl.simulate.discrete import compile_sampled
+    from seactl.simulate.inputs import Friction, Step
+    from seactl.simulate.period import sampled_unstable_modes
 
     d = SEADesign(UT_SEA, critically_damped_gains(UT_SEA, np.array([14.0, 30.2])),
                   Timing.from_ms(0.5, 10.53, 0.5, 50, 100))
@@ -249,9 +249,9 @@ def test_sampled_growth_rates_of_random_designs_match_their_simulations(rate_hz)
     leaves the bound, every decaying one decays (above the rounding floor).  Where the
     rate can be read from two peaks (-6 to 4 /s, the next mode 3 /s slower) it agrees to
     the peaks' resolution (a peak lands anywhere in an oscillation: 0.03 + 4 % /s)."""
-    from seactl.sim_discrete import compile_sampled, run_sampled
-    from seactl.sim_inputs import Step
-    from seactl.sim_period import lifted_map
+    from seactl.simulate.discrete import compile_sampled, run_sampled
+    from seactl.simulate.inputs import Step
+    from seactl.simulate.period import lifted_map
 
     rng = np.random.default_rng(7)
     n = 60

@@ -22,19 +22,19 @@ import types
 # seactl`` and the command line's start-up stay fast; ``seactl.design`` etc. resolve to the
 # functions even though submodules of the same names exist (see _Namespace).
 _PUBLIC = {
-    ".system": ("System",),
-    ".results": ("Result",),
-    ".api": ("design", "Design", "rightmost_roots"),
-    ".api_arguments": ("UnitWarning",),
-    ".actuators": ("SEAParams", "UT_SEA", "load_sea"),
-    ".design": ("feasible_fn_range",),
-    "._results": ("MarginsResult", "SampledMarginsResult", "ImpedanceResult", "ResponseResult",
+    ".api.system": ("System",),
+    ".base.result": ("Result",),
+    ".api.sea": ("design", "Design", "rightmost_roots"),
+    ".api.arguments": ("UnitWarning",),
+    ".systems.sea.actuators": ("SEAParams", "UT_SEA", "load_sea"),
+    ".systems.sea.design": ("feasible_fn_range",),
+    ".api.results": ("MarginsResult", "SampledMarginsResult", "ImpedanceResult", "ResponseResult",
                   "JitterResult", "RootsResult"),
-    ".systems": ("loop_model", "latency_map", "place", "LatencyMapResult", "PlacementResult"),
-    ".rigid_system": ("rigid", "RigidBatch"),
-    ".sweep_api": ("sweep", "read_sweep"),
-    ".mobile_base_api": ("compare_mobile_base", "mobile_base_params"),
-    ".userloop": ("load_loop", "LoopBuilder", "UserLoop"),
+    ".api.latency": ("loop_model", "latency_map", "place", "LatencyMapResult", "PlacementResult"),
+    ".api.rigid": ("rigid", "RigidBatch"),
+    ".api.sweeps": ("sweep", "read_sweep"),
+    ".api.mobile_base": ("compare_mobile_base", "mobile_base_params"),
+    ".api.userloop": ("load_loop", "LoopBuilder", "UserLoop"),
     ".errors": ("SeactlError", "InputError", "InfeasibleDesignError", "LoopFileError"),
 }
 _HOME = {name: module for module, names in _PUBLIC.items() for name in names}

@@ -1,0 +1,1 @@
+"""Frequency-domain analysis of any diagram: margins, roots, delay intervals."""

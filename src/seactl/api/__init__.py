@@ -1,0 +1,1 @@
+"""The public API: seactl.System and its kinds, results, public functions."""

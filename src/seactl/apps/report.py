@@ -1,0 +1,349 @@
+"""The reproduction report: sections, claims, figures, HTML, written atomically.
+
+A *section* is a function ``f(ctx) -> Section`` tagged with :func:`section`;
+the sections of the paper, and their order, live in :mod:`seactl.apps.paper`, which
+imports this module (never the reverse).  Each returns prose, tables, figures
+and :class:`Claim` objects comparing a number of the paper with the value
+seactl computes.  :func:`build` runs a list of sections,
+writes ``figures/*.png``, ``claims.json`` and ``index.html`` into a temporary
+directory next to the target and renames it into place at the end, so an
+interrupted run never leaves a half report.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import os
+import shutil
+import tempfile
+from collections.abc import Callable, Iterable
+from dataclasses import asdict, dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from seactl.base.outputs import reason
+from seactl.errors import OutputError
+
+STATUSES = ("pass", "fail", "info")
+
+
+@dataclass(frozen=True)
+class Claim:
+    """A numeric claim of the paper and what seactl computes for it.
+
+    ``status`` is ``pass`` when ``|our - paper| <= tolerance`` (numbers) or
+    the stated relation holds, ``fail`` otherwise (``note`` says why), and
+    ``info`` for findings without a pass/fail criterion.
+    """
+
+    id: str
+    section: str
+    claim: str
+    paper_value: Any
+    our_value: Any
+    tolerance: Any
+    status: str
+    note: str = ""
+
+    def __post_init__(self) -> None:
+        if self.status not in STATUSES:
+            raise ValueError(f"status must be one of {STATUSES}, got {self.status!r}")
+
+    def as_json(self) -> dict[str, Any]:
+        d = asdict(self)
+        for key in ("paper_value", "our_value", "tolerance"):
+            d[key] = _clean(d[key])
+        if not d["note"]:
+            d.pop("note")
+        return d
+
+
+def pm_cell(pm_deg: float, stable: bool, spec: str = ".1f") -> str:
+    """A phase margin for a report table, marked when the design is unstable (the margin
+    of one crossover says nothing once a closed-loop root is in the right half-plane)."""
+    text = format(float(pm_deg), spec) if np.isfinite(pm_deg) else "none"
+    return text if stable else f"{text} (unstable)"
+
+
+def numeric_claim(id: str, section: str, claim: str, paper: float, ours: float,
+                  tol: float, note: str = "") -> Claim:
+    """A claim that passes when ``|ours - paper| <= tol``."""
+    ok = math.isfinite(ours) and abs(ours - paper) <= tol
+    if not ok and not note:
+        note = f"differs by {ours - paper:+.4g} (tolerance {tol:g})"
+    return Claim(id, section, claim, paper, ours, tol, "pass" if ok else "fail", note)
+
+
+def _clean(v: Any) -> Any:
+    """JSON-stable values: floats rounded to 10 significant digits, NaN/inf as strings."""
+    if isinstance(v, np.generic):
+        v = v.item()
+    elif isinstance(v, np.ndarray):
+        v = v.tolist()
+    if isinstance(v, float):
+        if not math.isfinite(v):
+            return str(v)
+        return float(f"{v:.10g}")
+    if isinstance(v, (list, tuple)):
+        return [_clean(x) for x in v]
+    if isinstance(v, dict):
+        return {k: _clean(x) for k, x in v.items()}
+    return v
+
+
+def _unit(claim: str) -> str:
+    """The unit in a claim's trailing brackets (``"... PM [deg]"`` -> ``"deg"``)."""
+    claim = claim.rstrip()
+    return claim[claim.rindex("[") + 1:-1] if claim.endswith("]") and "[" in claim else ""
+
+
+def format_value(v: Any, tol: Any = None, unit: str = "") -> str:
+    """A claim value for people: numbers rounded to one digit finer than the tolerance (else
+    4 significant digits) with the unit, yes/no for booleans, lists and dicts spelled out."""
+    if v is None:
+        return "n/a"
+    if isinstance(v, bool):
+        return "yes" if v else "no"
+    if isinstance(v, (int, float)):
+        if isinstance(v, float) and not math.isfinite(v):
+            return str(v)
+        if isinstance(tol, (int, float)) and not isinstance(tol, bool) and tol > 0:
+            digits = max(0, 1 - math.floor(math.log10(tol)))
+            text = f"{v:.{min(digits, 6)}f}"
+        else:
+            text = f"{v:.4g}"
+        return f"{text} {unit}".rstrip()
+    if isinstance(v, (list, tuple)):
+        if v and all(isinstance(x, bool) for x in v):
+            return f"{sum(v)} of {len(v)} yes"
+        return ", ".join(format_value(x, tol) for x in v) + (f" {unit}" if unit else "")
+    if isinstance(v, dict):
+        return "; ".join(f"{k.replace('_', ' ')}: {format_value(x, tol)}" for k, x in v.items())
+    return str(v)
+
+
+def one_line(note: str, limit: int = 180) -> str:
+    """The first sentence of a note, cut to ``limit`` characters."""
+    first = note.split(". ")[0].strip()
+    return first if len(first) <= limit else first[:limit - 1].rstrip() + "\u2026"
+
+
+@dataclass
+class Figure:
+    filename: str   # relative to figures/
+    caption: str
+
+
+@dataclass
+class Section:
+    """One section of the report."""
+
+    id: str
+    title: str
+    intro: str = ""
+    tables: list[tuple[str, list[str], list[list[str]]]] = field(default_factory=list)
+    figures: list[Figure] = field(default_factory=list)
+    claims: list[Claim] = field(default_factory=list)
+    notes: list[str] = field(default_factory=list)
+
+
+@dataclass(frozen=True)
+class Context:
+    """What a section gets: where to save figures."""
+
+    figures_dir: Path
+
+    def savefig(self, fig: Any, name: str) -> str:
+        """Save a matplotlib figure as ``figures/name`` and close it; returns ``name``."""
+        import matplotlib.pyplot as plt
+
+        fig.savefig(self.figures_dir / name, dpi=110, bbox_inches="tight")
+        plt.close(fig)
+        return name
+
+
+SectionFn = Callable[[Context], Section]
+
+
+def section(order: int, id: str) -> Callable[[SectionFn], SectionFn]:
+    """Tag a report section builder with its id (``order`` is kept for readers; the order of
+    the report is the explicit list in :data:`seactl.apps.paper.SECTIONS`)."""
+
+    def deco(func: SectionFn) -> SectionFn:
+        func.section_id = id  # type: ignore[attr-defined]
+        func.section_order = order  # type: ignore[attr-defined]
+        return func
+
+    return deco
+
+
+def build(out: Path, sections: Iterable[SectionFn], console: Any = None, jobs: int = 1
+          ) -> list[dict[str, Any]]:
+    """Run ``sections`` and write the report into ``out`` (atomically); return the claims.
+    ``jobs > 1`` runs the sections in that many worker processes (they are independent;
+    the report keeps their order)."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    from rich.progress import Progress
+
+    sections = list(sections)
+    out = Path(out).absolute()
+    check_report_dir(out)
+    try:
+        out.parent.mkdir(parents=True, exist_ok=True)
+        tmp = Path(tempfile.mkdtemp(prefix=f".{out.name}.tmp-", dir=out.parent))
+    except OSError as exc:
+        raise OutputError(out, reason(exc)) from None
+    try:
+        os.chmod(tmp, 0o777 & ~_umask())
+        (tmp / "figures").mkdir()
+        ctx = Context(tmp / "figures")
+        built: list[Section] = []
+        with Progress(console=console, transient=True, disable=console is None) as progress:
+            task = progress.add_task("reproducing the paper", total=len(sections))
+            if jobs > 1 and len(sections) > 1:
+                built = _run_parallel(sections, ctx, min(jobs, len(sections)),
+                                      lambda: progress.advance(task))
+            else:
+                for func in sections:
+                    progress.update(task, description=f"section {func.section_id}")
+                    built.append(func(ctx))
+                    progress.advance(task)
+        claims = [c.as_json() for s in built for c in s.claims]
+        (tmp / "claims.json").write_text(json.dumps(claims, indent=2, sort_keys=True) + "\n")
+        (tmp / "index.html").write_text(_render(built, claims))
+        write_marker(tmp)
+        _swap_into_place(tmp, out)
+    except BaseException as exc:
+        shutil.rmtree(tmp, ignore_errors=True)
+        if isinstance(exc, OSError) and not isinstance(exc, OutputError):
+            raise OutputError(out, reason(exc)) from None
+        raise
+    return claims
+
+
+def _quiet_worker() -> None:
+    """Report workers leave Ctrl-C to the parent (which stops them): no tracebacks."""
+    import signal
+
+    import matplotlib
+
+    from seactl.base import parallel as _parallel
+
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
+    matplotlib.use("Agg")
+    _parallel.THREADS = 1  # (one worker per core already)
+
+
+def _run_parallel(sections: list[SectionFn], ctx: Context, jobs: int,
+                  advance: Callable[[], None]) -> list[Section]:
+    """The sections in ``jobs`` fresh ("spawn") processes, results in report order; any
+    failure or Ctrl-C stops every worker."""
+    import multiprocessing
+    from concurrent.futures import FIRST_EXCEPTION, ProcessPoolExecutor, wait
+
+    pool = ProcessPoolExecutor(jobs, multiprocessing.get_context("spawn"),
+                               initializer=_quiet_worker)
+    try:
+        futures = [pool.submit(func, ctx) for func in sections]
+        pending = set(futures)
+        while pending:
+            done, pending = wait(pending, return_when=FIRST_EXCEPTION)
+            for f in done:
+                f.result()  # raises the section's error here
+                advance()
+        return [f.result() for f in futures]
+    except BaseException:
+        for proc in list(getattr(pool, "_processes", {}).values()):
+            proc.terminate()
+        raise
+    finally:
+        pool.shutdown(wait=True, cancel_futures=True)
+
+
+def _umask() -> int:
+    mask = os.umask(0)
+    os.umask(mask)
+    return mask
+
+
+MARKER = ".seactl-report"
+"""File that marks a directory as a report seactl wrote: its first line says so, the
+others list every file and directory seactl wrote there (relative, ``/``-separated)."""
+MARKER_HEADER = "written by seactl reproduce; seactl may replace the files listed below"
+LEGACY_FILES = ("index.html", "claims.json", "figures")
+"""What a marker without a list (the older format) stands for, with the
+``.png`` figures in ``figures/``."""
+
+
+def write_marker(tmp: Path) -> None:
+    """The marker of the report in ``tmp``, listing everything in it."""
+    names = sorted(p.relative_to(tmp).as_posix() for p in tmp.rglob("*"))
+    (tmp / MARKER).write_text("\n".join([MARKER_HEADER, *names]) + "\n")
+
+
+def _written_by_seactl(out: Path) -> set[str]:
+    lines = (out / MARKER).read_text(errors="replace").splitlines()
+    if lines[:1] == [MARKER_HEADER]:
+        return {MARKER, *lines[1:]}
+    return {MARKER, *LEGACY_FILES, *(f"figures/{p.name}" for p in out.glob("figures/*.png"))}
+
+
+def check_report_dir(out: Path) -> None:
+    """Refuse ``out`` unless it is absent, an empty directory, or a report seactl wrote
+    that holds nothing else (replacing it must not delete a file a user added)."""
+    out = Path(out)
+    if not out.exists():
+        return
+    if not out.is_dir():
+        raise OutputError(out, "exists and is not a directory")
+    if not any(out.iterdir()):
+        return
+    if not (out / MARKER).is_file():
+        raise OutputError(out, "the directory is not empty and is not a report seactl wrote "
+                          "(choose a new or empty directory)")
+    try:
+        ours = _written_by_seactl(out)
+        foreign = sorted(rel for p in out.rglob("*")
+                         if (rel := p.relative_to(out).as_posix()) not in ours)
+    except OSError as exc:
+        raise OutputError(out, reason(exc)) from None
+    if foreign:
+        more = f" and {len(foreign) - 1} more" if len(foreign) > 1 else ""
+        raise OutputError(out, f"it holds {foreign[0]}{more}, which seactl did not write "
+                          "(move it out, or choose a new or empty directory)")
+
+
+def _swap_into_place(tmp: Path, out: Path) -> None:
+    """Replace ``out`` by ``tmp`` with renames only (never a half-written ``out``)."""
+    check_report_dir(out)
+    old = None
+    if out.exists():
+        old = out.with_name(f".{out.name}.old-{os.getpid()}")
+        os.replace(out, old)
+    os.replace(tmp, out)
+    if old is not None:
+        shutil.rmtree(old, ignore_errors=True)
+
+
+def _render(sections: list[Section], claims: list[dict[str, Any]]) -> str:
+    from importlib.metadata import version
+
+    from jinja2 import Environment, PackageLoader, select_autoescape
+
+    env = Environment(loader=PackageLoader("seactl", "templates"),
+                      autoescape=select_autoescape(["html"]))
+    env.filters.update(value=lambda c, key: format_value(c[key], c.get("tolerance"),
+                                                         _unit(c["claim"])),
+                       one_line=one_line)
+    counts = {s: sum(1 for c in claims if c["status"] == s) for s in STATUSES}
+    by_section = {s.id: [c.as_json() for c in s.claims] for s in sections}
+    attention = [c | {"section_id": sid} for sid, cs in by_section.items() for c in cs
+                 if c["status"] != "pass"]
+    return env.get_template("report.html").render(
+        sections=sections, claims=claims, counts=counts, by_section=by_section,
+        attention=attention, version=version("seactl"))

@@ -1,0 +1,1 @@
+"""Foundations: errors' fields, validation, design axes, limits, outputs, threads."""

@@ -1,0 +1,1 @@
+"""Compiled kernels and the proofs that make the scans' verdicts certain."""

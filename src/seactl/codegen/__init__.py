@@ -1,0 +1,1 @@
+"""The sampled controller as code (C99, Python, JSON) and as OS processes."""

@@ -1,0 +1,1 @@
+"""The one block diagram: blocks, delays, derived transfers, quasi-polynomials."""

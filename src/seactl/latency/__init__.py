@@ -1,0 +1,1 @@
+"""Latency: maps, jitter margins, loop placement, Monte Carlo timing."""

@@ -1,0 +1,1 @@
+"""Time responses: continuous (exact delays) and sampled, and their verdicts."""

@@ -1,0 +1,1 @@
+"""Chunked, resumable design-space sweeps on processes or Dask."""

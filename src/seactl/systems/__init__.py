@@ -1,0 +1,1 @@
+"""The systems: the SEA, the rigid actuator and the omnidirectional base."""

@@ -1,0 +1,1 @@
+"""The omnidirectional mobile base."""

@@ -1,0 +1,1 @@
+"""The rigid actuator: parameters, loop and gain design."""

@@ -1,0 +1,1 @@
+"""The series elastic actuator: parameters, loop, gain design, views."""

@@ -1,0 +1,1 @@
+"""User loop files: validated and compiled onto the block diagram."""
