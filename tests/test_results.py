@@ -160,7 +160,7 @@ def test_one_name_per_class():
 
 
 # ------------------------------------------------------------------ behaviour
-TABLE_I = dict(delays_ms=(0.5, 2, 0.5), filters_hz=(50, 100))
+TABLE_I = dict(delays_ms={"torque": 0.5, "stiffness": 2, "damping": 0.5}, filters_hz=(50, 100))
 
 
 def _same_name(key: str, obj: object) -> bool:

@@ -272,7 +272,8 @@ def judge_response(resp: Any, band: float, right_half_plane_roots: Any = None
     res = resp.result
     t = res.t_s
     y = np.asarray(resp.position, float).reshape(-1, t.size)
-    cur = np.asarray(resp.current, float).reshape(-1, t.size)
+    cur = resp.current_a if hasattr(resp, "current_a") else resp.current  # result or core
+    cur = np.asarray(cur, float).reshape(-1, t.size)
     info = res.info or {}
     if right_half_plane_roots is None:
         right_half_plane_roots = info.get("unstable_modes")

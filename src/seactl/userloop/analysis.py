@@ -22,9 +22,8 @@ def break_margins(compiled: CompiledLoop, design: Any, omega: np.ndarray, signal
     The certified scan of a block-diagram loop counts the closed loop's right-half-plane
     roots from its characteristic quasi-polynomial, so the open loop's right-half-plane
     poles (:func:`_broken_rhp_poles`) are needed only where the loop vanishes (a gain set
-    to 0: no crossing, and the closed loop is the open one); they are computed only then
-    (for the 10,000 designs of the loop-file benchmark, 65 ms of state-space eigenvalues
-    and a stability scan per inner break)."""
+    to 0: no crossing, and the closed loop is the open one); they are computed only then,
+    since they cost state-space eigenvalues and a stability scan per inner break."""
     diagram = compiled.diagram
     shape = tuple(design.shape)
     cache: dict[str, np.ndarray] = {}  # block responses on the grid, shared by the loops
@@ -108,8 +107,8 @@ def _vanishes(loop: Any, design: Any) -> np.ndarray:
     """Per design: the loop transfer is identically zero, i.e. its numerator ``N``
     (``L = N / D``, :meth:`~seactl.diagram.blockdiagram.BlockDiagram.return_difference`) once its
     terms of equal delay are merged: exponentials of distinct delays are independent over
-    the polynomials.  (Its coefficients, not the response on a grid: 2 ms instead of
-    60 ms for 10,000 designs.)"""
+    the polynomials.  (Its coefficients, not the response on a grid: no frequency grid to
+    evaluate.)"""
     N = loop.diagram.return_difference(loop.input, loop.cut)[0].evaluate(design).flat()
     same = (N.delays[:, None] == N.delays[None, :]).astype(float)  # (term, term, design)
     merged = np.einsum("jkn,knp->jnp", same, N.coeffs)

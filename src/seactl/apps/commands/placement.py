@@ -365,9 +365,9 @@ def _latency_map(actuators, fn_rigid, fn_sea, t_max, t_min, n, max_fn, f_v, outs
 
 
 MAP_POINT_BYTES, MAP_POINT_S = 8e3, 1e-4
-"""Memory and time per grid point of a phase-margin map (measured: 6 kB, 0.1 ms)."""
+"""Memory [B] and time [s] per grid point of a phase-margin map, set above what one costs."""
 MAXFN_POINT_BYTES, MAXFN_POINT_S = 160e3, 3e-3
-"""... and of the highest-stable-f_n map (measured: 150 kB, 1.5-3.4 ms)."""
+"""... and of the highest-stable-f_n map, likewise."""
 
 
 def _check_latency_budget(jobs, n: int, max_fn: bool) -> None:

@@ -266,7 +266,8 @@ def _output(spec: DesignSpec, resp: Any, mode: str, zero: bool, extra: dict[str,
     # RECORD_DT_S in continuous mode
     every = max(1, round(limits.RECORD_DT_S / res.info["dt_s"])) if mode == "continuous" else 1
     pos = resp.position.reshape(len(labels), -1)[:, ::every]
-    cur_all = resp.current.reshape(len(labels), -1)
+    cur_all = (resp.current_a if hasattr(resp, "current_a") else resp.current
+               ).reshape(len(labels), -1)
     cur = cur_all[:, ::every]
     stable = res.stable.reshape(-1)
     left = res.left_bounds_s.reshape(-1)

@@ -35,9 +35,9 @@ _FILTERS = ("f_qd_hz", "f_taud_hz")
 LARGE_SWEEP_POINTS = 1e8
 """Sweeps above this many points run only with ``--yes``."""
 POINTS_PER_CORE_S = 20_000.0
-"""Sweep throughput per core used for the estimate (the default design options, measured)."""
+"""Sweep throughput per core used for the estimate (the default design options)."""
 PARQUET_BYTES_PER_POINT = 60.0
-"""Dataset size per point used for the estimate (Parquet, the default columns, measured)."""
+"""Dataset size per point used for the estimate (Parquet, the default columns)."""
 LOOP_POINTS_PER_S = 3000.0
 """Loop-sweep throughput used for the estimate (in process; the rigid example's loop, one
 of the fastest: an estimate on the short side)."""

@@ -53,8 +53,8 @@ PM_MAP_GS = np.geomspace(0.2, 5.0, 13)
 PM_MAP_N_FN = 15
 LAT_MAP_MS = np.linspace(0.0, 20.0, 11)
 ROOTS_COUNT = 6
-"""Rightmost roots shown (a conjugate pair counts once): ``d.roots(count=6)`` took 26 ms
-median, 80 ms at most over 40 random designs of the sliders' ranges (3 roots: 13 / 40 ms)."""
+"""Rightmost roots shown (a conjugate pair counts once): enough to see the dominant modes
+while the slider stays responsive (``seactl bench`` times the explorer's views)."""
 PM_THIN_DEG, PM_COMFORTABLE_DEG = 30.0, 60.0
 
 

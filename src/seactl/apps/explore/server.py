@@ -69,7 +69,7 @@ def serve(host: str, port: int, *, open_browser: bool = True,
                         port=port, allow_websocket_origin=origins, num_procs=1)
     except OSError as exc:
         raise InputError("--port", port, f"a free port on {host} ({exc.strerror})") from None
-    views(Controls())  # the first evaluation loads the derived loop (about 1 s), not a user
+    views(Controls())  # the first evaluation loads the derived loop, not a user
     server.start()
     announce(f"seactl explore: serving on {url(host, port)} (Ctrl+C stops)")
     if open_browser:
