@@ -118,8 +118,8 @@ def test_one_default_step_said_in_the_result():
     assert r.to_dict()["amplitude"] == 0.01 and r.to_dict()["amplitude_unit"] == "rad"
     big = d.step(t_end_s=0.3, amplitude=1.0)
     np.testing.assert_allclose(big.position, r.position, rtol=1e-9, atol=1e-12)
-    np.testing.assert_allclose(big.current, 100 * r.current, rtol=1e-9,
-                               atol=1e-9 * np.max(np.abs(big.current)))
+    np.testing.assert_allclose(big.current_a, 100 * r.current_a, rtol=1e-9,
+                               atol=1e-9 * np.max(np.abs(big.current_a)))
     rig = sc.rigid(8.0, delays_ms=RIGID_DELAYS).step(t_end_s=0.5)
     assert (rig.amplitude, rig.to_dict()["amplitude_unit"]) == (0.004, "m")
 
@@ -137,7 +137,7 @@ def test_rigid_step_that_saturates_says_so_and_matches_the_clipped_oracle():
     res = r.step(mode="sampled", amplitude=a, t_end_s=0.5)
     v = res.verdict()
     assert v.verdict == ["saturated"] and "saturated" in v.warnings[0][-1]
-    assert np.max(np.abs(res.current)) == pytest.approx(r.actuator.max_current, rel=1e-12)
+    assert np.max(np.abs(res.current_a)) == pytest.approx(r.actuator.max_current, rel=1e-12)
     _, x, _ = simulate_rigid_sampled(r.rigid, a, t_end_s=0.5, rate_hz=1000.0,
                                      force_limit=limit)
     np.testing.assert_allclose(res.position, x / a, atol=1e-9)
@@ -155,7 +155,7 @@ def test_sea_step_that_saturates_says_so():
     assert float(g.Ktau * g.Kq) * 1.0 > d.actuator.max_current
     res = d.step(mode="sampled", amplitude=1.0)
     assert res.verdict().verdict == ["saturated"]
-    assert np.max(np.abs(res.current)) == pytest.approx(d.actuator.max_current, rel=1e-12)
+    assert np.max(np.abs(res.current_a)) == pytest.approx(d.actuator.max_current, rel=1e-12)
     assert d.step(mode="sampled").verdict().verdict == ["settled"]
 
 
@@ -187,9 +187,10 @@ def test_rigid_jitter_margins_against_python_control_and_hand_loops():
     ref = {"overall": 1 / np.max(w * np.abs(T))}
     for loop, L in _hand_rigid_loops(r, 1j * w).items():
         ref.setdefault(loop, 1 / np.max(w * np.abs(L / (1 + L))))
-    assert j.torque_s is None
+    assert j.torque_jitter_margin_s is None
     for loop, value in ref.items():
-        got = float(getattr(j, f"{loop}_s"))
+        name = "jitter_margin_s" if loop == "overall" else f"{loop}_jitter_margin_s"
+        got = float(getattr(j, name))
         assert got <= value * (1 + 1e-9)
         assert got == pytest.approx(value, rel=1e-4), loop
 
@@ -202,7 +203,7 @@ def test_rigid_monte_carlo_without_random_timing_is_the_sampled_step():
     st = r.step(mode="sampled", t_end_s=0.4)
     rms = np.sqrt(np.mean((st.position - 1.0) ** 2, axis=-1))
     np.testing.assert_allclose(mc.rms_error_mean, rms, rtol=1e-12)
-    np.testing.assert_allclose(mc.peak_current_worst_a, np.max(np.abs(st.current), -1),
+    np.testing.assert_allclose(mc.peak_current_worst_a, np.max(np.abs(st.current_a), -1),
                                rtol=1e-12)
 
 

@@ -150,7 +150,8 @@ class Result:
     Examples
     --------
     >>> import seactl as sc
-    >>> m = sc.design([12, 14], delays_ms=(0.5, 2, 0.5), filters_hz=(50, 100)).margins()
+    >>> m = sc.design([12, 14], delays_ms={"torque": 0.5, "stiffness": 2, "damping": 0.5},
+    ...               filters_hz=(50, 100)).margins()
     >>> isinstance(m, sc.Result), m.records()[0]["fn_hz"]
     (True, 12.0)
     """
