@@ -34,7 +34,8 @@ _PUBLIC = {
     ".api.rigid": ("rigid", "RigidBatch"),
     ".api.sweeps": ("sweep", "read_sweep"),
     ".api.mobile_base": ("compare_mobile_base", "mobile_base_params"),
-    ".api.userloop": ("load_loop", "LoopBuilder", "UserLoop"),
+    ".api.userloop": ("UserLoop",),
+    ".api.loopbuilder": ("load_loop", "LoopBuilder"),
     ".errors": ("SeactlError", "InputError", "InfeasibleDesignError", "LoopFileError"),
 }
 _HOME = {name: module for module, names in _PUBLIC.items() for name in names}

@@ -5,7 +5,7 @@ the impedance at a port.
 They carry the same methods as the built-in systems' results (``to_dict()``,
 ``records()``, ``plot(ax=None)``) and the same column names; a user loop has named breaks
 (per-break columns ``<break>_...``) and signals in its own units.  The continuous
-margins are :class:`seactl.api.userloop.LoopAnalysis`.
+margins are a :class:`LoopAnalysis`.
 """
 
 from __future__ import annotations
@@ -16,8 +16,9 @@ from typing import Any
 
 import numpy as np
 
+from seactl.analysis.margins import Margins
 from seactl.api.results import ImpedanceResult, ResponseResult, json_array, json_value
-from seactl.base.result import Renamed, Result, new_axes
+from seactl.base.result import Renamed, Result, flat_records, new_axes
 from seactl.systems.sea.impedance import ImpedanceResponse
 
 
@@ -521,3 +522,196 @@ class LoopImpedanceResult(ImpedanceResult):
             ``phase_deg``.
         """
         return {"port": self.port, **super().to_dict()}
+
+
+def jsonable(x: Any) -> Any:
+    a = np.asarray(x)
+    if a.dtype == bool:
+        return a.tolist()
+    if a.ndim == 0:
+        v = float(a)
+        return round(v, 12) if np.isfinite(v) else None
+    return [jsonable(v) for v in a]
+
+
+@dataclass(frozen=True)
+class BreakMargins:
+    """Margins of one loop broken at a named signal (arrays of the design batch shape)."""
+
+    name: str
+    signal: str
+    margins: Margins
+    jitter_margin_s: np.ndarray
+
+    def to_dict(self) -> dict[str, Any]:
+        m = self.margins
+        return {"break": self.name, "signal": self.signal,
+                "phase_margin_deg": jsonable(m.phase_margin_deg),
+                "crossover_hz": jsonable(m.crossover_hz),
+                "gain_margin_db": jsonable(m.gain_margin_db),
+                "phase_crossover_hz": jsonable(m.phase_crossover_hz),
+                "delay_margin_ms": jsonable(m.delay_margin_ms),
+                "jitter_margin_ms": jsonable(self.jitter_margin_s * 1e3),
+                "stable": jsonable(m.stable), "unstable_poles": m.unstable_poles.tolist()}
+
+
+@dataclass(frozen=True)
+class LoopAnalysis(Result):
+    """Margins at every named break of a :class:`UserLoop`, and its stability.
+
+    Attributes
+    ----------
+    loop : str
+        The loop's name.
+    breaks : list of BreakMargins
+        One per ``[[breaks]]`` entry, in file order.
+    stable : ndarray
+        Closed-loop stability (Nyquist on the exact-delay loops: no closed-loop root of
+        the characteristic quasi-polynomial in the right half plane).
+    values : dict
+        The design variables and parameters the batch was evaluated at.
+    """
+
+    loop: str
+    breaks: list[BreakMargins]
+    stable: np.ndarray
+    values: dict[str, np.ndarray]
+
+    def __getitem__(self, name: str) -> BreakMargins:
+        for b in self.breaks:
+            if b.name == name:
+                return b
+        raise KeyError(name)
+
+    def to_dict(self) -> dict[str, Any]:
+        """The loop's name, stability, values and every break's margins.
+
+        Returns
+        -------
+        dict
+            ``loop``, ``stable``, ``values``, ``breaks`` (one dict per break).
+        """
+        return {"loop": self.loop, "stable": jsonable(self.stable),
+                "values": {k: jsonable(v) for k, v in self.values.items()},
+                "breaks": [b.to_dict() for b in self.breaks]}
+
+    def records(self) -> list[dict[str, Any]]:
+        """One flat row per design (C order): its values, stability and, per break
+        ``<b>``, ``<b>_phase_margin_deg``, ``<b>_crossover_hz``, ``<b>_delay_margin_ms``
+        and ``<b>_jitter_margin_ms``.
+
+        Returns
+        -------
+        list of dict
+            JSON-ready rows.
+        """
+        cols: dict[str, Any] = dict(self.values)
+        cols["stable"] = self.stable
+        for b in self.breaks:
+            m = b.margins
+            cols.update({f"{b.name}_phase_margin_deg": m.phase_margin_deg,
+                         f"{b.name}_crossover_hz": m.crossover_hz,
+                         f"{b.name}_delay_margin_ms": m.delay_margin_ms,
+                         f"{b.name}_jitter_margin_ms": np.asarray(b.jitter_margin_s) * 1e3})
+        return flat_records(cols)
+
+    def plot(self, ax: Any = None) -> Any:
+        """Phase margin at every break against the design index.
+
+        Parameters
+        ----------
+        ax : matplotlib.axes.Axes, optional
+            Where to draw (default: a new figure).
+
+        Returns
+        -------
+        matplotlib.axes.Axes
+            The axes drawn on.
+        """
+        ax = new_axes(ax)
+        for b in self.breaks:
+            pm = np.ravel(b.margins.phase_margin_deg)
+            ax.plot(np.arange(pm.size), pm, "o-", label=b.name)
+        ax.set_xlabel("design")
+        ax.set_ylabel("phase margin [deg]")
+        ax.grid(True, alpha=0.3)
+        ax.legend(loc="best")
+        return ax
+
+
+@dataclass(frozen=True)
+class Placements(Result):
+    """Placements of the movable blocks on the processes, ranked (best first).
+
+    Attributes
+    ----------
+    blocks : list of str
+        The movable blocks (``delay_ms = "process"``).
+    latency_ms : dict
+        Process -> latency [ms] used.
+    options : list of dict
+        Block -> process, ranked.
+    analysis : LoopAnalysis
+        Margins of every option (batch axis in the original, unranked order).
+    order : ndarray
+        Ranked option -> index into ``analysis``.
+    """
+
+    blocks: list[str]
+    latency_ms: dict[str, float]
+    options: list[dict[str, str]]
+    analysis: LoopAnalysis
+    order: np.ndarray
+
+    def records(self) -> list[dict[str, Any]]:
+        """One JSON-ready row per option, best first.
+
+        Returns
+        -------
+        list of dict
+            ``rank``, ``placement`` (block -> process), ``stable`` and, per break, its
+            ``phase_margin_deg``, ``crossover_hz`` and ``delay_margin_ms``.
+        """
+        rows = []
+        for rank, (opt, i) in enumerate(zip(self.options, self.order)):
+            row: dict[str, Any] = {"rank": rank + 1, "placement": opt,
+                                   "stable": bool(self.analysis.stable[i])}
+            for b in self.analysis.breaks:
+                m = b.margins
+                row[b.name] = {"phase_margin_deg": json_value(m.phase_margin_deg[i]),
+                               "crossover_hz": json_value(m.crossover_hz[i]),
+                               "delay_margin_ms": json_value(m.delay_margin_ms[i])}
+            rows.append(row)
+        return rows
+
+    def to_dict(self) -> dict[str, Any]:
+        """The movable blocks, latencies and ranked options.
+
+        Returns
+        -------
+        dict
+            ``blocks``, ``latency_ms``, ``options`` (:meth:`records`).
+        """
+        return {"blocks": list(self.blocks), "latency_ms": dict(self.latency_ms),
+                "options": self.records()}
+
+    def plot(self, ax: Any = None) -> Any:
+        """Each ranked option's smallest phase margin over the breaks.
+
+        Parameters
+        ----------
+        ax : matplotlib.axes.Axes, optional
+            Where to draw (default: a new figure).
+
+        Returns
+        -------
+        matplotlib.axes.Axes
+            The axes drawn on.
+        """
+        ax = new_axes(ax)
+        pm = np.min([np.ravel(b.margins.phase_margin_deg)[self.order]
+                     for b in self.analysis.breaks], axis=0)
+        ax.bar(np.arange(1, pm.size + 1), pm)
+        ax.set_xlabel("rank")
+        ax.set_ylabel("smallest phase margin [deg]")
+        return ax

@@ -29,7 +29,7 @@ def _designs(n: int, seed: int = 1):
 
 
 def _paper_loop():
-    from seactl.api.userloop import load_loop
+    from seactl.api.loopbuilder import load_loop
 
     if not _EXAMPLE.is_file():
         raise FileNotFoundError(f"{_EXAMPLE} (run seactl bench from a source checkout)")

@@ -49,7 +49,7 @@ def parse_sets(tokens: tuple[str, ...]) -> dict[str, Any]:
 
 
 def load(path: str, sets: tuple[str, ...]):
-    from seactl.api.userloop import load_loop
+    from seactl.api.loopbuilder import load_loop
     from seactl.base.limits import BYTES_PER_DESIGN, check_budget
 
     values = parse_sets(sets)

@@ -294,7 +294,7 @@ def _refuse_built_in_options() -> None:
 def _loop_sweep(loop_file, sets, out, chunk_size, overwrite, as_json, sampling, n_samples,
                 seed, yes) -> None:
     """``seactl sweep --loop FILE --set ...``: in-process, one vectorized batch per chunk."""
-    from seactl.api.userloop import load_loop
+    from seactl.api.loopbuilder import load_loop
     from seactl.base.limits import BYTES_PER_DESIGN, check_budget
     from seactl.sweep.loops import LoopPoints, sweep_loop
 
