@@ -415,22 +415,12 @@ class LoopResponseResult(ResponseResult):
             ``effective_delays_ms`` (per delayed block), the metrics' fields and, sampled,
             ``sampled_verdict`` and ``sampled_unstable_modes``.
         """
-        cur = self.current_a
-        out = {"kind": self.kind, "mode": self.mode, "output": self.output,
-               "amplitude": self.amplitude, "amplitude_unit": self.amplitude_unit,
-               "t_s": json_array(self.t_s),
-               "position": json_array(self.position),
-               "current_a": None if cur is None else json_array(cur),
-               "requested_delays_ms": {k: json_array(1e3 * np.asarray(v))
-                                       for k, v in self.requested_delays_s.items()},
-               "effective_delays_ms": {k: json_array(1e3 * np.asarray(v))
-                                       for k, v in self.effective_delays_s.items()}}
-        for name, value in vars(self.metrics).items():
-            out[name] = json_array(value)
-        if "sampled_verdict" in self.info:
-            out["sampled_verdict"] = np.asarray(self.info["sampled_verdict"]).tolist()
-            out["sampled_unstable_modes"] = json_array(self.info["sampled_unstable_modes"])
-        return out
+        out = super().to_dict()
+        # the output's name after the mode; the amplitude as given, in the file's unit
+        head = {"kind": out.pop("kind"), "mode": out.pop("mode"), "output": self.output,
+                "amplitude": self.amplitude}
+        del out["amplitude"]
+        return head | out
 
     def plot(self, ax: Any = None) -> Any:
         """The output against time, one line per design.

@@ -151,21 +151,28 @@ class MarginsResult(Result):
         matplotlib.axes.Axes
             The axes drawn on.
         """
-        ax = new_axes(ax)
-        cols = self._columns()
-        xs = np.ravel(cols[x]) if x in cols else np.arange(np.size(cols["stable"]))
-        pm = np.ravel(cols["phase_margin_deg"]).astype(float)
-        ok = np.ravel(cols["stable"]).astype(bool)
+        return plot_phase_margins(new_axes(ax), self._columns(), x, "unstable", line=True)
+
+
+def plot_phase_margins(ax: Any, cols: dict[str, Any], x: str, bad: str,
+                       line: bool = False) -> Any:
+    """Phase margin against the label column ``x`` (the design index if absent): stable
+    designs as blue dots, the others as red crosses labelled ``bad``; ``line`` joins the
+    points in order of ``x``."""
+    xs = np.ravel(cols[x]) if x in cols else np.arange(np.size(cols["stable"]))
+    pm = np.ravel(cols["phase_margin_deg"]).astype(float)
+    ok = np.ravel(cols["stable"]).astype(bool)
+    if line:
         order = np.argsort(xs, kind="stable")
         ax.plot(xs[order], pm[order], "-", color="0.6", lw=1)
-        ax.plot(xs[ok], pm[ok], "o", color="tab:blue", label="stable")
-        if (~ok).any():
-            ax.plot(xs[~ok], pm[~ok], "x", color="tab:red", label="unstable")
-        ax.set_xlabel(x)
-        ax.set_ylabel("phase margin [deg]")
-        ax.grid(True, alpha=0.3)
-        ax.legend(loc="best")
-        return ax
+    ax.plot(xs[ok], pm[ok], "o", color="tab:blue", label="stable")
+    if (~ok).any():
+        ax.plot(xs[~ok], pm[~ok], "x", color="tab:red", label=bad)
+    ax.set_xlabel(x)
+    ax.set_ylabel("phase margin [deg]")
+    ax.grid(True, alpha=0.3)
+    ax.legend(loc="best")
+    return ax
 
 
 SAMPLED_COLUMNS = ("rate_hz", "verdict", "unstable_modes", "phase_margin_deg", "crossover_hz",
@@ -325,19 +332,8 @@ class SampledMarginsResult(Result):
         matplotlib.axes.Axes
             The axes drawn on.
         """
-        ax = new_axes(ax)
-        cols = self._columns()
-        xs = np.ravel(cols[x]) if x in cols else np.arange(np.size(cols["stable"]))
-        pm = np.ravel(cols["phase_margin_deg"]).astype(float)
-        ok = np.ravel(cols["stable"]).astype(bool)
-        ax.plot(xs[ok], pm[ok], "o", color="tab:blue", label="stable")
-        if (~ok).any():
-            ax.plot(xs[~ok], pm[~ok], "x", color="tab:red", label="not certified stable")
-        ax.set_xlabel(x)
-        ax.set_ylabel("phase margin [deg]")
+        ax = plot_phase_margins(new_axes(ax), self._columns(), x, "not certified stable")
         ax.set_title(f"sampled at {self.rate_label}")
-        ax.grid(True, alpha=0.3)
-        ax.legend(loc="best")
         return ax
 
 
@@ -617,7 +613,7 @@ class ResponseResult(Result):
                "amplitude": None if self.amplitude is None else json_value(self.amplitude),
                "amplitude_unit": self.amplitude_unit, "t_s": json_array(self.t_s),
                "position": json_array(self.position),
-               "current_a": json_array(self.current_a),
+               "current_a": None if self.current_a is None else json_array(self.current_a),
                "requested_delays_ms": {k: json_array(1e3 * np.asarray(v))
                                        for k, v in self.requested_delays_s.items()},
                "effective_delays_ms": {k: json_array(1e3 * np.asarray(v))
