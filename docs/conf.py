@@ -1,6 +1,14 @@
 """Sphinx configuration of the seactl documentation (build: see README, "Documentation")."""
 
+import os
+from pathlib import Path
+
 import seactl
+
+HERE = Path(__file__).resolve().parent
+# One figure style for the tutorials' kernels (they inherit this environment) and the
+# examples (sphinx-gallery resets matplotlib to it before each script).
+os.environ["MATPLOTLIBRC"] = str(HERE / "matplotlibrc")
 
 project = "seactl"
 author = "seactl developers"
@@ -14,10 +22,12 @@ extensions = [
     "numpydoc",                 # renders the numpydoc sections the tests validate
     "sphinx.ext.mathjax",
     "sphinx_copybutton",
+    "sphinx_gallery.gen_gallery",   # the examples: scripts executed at build time
 ]
 
 source_suffix = {".md": "myst-nb", ".rst": "restructuredtext"}
-exclude_patterns = ["_build", "**/.ipynb_checkpoints"]
+exclude_patterns = ["_build", "**/.ipynb_checkpoints", "gallery/*.ipynb", "gallery/*.py",
+                    "gallery/*.zip", "gallery/*.json", "gallery/*.md5"]
 root_doc = "index"
 
 # --- tutorials: executed on every build, any error fails the build
@@ -28,6 +38,29 @@ nb_execution_show_tb = True
 nb_merge_streams = True
 myst_enable_extensions = ["dollarmath", "colon_fence", "deflist"]
 myst_heading_anchors = 3
+
+# --- examples: examples/gallery/*.py, each run once per build (its figures and output shown)
+def _matplotlib_style(gallery_conf, fname):
+    import matplotlib
+
+    matplotlib.rc_file_defaults()
+    matplotlib.rc_file(str(HERE / "matplotlibrc"))
+
+
+sphinx_gallery_conf = {
+    "examples_dirs": "../examples/gallery",
+    "gallery_dirs": "gallery",
+    "filename_pattern": r".*\.py$",        # execute every example
+    "reset_modules": (_matplotlib_style,),
+    "download_all_examples": False,
+    "remove_config_comments": True,
+    "within_subsection_order": "FileNameSortKey",
+    "show_memory": False,
+    "abort_on_example_error": True,
+}
+# The style function above makes the configuration unpicklable: Sphinx then rebuilds every
+# page, which the forced execution of the tutorials does anyway.
+suppress_warnings = ["config.cache"]
 
 # --- API reference
 autosummary_generate = False
