@@ -23,14 +23,19 @@ print(f"{res.n_points} designs in {res.n_chunks} chunks")
 t = sc.read_sweep(out)
 
 # %%
-# Phase margin over the grid (white contours: 30 and 45 degrees).
+# Phase margin over the grid (white contours: 30 and 45 degrees). Grey: unstable designs,
+# whose phase margin says nothing.
 fn, gs = t.column("fn_hz").to_numpy(), t.column("gs").to_numpy()
 pm = np.array(t.column("phase_margin_deg").to_pylist(), float)
-F, G = np.unique(fn), np.unique(gs)
-P = pm.reshape(F.size, G.size)
+stable = np.array(t.column("stable").to_pylist(), bool)
+print(f"{(~stable).sum()} of {stable.size} designs unstable")
+F, G = np.unique(fn), np.unique(gs)                # the table is sorted f_n-major
+P = np.where(stable, pm, np.nan).reshape(F.size, G.size)
 fig, ax = plt.subplots(figsize=(8, 4.5))
+ax.set_facecolor("0.8")
+ax.grid(False)
 c = ax.pcolormesh(G, F, P, shading="nearest", vmin=0, vmax=70)
 ax.contour(G, F, P, levels=[30, 45], colors="w", linewidths=0.8)
 ax.set_xlabel("gain scale GS")
 ax.set_ylabel("f_n [Hz]")
-fig.colorbar(c, ax=ax, label="phase margin [deg]")
+cb = fig.colorbar(c, ax=ax, label="phase margin [deg]")
