@@ -21,5 +21,13 @@ for r in m.records():
           f"{'stable' if r['stable'] else 'unstable'}")
 
 # %%
-# Every design is stable; the phase margin falls as the natural frequency rises.
+# Every design of Table I is stable; the phase margin falls as the natural frequency rises.
 ax = m.plot()
+
+# %%
+# Below the feasibility bound no critically-damped gain set with four positive gains exists,
+# and the design is refused with the feasible range:
+try:
+    sc.design(8)
+except sc.InfeasibleDesignError as exc:
+    print(exc)
