@@ -56,6 +56,7 @@ sphinx_gallery_conf = {
     "remove_config_comments": True,
     "within_subsection_order": "FileNameSortKey",
     "show_memory": False,
+    "capture_repr": (),                  # output is what the script prints, no reprs
     "abort_on_example_error": True,
 }
 # The style function above makes the configuration unpicklable: Sphinx then rebuilds every

@@ -27,8 +27,9 @@ print(f"{admissible.sum()} of {admissible.size} designs admissible")
 print(f"Z-width: {width_db[0]:.1f} dB at {f_hz[0]:g} Hz, {width_db[-1]:.1f} dB at {f_hz[-1]:g} Hz")
 
 # %%
-# The band is widest at low frequency, where each design renders its virtual spring
-# ``K_q``, and closes at high frequency, where every design renders the physical spring.
+# The band is wide at low frequency, where each design renders its virtual spring ``K_q``,
+# and closes at high frequency, where every design renders the physical spring. In between,
+# around the 100 Hz torque-derivative filter, the designs' resonances spread it.
 fig, (a1, a2) = plt.subplots(2, 1, figsize=(8, 5.5), sharex=True)
 a1.fill_between(f_hz, lower, upper, alpha=0.4, label="Z-region")
 a1.loglog(f_hz, upper, f_hz, lower, color="C0")
