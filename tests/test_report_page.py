@@ -76,6 +76,24 @@ def test_summary_line_uses_the_agreed_words():
                                    "1 does not hold as printed, 0 findings")
 
 
+def test_verdict_per_section_counts_its_claims(snapshot_page):
+    """Oracle: the snapshot's statuses counted per section here; a section is 'not as
+    printed' when one of its claims does not hold, 'findings' when it has only findings."""
+    import re
+
+    page, claims = snapshot_page
+    html = page.read_text()
+    for sid in dict.fromkeys(c["id"].split(".")[0] for c in claims):
+        n = Counter(c["status"] for c in claims if c["id"].split(".")[0] == sid)
+        row = re.search(rf'<tr><td class="title"><a href="#{re.escape(sid)}".*?</tr>', html,
+                        re.S).group(0)
+        cells = re.findall(r'<td class="num[^"]*">(\d+)</td>', row)
+        assert cells == [str(n["pass"]), str(n["fail"]), str(n["info"])], sid
+        label = ("not as printed" if n["fail"] else "reproduced" if n["pass"] else
+                 "findings")
+        assert f">{label}</span>" in row, sid
+
+
 # ------------------------------------------------------------------ browser
 CHROMIUM = next((p for p in ("/usr/bin/chromium", "/usr/bin/chromium-browser")
                  if os.access(p, os.X_OK)), None)

@@ -7,7 +7,8 @@ and :class:`Claim` objects comparing a number of the paper with the value
 seactl computes.  :func:`build` runs a list of sections,
 writes ``figures/*.png``, ``claims.json`` and ``index.html`` into a temporary
 directory next to the target and renames it into place at the end, so an
-interrupted run never leaves a half report.
+interrupted run never leaves a half report.  The page itself (its words, the
+verdict per section, the HTML) is :mod:`seactl.apps.report_page`.
 """
 
 from __future__ import annotations

@@ -18,7 +18,7 @@ from dataclasses import dataclass
 from typing import Any
 
 WORDS = {"pass": "reproduced", "fail": "does not hold as printed", "info": "finding"}
-"""What each claim status means, as the report and the command line say it."""
+"""What each claim status means, in the words people read (the report, the summary line)."""
 
 
 def count_words(counts: dict[str, int]) -> dict[str, str]:
