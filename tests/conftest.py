@@ -36,6 +36,15 @@ def first_sections_report(tmp_path_factory):
     return out
 
 
+@pytest.fixture(scope="session")
+def full_report(tmp_path_factory):
+    """The whole report, built once per session through the command line (minutes: for the
+    slow tests only)."""
+    out = tmp_path_factory.mktemp("report") / "seactl-report"
+    assert main(["reproduce", "--out", str(out)]) == 0
+    return out
+
+
 def pytest_addoption(parser):
     parser.addoption("--update-claims-snapshot", action="store_true",
                      help="rewrite tests/data/claims_snapshot.json from a fresh reproduce run")

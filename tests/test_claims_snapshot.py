@@ -18,17 +18,8 @@ from pathlib import Path
 
 import pytest
 
-from seactl.apps.cli import main
-
 SNAPSHOT = Path(__file__).parent / "data" / "claims_snapshot.json"
 REL_TOL = 1e-6  # for claims whose tolerance is a relation, not a number
-
-
-@pytest.fixture(scope="module")
-def report_dir(tmp_path_factory):
-    out = tmp_path_factory.mktemp("report") / "seactl-report"
-    assert main(["reproduce", "--out", str(out)]) == 0
-    return out
 
 
 def _snapshot_of(claims: list[dict]) -> list[dict]:
@@ -84,8 +75,8 @@ def _problems(current: list[dict], snapshot: list[dict]) -> list[str]:
 
 
 @pytest.mark.slow
-def test_claims_match_snapshot(report_dir, request):
-    claims = json.loads((report_dir / "claims.json").read_text())
+def test_claims_match_snapshot(full_report, request):
+    claims = json.loads((full_report / "claims.json").read_text())
     current = _snapshot_of(claims)
     if request.config.getoption("--update-claims-snapshot"):
         SNAPSHOT.write_text(json.dumps(current, indent=1, sort_keys=True) + "\n")
@@ -118,8 +109,8 @@ def _html_lists_every_claim_and_figure(report: Path) -> list[str]:
 
 
 @pytest.mark.slow
-def test_report_html_lists_every_claim_and_figure(report_dir):
-    assert _html_lists_every_claim_and_figure(report_dir)
+def test_report_html_lists_every_claim_and_figure(full_report):
+    assert _html_lists_every_claim_and_figure(full_report)
 
 
 def test_first_sections_html_lists_every_claim_and_figure(first_sections_report):

@@ -4,7 +4,7 @@ import json
 
 import pytest
 
-from seactl.apps import paper, report
+from seactl.apps import paper, report, report_page
 from seactl.apps.cli import main
 
 # The paper's Table I typed here (f_n -> K_q, B_q, K_tau, B_tau, PM) and half a unit of each
@@ -117,7 +117,7 @@ def test_unknown_section_is_an_input_error(tmp_path, capsys):
 ])
 def test_claim_values_are_formatted_for_people(value, tol, unit, text):
     # Oracle: the strings typed by hand in the table above.
-    assert report.format_value(value, tol, unit) == text
+    assert report_page.format_value(value, tol, unit) == text
 
 
 def test_summary_lists_every_claim_that_is_not_a_pass(tmp_path, monkeypatch):

@@ -7,7 +7,8 @@ and :class:`Claim` objects comparing a number of the paper with the value
 seactl computes.  :func:`build` runs a list of sections,
 writes ``figures/*.png``, ``claims.json`` and ``index.html`` into a temporary
 directory next to the target and renames it into place at the end, so an
-interrupted run never leaves a half report.
+interrupted run never leaves a half report.  The page itself (its words, the
+verdict per section, the HTML) is :mod:`seactl.apps.report_page`.
 """
 
 from __future__ import annotations
@@ -24,6 +25,7 @@ from typing import Any
 
 import numpy as np
 
+from seactl.apps.report_page import render_html
 from seactl.base.outputs import reason
 from seactl.errors import OutputError
 
@@ -92,43 +94,6 @@ def _clean(v: Any) -> Any:
     if isinstance(v, dict):
         return {k: _clean(x) for k, x in v.items()}
     return v
-
-
-def _unit(claim: str) -> str:
-    """The unit in a claim's trailing brackets (``"... PM [deg]"`` -> ``"deg"``)."""
-    claim = claim.rstrip()
-    return claim[claim.rindex("[") + 1:-1] if claim.endswith("]") and "[" in claim else ""
-
-
-def format_value(v: Any, tol: Any = None, unit: str = "") -> str:
-    """A claim value for people: numbers rounded to one digit finer than the tolerance (else
-    4 significant digits) with the unit, yes/no for booleans, lists and dicts spelled out."""
-    if v is None:
-        return "n/a"
-    if isinstance(v, bool):
-        return "yes" if v else "no"
-    if isinstance(v, (int, float)):
-        if isinstance(v, float) and not math.isfinite(v):
-            return str(v)
-        if isinstance(tol, (int, float)) and not isinstance(tol, bool) and tol > 0:
-            digits = max(0, 1 - math.floor(math.log10(tol)))
-            text = f"{v:.{min(digits, 6)}f}"
-        else:
-            text = f"{v:.4g}"
-        return f"{text} {unit}".rstrip()
-    if isinstance(v, (list, tuple)):
-        if v and all(isinstance(x, bool) for x in v):
-            return f"{sum(v)} of {len(v)} yes"
-        return ", ".join(format_value(x, tol) for x in v) + (f" {unit}" if unit else "")
-    if isinstance(v, dict):
-        return "; ".join(f"{k.replace('_', ' ')}: {format_value(x, tol)}" for k, x in v.items())
-    return str(v)
-
-
-def one_line(note: str, limit: int = 180) -> str:
-    """The first sentence of a note, cut to ``limit`` characters."""
-    first = note.split(". ")[0].strip()
-    return first if len(first) <= limit else first[:limit - 1].rstrip() + "\u2026"
 
 
 @dataclass
@@ -333,17 +298,4 @@ def _swap_into_place(tmp: Path, out: Path) -> None:
 def _render(sections: list[Section], claims: list[dict[str, Any]]) -> str:
     from importlib.metadata import version
 
-    from jinja2 import Environment, PackageLoader, select_autoescape
-
-    env = Environment(loader=PackageLoader("seactl", "templates"),
-                      autoescape=select_autoescape(["html"]))
-    env.filters.update(value=lambda c, key: format_value(c[key], c.get("tolerance"),
-                                                         _unit(c["claim"])),
-                       one_line=one_line)
-    counts = {s: sum(1 for c in claims if c["status"] == s) for s in STATUSES}
-    by_section = {s.id: [c.as_json() for c in s.claims] for s in sections}
-    attention = [c | {"section_id": sid} for sid, cs in by_section.items() for c in cs
-                 if c["status"] != "pass"]
-    return env.get_template("report.html").render(
-        sections=sections, claims=claims, counts=counts, by_section=by_section,
-        attention=attention, version=version("seactl"))
+    return render_html(sections, claims, version("seactl"))
