@@ -397,7 +397,7 @@ def robustness_results(d: sc.Design) -> dict[str, Any]:
     return out
 
 
-def _f(x: Any, fmt: str = ".3g", unit: str = "") -> str:
+def num_text(x: Any, fmt: str = ".3g", unit: str = "") -> str:
     return "none" if x is None else f"{x:{fmt}}{unit}"
 
 
@@ -418,20 +418,20 @@ def verdict(r: dict[str, Any], bands: np.ndarray) -> str:
     pm = r["phase_margin_deg"]
     grade = ("no gain crossover" if pm is None else "thin" if pm < PM_THIN_DEG
              else "adequate" if pm < PM_COMFORTABLE_DEG else "comfortable")
-    words = [f"Stable, {grade} phase margin ({_f(pm, '.1f', ' deg')} at "
-             f"{_f(r['crossover_hz'], '.3g', ' Hz')}); it tolerates "
-             f"{_f(r['delay_margin_ms'], '.3g', ' ms')} more latency on the whole loop."]
+    words = [f"Stable, {grade} phase margin ({num_text(pm, '.1f', ' deg')} at "
+             f"{num_text(r['crossover_hz'], '.3g', ' Hz')}); it tolerates "
+             f"{num_text(r['delay_margin_ms'], '.3g', ' ms')} more latency on the whole loop."]
     if "damping_delay_margin_ms" in r:
         ds, dd = r["stiffness_delay_margin_ms"], r["damping_delay_margin_ms"]
-        words.append(f"The stiffness loop alone tolerates {_f(ds, '.3g', ' ms')}, the damping "
-                     f"loop alone {_f(dd, '.3g', ' ms')}.")
+        words.append(f"The stiffness loop alone tolerates {num_text(ds, '.3g', ' ms')}, "
+                     f"the damping loop alone {num_text(dd, '.3g', ' ms')}.")
         if ds is not None and dd is not None and dd < ds:
             words.append("The damping loop is the latency-critical one: run it on the "
                          "low-latency processor.")
     if "overall_jitter_margin_ms" in r:
         words.append(f"Latency that varies in time is tolerated up to "
-                     f"{_f(r['overall_jitter_margin_ms'], '.3g', ' ms')} on the joint "
-                     f"measurement and {_f(r['torque_jitter_margin_ms'], '.3g', ' ms')} in "
+                     f"{num_text(r['overall_jitter_margin_ms'], '.3g', ' ms')} on the joint "
+                     f"measurement and {num_text(r['torque_jitter_margin_ms'], '.3g', ' ms')} in "
                      "the torque loop (jitter margins, a sufficient bound).")
     if r.get("spectral_abscissa_per_s") is not None:
         words.append(_roots_words(r))
@@ -450,7 +450,7 @@ def verdict(r: dict[str, Any], bands: np.ndarray) -> str:
     if r.get("step_overshoot_pct") is not None:
         words.append(f"Step of {r['step_amplitude_rad']:g} rad: "
                      f"{r['step_overshoot_pct']:.1f} % overshoot, settles (2 %) in "
-                     f"{_f(r['step_settling_ms'], '.0f', ' ms')}.")
+                     f"{num_text(r['step_settling_ms'], '.0f', ' ms')}.")
     if r.get("step_verdict") not in (None, "settled"):
         words.append(f"The sampled step's verdict: {r['step_verdict']}"
                      + (" (the motor current is at its limit for much of it)."
@@ -577,3 +577,35 @@ def safe(func: Any, *args: Any) -> tuple[dict[str, Any] | None, str | None]:
 def safe_views(c: Controls) -> tuple[dict[str, Any] | None, str | None]:
     """:func:`views`, or ``(None, message)`` for input the library refuses."""
     return safe(views, c)
+
+
+# ------------------------------------------------------------------ verdict badge
+BADGE_COLOURS = {"good": "#1b7f3b", "warn": "#c76b00", "bad": "#b00020", "none": "#666666"}
+STEP_WORDS = {"saturated": "warn", "limit cycle": "bad", "unstable": "bad"}
+"""A step verdict that overrides "stable" on the badge, and its colour."""
+
+
+def badges(r: dict[str, Any]) -> list[tuple[str, str, str]]:
+    """The verdict badge: ``(id, text, colour key)`` for the loop the page runs and for
+    its impedance.
+
+    The first is the library's verdict of that loop: sampled at the chosen rate (the
+    certified ``sampled_verdict``) in sampled mode, else the continuous loop's Nyquist
+    count (``stable``); a stable loop whose step verdict is ``saturated``, ``limit cycle``
+    or ``unstable`` shows that verdict (an uncertain one only the last two).  The second
+    is ``passive`` / ``not passive`` (``passive`` None: the loop has no impedance port).
+    """
+    sampled = r.get("sampled_verdict")
+    if sampled is not None:
+        word, where = sampled, f"sampled at {r['sampled_rate']}"
+    else:
+        word, where = ("stable" if r["stable"] else "unstable"), "continuous"
+    tone = {"stable": "good", "unstable": "bad"}.get(word, "warn")
+    step = r.get("step_verdict")
+    if step in STEP_WORDS and word != "unstable" and (word == "stable"
+                                                      or STEP_WORDS[step] == "bad"):
+        word, tone = step, STEP_WORDS[step]
+    passive = r.get("passive")
+    ptext, ptone = (("no impedance port", "none") if passive is None else
+                    ("passive", "good") if passive else ("not passive", "warn"))
+    return [("badge-stability", f"{word} ({where})", tone), ("badge-passivity", ptext, ptone)]
