@@ -56,6 +56,7 @@ from .model import (
     badges,
     controls_from_table,
     fn_range_hz,
+    number,
     safe,
 )
 
@@ -89,7 +90,8 @@ save(new Blob([src.data[key][0]], {type: mime}));
 FIGURES_JS = SAVE_JS + """
 // Each figure's own export (BokehJS PlotView.export: an SVG context, canvas2svg, for
 // 'svg'; a canvas for 'png'), placed where the page shows it, in one file.
-const views = figs.map(f => Bokeh.index.find_one(f)).filter(v => v != null);
+const views = figs.map(f => Bokeh.index.find_one(f))
+  .filter(v => v != null && v.el.getBoundingClientRect().width > 0);  // shown ones only
 const boxes = views.map(v => v.el.getBoundingClientRect());
 const x0 = Math.min(...boxes.map(b => b.left)), y0 = Math.min(...boxes.map(b => b.top));
 const W = Math.ceil(Math.max(...boxes.map(b => b.right)) - x0);
@@ -276,7 +278,8 @@ class Explorer:
     def _widgets(self, c: Controls) -> None:
         self.actuator = Select(title="actuator", value=c.actuator.name,
                                options=list(self.actuators), width=120)
-        self.upload = FileInput(accept=".toml", title="or upload a TOML file", width=200)
+        self.upload = FileInput(accept=".toml", title="or upload a TOML file", width=200,
+                                css_classes=["seactl-actuator-file"])
         self.upload_msg = Div(text="", width=320, styles={"color": "#b00020"})
         self.sliders = {}
         for key, label in SLIDERS.items():
@@ -292,11 +295,12 @@ class Explorer:
         self.mode = RadioButtonGroup(labels=list(MODES), active=MODES.index(c.mode))
         self.results = Div(text="", width=330)
         self.badge = Div(text="", width=330)
-        self.loop_upload = FileInput(accept=".toml", title="loop file (TOML)", width=200)
+        self.loop_upload = FileInput(accept=".toml", title="loop file (TOML)", width=200,
+                                     css_classes=["seactl-loop-file"])
         self.sea_button = Button(label="built-in SEA", width=100, visible=False)
         self.sea_button.on_click(self.leave_loop)
         self.loop_msg = Div(text="", width=320, styles={"color": "#b00020"})
-        self.loop_box = column(width=330)
+        self.loop_box = column(width=330, visible=False)
         self.status = Div(text="", width=330, name="status")
         self.command = PreText(text="", width=330, styles={"font-size": "11px",
                                                            "white-space": "pre-wrap"})
@@ -344,11 +348,11 @@ class Explorer:
         """The controls as the widgets show them (a loop file's when one is loaded)."""
         mode = MODES[self.mode.active] if self.mode.active in (0, 1) else MODES[0]
         if self.loop is not None:
-            moved = tuple((k, loopmodel.number(float(s.value)))
+            moved = tuple((k, number(float(s.value)))
                           for k, s in self.loop_sliders.items()
                           if float(s.value) != self.loop_values[k])
             return LoopControls(*self.loop, values=moved, mode=mode)
-        v = {k: float(s.value) for k, s in self.sliders.items()}
+        v = {k: number(float(s.value)) for k, s in self.sliders.items()}
         for i, key in enumerate(("f_qd_hz", "f_taud_hz")):
             if i not in self.filters.active:
                 v[key] = None
@@ -536,6 +540,9 @@ class Explorer:
             w.visible = not loop
         self.sea_button.visible = self.loop_box.visible = loop
         self.paper_line.visible = self.buttons[0].visible = not loop
+        for item in self.z_fig.legend[0].items:  # the paper's formula is the SEA's
+            if self.paper_line in item.renderers:
+                item.visible = not loop
         self.z_axis.axis_label = "|Z| [force / velocity]" if loop else "|Z| [N m s/rad]"
 
     def apply(self, v: dict[str, Any], c: Controls | LoopControls) -> None:
@@ -570,9 +577,13 @@ class Explorer:
     def _titles(self, c: Controls | LoopControls, r: dict[str, Any]) -> None:
         """The responses' titles: the SEA's, or the loop file's signals and units."""
         if not isinstance(c, LoopControls):
+            self.titles["impedance"].text = "impedance Z(jw) at the joint"
             for k, text in self.sea_titles.items():
                 self.titles[k].text = text
             return
+        port = r.get("port")
+        self.titles["impedance"].text = (f"impedance Z(jw) at port '{port}'" if port
+                                         else "impedance: the file declares no [[ports]]")
         sig = c.loop.compiled.model.signals
         self.titles["step"].text = (f"step response {sig.output} / {sig.reference} (step of "
                                     f"{c.loop.default_step:g} {c.loop.step_unit})")
@@ -653,7 +664,7 @@ class Explorer:
         s = self.sources
         f = figure(x_axis_type="log", y_axis_type="log", x_axis_label="f [Hz]",
                    y_axis_label="|Z| [N m s/rad]",
-                   title="impedance Z(jw) at the port", **FIG)
+                   title="impedance Z(jw) at the joint", **FIG)
         f.quad(left="left", right="right", bottom=1e-9, top=1e9, source=s["bands"],
                fill_color="orange", fill_alpha=0.25, line_alpha=0)
         bd = f.line("f_hz", "block_diagram", source=s["impedance"], line_width=2,
@@ -663,7 +674,8 @@ class Explorer:
         f.quad(left=[math.nan], right=[math.nan], bottom=[math.nan], top=[math.nan],
                fill_color="orange", fill_alpha=0.25, line_alpha=0,
                legend_label="Re Z < 0")  # the shaded bands' legend entry (no data drawn)
-        self.paper_line, self.z_axis = pa, f.yaxis[0]
+        self.paper_line, self.z_axis, self.z_fig = pa, f.yaxis[0], f
+        self.titles["impedance"] = f.title
         f.y_range = DataRange1d(renderers=[bd, pa])
         return outside(f)
 

@@ -32,7 +32,8 @@ BODE_POINTS = 700
 PASSIVITY_POINTS_PER_DECADE = 200
 SLIDER_STEPS = 50
 """A variable's slider moves by ``|value| / SLIDER_STEPS`` from ``value / 10`` to
-``4 value``: the file's value is on the grid (45 steps from the start)."""
+``10 value`` (a decade each way): the file's value is on the grid (45 steps from the
+start)."""
 
 
 @dataclass(frozen=True)
@@ -50,12 +51,6 @@ class LoopControls:
         if self.mode not in MODES:
             raise InputError("mode", self.mode, " or ".join(MODES))
         return self.loop.with_values(**dict(self.values)) if self.values else self.loop
-
-
-def number(x: float) -> float:
-    """A value as the command line writes it (10 significant digits) and reads it back,
-    so that the page computes what the copied command computes."""
-    return float(f"{x:.10g}")
 
 
 def loop_from_upload(filename: str, content: bytes) -> tuple[sc.UserLoop, str]:
@@ -95,7 +90,7 @@ def variable_sliders(loop: sc.UserLoop) -> dict[str, tuple[float, float, float, 
         if v == 0.0:
             out[name] = (0.0, 1.0, 0.01, 0.0)
             continue
-        lo, hi = sorted((v / 10.0, 4.0 * v))
+        lo, hi = sorted((v / 10.0, 10.0 * v))
         out[name] = (lo, hi, abs(v) / SLIDER_STEPS, v)
     return out
 
@@ -200,6 +195,7 @@ def fast_views(c: LoopControls, acc: dict[str, Any] | None = None) -> dict[str, 
                            **impedance_views(loop)}
     out["bands_array"] = np.column_stack([out["bands"]["left"], out["bands"]["right"]])
     r = margin_results(c, loop, a, out["passive"])
+    r["port"] = out["port"]
     r["t_end_s"] = t_end_s(None)
     r["verdict"] = verdict(r)
     out["results"] = r
@@ -316,7 +312,8 @@ def verdict(r: dict[str, Any]) -> str:
     if r["passive"] is None:
         words.append("No [[ports]] in the file: no impedance view.")
     elif r["passive"]:
-        words.append("Z(jw) at the first port: Re Z >= 0 on the scan from 0.01 Hz to 10 kHz.")
+        words.append("Z(jw) at the first port: Re Z >= 0 at every point of the scan from "
+                     "0.01 Hz to 10 kHz (a scan, not a proof).")
     else:
         words.append("Z(jw) at the first port is not passive (Re Z < 0 in the shaded bands).")
     return " ".join(words)

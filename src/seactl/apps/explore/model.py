@@ -4,8 +4,8 @@
 page; the Bokeh callbacks only copy them into the page.  Every number comes from the
 public API (:func:`seactl.design` and its ``margins``, ``to_control("frd")``,
 ``impedance``, ``step``, ``impulse``; :func:`seactl.loop_model` for the per-loop delay
-margins) and from :func:`seactl.systems.sea.passivity.passivity`, the function ``seactl impedance``
-reports; nothing is modelled twice.  The two maps are design batches of the same
+margins, ``passivity`` for the non-passive bands, as ``seactl impedance`` reports them);
+nothing is modelled twice.  The two maps are design batches of the same
 API on a coarse grid, cached (:func:`pm_map`, :func:`latency_map`) so that a change of a
 control recomputes only the map it moves.
 """
@@ -302,22 +302,28 @@ def loop_views(d: sc.Design) -> dict[str, dict[str, np.ndarray]]:
 
 
 def impedance_views(d: sc.Design) -> dict[str, Any]:
-    """|Z(jw)| of both models and the non-passive bands of the block-diagram model."""
-    from seactl.systems.sea.passivity import passivity
-
+    """|Z(jw)| of both models, the non-passive bands of the block-diagram model and its
+    passivity verdict (:meth:`seactl.Design.passivity`: proven where "passive")."""
     bd = d.impedance(F_BODE_HZ)
     paper = d.impedance(F_BODE_HZ, model="paper")
-    bands = np.asarray(passivity(d.sea, PASSIVITY_RANGE_HZ).bands_hz[()], float).reshape(-1, 2)
+    p = d.passivity(PASSIVITY_RANGE_HZ)
+    bands = np.asarray(p.bands_hz[()], float).reshape(-1, 2)
     return {"impedance": {"f_hz": F_BODE_HZ, "block_diagram": bd.magnitude.reshape(-1),
                           "paper": paper.magnitude.reshape(-1)},
             "bands": {"left": bands[:, 0], "right": bands[:, 1]},
-            "unit": bd.unit}
+            "unit": bd.unit, "passive": bool(np.reshape(p.passive, -1)[0])}
 
 
 def t_end_s(fn_hz: float) -> float:
     """Simulated time: 1.5 periods of f_n, within [0.08, 0.5] s (a critically-damped
-    design settles within about one period)."""
-    return float(np.clip(1.5 / fn_hz, 0.08, 0.5))
+    design settles within about one period), as the command line writes it."""
+    return number(float(np.clip(1.5 / fn_hz, 0.08, 0.5)))
+
+
+def number(x: float) -> float:
+    """A value as the command line writes it (10 significant digits) and reads it back,
+    so that the page computes what the copied command computes."""
+    return float(f"{x:.10g}")
 
 
 def response_views(d: sc.Design, c: Controls) -> dict[str, Any]:
@@ -342,8 +348,10 @@ def _ms(x: Any) -> float | None:
     return x * 1e3 if math.isfinite(x) else None
 
 
-def margin_results(d: sc.Design, loop: Any, bands: np.ndarray) -> dict[str, Any]:
-    """The first half of the results panel: gains and margins of the outer loop."""
+def margin_results(d: sc.Design, loop: Any, bands: np.ndarray, passive: bool
+                   ) -> dict[str, Any]:
+    """The first half of the results panel: gains and margins of the outer loop, and the
+    impedance's passivity verdict."""
     from seactl.api.results import json_value
 
     rec = loop.records()[0]
@@ -351,7 +359,7 @@ def margin_results(d: sc.Design, loop: Any, bands: np.ndarray) -> dict[str, Any]
                                "phase_margin_deg", "crossover_hz", "gain_margin_db",
                                "delay_margin_ms", "stable")}
     out.update(phase_crossover_hz=json_value(loop.phase_crossover_hz),
-               unstable_poles=int(loop.unstable_poles), passive=bool(bands.shape[0] == 0))
+               unstable_poles=int(loop.unstable_poles), passive=passive)
     out["verdict"] = verdict(out, bands)
     return out
 
@@ -435,8 +443,11 @@ def verdict(r: dict[str, Any], bands: np.ndarray) -> str:
                      "the torque loop (jitter margins, a sufficient bound).")
     if r.get("spectral_abscissa_per_s") is not None:
         words.append(_roots_words(r))
-    if bands.shape[0] == 0:
-        words.append("Z(jw) is passive from 0.01 Hz to 10 kHz.")
+    if r["passive"]:
+        words.append("Z(jw) is passive from 0.01 Hz to 10 kHz (proven).")
+    elif bands.shape[0] == 0:
+        words.append("Z(jw) touches Re Z = 0 between 0.01 Hz and 10 kHz: passivity is not "
+                     "proven.")
     else:
         b = ", ".join(f"{lo:.3g}-{hi:.3g} Hz" for lo, hi in bands[:3])
         words.append(f"Z(jw) is not passive in {b}{' ...' if bands.shape[0] > 3 else ''} "
@@ -492,7 +503,7 @@ def fast_views(c: Controls, acc: dict[str, Any] | None = None) -> dict[str, Any]
     loop = d.margins()
     out: dict[str, Any] = {"design": d, **loop_views(d), **impedance_views(d)}
     out["bands_array"] = np.column_stack([out["bands"]["left"], out["bands"]["right"]])
-    out["results"] = margin_results(d, loop, out["bands_array"])
+    out["results"] = margin_results(d, loop, out["bands_array"], out["passive"])
     out["exports"] = exports(c, out["results"])
     return out
 
@@ -593,7 +604,8 @@ def badges(r: dict[str, Any]) -> list[tuple[str, str, str]]:
     certified ``sampled_verdict``) in sampled mode, else the continuous loop's Nyquist
     count (``stable``); a stable loop whose step verdict is ``saturated``, ``limit cycle``
     or ``unstable`` shows that verdict (an uncertain one only the last two).  The second
-    is ``passive`` / ``not passive`` (``passive`` None: the loop has no impedance port).
+    is ``passive`` / ``not passive`` (``passive`` None: the loop has no impedance port; a
+    loop file's "passive" is its scan's, marked "scanned").
     """
     sampled = r.get("sampled_verdict")
     if sampled is not None:
@@ -606,6 +618,7 @@ def badges(r: dict[str, Any]) -> list[tuple[str, str, str]]:
                                                       or STEP_WORDS[step] == "bad"):
         word, tone = step, STEP_WORDS[step]
     passive = r.get("passive")
+    scanned = " (scanned)" if r.get("kind") == "loop" else ""
     ptext, ptone = (("no impedance port", "none") if passive is None else
-                    ("passive", "good") if passive else ("not passive", "warn"))
+                    (f"passive{scanned}", "good") if passive else ("not passive", "warn"))
     return [("badge-stability", f"{word} ({where})", tone), ("badge-passivity", ptext, ptone)]
