@@ -299,7 +299,7 @@ class Explorer:
                                      css_classes=["seactl-loop-file"])
         self.sea_button = Button(label="built-in SEA", width=100, visible=False)
         self.sea_button.on_click(self.leave_loop)
-        self.loop_msg = Div(text="", width=320, styles={"color": "#b00020"})
+        self.loop_msg = Div(text="", width=320, styles={"color": "#b00020"}, visible=False)
         self.loop_box = column(width=330, visible=False)
         self.status = Div(text="", width=330, name="status")
         self.command = PreText(text="", width=330, styles={"font-size": "11px",
@@ -499,7 +499,8 @@ class Explorer:
             loop, name = loop_from_upload(filename, content)
         except Exception as exc:  # noqa: BLE001 - any bad upload is a message, never a trace
             message = html.escape(str(exc) or type(exc).__name__)
-            self.loop_msg.text = f"<span id='loop-msg'>error: {message}</span>"
+            self.loop_msg.update(text=f"<span id='loop-msg'>error: {message}</span>",
+                                 visible=True)
             return
         self.set_loop(loop, name)
 
@@ -517,9 +518,9 @@ class Explorer:
             s.on_change("value", self.on_change)
             self.loop_sliders[name], self.loop_values[name] = s, value
         self.loop_box.children = list(self.loop_sliders.values())
-        self.loop_msg.text = (f"<span id='loop-msg' style='color:black'>loop "
-                              f"'{html.escape(loop.name)}' from {html.escape(file_name)}: "
-                              f"{len(self.loop_sliders)} variables</span>")
+        self.loop_msg.update(visible=True, text=(
+            f"<span id='loop-msg' style='color:black'>loop '{html.escape(loop.name)}' from "
+            f"{html.escape(file_name)}: {len(self.loop_sliders)} variables</span>"))
         self._show_kind(loop=True)
         if request:
             self.request()
@@ -528,7 +529,7 @@ class Explorer:
         """Back to the built-in SEA design."""
         self.loop = None
         self.loop_box.children = []
-        self.loop_msg.text = ""
+        self.loop_msg.update(text="", visible=False)
         self._show_kind(loop=False)
         self.request()
 
