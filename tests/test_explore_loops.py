@@ -34,6 +34,19 @@ LOOPS = Path(__file__).resolve().parents[1] / "examples" / "loops"
 TWO_MASS = LOOPS / "two-mass-notch.toml"
 
 
+OPEN_CHAIN = b"""name = "open"
+variables = { K = 2.0 }
+processes = { cpu = { rate_hz = 1000 } }
+signals = { inputs = ["r"], reference = "r", output = "y" }
+[[blocks]]
+name = "c"
+kind = "gain"
+input = "r"
+output = "y"
+gain = "K"
+"""
+
+
 def _b64(data: bytes) -> str:
     return base64.b64encode(data).decode()
 
@@ -186,6 +199,8 @@ def test_loop_file_variables_become_sliders_and_back_to_the_sea(loop_page):
     (b"name = = 1", "TOML"),
     (b"name = 'x'\n[[blocks]]\nname = 'a'\nkind = 'gain'\n", "x.toml: block 'a'"),
     (b"#" * 70_000, "at most 64 kB"),
+    (TWO_MASS.read_bytes().split(b"[[breaks]]")[0], "x.toml: blocks encoder"),
+    (OPEN_CHAIN, "x.toml: [[breaks]]: at least one break"),  # valid, but no margins
 ])
 def test_bad_loop_files_are_a_message_and_the_page_stays(loop_page, content, needle):
     ex = loop_page

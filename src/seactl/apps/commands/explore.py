@@ -54,8 +54,9 @@ def explore(host: str, port: int, no_browser: bool, allow_remote: bool,
     loop = None
     if loop_file is not None:
         import seactl as sc
+        from seactl.apps.explore.loopmodel import check_loop
 
-        loop = (sc.load_loop(loop_file), loop_file)
+        loop = (check_loop(sc.load_loop(loop_file)), loop_file)
     check_port_free(host, port)
     try:
         import bokeh  # noqa: F401

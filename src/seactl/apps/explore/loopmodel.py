@@ -21,7 +21,7 @@ from typing import Any
 import numpy as np
 
 import seactl as sc
-from seactl.errors import InputError, SeactlError
+from seactl.errors import InputError, LoopFileError, SeactlError
 
 from .model import MAX_UPLOAD_BYTES, MODES, PASSIVITY_RANGE_HZ, num_text, roots_views
 
@@ -79,7 +79,22 @@ def loop_from_upload(filename: str, content: bytes) -> tuple[sc.UserLoop, str]:
             loop = sc.load_loop(path)
         except SeactlError as exc:  # name the user's file, not the temporary copy
             raise SeactlError(str(exc).replace(str(path), name)) from None
-    return sc.UserLoop(replace(loop.compiled, file=name)), name
+    return check_loop(sc.UserLoop(replace(loop.compiled, file=name))), name
+
+
+def check_loop(loop: sc.UserLoop) -> sc.UserLoop:
+    """``loop``, if the page can show it: it needs a break (the margins and the loop
+    views are taken at breaks).
+
+    Raises
+    ------
+    LoopFileError
+        The file declares no ``[[breaks]]``.
+    """
+    if not loop.breaks:
+        raise LoopFileError(loop.file, "[[breaks]]", None, "at least one break: the "
+                            "explorer shows the loop's margins at its breaks")
+    return loop
 
 
 def variable_sliders(loop: sc.UserLoop) -> dict[str, tuple[float, float, float, float]]:
@@ -187,9 +202,6 @@ def margin_results(c: LoopControls, loop: sc.UserLoop, a: Any, passive: Any
 def fast_views(c: LoopControls, acc: dict[str, Any] | None = None) -> dict[str, Any]:
     """Stage 1: margins at every break, Bode, Nyquist, impedance."""
     loop = c.system()
-    if not loop.breaks:
-        raise InputError("loop file", c.file_name, "a loop with at least one [[breaks]] "
-                         "entry (the explorer shows margins at a break)")
     a = loop.margins()
     out: dict[str, Any] = {"design": loop, **bode_views(loop, list(loop.breaks)[-1]),
                            **impedance_views(loop)}
