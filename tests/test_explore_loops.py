@@ -201,6 +201,7 @@ def test_loop_file_variables_become_sliders_and_back_to_the_sea(loop_page):
     (b"#" * 70_000, "at most 64 kB"),
     (TWO_MASS.read_bytes().split(b"[[breaks]]")[0], "x.toml: blocks encoder"),
     (OPEN_CHAIN, "x.toml: [[breaks]]: at least one break"),  # valid, but no margins
+    (b"name = 'my-sea'\nmotor_inertia = 0.225\n", "upload it beside 'actuator'"),
 ])
 def test_bad_loop_files_are_a_message_and_the_page_stays(loop_page, content, needle):
     ex = loop_page
@@ -210,6 +211,14 @@ def test_bad_loop_files_are_a_message_and_the_page_stays(loop_page, content, nee
     assert msg.startswith("<span id='loop-msg'>error: ") and "Traceback" not in msg
     assert needle in msg.replace("&#x27;", "'") and "/tmp" not in msg
     assert ex.command.text == before
+
+
+def test_a_loop_file_given_as_an_actuator_says_where_it_goes():
+    from seactl.apps.explore.model import actuator_from_upload
+    from seactl.errors import InputError
+
+    with pytest.raises(InputError, match="this is a loop file.*loop file control"):
+        actuator_from_upload(TWO_MASS.name, TWO_MASS.read_bytes())
 
 
 def test_explore_refuses_a_bad_loop_file_in_one_line(tmp_path, capsys):

@@ -78,8 +78,21 @@ def loop_from_upload(filename: str, content: bytes) -> tuple[sc.UserLoop, str]:
         try:
             loop = sc.load_loop(path)
         except SeactlError as exc:  # name the user's file, not the temporary copy
-            raise SeactlError(str(exc).replace(str(path), name)) from None
+            raise SeactlError(str(exc).replace(str(path), name) + _hint(content)) from None
     return check_loop(sc.UserLoop(replace(loop.compiled, file=name))), name
+
+
+def _hint(content: bytes) -> str:
+    """A hint for an actuator or design file given to the loop file control."""
+    import tomllib
+
+    try:
+        data = tomllib.loads(content.decode("utf-8"))
+    except (UnicodeDecodeError, tomllib.TOMLDecodeError):
+        return ""
+    if "blocks" not in data and ("actuator" in data or "motor_inertia" in data):
+        return " (this is an actuator or design file: upload it beside 'actuator')"
+    return ""
 
 
 def check_loop(loop: sc.UserLoop) -> sc.UserLoop:

@@ -137,6 +137,9 @@ def actuator_from_upload(filename: str, content: bytes) -> tuple[Any, dict[str, 
         data = tomllib.loads(content.decode("utf-8"))
     except (UnicodeDecodeError, tomllib.TOMLDecodeError) as exc:
         raise InputError("actuator file", name, f"a UTF-8 TOML file ({exc})") from None
+    if "blocks" in data:
+        raise InputError("actuator file", name, "an actuator or an exported design; this "
+                         "is a loop file ([[blocks]]): load it with the loop file control")
     has_design = isinstance(data.get("design"), dict)
     design = data.pop("design") if has_design else {}
     design.pop("actuator", None)
