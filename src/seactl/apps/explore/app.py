@@ -50,6 +50,7 @@ from .model import (
     BOUNDS,
     MODES,
     PM_MAP_GS,
+    STAGE_NAMES,
     STAGES,
     Controls,
     actuator_from_upload,
@@ -59,9 +60,6 @@ from .model import (
     number,
     safe,
 )
-
-STAGE_NAMES = ("margins and loop views", "roots", "responses", "maps",
-               "delay and jitter margins")
 
 SLIDERS = {  # control -> label
     "fn_hz": "f_n [Hz]", "gs": "gain scale GS", "zeta1": "zeta1", "zeta2": "zeta2",

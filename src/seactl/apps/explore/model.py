@@ -567,6 +567,8 @@ def robustness_stage(c: Controls, acc: dict[str, Any]) -> dict[str, Any]:
 
 STAGES = (fast_views, roots_stage, response_stage, map_stage, robustness_stage)
 """The page updates in these steps, each pushed as soon as it is computed."""
+STAGE_NAMES = ("margins and loop views", "roots", "responses", "maps",
+               "delay and jitter margins")
 
 
 def views(c: Controls) -> dict[str, Any]:
