@@ -20,6 +20,7 @@ import subprocess
 import sys
 import time
 from dataclasses import replace
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -445,8 +446,7 @@ def test_browser_upload_export_and_copy(server, browser, tmp_path):
     headless Chromium has none)."""
     browser.get(server[0])
     _wait(lambda: "maps in" in (_text(browser, "status-value") or ""))
-    file_input = browser.execute_script(FIND_JS + "return deep(document, "
-                                        "'input[type=file]', [])[0];")
+    file_input = _file_input(browser, "seactl-actuator-file")
     (tmp_path / "bad.toml").write_bytes(README_TOML.replace(b"0.014", b"-0.014"))
     file_input.send_keys(str(tmp_path / "bad.toml"))
     msg = _wait(lambda: _text(browser, "upload-msg"))
@@ -481,3 +481,31 @@ def test_browser_upload_export_and_copy(server, browser, tmp_path):
     _click(browser, "copy command line")
     copied = _wait(lambda: browser.execute_script("return window.__copied;"))
     assert copied.splitlines()[0].startswith("seactl gains --actuator my-sea.toml --fn 14 ")
+    _browser_loop_file(browser, tmp_path)
+
+
+def _file_input(driver, css_class: str):
+    return driver.execute_script(FIND_JS + "return deep(document, '.' + arguments[0], [])[0]"
+                                 ".shadowRoot.querySelector('input[type=file]');", css_class)
+
+
+def _browser_loop_file(browser, tmp_path) -> None:
+    """The loop-file control: a bad file shows the loader's message; a good one turns
+    the page to the loop (oracle: ``sc.load_loop(...).margins()`` in this process) and
+    the badge is green; its colour is the page's, read from the browser."""
+    loop_input = _file_input(browser, "seactl-loop-file")
+    (tmp_path / "broken-loop.toml").write_text("name = 'x'\n[[blocks]]\nname = 'a'\n")
+    loop_input.send_keys(str(tmp_path / "broken-loop.toml"))
+    msg = _wait(lambda: _text(browser, "loop-msg"))
+    assert msg.startswith("error: broken-loop.toml: block 'a'") and "Traceback" not in msg
+    path = tmp_path / "two-mass-notch.toml"
+    path.write_bytes((Path(__file__).parents[1] / "examples/loops/two-mass-notch.toml")
+                     .read_bytes())
+    loop_input.send_keys(str(path))
+    _wait(lambda: (_text(browser, "loop-msg") or "").startswith("loop 'two-mass-notch'"))
+    expect = f"{float(sc.load_loop(path).margins()['position'].margins.phase_margin_deg):.2f}"
+    _wait(lambda: _text(browser, "pm-value") == expect)
+    assert _text(browser, "badge-stability") == "stable (continuous)"
+    colour = browser.execute_script(FIND_JS + "const e = deep(document, '#badge-stability',"
+                                    " [])[0]; return getComputedStyle(e).backgroundColor;")
+    assert colour == "rgb(27, 127, 59)"  # model.BADGE_COLOURS["good"], #1b7f3b

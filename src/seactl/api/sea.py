@@ -287,6 +287,40 @@ class Design(System):
 
         return impedance(self.sea, f_hz, model=model, load=load, units=units)
 
+    def passivity(self, f_range_hz: tuple[float, float] = (0.01, 1e4), *,
+                  model: str = "block-diagram", load: bool = False) -> Any:
+        """Whether the joint's impedance is passive (``Re Z >= 0``) over a frequency range,
+        and the bands where it is not, as ``seactl impedance`` reports them
+        (:func:`seactl.systems.sea.passivity.passivity`: a dense scan, exact band edges,
+        and for the block diagram a proof of ``Re Z > 0`` between the scan's points).
+
+        Parameters
+        ----------
+        f_range_hz : (float, float)
+            The range [Hz]; nothing is claimed outside it.
+        model : {"block-diagram", "paper"}
+            As :meth:`impedance_response`.
+        load : bool
+            Include the joint inertia and damping.
+
+        Returns
+        -------
+        seactl.systems.sea.passivity.Passivity
+            ``passive`` and ``proven`` (batch shape), ``bands_hz`` (per design, ``(n, 2)``
+            [Hz]).
+
+        Examples
+        --------
+        >>> import seactl as sc
+        >>> p = sc.design(14, delays_ms={"torque": 0.5, "stiffness": 2, "damping": 0.5},
+        ...               filters_hz=(50, 100)).passivity()
+        >>> bool(p.passive), [round(float(x)) for x in p.bands_hz[()][0]]
+        (False, [65, 136])
+        """
+        from seactl.systems.sea.passivity import passivity
+
+        return passivity(self.sea, f_range_hz, model=model, load=load)
+
     def jitter_core(self) -> Any:
         """Jitter margins of the outer, stiffness, damping and torque loops
         (:func:`seactl.latency.jitter.sea_jitter_margins`).

@@ -27,7 +27,11 @@ def check_address(host: str, port: int, allow_remote: bool) -> None:
 @click.option("--no-browser", is_flag=True, help="Do not open a browser tab.")
 @click.option("--allow-remote", is_flag=True,
               help="Allow a non-loopback --host: anyone who reaches it can use the app.")
-def explore(host: str, port: int, no_browser: bool, allow_remote: bool) -> None:
+@click.option("--loop", "loop_file", default=None, metavar="FILE.toml",
+              type=click.Path(dir_okay=False),
+              help="Start with this loop file (docs/loops.md): its variables as sliders.")
+def explore(host: str, port: int, no_browser: bool, allow_remote: bool,
+            loop_file: str | None) -> None:
     """Tune one SEA design by hand in the browser; every view updates live.
 
     Python: seactl.apps.explore.model.views(...) (its numbers: sc.design(...).margins(), .roots(),
@@ -35,10 +39,11 @@ def explore(host: str, port: int, no_browser: bool, allow_remote: bool) -> None:
 
     \b
     Controls: actuator (preset or uploaded TOML), f_n, GS, zeta1/zeta2/ratio, the three
-    delays, both filters, continuous or sampled at a rate. Views: Bode and Nyquist of
-    the outer loop with its margins, Z(jw) of both models with non-passive bands, step
-    and impulse responses, PM over (f_n, GS) and over the two delays. Export the design
-    as TOML/JSON, copy the equivalent seactl command line.
+    delays, both filters, continuous or sampled at a rate; or a loop file (uploaded, or
+    --loop FILE) whose variables become sliders. Views: a verdict badge, Bode (magnitude
+    above phase) and Nyquist of the outer loop with its margins, Z(jw) with its
+    non-passive bands, step and impulse responses, PM over (f_n, GS) and over the two
+    delays. Export the design as TOML/JSON, copy the equivalent seactl command line.
 
     \b
     Needs the app extra:  pip install "seactl[app]"
@@ -46,6 +51,12 @@ def explore(host: str, port: int, no_browser: bool, allow_remote: bool) -> None:
     from seactl.apps.explore.server import check_port_free
 
     check_address(host, port, allow_remote)
+    loop = None
+    if loop_file is not None:
+        import seactl as sc
+        from seactl.apps.explore.loopmodel import check_loop
+
+        loop = (check_loop(sc.load_loop(loop_file)), loop_file)
     check_port_free(host, port)
     try:
         import bokeh  # noqa: F401
@@ -53,4 +64,4 @@ def explore(host: str, port: int, no_browser: bool, allow_remote: bool) -> None:
         raise SeactlError("seactl explore needs Bokeh: pip install \"seactl[app]\"") from None
     from seactl.apps.explore.server import serve
 
-    serve(host, port, open_browser=not no_browser, announce=click.echo)
+    serve(host, port, open_browser=not no_browser, announce=click.echo, loop=loop)

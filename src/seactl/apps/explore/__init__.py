@@ -1,12 +1,15 @@
-"""``seactl explore``: an interactive explorer of one SEA design in the browser.
+"""``seactl explore``: an interactive explorer of one SEA design or loop file in the browser.
 
 The package is split so that everything but the page itself is testable without a
 browser or Bokeh:
 
 * :mod:`seactl.apps.explore.model` - pure functions from control values to the data every
   view shows (all numbers from the public API: :func:`seactl.design` and its methods,
-  :func:`seactl.loop_model`, :func:`seactl.systems.sea.passivity.passivity`), the exports (TOML,
-  JSON, the equivalent command line) and the validation of uploaded actuator files;
+  :func:`seactl.loop_model`, ``Design.passivity``), the exports (TOML,
+  JSON, the equivalent command line), the validation of uploaded actuator files and the
+  verdict badge;
+* :mod:`seactl.apps.explore.loopmodel` - the same for a loop file (:func:`seactl.load_loop`,
+  the :class:`seactl.UserLoop` views) and its command line;
 * :mod:`seactl.apps.explore.app` - the Bokeh document (widgets, figures, callbacks);
 * :mod:`seactl.apps.explore.server` - the Bokeh server bound to a loopback address.
 

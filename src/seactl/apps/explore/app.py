@@ -11,6 +11,7 @@ from __future__ import annotations
 import base64
 import functools
 import html
+import math
 import time
 from typing import Any
 
@@ -30,6 +31,7 @@ from bokeh.models import (
     HoverTool,
     LinearColorMapper,
     PreText,
+    PrintfTickFormatter,
     RadioButtonGroup,
     Range1d,
     Select,
@@ -41,15 +43,21 @@ from bokeh.plotting import figure
 import seactl as sc
 from seactl.systems.sea.actuators import SEA_PRESETS
 
+from . import loopmodel
+from .loopmodel import LoopControls, loop_from_upload, variable_sliders
 from .model import (
+    BADGE_COLOURS,
     BOUNDS,
     MODES,
     PM_MAP_GS,
+    STAGE_NAMES,
     STAGES,
     Controls,
     actuator_from_upload,
+    badges,
     controls_from_table,
     fn_range_hz,
+    number,
     safe,
 )
 
@@ -80,7 +88,8 @@ save(new Blob([src.data[key][0]], {type: mime}));
 FIGURES_JS = SAVE_JS + """
 // Each figure's own export (BokehJS PlotView.export: an SVG context, canvas2svg, for
 // 'svg'; a canvas for 'png'), placed where the page shows it, in one file.
-const views = figs.map(f => Bokeh.index.find_one(f)).filter(v => v != null);
+const views = figs.map(f => Bokeh.index.find_one(f))
+  .filter(v => v != null && v.el.getBoundingClientRect().width > 0);  // shown ones only
 const boxes = views.map(v => v.el.getBoundingClientRect());
 const x0 = Math.min(...boxes.map(b => b.left)), y0 = Math.min(...boxes.map(b => b.top));
 const W = Math.ceil(Math.max(...boxes.map(b => b.right)) - x0);
@@ -135,9 +144,64 @@ def _fmt(x: Any, fmt: str = ".4g") -> str:
     return "none" if x is None else f"{x:{fmt}}"
 
 
+def badge_html(r: dict[str, Any]) -> str:
+    """The coloured verdict badge (:func:`~seactl.apps.explore.model.badges`): white words
+    on green (good), orange (a warning) or red (bad)."""
+    spans = "".join(
+        f"<span id='{i}' data-tone='{tone}' style='display:inline-block;margin:2px 6px 2px 0;"
+        f"padding:3px 10px;border-radius:12px;color:white;font-weight:bold;font-size:13px;"
+        f"background:{BADGE_COLOURS[tone]}'>{html.escape(text)}</span>"
+        for i, text, tone in badges(r))
+    return f"<div id='badge'>{spans}</div>"
+
+
+def _rows_html(rows: list[tuple[str, str, str]]) -> str:
+    return "".join(f"<tr><td>{html.escape(k)}</td><td id='{i}' style='text-align:right'>"
+                   f"<b>{v}</b></td></tr>" for k, i, v in rows)
+
+
+def _panel(rows: list[tuple[str, str, str]], verdict: str) -> str:
+    return (f"<table style='font-size:12px;border-collapse:collapse'>{_rows_html(rows)}"
+            f"</table><p id='verdict' style='font-size:12px;max-width:320px'>"
+            f"{html.escape(verdict)}</p>")
+
+
+def loop_results_html(r: dict[str, Any]) -> str:
+    """The results panel of a loop file: margins per break (as ``seactl analyze``), the
+    step's metrics, the verdicts; the outermost break's values carry the SEA page's ids
+    (``pm-value``, ...)."""
+    rows = []
+    for b in r["breaks"]:
+        outer = b["break"] == r["outer_break"]
+        tag = "" if outer else f"-{b['break']}"
+        n = b["break"]
+        jit = r.get(f"{n}_jitter_margin_ms", "...")
+        rows += [(f"{n}: phase margin [deg]", f"pm{tag}-value",
+                  _fmt(b["phase_margin_deg"], ".2f")),
+                 (f"{n}: crossover [Hz]", f"fc{tag}-value", _fmt(b["crossover_hz"])),
+                 (f"{n}: gain margin [dB]", f"gm{tag}-value", _fmt(b["gain_margin_db"], ".2f")),
+                 (f"{n}: delay margin [ms]", f"dm{tag}-value", _fmt(b["delay_margin_ms"])),
+                 (f"{n}: jitter margin [ms]", f"jm{tag}-value",
+                  jit if jit == "..." else _fmt(jit))]
+    unit = html.escape(r.get("step_unit", ""))
+    rows += [
+        ("closed loop (continuous)", "stable-value", "stable" if r["stable"] else "UNSTABLE"),
+        ("sampled loop (the file's rates)", "sampled-value",
+         f"{r['sampled_verdict']} at {r['sampled_rate']}" if r.get("sampled_verdict")
+         else "(continuous mode)"),
+        (f"step amplitude [{unit}]", "amp-value", _fmt(r.get("step_amplitude"), ".10g")),
+        ("step overshoot [%]", "os-value", _fmt(r.get("step_overshoot_pct"), ".2f")),
+        ("step settling (2 %) [ms]", "ts-value", _fmt(r.get("step_settling_ms"), ".4g")),
+        ("step verdict", "step-verdict-value", r.get("step_verdict", "...")),
+    ]
+    return _panel(rows, r["verdict"])
+
+
 def results_html(r: dict[str, Any], unit: str) -> str:
     """The results panel; each value in an element with an id (the browser test reads
     ``pm-value``)."""
+    if r.get("kind") == "loop":
+        return loop_results_html(r)
     rows = [
         ("f_n [Hz]", "fn-value", _fmt(r["fn_hz"], ".10g")),
         ("GS", "gs-value", _fmt(r["gs"], ".10g")),
@@ -163,19 +227,34 @@ def results_html(r: dict[str, Any], unit: str) -> str:
          f"{r['sampled_verdict']} at {r['sampled_rate']}" if r.get("sampled_verdict")
          else "(continuous mode)"),
         (f"Z(jw) [{unit}]", "passive-value", "passive" if r["passive"] else "not passive"),
+        ("step amplitude [rad]", "amp-value", _fmt(r.get("step_amplitude_rad"), ".10g")),
+        ("step overshoot [%]", "os-value", _fmt(r.get("step_overshoot_pct"), ".2f")),
+        ("step settling (2 %) [ms]", "ts-value", _fmt(r.get("step_settling_ms"), ".4g")),
     ]
-    body = "".join(f"<tr><td>{html.escape(k)}</td><td id='{i}' style='text-align:right'>"
-                   f"<b>{v}</b></td></tr>" for k, i, v in rows)
-    return (f"<table style='font-size:12px;border-collapse:collapse'>{body}</table>"
-            f"<p id='verdict' style='font-size:12px;max-width:320px'>"
-            f"{html.escape(r['verdict'])}</p>")
+    return _panel(rows, r["verdict"])
+
+
+def outside(f: Any) -> Any:
+    """Put the figure's legend above its frame, in one row: outside the data, and the
+    frame keeps the width of the figures it is aligned with."""
+    legend = f.legend[0]
+    f.center = [r for r in f.center if r is not legend]
+    legend.update(orientation="horizontal", label_text_font_size="9px", padding=2,
+                  spacing=8, margin=0, glyph_width=16, border_line_alpha=0)
+    f.add_layout(legend, "above")
+    return f
 
 
 class Explorer:
     """One browser session: its widgets, figures, sources and callbacks."""
 
-    def __init__(self, doc: Any = None, controls: Controls | None = None):
+    def __init__(self, doc: Any = None, controls: Controls | None = None,
+                 loop: tuple[Any, str] | None = None):
         self.doc = doc
+        self.loop: tuple[Any, str] | None = None
+        self.loop_sliders: dict[str, Slider] = {}
+        self.loop_values: dict[str, float] = {}
+        self.last_results: dict[str, Any] = {}
         self.actuators = dict(SEA_PRESETS)
         self.pending = False
         self.generation = 0
@@ -189,13 +268,16 @@ class Explorer:
         self._widgets(c)
         self._figures()
         self.buttons[2:2] = self.figure_buttons()
+        if loop is not None:
+            self.set_loop(*loop, request=False)
         self.update(sync=True)  # the first page has every view (no empty data sources)
 
     # ------------------------------------------------------------ widgets
     def _widgets(self, c: Controls) -> None:
         self.actuator = Select(title="actuator", value=c.actuator.name,
                                options=list(self.actuators), width=120)
-        self.upload = FileInput(accept=".toml", title="or upload a TOML file", width=200)
+        self.upload = FileInput(accept=".toml", title="or upload a TOML file", width=200,
+                                css_classes=["seactl-actuator-file"])
         self.upload_msg = Div(text="", width=320, styles={"color": "#b00020"})
         self.sliders = {}
         for key, label in SLIDERS.items():
@@ -210,6 +292,13 @@ class Explorer:
                                              if f is not None])
         self.mode = RadioButtonGroup(labels=list(MODES), active=MODES.index(c.mode))
         self.results = Div(text="", width=330)
+        self.badge = Div(text="", width=330)
+        self.loop_upload = FileInput(accept=".toml", title="loop file (TOML)", width=200,
+                                     css_classes=["seactl-loop-file"])
+        self.sea_button = Button(label="built-in SEA", width=100, visible=False)
+        self.sea_button.on_click(self.leave_loop)
+        self.loop_msg = Div(text="", width=320, styles={"color": "#b00020"}, visible=False)
+        self.loop_box = column(width=330, visible=False)
         self.status = Div(text="", width=330, name="status")
         self.command = PreText(text="", width=330, styles={"font-size": "11px",
                                                            "white-space": "pre-wrap"})
@@ -220,6 +309,7 @@ class Explorer:
         self.mode.on_change("active", self.on_change)
         self.actuator.on_change("value", self.on_change)
         self.upload.on_change("value", self.on_upload)
+        self.loop_upload.on_change("value", self.on_loop_upload)
 
     def _buttons(self) -> list[Button]:
         src = self.sources["exports"]
@@ -252,14 +342,19 @@ class Explorer:
                                                         "label": copy.label}, code=COPY_JS))
         return copy
 
-    def controls(self) -> Controls:
-        """The controls as the widgets show them."""
-        v = {k: float(s.value) for k, s in self.sliders.items()}
+    def controls(self) -> Controls | LoopControls:
+        """The controls as the widgets show them (a loop file's when one is loaded)."""
+        mode = MODES[self.mode.active] if self.mode.active in (0, 1) else MODES[0]
+        if self.loop is not None:
+            moved = tuple((k, number(float(s.value)))
+                          for k, s in self.loop_sliders.items()
+                          if float(s.value) != self.loop_values[k])
+            return LoopControls(*self.loop, values=moved, mode=mode)
+        v = {k: number(float(s.value)) for k, s in self.sliders.items()}
         for i, key in enumerate(("f_qd_hz", "f_taud_hz")):
             if i not in self.filters.active:
                 v[key] = None
         actuator = self.actuators.get(self.actuator.value, next(iter(SEA_PRESETS.values())))
-        mode = MODES[self.mode.active] if self.mode.active in (0, 1) else MODES[0]
         return Controls(actuator=actuator, mode=mode, **v)
 
     # ------------------------------------------------------------ callbacks
@@ -291,7 +386,10 @@ class Explorer:
         """Compute and show stage ``index``, then schedule the next one."""
         if generation != self.generation or (index and self.pending):
             return  # superseded by a newer change
-        out, error = safe(STAGES[index], c, acc)
+        loop = isinstance(c, LoopControls)
+        stages, names = ((loopmodel.STAGES, loopmodel.STAGE_NAMES) if loop
+                         else (STAGES, STAGE_NAMES))
+        out, error = safe(stages[index], c, acc)
         if error is not None:
             self.status.text = (f"<span id='status-value' style='color:#b00020'>error: "
                                 f"{html.escape(error)}</span>")
@@ -299,7 +397,7 @@ class Explorer:
         acc.update(out)
         self.apply(out, c)
         marks_ms.append((time.perf_counter() - t0) * 1e3)
-        if index + 1 < len(STAGES):
+        if index + 1 < len(stages):
             step = functools.partial(self.run_stage, generation, c, index + 1, acc, t0,
                                      marks_ms, sync)
             if sync or self.doc is None:
@@ -308,12 +406,12 @@ class Explorer:
                 self.doc.add_next_tick_callback(step)
             return
         self.last_ms.append(tuple(marks_ms))
-        self.status.text = (f"<span id='status-value'>margins and loop views in "
-                            f"{marks_ms[0]:.0f} ms, roots in {marks_ms[1]:.0f} ms, "
-                            f"responses in {marks_ms[2]:.0f} ms, maps in {marks_ms[3]:.0f} ms,"
-                            f" delay and jitter margins in {marks_ms[4]:.0f} ms</span>")
+        self.status.text = ("<span id='status-value'>" + ", ".join(
+            f"{name} in {ms:.0f} ms" for name, ms in zip(names, marks_ms)) + "</span>")
 
-    def _ranges(self, c: Controls) -> None:
+    def _ranges(self, c: Controls | LoopControls) -> None:
+        if isinstance(c, LoopControls):
+            return
         lo, hi = fn_range_hz(c)
         fn = self.sliders["fn_hz"]
         if (fn.start, fn.end) != (lo, hi):
@@ -373,11 +471,85 @@ class Explorer:
         self.mode.active = MODES.index(c.mode)
         self.request()
 
-    def apply(self, v: dict[str, Any], c: Controls) -> None:
+    # ------------------------------------------------------------ loop files
+    def on_loop_upload(self, attr: str, old: Any, new: Any) -> None:
+        """The loop file input (read on the next tick, as :meth:`on_upload`)."""
+        if self.doc is None:
+            self.read_loop_upload()
+        else:
+            self.doc.add_next_tick_callback(self.read_loop_upload)
+
+    def read_loop_upload(self) -> None:
+        """Load what the loop file input holds."""
+        def prop(name: str) -> str:
+            try:
+                return str(getattr(self.loop_upload, name) or "")
+            except UnsetValueError:
+                return ""
+
+        self.load_loop_upload(prop("filename") or "loop.toml", prop("value"))
+
+    def load_loop_upload(self, filename: str, value_b64: str) -> None:
+        """A loop file was chosen: load it (:func:`seactl.load_loop`); a bad file only
+        shows the loader's message, and the page keeps what it showed."""
+        try:
+            content = base64.b64decode(value_b64 or "", validate=True)
+            loop, name = loop_from_upload(filename, content)
+        except Exception as exc:  # noqa: BLE001 - any bad upload is a message, never a trace
+            message = html.escape(str(exc) or type(exc).__name__)
+            self.loop_msg.update(text=f"<span id='loop-msg'>error: {message}</span>",
+                                 visible=True)
+            return
+        self.set_loop(loop, name)
+
+    def set_loop(self, loop: Any, file_name: str, request: bool = True) -> None:
+        """Show the loop file ``loop``: its variables as sliders, the SEA's controls and
+        maps hidden; ``file_name`` is how the copied command line names the file."""
+        self.loop = (loop, file_name)
+        self.loop_sliders, self.loop_values = {}, {}
+        for name, (lo, hi, step, value) in variable_sliders(loop).items():
+            digits = int(np.ceil(np.log10(max(abs(lo), abs(hi), 1e-300)))
+                         - np.floor(np.log10(step)) + 1)
+            s = Slider(title=name, start=lo, end=hi, step=step, value=value, width=320,
+                       format=PrintfTickFormatter(format=f"%.{min(max(digits, 3), 10)}g"),
+                       css_classes=[f"seactl-var-{name}"])
+            s.on_change("value", self.on_change)
+            self.loop_sliders[name], self.loop_values[name] = s, value
+        self.loop_box.children = list(self.loop_sliders.values())
+        self.loop_msg.update(visible=True, text=(
+            f"<span id='loop-msg' style='color:black'>loop '{html.escape(loop.name)}' from "
+            f"{html.escape(file_name)}: {len(self.loop_sliders)} variables</span>"))
+        self._show_kind(loop=True)
+        if request:
+            self.request()
+
+    def leave_loop(self) -> None:
+        """Back to the built-in SEA design."""
+        self.loop = None
+        self.loop_box.children = []
+        self.loop_msg.update(text="", visible=False)
+        self._show_kind(loop=False)
+        self.request()
+
+    def _show_kind(self, loop: bool) -> None:
+        """Show the widgets and views of a loop file or of the built-in SEA."""
+        sea = [self.actuator, self.upload, self.upload_msg, self.filters,
+               *self.sliders.values(), *self.maps]
+        for w in sea:
+            w.visible = not loop
+        self.sea_button.visible = self.loop_box.visible = loop
+        self.paper_line.visible = self.buttons[0].visible = not loop
+        for item in self.z_fig.legend[0].items:  # the paper's formula is the SEA's
+            if self.paper_line in item.renderers:
+                item.visible = not loop
+        self.z_axis.axis_label = "|Z| [force / velocity]" if loop else "|Z| [N m s/rad]"
+
+    def apply(self, v: dict[str, Any], c: Controls | LoopControls) -> None:
         """Copy what ``v`` holds (either phase) into the page: the numbers first (they
         are small messages), then the figures' data."""
-        r = v["results"]
+        r = self.last_results = v["results"]
         self.results.text = results_html(r, "N m s/rad")
+        self.badge.text = badge_html(r)
         self.command.text = v["exports"]["command"]
         self.sources["exports"].data = {k: [v["exports"][k]] for k in ("toml", "json",
                                                                        "command")}
@@ -386,7 +558,9 @@ class Explorer:
                            ("f180", r["phase_crossover_hz"]),
                            ("f180_mag", r["phase_crossover_hz"])):
             self.spans[key].location = nan if value is None else value
-        self.titles["bode"].text = (f"outer loop L(jw): PM {_fmt(r['phase_margin_deg'], '.1f')}"
+        self._titles(c, r)
+        where = f"L at break '{r['outer_break']}'" if "outer_break" in r else "outer loop L(jw)"
+        self.titles["bode"].text = (f"{where}: PM {_fmt(r['phase_margin_deg'], '.1f')}"
                                     f" deg at {_fmt(r['crossover_hz'], '.3g')} Hz, GM "
                                     f"{_fmt(r['gain_margin_db'], '.1f')} dB")
         if "roots" in v:
@@ -398,6 +572,23 @@ class Explorer:
         if "pm_map" in v:
             self.sources["pm_marker"].data = {"x": [c.fn_hz], "y": [c.gs]}
             self.sources["latency_marker"].data = {"x": [c.t_qd_ms], "y": [c.t_qs_ms]}
+
+    def _titles(self, c: Controls | LoopControls, r: dict[str, Any]) -> None:
+        """The responses' titles: the SEA's, or the loop file's signals and units."""
+        if not isinstance(c, LoopControls):
+            self.titles["impedance"].text = "impedance Z(jw) at the joint"
+            for k, text in self.sea_titles.items():
+                self.titles[k].text = text
+            return
+        port = r.get("port")
+        self.titles["impedance"].text = (f"impedance Z(jw) at port '{port}'" if port
+                                         else "impedance: the file declares no [[ports]]")
+        sig = c.loop.compiled.model.signals
+        self.titles["step"].text = (f"step response {sig.output} / {sig.reference} (step of "
+                                    f"{c.loop.default_step:g} {c.loop.step_unit})")
+        self.titles["impulse"].text = (
+            f"impulse response {sig.output} ({c.loop.default_impulse:g} on {sig.disturbance})"
+            if sig.disturbance else "impulse response: the file declares no disturbance")
 
     def _show_roots(self, v: dict[str, Any], r: dict[str, Any]) -> None:
         """The roots view's ranges and title (the spectral abscissa and the verdict's
@@ -418,12 +609,17 @@ class Explorer:
                                        ("f180", "firebrick"), ("f180_mag", "firebrick"))}
         mag = figure(x_axis_type="log", title="outer loop L(jw)", y_axis_label="|L| [dB]",
                      **FIG)
-        mag.line("f_hz", "mag_db", source=s["bode"], line_width=2)
+        mag.line("f_hz", "mag_db", source=s["bode"], line_width=2, legend_label="|L|")
+        for label, color in (("crossover", "green"), ("phase crossover", "firebrick")):
+            mag.line([math.nan], [math.nan], line_dash="dashed", line_color=color,
+                     legend_label=label)  # the spans' legend entries (no data drawn)
         mag.add_layout(Span(location=0, dimension="width", line_color="gray"))
         mag.add_layout(self.spans["fc"])
         mag.add_layout(self.spans["f180_mag"])
+        outside(mag)
         phase = figure(x_axis_type="log", x_range=mag.x_range, x_axis_label="f [Hz]",
-                       y_axis_label="phase [deg]", **FIG)
+                       y_axis_label="phase [deg]", title="phase of L (same frequency axis)",
+                       **FIG)
         phase.line("f_hz", "phase_deg", source=s["bode"], line_width=2)
         phase.add_layout(Span(location=-180, dimension="width", line_color="gray"))
         phase.add_layout(self.spans["fc_phase"])
@@ -431,17 +627,23 @@ class Explorer:
         self.titles = {"bode": mag.title}
         self.roots_fig = self._roots()
         self.titles["roots"] = self.roots_fig.title
-        self.figures = [mag, phase, self._nyquist(), self.roots_fig, self._impedance(),
-                        *self._responses(), self._pm_map(), self._latency_map()]
+        self.maps = [self._pm_map(), self._latency_map()]
+        self.bode = (mag, phase)
+        # two columns: the magnitude above the phase (one frequency axis), each row's
+        # second view beside them
+        self.figures = [mag, self._nyquist(), phase, self.roots_fig, self._impedance(),
+                        *self._responses(), *self.maps]
 
     def _nyquist(self) -> Any:
         f = figure(title="Nyquist of L (|L| <= 20), -1 point", x_range=(-3, 1.5),
                    y_range=(-2.2, 2.2), x_axis_label="Re L", y_axis_label="Im L", **FIG)
         th = np.linspace(0, 2 * np.pi, 181)
-        f.line(np.cos(th), np.sin(th), line_color="lightgray", line_dash="dotted")
-        f.line("re", "im", source=self.sources["nyquist"], line_width=2)
-        f.scatter([-1], [0], marker="x", size=14, line_width=3, color="firebrick")
-        return f
+        f.line(np.cos(th), np.sin(th), line_color="lightgray", line_dash="dotted",
+               legend_label="|L| = 1")
+        f.line("re", "im", source=self.sources["nyquist"], line_width=2, legend_label="L(jw)")
+        f.scatter([-1], [0], marker="x", size=14, line_width=3, color="firebrick",
+                  legend_label="-1")
+        return outside(f)
 
     def _roots(self) -> Any:
         f = figure(title="rightmost roots", x_range=Range1d(-300, 30),
@@ -461,17 +663,20 @@ class Explorer:
         s = self.sources
         f = figure(x_axis_type="log", y_axis_type="log", x_axis_label="f [Hz]",
                    y_axis_label="|Z| [N m s/rad]",
-                   title="impedance Z(jw); shaded: not passive (Re Z < 0)", **FIG)
+                   title="impedance Z(jw) at the joint", **FIG)
         f.quad(left="left", right="right", bottom=1e-9, top=1e9, source=s["bands"],
                fill_color="orange", fill_alpha=0.25, line_alpha=0)
         bd = f.line("f_hz", "block_diagram", source=s["impedance"], line_width=2,
                     legend_label="block diagram")
         pa = f.line("f_hz", "paper", source=s["impedance"], line_width=2, line_dash="dashed",
                     color="black", legend_label="paper's formula")
+        f.quad(left=[math.nan], right=[math.nan], bottom=[math.nan], top=[math.nan],
+               fill_color="orange", fill_alpha=0.25, line_alpha=0,
+               legend_label="Re Z < 0")  # the shaded bands' legend entry (no data drawn)
+        self.paper_line, self.z_axis, self.z_fig = pa, f.yaxis[0], f
+        self.titles["impedance"] = f.title
         f.y_range = DataRange1d(renderers=[bd, pa])
-        f.legend.location = "top_left"
-        f.legend.label_text_font_size = "9px"
-        return f
+        return outside(f)
 
     def _responses(self) -> list[Any]:
         step = figure(title=f"step response q_j / q_des (step of {sc.Design.default_step:g} "
@@ -481,6 +686,8 @@ class Explorer:
         imp = figure(title="impulse response q_j [deg] (0.05 N m s)", x_axis_label="t [ms]",
                      **FIG)
         imp.line("t_ms", "y", source=self.sources["impulse"], line_width=2)
+        self.titles.update(step=step.title, impulse=imp.title)
+        self.sea_titles = {k: self.titles[k].text for k in ("step", "impulse")}
         return [step, imp]
 
     def _map(self, title: str, src: str, marker: str, **kw: Any) -> Any:
@@ -511,11 +718,13 @@ class Explorer:
 
     # ------------------------------------------------------------ layout
     def layout(self) -> Any:
-        """The whole page: controls and results on the left, the nine views right."""
+        """The whole page: the verdict badge, controls and results on the left, the views
+        right (the maps only for the built-in SEA)."""
         s = self.sliders
         head = Div(text="<h3 style='margin:0'>seactl explore</h3>", width=320)
         controls = column(
-            head, row(self.actuator, self.upload), self.upload_msg,
+            head, self.badge, row(self.loop_upload, self.sea_button), self.loop_msg,
+            self.loop_box, row(self.actuator, self.upload), self.upload_msg,
             *(s[k] for k in ("fn_hz", "gs", "zeta1", "zeta2", "ratio", "t_tau_ms", "t_qs_ms",
                              "t_qd_ms")),
             self.filters, s["f_qd_hz"], s["f_taud_hz"], self.mode, s["rate_hz"],
@@ -525,8 +734,9 @@ class Explorer:
         return row(controls, grid)
 
 
-def make_document(doc: Any) -> None:
-    """Bokeh application entry: one :class:`Explorer` per browser session."""
-    explorer = Explorer(doc)
+def make_document(doc: Any, loop: tuple[Any, str] | None = None) -> None:
+    """Bokeh application entry: one :class:`Explorer` per browser session (``loop``: a
+    loop file to start with, ``(UserLoop, file name)``)."""
+    explorer = Explorer(doc, loop=loop)
     doc.title = "seactl explore"
     doc.add_root(explorer.layout())

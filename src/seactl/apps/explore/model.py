@@ -4,8 +4,8 @@
 page; the Bokeh callbacks only copy them into the page.  Every number comes from the
 public API (:func:`seactl.design` and its ``margins``, ``to_control("frd")``,
 ``impedance``, ``step``, ``impulse``; :func:`seactl.loop_model` for the per-loop delay
-margins) and from :func:`seactl.systems.sea.passivity.passivity`, the function ``seactl impedance``
-reports; nothing is modelled twice.  The two maps are design batches of the same
+margins, ``passivity`` for the non-passive bands, as ``seactl impedance`` reports them);
+nothing is modelled twice.  The two maps are design batches of the same
 API on a coarse grid, cached (:func:`pm_map`, :func:`latency_map`) so that a change of a
 control recomputes only the map it moves.
 """
@@ -137,6 +137,9 @@ def actuator_from_upload(filename: str, content: bytes) -> tuple[Any, dict[str, 
         data = tomllib.loads(content.decode("utf-8"))
     except (UnicodeDecodeError, tomllib.TOMLDecodeError) as exc:
         raise InputError("actuator file", name, f"a UTF-8 TOML file ({exc})") from None
+    if "blocks" in data:
+        raise InputError("actuator file", name, "an actuator or an exported design; this "
+                         "is a loop file ([[blocks]]): load it with the loop file control")
     has_design = isinstance(data.get("design"), dict)
     design = data.pop("design") if has_design else {}
     design.pop("actuator", None)
@@ -302,22 +305,28 @@ def loop_views(d: sc.Design) -> dict[str, dict[str, np.ndarray]]:
 
 
 def impedance_views(d: sc.Design) -> dict[str, Any]:
-    """|Z(jw)| of both models and the non-passive bands of the block-diagram model."""
-    from seactl.systems.sea.passivity import passivity
-
+    """|Z(jw)| of both models, the non-passive bands of the block-diagram model and its
+    passivity verdict (:meth:`seactl.Design.passivity`: proven where "passive")."""
     bd = d.impedance(F_BODE_HZ)
     paper = d.impedance(F_BODE_HZ, model="paper")
-    bands = np.asarray(passivity(d.sea, PASSIVITY_RANGE_HZ).bands_hz[()], float).reshape(-1, 2)
+    p = d.passivity(PASSIVITY_RANGE_HZ)
+    bands = np.asarray(p.bands_hz[()], float).reshape(-1, 2)
     return {"impedance": {"f_hz": F_BODE_HZ, "block_diagram": bd.magnitude.reshape(-1),
                           "paper": paper.magnitude.reshape(-1)},
             "bands": {"left": bands[:, 0], "right": bands[:, 1]},
-            "unit": bd.unit}
+            "unit": bd.unit, "passive": bool(np.reshape(p.passive, -1)[0])}
 
 
 def t_end_s(fn_hz: float) -> float:
     """Simulated time: 1.5 periods of f_n, within [0.08, 0.5] s (a critically-damped
-    design settles within about one period)."""
-    return float(np.clip(1.5 / fn_hz, 0.08, 0.5))
+    design settles within about one period), as the command line writes it."""
+    return number(float(np.clip(1.5 / fn_hz, 0.08, 0.5)))
+
+
+def number(x: float) -> float:
+    """A value as the command line writes it (10 significant digits) and reads it back,
+    so that the page computes what the copied command computes."""
+    return float(f"{x:.10g}")
 
 
 def response_views(d: sc.Design, c: Controls) -> dict[str, Any]:
@@ -342,8 +351,10 @@ def _ms(x: Any) -> float | None:
     return x * 1e3 if math.isfinite(x) else None
 
 
-def margin_results(d: sc.Design, loop: Any, bands: np.ndarray) -> dict[str, Any]:
-    """The first half of the results panel: gains and margins of the outer loop."""
+def margin_results(d: sc.Design, loop: Any, bands: np.ndarray, passive: bool
+                   ) -> dict[str, Any]:
+    """The first half of the results panel: gains and margins of the outer loop, and the
+    impedance's passivity verdict."""
     from seactl.api.results import json_value
 
     rec = loop.records()[0]
@@ -351,7 +362,7 @@ def margin_results(d: sc.Design, loop: Any, bands: np.ndarray) -> dict[str, Any]
                                "phase_margin_deg", "crossover_hz", "gain_margin_db",
                                "delay_margin_ms", "stable")}
     out.update(phase_crossover_hz=json_value(loop.phase_crossover_hz),
-               unstable_poles=int(loop.unstable_poles), passive=bool(bands.shape[0] == 0))
+               unstable_poles=int(loop.unstable_poles), passive=passive)
     out["verdict"] = verdict(out, bands)
     return out
 
@@ -397,7 +408,7 @@ def robustness_results(d: sc.Design) -> dict[str, Any]:
     return out
 
 
-def _f(x: Any, fmt: str = ".3g", unit: str = "") -> str:
+def num_text(x: Any, fmt: str = ".3g", unit: str = "") -> str:
     return "none" if x is None else f"{x:{fmt}}{unit}"
 
 
@@ -418,25 +429,28 @@ def verdict(r: dict[str, Any], bands: np.ndarray) -> str:
     pm = r["phase_margin_deg"]
     grade = ("no gain crossover" if pm is None else "thin" if pm < PM_THIN_DEG
              else "adequate" if pm < PM_COMFORTABLE_DEG else "comfortable")
-    words = [f"Stable, {grade} phase margin ({_f(pm, '.1f', ' deg')} at "
-             f"{_f(r['crossover_hz'], '.3g', ' Hz')}); it tolerates "
-             f"{_f(r['delay_margin_ms'], '.3g', ' ms')} more latency on the whole loop."]
+    words = [f"Stable, {grade} phase margin ({num_text(pm, '.1f', ' deg')} at "
+             f"{num_text(r['crossover_hz'], '.3g', ' Hz')}); it tolerates "
+             f"{num_text(r['delay_margin_ms'], '.3g', ' ms')} more latency on the whole loop."]
     if "damping_delay_margin_ms" in r:
         ds, dd = r["stiffness_delay_margin_ms"], r["damping_delay_margin_ms"]
-        words.append(f"The stiffness loop alone tolerates {_f(ds, '.3g', ' ms')}, the damping "
-                     f"loop alone {_f(dd, '.3g', ' ms')}.")
+        words.append(f"The stiffness loop alone tolerates {num_text(ds, '.3g', ' ms')}, "
+                     f"the damping loop alone {num_text(dd, '.3g', ' ms')}.")
         if ds is not None and dd is not None and dd < ds:
             words.append("The damping loop is the latency-critical one: run it on the "
                          "low-latency processor.")
     if "overall_jitter_margin_ms" in r:
         words.append(f"Latency that varies in time is tolerated up to "
-                     f"{_f(r['overall_jitter_margin_ms'], '.3g', ' ms')} on the joint "
-                     f"measurement and {_f(r['torque_jitter_margin_ms'], '.3g', ' ms')} in "
+                     f"{num_text(r['overall_jitter_margin_ms'], '.3g', ' ms')} on the joint "
+                     f"measurement and {num_text(r['torque_jitter_margin_ms'], '.3g', ' ms')} in "
                      "the torque loop (jitter margins, a sufficient bound).")
     if r.get("spectral_abscissa_per_s") is not None:
         words.append(_roots_words(r))
-    if bands.shape[0] == 0:
-        words.append("Z(jw) is passive from 0.01 Hz to 10 kHz.")
+    if r["passive"]:
+        words.append("Z(jw) is passive from 0.01 Hz to 10 kHz (proven).")
+    elif bands.shape[0] == 0:
+        words.append("Z(jw) touches Re Z = 0 between 0.01 Hz and 10 kHz: passivity is not "
+                     "proven.")
     else:
         b = ", ".join(f"{lo:.3g}-{hi:.3g} Hz" for lo, hi in bands[:3])
         words.append(f"Z(jw) is not passive in {b}{' ...' if bands.shape[0] > 3 else ''} "
@@ -450,7 +464,7 @@ def verdict(r: dict[str, Any], bands: np.ndarray) -> str:
     if r.get("step_overshoot_pct") is not None:
         words.append(f"Step of {r['step_amplitude_rad']:g} rad: "
                      f"{r['step_overshoot_pct']:.1f} % overshoot, settles (2 %) in "
-                     f"{_f(r['step_settling_ms'], '.0f', ' ms')}.")
+                     f"{num_text(r['step_settling_ms'], '.0f', ' ms')}.")
     if r.get("step_verdict") not in (None, "settled"):
         words.append(f"The sampled step's verdict: {r['step_verdict']}"
                      + (" (the motor current is at its limit for much of it)."
@@ -492,7 +506,7 @@ def fast_views(c: Controls, acc: dict[str, Any] | None = None) -> dict[str, Any]
     loop = d.margins()
     out: dict[str, Any] = {"design": d, **loop_views(d), **impedance_views(d)}
     out["bands_array"] = np.column_stack([out["bands"]["left"], out["bands"]["right"]])
-    out["results"] = margin_results(d, loop, out["bands_array"])
+    out["results"] = margin_results(d, loop, out["bands_array"], out["passive"])
     out["exports"] = exports(c, out["results"])
     return out
 
@@ -553,6 +567,8 @@ def robustness_stage(c: Controls, acc: dict[str, Any]) -> dict[str, Any]:
 
 STAGES = (fast_views, roots_stage, response_stage, map_stage, robustness_stage)
 """The page updates in these steps, each pushed as soon as it is computed."""
+STAGE_NAMES = ("margins and loop views", "roots", "responses", "maps",
+               "delay and jitter margins")
 
 
 def views(c: Controls) -> dict[str, Any]:
@@ -577,3 +593,37 @@ def safe(func: Any, *args: Any) -> tuple[dict[str, Any] | None, str | None]:
 def safe_views(c: Controls) -> tuple[dict[str, Any] | None, str | None]:
     """:func:`views`, or ``(None, message)`` for input the library refuses."""
     return safe(views, c)
+
+
+# ------------------------------------------------------------------ verdict badge
+BADGE_COLOURS = {"good": "#1b7f3b", "warn": "#c76b00", "bad": "#b00020", "none": "#666666"}
+STEP_WORDS = {"saturated": "warn", "limit cycle": "bad", "unstable": "bad"}
+"""A step verdict that overrides "stable" on the badge, and its colour."""
+
+
+def badges(r: dict[str, Any]) -> list[tuple[str, str, str]]:
+    """The verdict badge: ``(id, text, colour key)`` for the loop the page runs and for
+    its impedance.
+
+    The first is the library's verdict of that loop: sampled at the chosen rate (the
+    certified ``sampled_verdict``) in sampled mode, else the continuous loop's Nyquist
+    count (``stable``); a stable loop whose step verdict is ``saturated``, ``limit cycle``
+    or ``unstable`` shows that verdict (an uncertain one only the last two).  The second
+    is ``passive`` / ``not passive`` (``passive`` None: the loop has no impedance port; a
+    loop file's "passive" is its scan's, marked "scanned").
+    """
+    sampled = r.get("sampled_verdict")
+    if sampled is not None:
+        word, where = sampled, f"sampled at {r['sampled_rate']}"
+    else:
+        word, where = ("stable" if r["stable"] else "unstable"), "continuous"
+    tone = {"stable": "good", "unstable": "bad"}.get(word, "warn")
+    step = r.get("step_verdict")
+    if step in STEP_WORDS and word != "unstable" and (word == "stable"
+                                                      or STEP_WORDS[step] == "bad"):
+        word, tone = step, STEP_WORDS[step]
+    passive = r.get("passive")
+    scanned = " (scanned)" if r.get("kind") == "loop" else ""
+    ptext, ptone = (("no impedance port", "none") if passive is None else
+                    (f"passive{scanned}", "good") if passive else ("not passive", "warn"))
+    return [("badge-stability", f"{word} ({where})", tone), ("badge-passivity", ptext, ptone)]

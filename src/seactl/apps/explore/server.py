@@ -2,9 +2,11 @@
 
 from __future__ import annotations
 
+import functools
 import ipaddress
 import webbrowser
 from collections.abc import Callable
+from typing import Any
 
 from seactl.errors import InputError
 
@@ -48,9 +50,11 @@ def check_port_free(host: str, port: int) -> None:
 
 
 def serve(host: str, port: int, *, open_browser: bool = True,
-          announce: Callable[[str], None] = print) -> None:
+          announce: Callable[[str], None] = print, loop: tuple[Any, str] | None = None
+          ) -> None:
     """Bind, warm the caches, then serve until interrupted (Ctrl+C or SIGTERM: the
-    ``KeyboardInterrupt`` propagates once the server is stopped).
+    ``KeyboardInterrupt`` propagates once the server is stopped).  ``loop``: a loop file
+    every new page starts with, ``(UserLoop, file name)``.
 
     Websocket connections are accepted only from pages served under ``host:port``
     (and ``localhost:port`` on a loopback address), Bokeh's cross-origin check.
@@ -59,17 +63,21 @@ def serve(host: str, port: int, *, open_browser: bool = True,
     from bokeh.application.handlers.function import FunctionHandler
     from bokeh.server.server import Server
 
+    from . import loopmodel
     from .app import make_document
     from .model import Controls, views
 
     origins = [f"{host}:{port}"] + ([f"localhost:{port}", f"127.0.0.1:{port}"]
                                     if is_loopback(host) else [])
     try:
-        server = Server({"/": Application(FunctionHandler(make_document))}, address=host,
+        page = functools.partial(make_document, loop=loop)
+        server = Server({"/": Application(FunctionHandler(page))}, address=host,
                         port=port, allow_websocket_origin=origins, num_procs=1)
     except OSError as exc:
         raise InputError("--port", port, f"a free port on {host} ({exc.strerror})") from None
     views(Controls())  # the first evaluation loads the derived loop, not a user
+    if loop is not None:
+        loopmodel.views(loopmodel.LoopControls(*loop))
     server.start()
     announce(f"seactl explore: serving on {url(host, port)} (Ctrl+C stops)")
     if open_browser:
