@@ -168,7 +168,7 @@ def bench(as_json: bool, only: tuple[str, ...], repeat: int) -> None:
     t = Table(title="seactl benchmarks (medians; throughput in work units per second, each "
               "benchmark's unit in its note; ratio = ours / baseline)")
     for col in ("name", "throughput [1/s]", "baseline", "baseline [1/s]", "ratio",
-                "max error"):
+                "max error [relative, or as stated]"):
         t.add_column(escape(col), justify="left" if col in ("name", "baseline") else "right")
     for r in results:
         t.add_row(r["name"], f"{r['throughput_per_s']:.4g}", r["baseline"],

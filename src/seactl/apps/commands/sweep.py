@@ -223,7 +223,8 @@ def sweep(actuator, sampling, n_samples, seed, chunk_size, unc_points, z_freq, o
     t.add_row(escape("wall time [s]"), f"{run['seconds']:.2f}")
     if res.points_computed:
         t.add_row(escape("throughput [points/s]"), f"{res.points_per_s:,.0f}")
-        t.add_row(escape("workers [processes]"), "in process" if not run["workers"] else str(run["workers"]))
+        t.add_row(escape("workers [processes]"),
+                  "in process" if not run["workers"] else str(run["workers"]))
         t.add_row(escape("peak RSS per worker [MB]"), f"{run['worker_peak_rss_mb']:.0f}")
         if run["workers"]:   # (in process, the chunks are this process's CPU time)
             t.add_row(escape("CPU time: workers / this process [s]"),
