@@ -345,7 +345,8 @@ def test_cli_impedance_json_and_files(tmp_path, capsys):
     # bytes; CSV row count.
     png, csv = tmp_path / "z.png", tmp_path / "z.csv"
     rc = main(["impedance", "--fn", "30", "--t-tau", "1", "--t-qs", "10", "--t-qd", "3",
-               "--freq", "1", "10", "100", "--json", "--plot", str(png), "--csv", str(csv)])
+               "--freq", "1", "10", "100", "--json", "--full", "--plot", str(png),
+               "--csv", str(csv)])
     assert rc == 0
     out = json.loads(capsys.readouterr().out)
     assert out["model"] == "block-diagram"
@@ -382,7 +383,7 @@ def test_cli_zregion(tmp_path, capsys):
     # the CLI error contract.
     rc = main(["zregion", "--fn", "12", "16", "--gs", "0.8", "1", "--t-tau", "0.5",
                "--t-qs", "2", "--t-qd", "0.5", "--f-qd", "50", "--f-taud", "100",
-               "--freq", "0.1:1000:41", "--json", "--plot", str(tmp_path / "zr.svg")])
+               "--freq", "0.1:1000:41", "--json", "--full", "--plot", str(tmp_path / "zr.svg")])
     assert rc == 0
     out = json.loads(capsys.readouterr().out)
     assert out["n_designs"] == 4 and len(out["width_db"]) == 41

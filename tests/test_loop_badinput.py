@@ -252,7 +252,7 @@ def test_impulse_band_applies_to_a_loop(capsys):
     outside band x peak deviation, then the next sample)."""
     got = {}
     for band in ("0.05", "0.3"):
-        assert main(["impulse", "--loop", RIGID, "--band", band, "--json"]) == 0
+        assert main(["impulse", "--loop", RIGID, "--band", band, "--json", "--full"]) == 0
         out = json.loads(capsys.readouterr().out)
         y, t = np.asarray(out["x"]), np.asarray(out["t_s"])
         dev = np.abs(y - y[0])

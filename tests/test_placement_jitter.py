@@ -91,3 +91,19 @@ def test_timing_path_uses_the_same_monotone_score():
     for o, p in zip(a.options, b.options):
         assert p.fn_hz <= o.fn_hz * (1 + 1e-4)
     assert "jitter margin covers" in a.criterion
+
+
+def test_no_percentage_above_all_embedded_without_its_reason():
+    # With a jittery embedded process, all-embedded (stiffness and damping sharing that
+    # process's jitter) scores below distributed: the advisor's own scores are the oracle.
+    # The reason then gives a ratio and all-embedded's binding constraint, never "> 100 %
+    # of the upper bound".
+    a = advise(rigid_model(), 3.5e-3, 0.0,
+               timing={"embedded": ProcessTiming(Uniform(0.5e-3, 8e-3))})
+    dist, emb = a.option("distributed"), a.option("embedded")
+    assert a.recommended == "distributed" and dist.fn_hz > emb.fn_hz
+    assert a.fraction_of_embedded == pytest.approx(dist.static_stiffness / emb.static_stiffness)
+    assert a.fraction_of_embedded > 1
+    assert f"{a.fraction_of_embedded:.3g}x the static stiffness" in a.reason
+    assert f"which scores lower here (all-embedded is limited by {emb.bottleneck})" in a.reason
+    assert "% of the static stiffness" not in a.reason and "upper bound" not in a.reason

@@ -14,6 +14,7 @@ from scipy import signal
 
 import seactl as sc
 from seactl.apps.cli import main
+from seactl.base import limits
 from seactl.diagram.blockdiagram import Block, BlockDiagram
 from seactl.errors import InputError
 from seactl.simulate.engine import simulate
@@ -377,16 +378,32 @@ def test_cli_step_and_impulse(tmp_path, capsys):
     png, csvf = tmp_path / "s.png", tmp_path / "s.csv"
     assert main(["step", "--fn", "14", "--t-tau", "0.5", "--t-qs", "1.5", "--t-qd", "0.5", "--f-qd",
                  "50", "--f-taud", "100", "--gs", "2", "--mode", "sampled", "--t-end", "0.3",
-                 "--plot", str(png), "--csv", str(csvf), "--json"]) == 0
+                 "--plot", str(png), "--csv", str(csvf), "--json", "--full"]) == 0
     out = json.loads(capsys.readouterr().out)
     assert out["mode"] == "sampled" and out["stable"] is True
     assert len(out["t_s"]) == len(out["position"]) == 301
+    out_full = out
     assert abs(out["position"][-1] - 1) < 1e-2
     assert out["metrics"]["overshoot_pct"] > 10
     assert png.stat().st_size > 1000 and csvf.read_text().startswith("t_s,")
     assert main(["step", "--fn", "14", "16", "--json", "--t-end", "0.2"]) == 0
     out = json.loads(capsys.readouterr().out)
     assert len(out["runs"]) == 2 and out["mode"] == "continuous"
+    # without --full a summary: the time series' lengths, not the series (oracle: the
+    # same command with --full, and the run above: one sample per ms for 0.3 s)
+    assert main(["step", "--fn", "14", "--t-tau", "0.5", "--t-qs", "1.5", "--t-qd", "0.5",
+                 "--f-qd", "50", "--f-taud", "100", "--gs", "2", "--mode", "sampled",
+                 "--t-end", "0.3", "--json"]) == 0
+    short = json.loads(capsys.readouterr().out)
+    assert short["omitted"] == {"t_s": 301, "position": 301}
+    assert "t_s" not in short and "position" not in short
+    assert {k: v for k, v in out_full.items() if k not in ("t_s", "position")} \
+        == {k: v for k, v in short.items() if k != "omitted"}
+    assert main(["step", "--fn", "14", "16", "--json", "--t-end", "0.2"]) == 0
+    many = json.loads(capsys.readouterr().out)
+    n = round(0.2 / limits.RECORD_DT_S) + 1   # continuous mode: one sample per RECORD_DT_S
+    assert [r["omitted"] for r in many["runs"]] == [{"position": n}] * 2
+    assert many["omitted"] == {"t_s": n}
     assert main(["impulse", "--fn", "14", "--json", "--t-end", "0.5"]) == 0
     out = json.loads(capsys.readouterr().out)
     assert out["metrics"]["peak_deviation_rad"] > 0 and out["metrics"]["recovery_time_s"] < 0.3

@@ -578,7 +578,7 @@ def test_cli_views_on_a_loop_file(capsys, tmp_path):
     assert main(["step", "--loop", path, "--mode", "sampled", "--json"]) == 0
     out = json.loads(capsys.readouterr().out)
     assert out["stable"] and out["rates_hz"] == {"embedded": 1000.0, "high-level": 1000.0}
-    assert main(["impedance", "--loop", path, "--freq", "1", "10", "--json"]) == 0
+    assert main(["impedance", "--loop", path, "--freq", "1", "10", "--json", "--full"]) == 0
     z = json.loads(capsys.readouterr().out)
     # rigid actuator: Z = -F/(s x) = (K e^{-sTs} + B Q s e^{-sTd})/s, |Z| ~ K/w at 1 Hz
     K = 256.0 * (2 * np.pi * 8.0) ** 2

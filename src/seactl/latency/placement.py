@@ -431,6 +431,20 @@ def _desc(o: PlacementOption, pm: float, unit: str) -> str:
             + (f", limited by {o.bottleneck}" if o.bottleneck else ""))
 
 
+def _versus_embedded(frac: float, emb: PlacementOption, bound: bool) -> str:
+    """The recommended placement's static stiffness against all-embedded's: a fraction of
+    it when all-embedded scores at least as high, otherwise a ratio and the constraint that
+    holds all-embedded lower (with timing, the jitter of the one process running every loop;
+    or an embedded latency longer than the high-level one)."""
+    if frac <= 1:
+        return (f"It reaches {100 * frac:.3g} % of the static stiffness of running every loop "
+                "embedded" + (" (the upper bound: no placement scores higher)" if bound
+                              else "") + ". ")
+    why = f" (all-embedded is limited by {emb.bottleneck})" if emb.bottleneck else ""
+    return (f"It reaches {frac:.3g}x the static stiffness of running every loop embedded, "
+            f"which scores lower here{why}. ")
+
+
 def _reason(model, options, best, gain, frac, high, low, pm, embeddable) -> str:
     cen, dist, emb = options
     lines = [_desc(o, pm, model.stiffness_unit) for o in options]
@@ -447,10 +461,7 @@ def _reason(model, options, best, gain, frac, high, low, pm, embeddable) -> str:
     else:
         text += "Moving the damping loop to the embedded process gains nothing here. "
     if frac is not None and not embeddable:
-        bound = upper_bound(options) == "embedded"
-        text += (f"It reaches {100 * frac:.3g} % of the static stiffness of running every loop "
-                 "embedded" + (" (the upper bound: no placement scores higher)" if bound
-                               else "") + ". ")
+        text += _versus_embedded(frac, emb, upper_bound(options) == "embedded")
     if dist.stiffness_dm_s is not None and dist.damping_dm_s is not None:
         text += (f"At the distributed score and its nominal latencies the stiffness loop "
                  f"tolerates {dist.stiffness_dm_s * 1e3:.3g} ms more latency, the damping "

@@ -13,7 +13,7 @@ import json
 import math
 import sys
 import warnings
-from collections.abc import Callable, Iterator, Sequence
+from collections.abc import Callable, Iterable, Iterator, Sequence
 from dataclasses import dataclass
 from typing import Any
 
@@ -285,6 +285,47 @@ def pm_text(pm_deg: float | None, stable: bool, spec: str = ".2f") -> str:
 
 def echo_json(obj: Any) -> None:
     click.echo(json.dumps(obj, indent=2))
+
+
+_FULL = "seactl.full"
+
+
+def _remember_full(ctx: click.Context, param: click.Parameter, value: bool) -> bool:
+    ctx.meta[_FULL] = value
+    return value
+
+
+def full_option(func: Callable) -> Callable:
+    """``--full``: the JSON of a response also holds its long arrays (read by
+    :func:`series_json`)."""
+    return click.option(
+        "--full", is_flag=True, expose_value=False, callback=_remember_full,
+        help="With --json: also print the long arrays (time series, frequency grid). "
+             "Without it the JSON is a summary and 'omitted' gives each array's length; "
+             "--csv FILE writes them to a file.")(func)
+
+
+IMPEDANCE_SERIES = ("f_hz", "magnitude", "magnitude_db", "phase_deg", "real")
+"""The long arrays of an impedance's JSON, one value per frequency."""
+
+
+def series_json(obj: Any, keys: Iterable[str]) -> Any:
+    """``obj`` (a dict, a list of dicts, or a dict with ``runs``) as ``--json`` prints it:
+    without the long arrays named in ``keys`` unless ``--full`` was given, each dropped
+    array's length under ``omitted``."""
+    ctx = click.get_current_context(silent=True)
+    if ctx is not None and ctx.meta.get(_FULL):
+        return obj
+    keys = tuple(keys)
+    if isinstance(obj, list):
+        return [series_json(o, keys) for o in obj]
+    out = {k: v for k, v in obj.items() if k not in keys}
+    if isinstance(out.get("runs"), list):
+        out["runs"] = [series_json(r, keys) for r in out["runs"]]
+    omitted = {k: len(obj[k]) for k in keys if isinstance(obj.get(k), list)}
+    if omitted:
+        out["omitted"] = omitted
+    return out
 
 
 # ------------------------------------------------------------------ commands

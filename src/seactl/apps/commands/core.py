@@ -120,6 +120,10 @@ def gains(spec: DesignSpec, rate_hz: float | None, as_json: bool) -> None:
 def reproduce(out: str, only: tuple[str, ...], jobs: int | None) -> None:
     """Regenerate every table, figure and numeric claim of the paper into a report.
 
+    Ends with the claims in words: reproduced, do not hold as printed (the report says
+    why), findings (claims.json keeps the status pass / fail / info).  Exits 0 when the
+    report was written, whatever the claims' verdicts.
+
     Python: seactl.apps.paper.reproduce(out).
     """
     from seactl.apps.paper import reproduce as run
@@ -127,9 +131,21 @@ def reproduce(out: str, only: tuple[str, ...], jobs: int | None) -> None:
     if not out.strip():   # (Path("") is the working directory)
         raise InputError("--out", out, "a directory name")
     summary = run(Path(out), only=only or None, console=err_console, jobs=jobs)
-    counts = {s: sum(1 for c in summary if c["status"] == s) for s in ("pass", "fail", "info")}
-    console.print(f"report: {Path(out) / 'index.html'}  claims: {counts['pass']} pass, "
-                  f"{counts['fail']} fail, {counts['info']} info")
+    console.print(f"report: {Path(out) / 'index.html'}", highlight=False)
+    console.print(claims_summary(summary), highlight=False)
+
+
+def claims_summary(claims: list[dict[str, Any]]) -> str:
+    """The claims in words: status ``pass`` is reproduced, ``fail`` does not hold as
+    printed (the report gives the reason), ``info`` is a finding (nothing to compare)."""
+    n = {s: sum(1 for c in claims if c["status"] == s) for s in ("pass", "fail", "info")}
+    return (f"{len(claims)} claim{_s(len(claims))} of the paper checked: {n['pass']} "
+            f"reproduced, {n['fail']} {'does' if n['fail'] == 1 else 'do'} not hold as "
+            f"printed (reasons in the report), {n['info']} finding{_s(n['info'])}")
+
+
+def _s(count: int) -> str:
+    return "" if count == 1 else "s"
 
 
 @cli.command()
@@ -149,9 +165,11 @@ def bench(as_json: bool, only: tuple[str, ...], repeat: int) -> None:
     if as_json:
         echo_json({"benchmarks": results})
         return
-    t = Table(title="seactl benchmarks (medians; ratio = ours / baseline throughput)")
-    for col in ("name", "throughput/s", "baseline", "baseline/s", "ratio", "max error"):
-        t.add_column(col, justify="right" if col != "name" and col != "baseline" else "left")
+    t = Table(title="seactl benchmarks (medians; throughput in work units per second, each "
+              "benchmark's unit in its note; ratio = ours / baseline)")
+    for col in ("name", "throughput [1/s]", "baseline", "baseline [1/s]", "ratio",
+                "max error [relative, or as stated]"):
+        t.add_column(escape(col), justify="left" if col in ("name", "baseline") else "right")
     for r in results:
         t.add_row(r["name"], f"{r['throughput_per_s']:.4g}", r["baseline"],
                   f"{r['baseline_throughput_per_s']:.4g}", f"{r['ratio']:.3g}",

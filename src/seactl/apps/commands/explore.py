@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import sys
+
 import click
 
 from seactl.errors import InputError, SeactlError
@@ -46,7 +48,7 @@ def explore(host: str, port: int, no_browser: bool, allow_remote: bool,
     delays. Export the design as TOML/JSON, copy the equivalent seactl command line.
 
     \b
-    Needs the app extra:  pip install "seactl[app]"
+    Needs the app extra (Bokeh): from the clone, .venv/bin/pip install -e ".[app]"
     """
     from seactl.apps.explore.server import check_port_free
 
@@ -61,7 +63,8 @@ def explore(host: str, port: int, no_browser: bool, allow_remote: bool,
     try:
         import bokeh  # noqa: F401
     except ImportError:
-        raise SeactlError("seactl explore needs Bokeh: pip install \"seactl[app]\"") from None
+        raise SeactlError(f"seactl explore needs Bokeh, the app extra: from the clone, "
+                          f"{sys.executable} -m pip install -e \".[app]\"") from None
     from seactl.apps.explore.server import serve
 
     serve(host, port, open_browser=not no_browser, announce=click.echo, loop=loop)

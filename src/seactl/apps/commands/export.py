@@ -196,7 +196,7 @@ def export(spec: DesignSpec, loop: Any, out: str, lang: str, system: SystemChoic
 def _print(res: Any) -> None:
     t = Table(title="Exported processes (schedule order)")
     for col in ("process", "rate [Hz]", "inputs", "outputs", "states", "delay buffers"):
-        t.add_column(col)
+        t.add_column(escape(col))
     for p in res.controllers.processes:
         t.add_row(escape(p.name), f"{p.rate_hz:g}", escape(", ".join(p.inputs)),
                   escape(", ".join(p.outputs)), str(p.A.shape[0]),

@@ -16,6 +16,7 @@ from seactl.base.outputs import CSV_SUFFIXES, FIGURE_SUFFIXES, OutputSet
 from seactl.errors import InputError
 
 from .common import (
+    IMPEDANCE_SERIES,
     VARIADIC,
     DesignSpec,
     cli,
@@ -23,8 +24,10 @@ from .common import (
     design_options,
     echo_json,
     finite_or_none,
+    full_option,
     json_option,
     parse_values,
+    series_json,
 )
 from .loops import loop_impedance, loop_options
 
@@ -93,6 +96,7 @@ def _timing_text(spec: DesignSpec) -> str:
 @_PLOT
 @_CSV
 @json_option
+@full_option
 @click.option("--port", default=None, help="Impedance port of the --loop file (default: its "
               "first).")
 @loop_options
@@ -176,7 +180,7 @@ def _impedance(spec: DesignSpec, f: np.ndarray, model: str, load: bool, units: s
         outs.figure(plot, _impedance_plot(spec, designs, resp, asym, model, load, unit))
     outs.commit()
     if as_json:
-        echo_json(out[0] if len(out) == 1 else out)
+        echo_json(series_json(out[0] if len(out) == 1 else out, IMPEDANCE_SERIES))
         return
     _print_impedance(spec, out, f, resp, asym, pas, model, load, unit)
 
@@ -231,7 +235,7 @@ def _print_impedance(spec: DesignSpec, out: list[dict[str, Any]], f: np.ndarray,
                   f"|Z| in dB re 1 {unit}.")
     if len(out) == 1 and f.size <= 30:
         v = Table(title="Z(j 2 pi f)")
-        for col in ("f [Hz]", f"|Z| [{unit}]", "|Z| [dB]", "phase [deg]", "Re Z"):
+        for col in ("f [Hz]", f"|Z| [{unit}]", "|Z| [dB]", "phase [deg]", f"Re Z [{unit}]"):
             v.add_column(escape(col), justify="right")
         for k, fk in enumerate(f):
             v.add_row(f"{fk:.4g}", f"{resp.magnitude.flat[k]:.5g}",
@@ -291,6 +295,7 @@ def _impedance_plot(spec: DesignSpec, designs: Any, resp: Any, asym: Any, model:
 @_PLOT
 @_CSV
 @json_option
+@full_option
 def zregion(spec: DesignSpec, freq: tuple[str, ...], model: str, load: bool, min_pm: float,
             require_passive: bool, threshold_db: float, plot: str | None, csv: str | None,
             as_json: bool) -> None:
@@ -310,6 +315,10 @@ def zregion(spec: DesignSpec, freq: tuple[str, ...], model: str, load: bool, min
         plot_p, csv_p = _outputs(outs, plot, csv)
         _zregion(spec, _budget(spec, _freq(freq)), model, load, min_pm, require_passive,
                  threshold_db, plot_p, csv_p, outs, as_json)
+
+
+ZREGION_SERIES = ("f_hz", "z_min", "z_max", "width_db", "z_min_design", "z_max_design")
+"""The long arrays of the Z-region's JSON, one value per frequency."""
 
 
 def _zregion(spec: DesignSpec, f: np.ndarray, model: str, load: bool, min_pm: float,
@@ -357,7 +366,7 @@ def _zregion(spec: DesignSpec, f: np.ndarray, model: str, load: bool, min_pm: fl
         outs.figure(plot, fig)
     outs.commit()
     if as_json:
-        echo_json(out)
+        echo_json(series_json(out, ZREGION_SERIES))
         return
     depth = (f"{reg.depth_hz[0]:.4g} - {reg.depth_hz[1]:.4g} Hz ({reg.depth_decades:.3f} "
              f"decades)" if reg.depth_hz else f"empty (width < {threshold_db:g} dB at "

@@ -117,9 +117,10 @@ def jitter(spec: DesignSpec, traces: tuple[str, ...], rate_hz: float | None,
     t = Table(title=escape(f"Jitter margins [ms], actuator '{spec.actuator.name}' "
                            f"(T_tau={spec.t_tau_ms:g} ms, T_qs={spec.t_qs_ms:g} ms, "
                            f"T_qd={spec.t_qd_ms:g} ms)"))
-    cols = ["f_n [Hz]", "GS", "outer loop", "stiffness", "damping", "torque", "delay margin",
-            "bottleneck"] + ([f"sampled {rate_hz:g} Hz", "sampled outer loop",
-                              "sampled DM"] if rate_hz else [])
+    cols = ["f_n [Hz]", "GS", "outer loop [ms]", "stiffness [ms]", "damping [ms]",
+            "torque [ms]", "delay margin [ms]", "bottleneck"] + (
+        [f"sampled {rate_hz:g} Hz", "sampled outer loop [ms]", "sampled DM [ms]"]
+        if rate_hz else [])
     for col in cols:
         t.add_column(escape(col), justify="right")
     for r in rows:

@@ -20,12 +20,14 @@ from rich.table import Table
 from seactl.errors import InputError
 
 from .common import (
+    IMPEDANCE_SERIES,
     cli,
     console,
     echo_json,
     finite_or_none,
     parse_values,
     sampled_loop_lines,
+    series_json,
 )
 
 
@@ -81,10 +83,10 @@ def loop_options(func: Callable) -> Callable:
 
 
 LOOP_OPTIONS: dict[str, frozenset[str]] = {
-    "step": frozenset({"amplitude", "mode", "t_end", "plot", "csv_path", "as_json"}),
+    "step": frozenset({"amplitude", "mode", "t_end", "plot", "csv_path", "as_json", "full"}),
     "impulse": frozenset({"impulse_nms", "band", "mode", "t_end", "plot", "csv_path",
-                          "as_json"}),
-    "impedance": frozenset({"freq", "port", "plot", "csv", "as_json"}),
+                          "as_json", "full"}),
+    "impedance": frozenset({"freq", "port", "plot", "csv", "as_json", "full"}),
     "export": frozenset({"out", "lang", "rates_hz", "verify", "cc", "as_json"}),
     "run": frozenset({"rates_hz", "duration", "step", "extra_latency", "loss", "seed",
                       "transport", "out", "as_json"}),
@@ -273,19 +275,26 @@ def loop_impedance(loop: Any, f: np.ndarray, port: str | None, as_json: bool, ou
                     "stable": None if stable is None else bool(np.asarray(stable)
                                                                 .reshape(-1)[i])})
     if as_json:
-        echo_json(out[0] if len(out) == 1 else out)
+        echo_json(series_json(out[0] if len(out) == 1 else out, IMPEDANCE_SERIES))
         return
     for r in out:
         t = Table(title=escape(f"Impedance of loop '{loop.name}' at port '{name}' "
                                + " ".join(f"{k}={v:g}" for k, v in r.items()
                                           if isinstance(v, float))))
-        for c in ("f [Hz]", "|Z|", "|Z| [dB]", "phase [deg]", "Re Z"):
-            t.add_column(c, justify="right")
+        for c in ("f [Hz]", "|Z| [SI]", "|Z| [dB re 1 SI]", "phase [deg]", "Re Z [SI]"):
+            t.add_column(escape(c), justify="right")
         step = max(1, f.size // 25)
         for k in range(0, f.size, step):
             t.add_row(f"{f[k]:.4g}", f"{r['magnitude'][k]:.5g}", f"{r['magnitude_db'][k]:.2f}",
                       f"{r['phase_deg'][k]:.2f}", f"{r['real'][k]:.4g}")
         console.print(t)
+
+
+METRIC_HEADERS = {"rise_time_s": "rise [s]", "overshoot_pct": "overshoot [%]",
+                  "settling_time_s": "settling [s]", "steady_state_error": "ss error [of step]",
+                  "peak_deviation": "peak deviation [output's unit]",
+                  "peak_time_s": "peak at [s]", "recovery_time_s": "recovery [s]"}
+"""Table headers, with units, of a loop response's metrics."""
 
 
 def loop_response(loop: Any, kind: str, mode: str, t_end: float, size: float | None,
@@ -347,14 +356,14 @@ def loop_response(loop: Any, kind: str, mode: str, t_end: float, size: float | N
     if as_json:
         t = [round(float(v), 9) for v in res.t_s]
         one = {k: x for k, x in runs[0].items() if k != "warnings"}
-        echo_json({**common, "t_s": t, **one} if len(runs) == 1 else
-                  {**common, "t_s": t, "runs": runs})
+        echo_json(series_json({**common, "t_s": t, **one} if len(runs) == 1 else
+                              {**common, "t_s": t, "runs": runs}, ("t_s", out_name)))
         return
     amp = f", step {size:g} {loop.step_unit}" if kind == "step" else f", area {size:g}"
     tab = Table(title=escape(f"{kind.capitalize()} response of loop '{loop.name}' "
                              f"({mode}{amp}), output {out_name}"))
     varied = list(_varied(loop))
-    for c in [*varied, "verdict", *keys]:
+    for c in [*varied, "verdict", *(METRIC_HEADERS[k] for k in keys)]:
         tab.add_column(escape(c), justify="right")
     for r in runs:
         tab.add_row(*[f"{r[k]:g}" for k in varied],

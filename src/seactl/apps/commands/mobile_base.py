@@ -120,9 +120,9 @@ def _base(arch: str, extra_delay: float | None, circle_radius: float | None,
               f"(7 ms round trip + {p.extra_delay * 1e3:g} ms buffer), embedded "
               f"{p.embedded_period * 1e3:g} ms; circle R = {p.circle_radius:g} m, "
               f"T = {p.circle_period:g} s")
-    for col in ("arch", "max damping [Ns/(m kg)]", "max K_x [N/(m kg)]", "paper max K_x",
-                "tracking D", "tracking K_x", "RMS position [mm]", "RMS velocity [mm/s]",
-                "saturated [%]"):
+    for col in ("arch", "max damping [Ns/(m kg)]", "max K_x [N/(m kg)]",
+                "paper max K_x [N/(m kg)]", "tracking D [Ns/(m kg)]", "tracking K_x [N/(m kg)]",
+                "RMS position [mm]", "RMS velocity [mm/s]", "saturated [%]"):
         t.add_column(escape(col), justify="right")
     for a, r in comp.results.items():
         lim = "" if r.kx_search.reached else " (not reached)"

@@ -298,8 +298,8 @@ def _map_csv(rows: list[list[Any]], max_fn: bool) -> str:
 
 def _map_table(summary: list[dict[str, Any]], n: int, t_min: float, t_max: float) -> Table:
     t = Table(title=f"Latency maps: {n} x {n} grid, delays {t_min:g}..{t_max:g} ms on each loop")
-    for c in ("actuator", "f_n [Hz]", "stable [%]", "PM min delays", "PM max T_s",
-              "PM max T_d", "dPM/dT_s [deg/ms]", "dPM/dT_d [deg/ms]", "ratio",
+    for c in ("actuator", "f_n [Hz]", "stable [%]", "PM min delays [deg]", "PM max T_s [deg]",
+              "PM max T_d [deg]", "dPM/dT_s [deg/ms]", "dPM/dT_d [deg/ms]", "ratio d/s",
               "DM stiffness [ms]", "DM damping [ms]"):
         t.add_column(escape(c), justify="right" if c != "actuator" else "left")
     for s in summary:
@@ -448,7 +448,9 @@ def advice_json(a, checks: dict[str, Any] | None = None) -> dict[str, Any]:
                    "high-level process; 'embedded' is then shown for comparison only).")
 @click.option("--high-timing", default=None, metavar="MODEL",
               help="Latency distribution of the high-level process [ms]: uniform:LOW:HIGH, "
-                   "exp:SHIFT:MEAN, hist:TRACE.csv, or a constant.")
+                   "exp:SHIFT:MEAN, a constant, or hist:TRACE.csv (a measured trace: rows "
+                   "latency_ms or latency_ms,count under an optional header, e.g. "
+                   "examples/timing/trace.csv).")
 @click.option("--low-timing", default=None, metavar="MODEL",
               help="Latency distribution of the embedded process [ms] (as --high-timing).")
 @click.option("--high-loss", default=None, metavar="P",
@@ -475,7 +477,8 @@ def place(high_latency, low_latency, actuator, min_pm, latency_margin, f_v,
     Example (the mobile base: 7 ms + 15 ms centralized, 0.5 ms embedded):
       seactl place --high-latency 22 --low-latency 0.5
     With jitter and loss (a measured trace for the high-level process):
-      seactl place --high-timing hist:trace.csv --low-timing uniform:0.5:1 --low-loss 0.01
+      seactl place --high-timing hist:examples/timing/trace.csv --low-timing uniform:0.5:1 \\
+          --low-loss 0.01
 
     Placements (centralized: all loops high-level; distributed: stiffness
     high-level, damping embedded; embedded: all embedded) are ranked by a score:

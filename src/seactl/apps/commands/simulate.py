@@ -24,9 +24,11 @@ stable runs), the largest current and the worst run; JSON ``{"mode", "runs", "se
 "latency", "loss", "designs": [{"fn_hz", "gs", "fraction_stable", "rms_error_mean",
 "rms_error_worst", "peak_current_worst_a", "worst_run"}]}``.
 
-JSON for one design: ``{"mode", "t_s", "position", "stable", "verdict", "evidence",
-"metrics", "warnings", ...}``; for several designs: ``{"mode", "t_s", "warnings", "runs":
-[{"fn_hz", "gs", "position", "stable", "verdict", "evidence", "warnings", "metrics", ...}]}``.
+JSON for one design: ``{"mode", "stable", "verdict", "evidence", "metrics", "warnings",
+"omitted", ...}``; for several designs: ``{"mode", "warnings", "runs": [{"fn_hz", "gs",
+"stable", "verdict", "evidence", "warnings", "metrics", "omitted", ...}]}``.  The time series
+``t_s`` and ``position`` are printed with ``--full`` (``--csv FILE`` writes them); without
+it ``omitted`` gives their lengths.
 ``verdict`` is one of settled, not settled, unstable, limit cycle, saturated
 (:mod:`seactl.simulate.verdict`; a loop with growing modes, ``evidence.right_half_plane_roots``,
 is unstable however slowly they grow: in continuous mode the certified count of
@@ -68,7 +70,9 @@ from .common import (
     design_options,
     echo_json,
     finite_or_none,
+    full_option,
     sampled_loop_lines,
+    series_json,
 )
 from .loops import loop_options, loop_response
 
@@ -142,17 +146,18 @@ def _monte_carlo(spec: DesignSpec, kind: str, timing: dict[str, Any], outs: Outp
                    "seed": timing["seed"], **timing["text"], "designs": rows})
         return
     tab = Table(title=escape(f"{title}: {mc.runs} timing realizations, seed {timing['seed']}"))
-    for c in ("f_n [Hz]", "GS", "stable runs", "RMS error mean", "RMS error worst",
-              "peak |i_m| [A]", "worst run"):
+    err = "[of step]" if kind == "step" else "[rad]"
+    for c in ("f_n [Hz]", "GS", "stable runs [%]", f"RMS error mean {err}",
+              f"RMS error worst {err}", "peak |i_m| [A]", "worst run"):
         tab.add_column(escape(c), justify="right")
     for r in rows:
         def fmt(x, spec=".3g"):
             return "none" if x is None else format(x, spec)
-        tab.add_row(f"{r['fn_hz']:g}", f"{r['gs']:g}", f"{100 * r['fraction_stable']:.1f}%",
+        tab.add_row(f"{r['fn_hz']:g}", f"{r['gs']:g}", f"{100 * r['fraction_stable']:.1f}",
                     fmt(r["rms_error_mean"]), fmt(r["rms_error_worst"]),
                     fmt(r["peak_current_worst_a"], ".2f"), str(r["worst_run"]))
     console.print(tab)
-    console.print(escape("RMS error: " + ("q_j/step - 1" if kind == "step" else "q_j [rad]")
+    console.print(escape("RMS error: " + ("q_j/step - 1" if kind == "step" else "q_j")
                          + " over the window, stable runs only; links: " + ", ".join(
                              f"{k} latency {v} ms" for k, v in timing["text"]["latency"].items())
                          + (" " if timing["text"]["loss"] else "") + ", ".join(
@@ -180,9 +185,11 @@ def sim_options(func: Callable) -> Callable:
         click.option("--csv", "csv_path", default=None, metavar="FILE.csv",
                      help="Write the responses as CSV (t_s, one column per design)."),
         click.option("--json", "as_json", is_flag=True, help="Print JSON instead of a table."),
+        full_option,
         click.option("--latency", "latency", multiple=True, metavar="LINK=MODEL",
                      help="Random latency [ms] of a link (stiffness, damping, torque): 2, "
-                          "uniform:LOW:HIGH, exp:SHIFT:MEAN or hist:FILE.csv (sampled mode)."),
+                          "uniform:LOW:HIGH, exp:SHIFT:MEAN or hist:FILE.csv (a measured "
+                          "trace: rows latency_ms or latency_ms,count; sampled mode)."),
         click.option("--loss", "loss", multiple=True, metavar="LINK=P",
                      help="Message loss of a link: a probability or ge:P_GB:P_BG[:BAD[:GOOD]] "
                           "(Gilbert-Elliott); the receiver holds the last value."),
@@ -223,6 +230,10 @@ def check_simulation(spec: DesignSpec, mode: str, rate_hz: float, t_end_s: float
         [d * 1e-3 for d in (spec.t_tau_ms, spec.t_qs_ms, spec.t_qd_ms)],
         rate_name="--rate [Hz]", t_end_name="--t-end [s]",
         hint="shorten --t-end, lower --rate, or give fewer designs")
+
+
+SERIES = ("t_s", "position")
+"""The long arrays of a response's JSON (printed with ``--full``)."""
 
 
 def _labels(spec: DesignSpec) -> list[tuple[float, float]]:
@@ -305,14 +316,14 @@ def _output(spec: DesignSpec, resp: Any, mode: str, zero: bool, extra: dict[str,
         t_list = [round(float(x), 9) for x in t]
         if len(runs) == 1:
             one = {k: v for k, v in runs[0].items() if k != "warnings"}
-            echo_json({**common, "t_s": t_list, **one})
+            echo_json(series_json({**common, "t_s": t_list, **one}, SERIES))
         else:
-            echo_json({**common, "t_s": t_list, "runs": runs})
+            echo_json(series_json({**common, "t_s": t_list, "runs": runs}, SERIES))
         return
     tab = Table(title=escape(title))
     step = resp.kind == "step"
     cols = ["f_n [Hz]", "GS", "verdict"] + (
-        ["rise [ms]", "overshoot [%]", "settling 2% [ms]", "ss error"] if step else
+        ["rise [ms]", "overshoot [%]", "settling 2% [ms]", "ss error [of step]"] if step else
         ["peak [deg]", "peak at [ms]", f"recovery {m.band:.0%} [ms]"]) + ["peak |i_m| [A]"]
     for c in cols:
         tab.add_column(escape(c), justify="right")

@@ -212,8 +212,10 @@ def sweep(actuator, sampling, n_samples, seed, chunk_size, unc_points, z_freq, o
     t = Table(title=f"sweep {escape(str(out))} (spec {res.spec_hash[:12]})")
     t.add_column("quantity")
     t.add_column("value", justify="right")
-    for k in ("n_points", "feasible", "infeasible", "stable", "unstable"):
-        t.add_row(escape(k), f"{s[k]:,}")
+    for k, name in (("n_points", "points"), ("feasible", "feasible [points]"),
+                    ("infeasible", "infeasible [points]"), ("stable", "stable [points]"),
+                    ("unstable", "unstable [points]")):
+        t.add_row(escape(name), f"{s[k]:,}")
     for k, v in (s["phase_margin_deg_stable"] or {}).items():
         t.add_row(escape(f"PM of stable designs, {k} [deg]"), f"{v:.3f}")
     run = s["run"]
@@ -221,7 +223,8 @@ def sweep(actuator, sampling, n_samples, seed, chunk_size, unc_points, z_freq, o
     t.add_row(escape("wall time [s]"), f"{run['seconds']:.2f}")
     if res.points_computed:
         t.add_row(escape("throughput [points/s]"), f"{res.points_per_s:,.0f}")
-        t.add_row("workers", "in process" if not run["workers"] else str(run["workers"]))
+        t.add_row(escape("workers [processes]"),
+                  "in process" if not run["workers"] else str(run["workers"]))
         t.add_row(escape("peak RSS per worker [MB]"), f"{run['worker_peak_rss_mb']:.0f}")
         if run["workers"]:   # (in process, the chunks are this process's CPU time)
             t.add_row(escape("CPU time: workers / this process [s]"),
