@@ -24,6 +24,7 @@ from typing import Any
 
 import numpy as np
 
+from seactl.base import progress
 from seactl.base.outputs import reason
 from seactl.errors import OutputError
 
@@ -180,15 +181,42 @@ def section(order: int, id: str) -> Callable[[SectionFn], SectionFn]:
     return deco
 
 
-def build(out: Path, sections: Iterable[SectionFn], console: Any = None, jobs: int = 1
-          ) -> list[dict[str, Any]]:
+@dataclass(frozen=True)
+class KernelWarmup:
+    """Work that compiles kernel ``groups`` (:mod:`seactl.base.jit`, defined in
+    ``modules``) and no other: ``run`` is a module-level function (it runs in a worker
+    process).  On a cold cache :func:`build` runs the warm-ups side by side before the
+    sections, so no two workers compile the same kernels."""
+
+    groups: tuple[str, ...]
+    modules: tuple[str, ...]
+    run: Callable[[], Any]
+
+    def cold(self) -> bool:
+        """Whether a group of it has nothing in the kernel cache (imports ``modules``)."""
+        import importlib
+
+        from seactl.base import jit
+
+        for m in self.modules:
+            importlib.import_module(m)
+        return any(jit.is_cold(g) for g in self.groups)
+
+    def about_s(self) -> float:
+        from seactl.base import jit
+
+        return sum(jit.kernel_group(g).about_s for g in self.groups)
+
+
+def build(out: Path, sections: Iterable[SectionFn], jobs: int = 1,
+          warmups: Iterable[KernelWarmup] = ()) -> list[dict[str, Any]]:
     """Run ``sections`` and write the report into ``out`` (atomically); return the claims.
     ``jobs > 1`` runs the sections in that many worker processes (they are independent;
-    the report keeps their order)."""
+    the report keeps their order), after the ``warmups`` whose kernels are not cached yet.
+    Progress goes to :mod:`seactl.base.progress`."""
     import matplotlib
 
     matplotlib.use("Agg")
-    from rich.progress import Progress
 
     sections = list(sections)
     out = Path(out).absolute()
@@ -202,17 +230,10 @@ def build(out: Path, sections: Iterable[SectionFn], console: Any = None, jobs: i
         os.chmod(tmp, 0o777 & ~_umask())
         (tmp / "figures").mkdir()
         ctx = Context(tmp / "figures")
-        built: list[Section] = []
-        with Progress(console=console, transient=True, disable=console is None) as progress:
-            task = progress.add_task("reproducing the paper", total=len(sections))
-            if jobs > 1 and len(sections) > 1:
-                built = _run_parallel(sections, ctx, min(jobs, len(sections)),
-                                      lambda: progress.advance(task))
-            else:
-                for func in sections:
-                    progress.update(task, description=f"section {func.section_id}")
-                    built.append(func(ctx))
-                    progress.advance(task)
+        if jobs > 1 and len(sections) > 1:
+            built = _run_parallel(sections, ctx, min(jobs, len(sections)), list(warmups))
+        else:
+            built = _run_serial(sections, ctx)
         claims = [c.as_json() for s in built for c in s.claims]
         (tmp / "claims.json").write_text(json.dumps(claims, indent=2, sort_keys=True) + "\n")
         (tmp / "index.html").write_text(_render(built, claims))
@@ -224,6 +245,19 @@ def build(out: Path, sections: Iterable[SectionFn], console: Any = None, jobs: i
             raise OutputError(out, reason(exc)) from None
         raise
     return claims
+
+
+def _sections_stage(n: int) -> Any:
+    return progress.stage("reproducing the paper", total=n, unit="sections")
+
+
+def _run_serial(sections: list[SectionFn], ctx: Context) -> list[Section]:
+    built = []
+    with _sections_stage(len(sections)) as stage:
+        for func in sections:
+            built.append(func(ctx))
+            stage.advance(item=func.section_id)
+    return built
 
 
 def _quiet_worker() -> None:
@@ -239,8 +273,32 @@ def _quiet_worker() -> None:
     _parallel.THREADS = 1  # (one worker per core already)
 
 
+def _warm(pool: Any, warmups: list[KernelWarmup], jobs: int) -> None:
+    """The cold ``warmups`` side by side in ``pool``, announced as one stage."""
+    from concurrent.futures import FIRST_EXCEPTION, wait
+
+    from seactl.base import jit
+
+    cold = [w for w in warmups if w.cold()]
+    if not cold:
+        return
+    names = [g for w in cold for g in w.groups]
+    about = max(w.about_s() for w in cold) if len(cold) <= jobs else \
+        sum(w.about_s() for w in cold) / jobs
+    jit.said(names)
+    with progress.stage(f"compiling the {', '.join(names)} kernels (once per installation, "
+                        f"about {progress.duration_text(about)}, {jobs} processes)",
+                        total=len(cold), unit="groups") as stage:
+        pending = {pool.submit(w.run) for w in cold}
+        while pending:
+            done, pending = wait(pending, return_when=FIRST_EXCEPTION)
+            for f in done:
+                f.result()
+                stage.advance()
+
+
 def _run_parallel(sections: list[SectionFn], ctx: Context, jobs: int,
-                  advance: Callable[[], None]) -> list[Section]:
+                  warmups: list[KernelWarmup]) -> list[Section]:
     """The sections in ``jobs`` fresh ("spawn") processes, results in report order; any
     failure or Ctrl-C stops every worker."""
     import multiprocessing
@@ -249,13 +307,16 @@ def _run_parallel(sections: list[SectionFn], ctx: Context, jobs: int,
     pool = ProcessPoolExecutor(jobs, multiprocessing.get_context("spawn"),
                                initializer=_quiet_worker)
     try:
-        futures = [pool.submit(func, ctx) for func in sections]
-        pending = set(futures)
-        while pending:
-            done, pending = wait(pending, return_when=FIRST_EXCEPTION)
-            for f in done:
-                f.result()  # raises the section's error here
-                advance()
+        _warm(pool, warmups, jobs)
+        with _sections_stage(len(sections)) as stage:
+            futures = [pool.submit(func, ctx) for func in sections]
+            ids = {f: func.section_id for f, func in zip(futures, sections)}
+            pending = set(futures)
+            while pending:
+                done, pending = wait(pending, return_when=FIRST_EXCEPTION)
+                for f in done:
+                    f.result()  # raises the section's error here
+                    stage.advance(item=ids[f])
         return [f.result() for f in futures]
     except BaseException:
         for proc in list(getattr(pool, "_processes", {}).values()):

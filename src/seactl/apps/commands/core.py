@@ -18,7 +18,6 @@ from .common import (
     console,
     design_options,
     echo_json,
-    err_console,
     json_option,
     pm_text,
     rate_option,
@@ -126,7 +125,7 @@ def reproduce(out: str, only: tuple[str, ...], jobs: int | None) -> None:
 
     if not out.strip():   # (Path("") is the working directory)
         raise InputError("--out", out, "a directory name")
-    summary = run(Path(out), only=only or None, console=err_console, jobs=jobs)
+    summary = run(Path(out), only=only or None, jobs=jobs)
     counts = {s: sum(1 for c in summary if c["status"] == s) for s in ("pass", "fail", "info")}
     console.print(f"report: {Path(out) / 'index.html'}  claims: {counts['pass']} pass, "
                   f"{counts['fail']} fail, {counts['info']} info")
@@ -144,8 +143,7 @@ def bench(as_json: bool, only: tuple[str, ...], repeat: int) -> None:
     """
     from seactl.apps.bench import run_benchmarks
 
-    results = run_benchmarks(only=only or None, repeat=repeat,
-                             console=None if as_json else err_console)
+    results = run_benchmarks(only=only or None, repeat=repeat)
     if as_json:
         echo_json({"benchmarks": results})
         return
