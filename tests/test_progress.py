@@ -35,8 +35,9 @@ def test_lines_mode_counts_in_order(monkeypatch):
     assert lines[0] == "seactl: work (3 items)"
     assert [ln.split(" (")[0] for ln in lines[1:4]] == [
         "seactl: work 1/3 items", "seactl: work 2/3 items", "seactl: work 3/3 items"]
-    assert "(a)" in lines[1] and "left" in lines[1]   # time left once a step is done
-    assert "left" not in lines[3]                     # ... but not when complete
+    assert "(a)" in lines[1] and "left" not in lines[1]   # one step: too few to tell
+    assert "(b)" in lines[2] and "left" in lines[2]       # time left from two steps on
+    assert "left" not in lines[3]                         # ... but not when complete
     assert lines[4] == "seactl: done"
 
 
@@ -131,3 +132,19 @@ def test_reproduce_talks_without_a_terminal(tmp_path, capsys, monkeypatch):
     assert lines[:2] == ["seactl: reproducing the paper (1 sections)",
                          "seactl: reproducing the paper 1/1 sections (table-i)"]
     assert "seactl:" not in out
+
+
+def test_report_warmup_compiles_the_signatures_margins_use():
+    # Oracle: numba's own record of the signatures that real margins() and
+    # jitter_margins() calls compiled or loaded; a kernel whose arguments changed would
+    # be compiled twice on a cold cache.
+    import seactl as sc
+    from seactl.apps.paper.warmup import margin_signatures
+    from seactl.certify import scan
+
+    d = sc.design([12.0, 14.0], filters_hz=(50, 100),
+                  delays_ms={"torque": 0.5, "stiffness": 2, "damping": 0.5})
+    d.margins()
+    d.jitter_margins()
+    for name, sig in margin_signatures().items():
+        assert sig in getattr(scan, name).signatures, name

@@ -191,6 +191,9 @@ class KernelWarmup:
     groups: tuple[str, ...]
     modules: tuple[str, ...]
     run: Callable[[], Any]
+    sections: tuple[str, ...] = ()
+    """Ids of sections that need no kernel of the other warm-ups: queued right behind
+    this one, so a worker done compiling early runs them while the others compile."""
 
     def cold(self) -> bool:
         """Whether a group of it has nothing in the kernel cache (imports ``modules``)."""
@@ -202,18 +205,15 @@ class KernelWarmup:
             importlib.import_module(m)
         return any(jit.is_cold(g) for g in self.groups)
 
-    def about_s(self) -> float:
-        from seactl.base import jit
-
-        return sum(jit.kernel_group(g).about_s for g in self.groups)
-
 
 def build(out: Path, sections: Iterable[SectionFn], jobs: int = 1,
-          warmups: Iterable[KernelWarmup] = ()) -> list[dict[str, Any]]:
+          warmups: Iterable[KernelWarmup] = (), first: Iterable[str] = ()
+          ) -> list[dict[str, Any]]:
     """Run ``sections`` and write the report into ``out`` (atomically); return the claims.
     ``jobs > 1`` runs the sections in that many worker processes (they are independent;
-    the report keeps their order), after the ``warmups`` whose kernels are not cached yet.
-    Progress goes to :mod:`seactl.base.progress`."""
+    the report keeps their order), after the ``warmups`` whose kernels are not cached yet,
+    the sections named in ``first`` (the longest, longest first: the workers then finish
+    close together) before the others.  Progress goes to :mod:`seactl.base.progress`."""
     import matplotlib
 
     matplotlib.use("Agg")
@@ -231,7 +231,8 @@ def build(out: Path, sections: Iterable[SectionFn], jobs: int = 1,
         (tmp / "figures").mkdir()
         ctx = Context(tmp / "figures")
         if jobs > 1 and len(sections) > 1:
-            built = _run_parallel(sections, ctx, min(jobs, len(sections)), list(warmups))
+            built = _run_parallel(sections, ctx, min(jobs, len(sections)), list(warmups),
+                                  list(first))
         else:
             built = _run_serial(sections, ctx)
         claims = [c.as_json() for s in built for c in s.claims]
@@ -273,51 +274,62 @@ def _quiet_worker() -> None:
     _parallel.THREADS = 1  # (one worker per core already)
 
 
-def _warm(pool: Any, warmups: list[KernelWarmup], jobs: int) -> None:
-    """The cold ``warmups`` side by side in ``pool``, announced as one stage."""
-    from concurrent.futures import FIRST_EXCEPTION, wait
+def _warm(pool: Any, warmups: list[KernelWarmup], jobs: int, ctx: Context,
+          sections: list[SectionFn]) -> dict[SectionFn, Any]:
+    """The cold ``warmups`` side by side in ``pool``, each followed by its own
+    :attr:`~KernelWarmup.sections`, announced as one stage; returns those sections'
+    futures."""
+    from concurrent.futures import FIRST_COMPLETED, wait
 
     from seactl.base import jit
 
     cold = [w for w in warmups if w.cold()]
     if not cold:
-        return
-    names = [g for w in cold for g in w.groups]
-    about = max(w.about_s() for w in cold) if len(cold) <= jobs else \
-        sum(w.about_s() for w in cold) / jobs
+        return {}
+    names = list(dict.fromkeys(g for w in cold for g in w.groups))
+    about = sum(jit.kernel_group(g).about_s for g in names) / min(jobs, len(cold))
     jit.said(names)
-    with progress.stage(f"compiling the {', '.join(names)} kernels (once per installation, "
-                        f"about {progress.duration_text(about)}, {jobs} processes)",
-                        total=len(cold), unit="groups") as stage:
-        pending = {pool.submit(w.run) for w in cold}
+    progress.note(f"compiling the {', '.join(names)} kernels in {jobs} processes (once per "
+                  f"installation, about {progress.duration_text(about)})")
+    by_id = {f.section_id: f for f in sections}
+    with progress.stage("compiling kernels", total=len(cold), unit="groups",
+                        expected_s=about) as stage:
+        groups, early = {}, {}
+        for w in cold:
+            groups[pool.submit(w.run)] = ", ".join(w.groups)
+            early |= {by_id[i]: pool.submit(by_id[i], ctx) for i in w.sections if i in by_id}
+        pending = set(groups)
         while pending:
-            done, pending = wait(pending, return_when=FIRST_EXCEPTION)
+            done, pending = wait(pending, return_when=FIRST_COMPLETED)
             for f in done:
                 f.result()
-                stage.advance()
+                stage.advance(item=groups[f])
+    return early
 
 
 def _run_parallel(sections: list[SectionFn], ctx: Context, jobs: int,
-                  warmups: list[KernelWarmup]) -> list[Section]:
+                  warmups: list[KernelWarmup], first: list[str]) -> list[Section]:
     """The sections in ``jobs`` fresh ("spawn") processes, results in report order; any
     failure or Ctrl-C stops every worker."""
     import multiprocessing
-    from concurrent.futures import FIRST_EXCEPTION, ProcessPoolExecutor, wait
+    from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, wait
 
+    rank = {sid: k for k, sid in enumerate(first)}
+    queue = sorted(sections, key=lambda f: rank.get(f.section_id, len(rank)))  # (stable)
     pool = ProcessPoolExecutor(jobs, multiprocessing.get_context("spawn"),
                                initializer=_quiet_worker)
     try:
-        _warm(pool, warmups, jobs)
+        futures = _warm(pool, warmups, jobs, ctx, queue)
         with _sections_stage(len(sections)) as stage:
-            futures = [pool.submit(func, ctx) for func in sections]
-            ids = {f: func.section_id for f, func in zip(futures, sections)}
-            pending = set(futures)
+            futures |= {f: pool.submit(f, ctx) for f in queue if f not in futures}
+            ids = {fut: f.section_id for f, fut in futures.items()}
+            pending = set(ids)
             while pending:
-                done, pending = wait(pending, return_when=FIRST_EXCEPTION)
-                for f in done:
-                    f.result()  # raises the section's error here
-                    stage.advance(item=ids[f])
-        return [f.result() for f in futures]
+                done, pending = wait(pending, return_when=FIRST_COMPLETED)
+                for fut in done:
+                    fut.result()  # raises the section's error here
+                    stage.advance(item=ids[fut])
+        return [futures[f].result() for f in sections]
     except BaseException:
         for proc in list(getattr(pool, "_processes", {}).values()):
             proc.terminate()

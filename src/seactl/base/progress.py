@@ -63,11 +63,14 @@ def duration_text(seconds: float) -> str:
 
 
 class Stage:
-    """One stage of work: ``total`` steps (None: not counted) of ``unit``; ended by
-    leaving its ``with`` block."""
+    """One stage of work: ``total`` steps (None: not counted) of ``unit``, expected to take
+    ``expected_s`` seconds if known (else the time left follows the pace of the steps);
+    ended by leaving its ``with`` block."""
 
-    def __init__(self, reporter: Reporter, name: str, total: int | None, unit: str):
+    def __init__(self, reporter: Reporter, name: str, total: int | None, unit: str,
+                 expected_s: float | None = None):
         self.reporter, self.name, self.total, self.unit = reporter, name, total, unit
+        self.expected_s = expected_s
         self.done = 0
         self.started = time.monotonic()
 
@@ -78,10 +81,14 @@ class Stage:
             self.reporter.advanced(self, item)
 
     def left_s(self) -> float | None:
-        """Time left at the mean pace so far (None before the first step)."""
-        if not self.total or not self.done:
+        """Time left: of ``expected_s``, else at the mean pace so far (None until a tenth
+        of the steps, and at least two, are done)."""
+        elapsed = time.monotonic() - self.started
+        if self.expected_s is not None:
+            return max(self.expected_s - elapsed, 0.0)
+        if not self.total or self.done < max(2, self.total / 10):   # (too few to tell)
             return None
-        return (time.monotonic() - self.started) / self.done * (self.total - self.done)
+        return elapsed / self.done * (self.total - self.done)
 
     def __enter__(self) -> Stage:
         return self
@@ -99,9 +106,10 @@ class Reporter:
     def __init__(self) -> None:
         self.lock = threading.RLock()
 
-    def stage(self, name: str, total: int | None = None, unit: str = "") -> Stage:
+    def stage(self, name: str, total: int | None = None, unit: str = "",
+              expected_s: float | None = None) -> Stage:
         """A new stage, shown from now on (use it as a context manager)."""
-        st = Stage(self, name, None if total is None else int(total), unit)
+        st = Stage(self, name, None if total is None else int(total), unit, expected_s)
         with self.lock:
             self.started(st)
         return st
@@ -227,9 +235,10 @@ def current() -> Reporter:
     return _current
 
 
-def stage(name: str, total: int | None = None, unit: str = "") -> Stage:
+def stage(name: str, total: int | None = None, unit: str = "",
+          expected_s: float | None = None) -> Stage:
     """A stage of the current reporter (:meth:`Reporter.stage`)."""
-    return _current.stage(name, total, unit)
+    return _current.stage(name, total, unit, expected_s)
 
 
 def note(text: str) -> None:

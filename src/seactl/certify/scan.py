@@ -30,7 +30,7 @@ from seactl.certify.vecmath import (
 )
 from seactl.diagram.blockdiagram import EVAL_ROUNDING
 
-KERNELS = KernelGroup("margin", about_s=60)
+KERNELS = KernelGroup("margin", about_s=80)
 """The group of this module's kernels (the certified margin scan)."""
 
 # Limits (documented in seactl.analysis.margins, which re-exports them).

@@ -37,7 +37,7 @@ from seactl.diagram.blockdiagram import (
     rounding_majorant,
 )
 
-KERNELS = KernelGroup("jitter peak", about_s=10)
+KERNELS = KernelGroup("jitter peak", about_s=2)
 """The group of this module's kernels (the jitter peak)."""
 
 EPS = 1e-9

@@ -14,7 +14,7 @@ import numpy as np
 
 from seactl.base.jit import KernelGroup, njit
 
-KERNELS = KernelGroup("derivative bound", about_s=5)
+KERNELS = KernelGroup("derivative bound", about_s=1)
 """The group of this module's kernels (the derivative majorant)."""
 
 

@@ -18,7 +18,7 @@ from seactl.simulate.network import assemble_blocks, delay_attr, foh, impulse_ve
 from seactl.simulate.realize import realize_continuous
 from seactl.simulate.results import Layout, RunOutputs, batch_last
 
-KERNELS = KernelGroup("simulation", about_s=40)
+KERNELS = KernelGroup("simulation", about_s=8)
 """The group of this module's kernels (the continuous simulation)."""
 
 

@@ -8,7 +8,7 @@ from seactl.base.jit import KernelGroup, njit
 from seactl.simulate.results import ImpulseMetrics, StepMetrics
 from seactl.simulate.verdict import RECOVERY_BAND, STEP_BAND
 
-KERNELS = KernelGroup("step metrics", about_s=5)
+KERNELS = KernelGroup("step metrics", about_s=1)
 """The group of this module's kernels (the step metrics)."""
 
 

@@ -14,7 +14,7 @@ from seactl.diagram.blockdiagram import Block
 from seactl.errors import SeactlError
 from seactl.simulate.inputs import Impulse
 
-KERNELS = KernelGroup("matrix balancing", about_s=5)
+KERNELS = KernelGroup("matrix balancing", about_s=1)
 """The group of this module's kernels (the batched balancing)."""
 
 

@@ -41,6 +41,12 @@ SECTIONS: tuple[SectionFn, ...] = (
 )
 
 
+LONGEST: tuple[str, ...] = ("jitter", "mobile-base", "impedance-delay", "gain-scale",
+                            "impedance-delay-sets", "placement-advisor", "latency-maps")
+"""The longest sections, longest first: started first when the sections run in worker
+processes (:func:`seactl.apps.report.build`'s ``first``)."""
+
+
 def section_ids() -> list[str]:
     """The ids of :data:`SECTIONS`, in report order."""
     return [f.section_id for f in SECTIONS]
@@ -65,4 +71,4 @@ def reproduce(out: Path, only: Iterable[str] | None = None,
         jobs = os.cpu_count() or 1
     if not (isinstance(jobs, int) and 1 <= jobs <= 64):
         raise InputError("jobs", jobs, "an integer from 1 to 64")
-    return build(Path(out), sections, jobs=jobs, warmups=WARMUPS)
+    return build(Path(out), sections, jobs=jobs, warmups=WARMUPS, first=LONGEST)

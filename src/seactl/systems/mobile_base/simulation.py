@@ -14,7 +14,7 @@ from seactl.errors import InputError
 from seactl.systems.mobile_base.kinematics import body_jacobian, kinetic_energy, task_inertia
 from seactl.systems.mobile_base.model import MobileBaseParams
 
-KERNELS = KernelGroup("mobile base", about_s=20)
+KERNELS = KernelGroup("mobile base", about_s=6)
 """The group of this module's kernels (the mobile base simulation)."""
 
 
