@@ -42,7 +42,7 @@ from seactl.errors import InputError
 MODES = ("auto", "terminal", "lines", "off")
 """What :func:`reporting` accepts."""
 ENV = "SEACTL_PROGRESS"
-"""The environment variable that overrides :func:`reporting`'s mode."""
+"""The environment variable that sets :func:`reporting`'s ``auto`` mode."""
 LINE_INTERVAL_S = 2.0
 """Least time between two count lines of one stage in ``lines`` mode."""
 PREFIX = "seactl: "
