@@ -154,7 +154,9 @@ class LineReporter(Reporter):
         if self.open > 1:
             return
         self.last[id(st)] = time.monotonic()
-        count = f" ({st.total} {st.unit})".replace(" )", ")") if st.total else ""
+        count = f"{st.total} {st.unit}".strip() if st.total else ""
+        if count:   # "name (12 maps)", or "name (41 x 41 grid), 2 maps"
+            count = f", {count}" if st.name.endswith(")") else f" ({count})"
         self.write(f"{st.name}{count}")
 
     def advanced(self, st: Stage, item: str | None) -> None:
