@@ -17,6 +17,9 @@ _kernels = numba_cache_dir()
 if _kernels is not None:
     os.environ.setdefault("NUMBA_CACHE_DIR", str(_kernels))
 os.environ["SEACTL_CACHE_DIR"] = tempfile.mkdtemp(prefix="seactl-test-cache-")
+# Commands' progress lines on stderr are tested in test_progress.py (which turns them on);
+# the other tests read stderr without them.
+os.environ["SEACTL_PROGRESS"] = "off"
 
 
 def pytest_configure(config):

@@ -3,7 +3,8 @@
 Every command that takes a design shares the options of
 :func:`seactl.apps.commands.common.design_options` (milliseconds and Hz at the CLI, SI
 inside).  Errors in user input print one line (``error: ...``) without a traceback and
-exit with status 2.
+exit with status 2.  Long work shows its progress on stderr (:mod:`seactl.base.progress`;
+``SEACTL_PROGRESS=off`` silences it).
 
 Interruptions: Ctrl-C exits with status 130 and SIGTERM with 143 (128 + the signal), each
 after one line on stderr and the same clean-up (child processes stopped, temporary files
@@ -49,12 +50,13 @@ def _main(argv: list[str] | tuple[str, ...] | None) -> int:
 
     from seactl.apps.commands import cli
     from seactl.apps.commands.common import Interrupted, expand_variadic
+    from seactl.base import progress
     from seactl.base.outputs import command_inputs
     from seactl.errors import SeactlError
 
     args = expand_variadic(list(sys.argv[1:] if argv is None else argv))
     try:
-        with command_inputs():
+        with command_inputs(), progress.reporting():
             status = cli.main(args=args, prog_name="seactl", standalone_mode=False)
     except SeactlError as exc:
         _error(str(exc))

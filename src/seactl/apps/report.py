@@ -26,6 +26,7 @@ from typing import Any
 import numpy as np
 
 from seactl.apps.report_page import render_html
+from seactl.base import progress
 from seactl.base.outputs import reason
 from seactl.errors import OutputError
 
@@ -145,15 +146,42 @@ def section(order: int, id: str) -> Callable[[SectionFn], SectionFn]:
     return deco
 
 
-def build(out: Path, sections: Iterable[SectionFn], console: Any = None, jobs: int = 1
+@dataclass(frozen=True)
+class KernelWarmup:
+    """Work that compiles kernel ``groups`` (:mod:`seactl.base.jit`, defined in
+    ``modules``) and no other: ``run`` is a module-level function (it runs in a worker
+    process).  On a cold cache :func:`build` runs the warm-ups side by side before the
+    sections, so no two workers compile the same kernels."""
+
+    groups: tuple[str, ...]
+    modules: tuple[str, ...]
+    run: Callable[[], Any]
+    sections: tuple[str, ...] = ()
+    """Ids of sections that need no kernel of the other warm-ups: queued right behind
+    this one, so a worker done compiling early runs them while the others compile."""
+
+    def cold(self) -> bool:
+        """Whether a group of it has nothing in the kernel cache (imports ``modules``)."""
+        import importlib
+
+        from seactl.base import jit
+
+        for m in self.modules:
+            importlib.import_module(m)
+        return any(jit.is_cold(g) for g in self.groups)
+
+
+def build(out: Path, sections: Iterable[SectionFn], jobs: int = 1,
+          warmups: Iterable[KernelWarmup] = (), first: Iterable[str] = ()
           ) -> list[dict[str, Any]]:
     """Run ``sections`` and write the report into ``out`` (atomically); return the claims.
     ``jobs > 1`` runs the sections in that many worker processes (they are independent;
-    the report keeps their order)."""
+    the report keeps their order), after the ``warmups`` whose kernels are not cached yet,
+    the sections named in ``first`` (the longest, longest first: the workers then finish
+    close together) before the others.  Progress goes to :mod:`seactl.base.progress`."""
     import matplotlib
 
     matplotlib.use("Agg")
-    from rich.progress import Progress
 
     sections = list(sections)
     out = Path(out).absolute()
@@ -167,17 +195,11 @@ def build(out: Path, sections: Iterable[SectionFn], console: Any = None, jobs: i
         os.chmod(tmp, 0o777 & ~_umask())
         (tmp / "figures").mkdir()
         ctx = Context(tmp / "figures")
-        built: list[Section] = []
-        with Progress(console=console, transient=True, disable=console is None) as progress:
-            task = progress.add_task("reproducing the paper", total=len(sections))
-            if jobs > 1 and len(sections) > 1:
-                built = _run_parallel(sections, ctx, min(jobs, len(sections)),
-                                      lambda: progress.advance(task))
-            else:
-                for func in sections:
-                    progress.update(task, description=f"section {func.section_id}")
-                    built.append(func(ctx))
-                    progress.advance(task)
+        if jobs > 1 and len(sections) > 1:
+            built = _run_parallel(sections, ctx, min(jobs, len(sections)), list(warmups),
+                                  list(first))
+        else:
+            built = _run_serial(sections, ctx)
         claims = [c.as_json() for s in built for c in s.claims]
         (tmp / "claims.json").write_text(json.dumps(claims, indent=2, sort_keys=True) + "\n")
         (tmp / "index.html").write_text(_render(built, claims))
@@ -189,6 +211,19 @@ def build(out: Path, sections: Iterable[SectionFn], console: Any = None, jobs: i
             raise OutputError(out, reason(exc)) from None
         raise
     return claims
+
+
+def _sections_stage(n: int) -> Any:
+    return progress.stage("reproducing the paper", total=n, unit="sections")
+
+
+def _run_serial(sections: list[SectionFn], ctx: Context) -> list[Section]:
+    built = []
+    with _sections_stage(len(sections)) as stage:
+        for func in sections:
+            built.append(func(ctx))
+            stage.advance(item=func.section_id)
+    return built
 
 
 def _quiet_worker() -> None:
@@ -204,24 +239,62 @@ def _quiet_worker() -> None:
     _parallel.THREADS = 1  # (one worker per core already)
 
 
+def _warm(pool: Any, warmups: list[KernelWarmup], jobs: int, ctx: Context,
+          sections: list[SectionFn]) -> dict[SectionFn, Any]:
+    """The cold ``warmups`` side by side in ``pool``, each followed by its own
+    :attr:`~KernelWarmup.sections`, announced as one stage; returns those sections'
+    futures."""
+    from concurrent.futures import FIRST_COMPLETED, wait
+
+    from seactl.base import jit
+
+    cold = [w for w in warmups if w.cold()]
+    if not cold:
+        return {}
+    names = list(dict.fromkeys(g for w in cold for g in w.groups))
+    about = sum(jit.kernel_group(g).about_s for g in names) / min(jobs, len(cold))
+    jit.said(names)
+    progress.note(f"compiling the {', '.join(names)} kernels in {jobs} processes (once per "
+                  f"installation, about {progress.duration_text(about)})")
+    by_id = {f.section_id: f for f in sections}
+    with progress.stage("compiling kernels", total=len(cold), unit="groups",
+                        expected_s=about) as stage:
+        groups, early = {}, {}
+        for w in cold:
+            groups[pool.submit(w.run)] = ", ".join(w.groups)
+            early |= {by_id[i]: pool.submit(by_id[i], ctx) for i in w.sections if i in by_id}
+        pending = set(groups)
+        while pending:
+            done, pending = wait(pending, return_when=FIRST_COMPLETED)
+            for f in done:
+                f.result()
+                stage.advance(item=groups[f])
+    return early
+
+
 def _run_parallel(sections: list[SectionFn], ctx: Context, jobs: int,
-                  advance: Callable[[], None]) -> list[Section]:
+                  warmups: list[KernelWarmup], first: list[str]) -> list[Section]:
     """The sections in ``jobs`` fresh ("spawn") processes, results in report order; any
     failure or Ctrl-C stops every worker."""
     import multiprocessing
-    from concurrent.futures import FIRST_EXCEPTION, ProcessPoolExecutor, wait
+    from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, wait
 
+    rank = {sid: k for k, sid in enumerate(first)}
+    queue = sorted(sections, key=lambda f: rank.get(f.section_id, len(rank)))  # (stable)
     pool = ProcessPoolExecutor(jobs, multiprocessing.get_context("spawn"),
                                initializer=_quiet_worker)
     try:
-        futures = [pool.submit(func, ctx) for func in sections]
-        pending = set(futures)
-        while pending:
-            done, pending = wait(pending, return_when=FIRST_EXCEPTION)
-            for f in done:
-                f.result()  # raises the section's error here
-                advance()
-        return [f.result() for f in futures]
+        futures = _warm(pool, warmups, jobs, ctx, queue)
+        with _sections_stage(len(sections)) as stage:
+            futures |= {f: pool.submit(f, ctx) for f in queue if f not in futures}
+            ids = {fut: f.section_id for f, fut in futures.items()}
+            pending = set(ids)
+            while pending:
+                done, pending = wait(pending, return_when=FIRST_COMPLETED)
+                for fut in done:
+                    fut.result()  # raises the section's error here
+                    stage.advance(item=ids[fut])
+        return [futures[f].result() for f in sections]
     except BaseException:
         for proc in list(getattr(pool, "_processes", {}).values()):
             proc.terminate()

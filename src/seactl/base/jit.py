@@ -7,18 +7,47 @@ or shared, and is no place for per-machine code).  numba fixes a kernel's cache 
 when the decorator runs, so the locator below computes the path then, from the environment
 alone; the directory itself is created when the first compiled kernel is saved.  An
 unwritable cache directory costs a compilation per process, nothing else.
+
+Kernels come in named groups (a module's :class:`KernelGroup`, its ``KERNELS`` global) so a
+cold cache can be announced before a group compiles: the first compilation of a group's
+kernel in the process (numba's ``numba:compile`` event, which fires
+only on a cache miss) puts one note on the current progress reporter
+(:mod:`seactl.base.progress`): ``compiling the margin kernels (once per installation, about
+40 s)``.  :func:`is_cold` tells, without compiling, whether a group has nothing cached.
 """
 
 from __future__ import annotations
 
 import os
 from collections.abc import Callable
+from dataclasses import dataclass
 from typing import Any
 
 import numba
+from numba.core import event
 from numba.core.caching import CompileResultCacheImpl, FunctionCache, UserProvidedCacheLocator
 
+from seactl.base import progress
 from seactl.base.usercache import numba_cache_dir
+
+
+@dataclass(frozen=True)
+class KernelGroup:
+    """The kernels of one concern, compiled together: ``name`` as said to people (``margin``
+    -> "the margin kernels") and ``about_s``, the time their compilation takes on one core
+    of an idle machine of the kind the project runs on (an order of magnitude for people)."""
+
+    name: str
+    about_s: float
+
+    def message(self) -> str:
+        return (f"compiling the {self.name} kernels (once per installation, "
+                f"about {progress.duration_text(self.about_s)})")
+
+
+GROUPS: dict[str, list[Any]] = {}
+"""Each group's dispatchers (by group name), as decorated."""
+_BY_NAME: dict[str, KernelGroup] = {}
 
 
 class UserCacheLocator(UserProvidedCacheLocator):
@@ -51,6 +80,13 @@ class UserFunctionCache(FunctionCache):
 
     _impl_class = _UserCacheImpl
 
+    def has_entries(self) -> bool:
+        """Whether the cache holds compiled code for the kernel's current source."""
+        try:
+            return bool(self._cache_file._load_index())
+        except (OSError, EOFError, ValueError):
+            return False
+
     def save_overload(self, sig: Any, data: Any) -> None:
         try:
             super().save_overload(sig, data)
@@ -68,6 +104,56 @@ def njit(**options: Any) -> Callable[[Callable], Any]:
         if cache and numba_cache_dir() is not None:
             # what Dispatcher.enable_caching does, with this module's cache class
             dispatcher._cache = UserFunctionCache(func)
+        group = func.__globals__.get("KERNELS")
+        if isinstance(group, KernelGroup):
+            dispatcher.seactl_group = group
+            _BY_NAME.setdefault(group.name, group)
+            GROUPS.setdefault(group.name, []).append(dispatcher)
+            _listen()
         return dispatcher
 
     return decorate
+
+
+def kernel_group(name: str) -> KernelGroup:
+    """The group ``name`` (its kernel module imported)."""
+    return _BY_NAME[name]
+
+
+def is_cold(name: str) -> bool:
+    """Whether no kernel of group ``name`` (its module imported) has its compiled code in
+    the cache for the current sources (then the group's first use compiles it all)."""
+    caches = [d._cache for d in GROUPS.get(name, ())]
+    return not any(isinstance(c, UserFunctionCache) and c.has_entries() for c in caches)
+
+
+class _Announcer(event.Listener):
+    """Puts a group's :meth:`KernelGroup.message` on the progress reporter when its first
+    kernel starts compiling in this process."""
+
+    def __init__(self) -> None:
+        self.said: set[str] = set()
+
+    def on_start(self, ev: event.Event) -> None:
+        group = getattr(ev.data["dispatcher"], "seactl_group", None)
+        if group is not None and group.name not in self.said:
+            self.said.add(group.name)
+            progress.note(group.message())
+
+    def on_end(self, ev: event.Event) -> None:
+        pass
+
+
+_ANNOUNCER = _Announcer()
+
+
+def _listen() -> None:
+    """Let :class:`_Announcer` hear numba's compilations (once)."""
+    if not getattr(_ANNOUNCER, "registered", False):
+        event.register("numba:compile", _ANNOUNCER)
+        _ANNOUNCER.registered = True
+
+
+def said(names: Any) -> None:
+    """Count the groups ``names`` as announced (their compilation was said elsewhere)."""
+    _ANNOUNCER.said.update(names)

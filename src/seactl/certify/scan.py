@@ -15,7 +15,7 @@ import math
 import numpy as np
 
 from seactl.base.borrow import borrowed
-from seactl.base.jit import njit
+from seactl.base.jit import KernelGroup, njit
 from seactl.certify.vecmath import (
     all_within,
     atan2_4,
@@ -29,6 +29,9 @@ from seactl.certify.vecmath import (
     with_lane,
 )
 from seactl.diagram.blockdiagram import EVAL_ROUNDING
+
+KERNELS = KernelGroup("margin", about_s=80)
+"""The group of this module's kernels (the certified margin scan)."""
 
 # Limits (documented in seactl.analysis.margins, which re-exports them).
 MAX_BISECTIONS = 48

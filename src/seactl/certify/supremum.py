@@ -25,7 +25,7 @@ import math
 
 import numpy as np
 
-from seactl.base.jit import njit
+from seactl.base.jit import KernelGroup, njit
 from seactl.base.parallel import chunk_size, map_in_threads
 from seactl.certify.cauchy import cauchy_bound
 from seactl.certify.realpart import bisect
@@ -36,6 +36,9 @@ from seactl.diagram.blockdiagram import (
     padded_sum,
     rounding_majorant,
 )
+
+KERNELS = KernelGroup("jitter peak", about_s=2)
+"""The group of this module's kernels (the jitter peak)."""
 
 EPS = 1e-9
 """Relative slack of the proven bound over the largest value found."""

@@ -12,7 +12,10 @@ from __future__ import annotations
 
 import numpy as np
 
-from seactl.base.jit import njit
+from seactl.base.jit import KernelGroup, njit
+
+KERNELS = KernelGroup("derivative bound", about_s=1)
+"""The group of this module's kernels (the derivative majorant)."""
 
 
 @njit(cache=True, nogil=True, error_model="numpy")

@@ -54,6 +54,7 @@ from typing import Any
 import numpy as np
 
 from seactl.analysis.margins import default_grid
+from seactl.base import progress
 from seactl.diagram.blockdiagram import DesignSubset, Transfer, evaluate_forms
 from seactl.latency.maps import LoopModel, sea_split_diagram
 from seactl.systems.sea.views import sea_margins, sea_reference_frequency
@@ -262,8 +263,10 @@ def loop_jitter_margins(diagram_loops: Mapping[str, Transfer], design: Any, omeg
     optionally ``torque``) of one diagram, sharing block evaluations on the scan grid."""
     cache: dict[str, np.ndarray] = {}
     peaks, where = {}, {}
-    for name, loop in diagram_loops.items():  # (unstable: no margin, nothing to prove)
-        peaks[name], where[name] = peak_omega_t(loop, design, omega, cache, prove=stable)
+    with progress.stage("jitter margins", total=len(diagram_loops), unit="loops") as stage:
+        for name, loop in diagram_loops.items():  # (unstable: no margin, nothing to prove)
+            peaks[name], where[name] = peak_omega_t(loop, design, omega, cache, prove=stable)
+            stage.advance(item=name)
     jm = {k: jitter_margin_s(p, stable) for k, p in peaks.items()}
     return JitterMargins(jm["overall"], jm["stiffness"], jm["damping"], jm.get("torque"),
                          {k: w / (2 * np.pi) for k, w in where.items()},

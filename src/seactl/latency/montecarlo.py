@@ -42,6 +42,7 @@ from typing import Any
 
 import numpy as np
 
+from seactl.base import progress
 from seactl.base.result import Result, flat_records, new_axes
 from seactl.errors import InputError
 from seactl.latency.models import (  # noqa: F401  (re-exported: the models live in timing_models)
@@ -449,10 +450,11 @@ def response_monte_carlo(diagram: Any, design: Any, kind: str, inputs: Mapping[s
     responses of any diagram under random latency and loss (:func:`timed_simulation`):
     the RMS error of ``output`` (normalized by ``amplitude`` for a step) and the peak of
     ``actuation`` times ``amperes_per_unit`` (the current [A])."""
-    res = timed_simulation(diagram, design, inputs, t_end_s, latency=latency, loss=loss,
-                           runs=runs, seed=seed, links=links, bound=bound,
-                           rates_hz=float(rate_hz), saturation=saturation,
-                           outputs=(output, actuation))
+    with progress.stage(f"Monte Carlo: {int(runs):,} runs of the {kind} response"):
+        res = timed_simulation(diagram, design, inputs, t_end_s, latency=latency, loss=loss,
+                               runs=runs, seed=seed, links=links, bound=bound,
+                               rates_hz=float(rate_hz), saturation=saturation,
+                               outputs=(output, actuation))
     q = res.outputs[output]
     err = q / amplitude - 1.0 if kind == "step" else q
     rms = np.sqrt(np.mean(err ** 2, axis=-1))

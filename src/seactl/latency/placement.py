@@ -53,6 +53,7 @@ from typing import Any
 
 import numpy as np
 
+from seactl.base import progress
 from seactl.base.validate import finite_array
 from seactl.latency.box import CHUNK_DESIGNS, SECONDS_PER_POINT, RobustFn, box_size, robust_max_fn
 from seactl.latency.jitter import model_jitter_margins
@@ -290,22 +291,33 @@ def evaluate_placements(model: LoopModel, high_latency_s: float, low_latency_s: 
                  n_bytes=CHUNK_DESIGNS * BYTES_PER_DESIGN, seconds=points * SECONDS_PER_POINT,
                  hint="give shorter latencies or a smaller latency margin")
     scores: dict[str, RobustFn] = {}
-    for p in sorted(PLACEMENTS, key=lambda q: sum(lat[q].values())):
-        need = _jitter_need(model, p, timing)
-        inside = [r for q, r in scores.items() if _boxes_nested(lat[q], lat[p])
-                  and (need or {}) == (_jitter_need(model, q, timing) or {})]
-        tight = min(inside, key=lambda r: -1.0 if r.status == "none" else r.fn_hz,
-                    default=None)
-        cap_hz = None if tight is None else (model.fn_limits[0] if tight.status == "none"
-                                             else tight.fn_hz)
-        r = robust_max_fn(model, lat[p], min_pm_deg=min_pm_deg, latency_margin=latency_margin,
-                          check=_jitter_check(model, need) if need else None,
-                          check_name="jitter", fn_hi=cap_hz)
-        if tight is not None and r.status == "capped":   # what fails above the inner box's
-            r = replace(r, status=tight.status, limit=tight.limit)  # score fails here too
-        scores[p] = r
+    with progress.stage("placement scores", total=len(PLACEMENTS),
+                        unit="placements") as stage:
+        for p in sorted(PLACEMENTS, key=lambda q: sum(lat[q].values())):
+            scores[p] = _score(model, p, lat, scores, timing, min_pm_deg, latency_margin)
+            stage.advance(item=p)
     return tuple(_option(model, p, lat[p], scores[p], _jitter_need(model, p, timing))
                  for p in PLACEMENTS)
+
+
+def _score(model: LoopModel, p: str, lat: dict[str, dict[str, float]],
+           scores: dict[str, RobustFn], timing: dict[str, ProcessTiming] | None,
+           min_pm_deg: float, latency_margin: float) -> RobustFn:
+    """Placement ``p``'s score, its ``f_n`` scan capped by the placements already scored
+    (``scores``) whose latency box it contains."""
+    need = _jitter_need(model, p, timing)
+    inside = [r for q, r in scores.items() if _boxes_nested(lat[q], lat[p])
+              and (need or {}) == (_jitter_need(model, q, timing) or {})]
+    tight = min(inside, key=lambda r: -1.0 if r.status == "none" else r.fn_hz,
+                default=None)
+    cap_hz = None if tight is None else (model.fn_limits[0] if tight.status == "none"
+                                         else tight.fn_hz)
+    r = robust_max_fn(model, lat[p], min_pm_deg=min_pm_deg, latency_margin=latency_margin,
+                      check=_jitter_check(model, need) if need else None,
+                      check_name="jitter", fn_hi=cap_hz)
+    if tight is not None and r.status == "capped":   # what fails above the inner box's
+        r = replace(r, status=tight.status, limit=tight.limit)  # score fails here too
+    return r
 
 
 def _option(model: LoopModel, placement: str, lat: dict[str, float], r: RobustFn,

@@ -9,7 +9,7 @@ from typing import Any
 
 import numpy as np
 
-from seactl.base.jit import njit
+from seactl.base.jit import KernelGroup, njit
 from seactl.base.limits import check_budget, simulation_estimate
 from seactl.base.parallel import in_threads
 from seactl.diagram.blockdiagram import BlockDiagram
@@ -17,6 +17,9 @@ from seactl.errors import InputError
 from seactl.simulate.network import assemble_blocks, delay_attr, foh, impulse_vector, input_values
 from seactl.simulate.realize import realize_continuous
 from seactl.simulate.results import Layout, RunOutputs, batch_last
+
+KERNELS = KernelGroup("simulation", about_s=8)
+"""The group of this module's kernels (the continuous simulation)."""
 
 
 # ----------------------------------------------------------------------------- continuous
@@ -142,7 +145,7 @@ def run_continuous(plan: ContinuousPlan, bound: float) -> RunOutputs:
         _continuous_kernel(own(p.H), own(p.CD), np.ascontiguousarray(inputs), own(p.x0),
                            own(p.whole).astype(np.int64), own(p.frac).astype(float),
                            p.ring_len, z["x"].stop, v["exo"].stop, nd, p.steps, p.every,
-                           p.t_s, float(bound), rec_t[:, :, k], left[k])
+                           p.t_s, float(bound), rec_t, left, k.start)
 
     in_threads(run, n, min_per_thread=64)
     # (outputs, designs, time) as a view: a copy of a large batch's record costs a
@@ -156,15 +159,17 @@ def run_continuous(plan: ContinuousPlan, bound: float) -> RunOutputs:
 
 @njit(cache=True, nogil=True)
 def _continuous_kernel(H, CD, inputs, x0, whole, frac, ring_len, nx, ne, nd, steps, every,
-                       t, bound, rec_t, left):  # pragma: no cover - compiled
+                       t, bound, rec_t, left, k0):  # pragma: no cover - compiled
     """Every step: ``S = CD [x; v_i]`` gives the delayed blocks' sources (into the ring
     buffer) and the outputs; ``v`` holds the exogenous inputs and the buffers read
     ``whole`` steps back, interpolated by ``frac``; ``x <- H [x; v_i; v_{i+1}]``.  The
     batch is the innermost (contiguous) axis, so the products vectorize over designs.  A
     design whose first output leaves ``bound`` is recorded no further (``left``) and
-    restarted from zero (its numbers no longer matter; zeros keep them finite).
-    Compiled: thousands of steps of small products, where numpy's per-call overhead and
-    temporaries would outweigh the arithmetic."""
+    restarted from zero (its numbers no longer matter; zeros keep them finite).  The
+    designs are columns ``k0`` on of ``rec_t`` and ``left`` (whole arrays: one compiled
+    layout however the batch is split over threads).  Compiled: thousands of steps of
+    small products, where numpy's per-call overhead and temporaries would outweigh the
+    arithmetic."""
     n, nv = H.shape[2], ne + nd
     nrow = CD.shape[0]
     zb = np.zeros((nx + 2 * nv, n))
@@ -173,12 +178,14 @@ def _continuous_kernel(H, CD, inputs, x0, whole, frac, ring_len, nx, ne, nd, ste
     S = np.zeros((nrow, n))
     xn = np.zeros((nx, n))
     alive = np.ones(n, np.bool_)
-    same = True   # every design with the same buffer positions: rows read at once
+    # every design with the same buffer positions: rows read at once (a bool and an int,
+    # not the literals True and 0: numba compiles _fill_inputs once, not per literal)
+    same = nd >= 0
     for d in range(nd):
         for k in range(1, n):
             if whole[d, k] != whole[d, 0]:
                 same = False
-    _fill_inputs(zb, nx, inputs, 0, ne, nd, ring, whole, frac, same)
+    _fill_inputs(zb, nx, inputs, np.int64(0), ne, nd, ring, whole, frac, same)
     cd_cols = _nonzero_columns(CD, nx + nv)
     h_cols = _nonzero_columns(H, nx + 2 * nv)
     for i in range(steps + 1):
@@ -189,14 +196,14 @@ def _continuous_kernel(H, CD, inputs, x0, whole, frac, ring_len, nx, ne, nd, ste
         for k in range(n):
             if alive[k] and not abs(S[nd, k]) <= bound:
                 alive[k] = False
-                left[k] = t[i]
+                left[k0 + k] = t[i]
                 zb[:, k] = 0.0
                 ring[:, :, k] = 0.0
         if i % every == 0:
             for o in range(nrow - nd):
                 for k in range(n):
                     if alive[k]:
-                        rec_t[i // every, o, k] = S[nd + o, k]
+                        rec_t[i // every, o, k0 + k] = S[nd + o, k]
         if i == steps:
             break
         _fill_inputs(zb, nx + nv, inputs, i + 1, ne, nd, ring, whole, frac, same)

@@ -4,9 +4,12 @@ from __future__ import annotations
 
 import numpy as np
 
-from seactl.base.jit import njit
+from seactl.base.jit import KernelGroup, njit
 from seactl.simulate.results import ImpulseMetrics, StepMetrics
 from seactl.simulate.verdict import RECOVERY_BAND, STEP_BAND
+
+KERNELS = KernelGroup("step metrics", about_s=1)
+"""The group of this module's kernels (the step metrics)."""
 
 
 # ----------------------------------------------------------------------------- metrics
@@ -32,7 +35,9 @@ def step_metrics(t: np.ndarray, y: np.ndarray, stable: np.ndarray | None = None,
     stable = np.ones(batch, bool) if stable is None else np.asarray(stable)
     left = np.full(batch, np.inf) if left_bounds_s is None else np.asarray(left_bounds_s)
     out = np.empty((5,) + batch)
-    _step_kernel(np.asarray(t, float), y.reshape(-1, y.shape[-1]), float(reference),
+    # (C-ordered arrays: one compiled layout)
+    _step_kernel(np.ascontiguousarray(t, float),
+                 np.ascontiguousarray(y.reshape(-1, y.shape[-1]), float), float(reference),
                  float(band), max(1, y.shape[-1] // 50), out.reshape(5, -1))
     out = np.where(~stable, np.nan, out)
     return StepMetrics(*(out[k, ...] for k in range(5)), stable, left)

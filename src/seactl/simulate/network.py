@@ -8,11 +8,14 @@ from typing import Any
 
 import numpy as np
 
-from seactl.base.jit import njit
+from seactl.base.jit import KernelGroup, njit
 from seactl.base.parallel import stacked
 from seactl.diagram.blockdiagram import Block
 from seactl.errors import SeactlError
 from seactl.simulate.inputs import Impulse
+
+KERNELS = KernelGroup("matrix balancing", about_s=1)
+"""The group of this module's kernels (the batched balancing)."""
 
 
 # ----------------------------------------------------------------------------- network

@@ -54,6 +54,7 @@ from typing import Any
 
 import numpy as np
 
+from seactl.base import progress
 from seactl.base.result import Result, json_value, new_axes
 from seactl.errors import InputError, Terminated
 from seactl.sweep.dataset import (
@@ -313,7 +314,7 @@ def _main_thread() -> bool:
 
 def run_sweep(spec: SweepSpec, out: Path | str, *, resume: bool = False,
               overwrite: bool = False, workers: int | None = None,
-              scheduler: str | None = None, client: Any = None, console: Any = None,
+              scheduler: str | None = None, client: Any = None,
               _on_chunk: Callable[[int], None] | None = None) -> SweepResult:
     """Run (or complete, with ``resume``) a sweep into the Parquet dataset ``out``.
 
@@ -328,12 +329,11 @@ def run_sweep(spec: SweepSpec, out: Path | str, *, resume: bool = False,
         writes them, so workers need no shared filesystem.
     client : distributed.Client, optional
         Use this client (and leave it open).
-    console : rich.console.Console, optional
-        Where to draw the progress bar (none if ``None``).
 
-    Chunks are submitted to Dask with ``retries=2`` and written as they
-    complete; on Ctrl-C the pending ones are cancelled and
-    :class:`SweepInterrupted` is raised, every written chunk staying on disk.
+    Progress (the chunks written) goes to :mod:`seactl.base.progress`.  Chunks are
+    submitted to Dask with ``retries=2`` and written as they complete; on Ctrl-C the
+    pending ones are cancelled and :class:`SweepInterrupted` is raised, every written
+    chunk staying on disk.
     """
     if not os.fspath(out).strip():
         raise InputError("out", os.fspath(out), "a directory path")
@@ -347,13 +347,9 @@ def run_sweep(spec: SweepSpec, out: Path | str, *, resume: bool = False,
     new_dir = not out.exists() or overwrite or not any(out.iterdir())
     try:
         prepare_output(spec, out, resume=resume, overwrite=overwrite)
-        if console is not None:
-            from rich.markup import escape
-
-            console.print(f"sweep: {spec.n_points:,} points in {spec.n_chunks:,} chunks of "
-                          f"{spec.chunk_size:,} -> {escape(str(out))}"
-                          + (f" on {escape(scheduler)}" if scheduler else ""))
-        return _run(spec, out, workers, client, own_client, console, _on_chunk)
+        progress.note(f"sweep: {spec.n_points:,} points in {spec.n_chunks:,} chunks of "
+                      f"{spec.chunk_size:,} -> {out}" + (f" on {scheduler}" if scheduler else ""))
+        return _run(spec, out, workers, client, own_client, _on_chunk)
     except BaseException as exc:
         if new_dir and not isinstance(exc, KeyboardInterrupt) and out.is_dir() \
                 and not any(out.glob("part-*.parquet")):
@@ -364,43 +360,20 @@ def run_sweep(spec: SweepSpec, out: Path | str, *, resume: bool = False,
             own_client.close()
 
 
-def _progress(console: Any) -> Any:
-    """The sweep's progress bar on ``console``; ``None`` without a console (rich's progress
-    is then not even imported)."""
-    if console is None:
-        return None
-    from rich.progress import (
-        BarColumn,
-        MofNCompleteColumn,
-        Progress,
-        TextColumn,
-        TimeElapsedColumn,
-        TimeRemainingColumn,
-    )
-
-    return Progress(TextColumn("[bold]sweep"), BarColumn(), MofNCompleteColumn(),
-                    TextColumn("chunks"), TimeElapsedColumn(), TimeRemainingColumn(),
-                    console=console, transient=False)
-
-
 def _run(spec: SweepSpec, out: Path, workers: int | None, client: Any, own_client: Any,
-         console: Any, _on_chunk: Callable[[int], None] | None) -> SweepResult:
-    import contextlib
-
+         _on_chunk: Callable[[int], None] | None) -> SweepResult:
     todo = missing_chunks(spec, out)
     own_cluster = scratch = None
     t0, c0 = time.perf_counter(), time.process_time()
     peak = 0.0
     done = spec.n_chunks - len(todo)
     n_workers = 0
-    progress = _progress(console)
     computed = points = 0
     cpu = 0.0
     parts: dict[int, dict[str, Any]] = {}
     try:
-        with progress or contextlib.nullcontext():
-            if progress is not None:
-                task = progress.add_task("sweep", total=spec.n_chunks, completed=done)
+        with progress.stage("sweep", total=spec.n_chunks, unit="chunks") as bar:
+            bar.advance(done)
 
             def finish(i: int, rows: int, part: dict[str, Any], stats: dict[str, float]
                        ) -> None:
@@ -412,8 +385,7 @@ def _run(spec: SweepSpec, out: Path, workers: int | None, client: Any, own_clien
                 points += rows
                 peak = max(peak, stats["peak_rss_mb"])
                 computed += 1
-                if progress is not None:
-                    progress.advance(task)
+                bar.advance()
                 if _on_chunk is not None:
                     _on_chunk(i)
 

@@ -8,6 +8,7 @@ from typing import Any
 
 import numpy as np
 
+from seactl.base import progress
 from seactl.base.axes import ACTUATOR_AXES, ACTUATOR_FIELDS, AXES
 from seactl.base.result import Renamed, Result, flat_records, json_value, new_axes
 from seactl.errors import InputError
@@ -187,16 +188,19 @@ def parameter_robustness(spec: SweepSpec) -> RobustResult:
                          "analysis varies actuator parameters of one design)")
     pm, st = [], []
     samples: dict[str, list[np.ndarray]] = {n: [] for n, _ in spec.swept}
-    for i in range(spec.n_chunks):
-        t, _ = evaluate_chunk(spec, i)
-        feas = t.column("feasible").to_numpy()
-        if not feas.all():
-            raise InputError("--fn", spec.fixed()["fn_hz"], "a feasible f_n for the nominal "
-                             "actuator")
-        pm.append(t.column("phase_margin_deg").to_numpy())
-        st.append(t.column("stable").to_numpy(zero_copy_only=False).astype(bool))
-        for name in samples:
-            samples[name].append(t.column(name).to_numpy())
+    with progress.stage(f"parameter robustness ({spec.n_points:,} samples)",
+                        total=spec.n_chunks, unit="chunks") as stage:
+        for i in range(spec.n_chunks):
+            t, _ = evaluate_chunk(spec, i)
+            feas = t.column("feasible").to_numpy()
+            if not feas.all():
+                raise InputError("--fn", spec.fixed()["fn_hz"], "a feasible f_n for the "
+                                 "nominal actuator")
+            pm.append(t.column("phase_margin_deg").to_numpy())
+            st.append(t.column("stable").to_numpy(zero_copy_only=False).astype(bool))
+            for name in samples:
+                samples[name].append(t.column(name).to_numpy())
+            stage.advance()
     nominal = SweepSpec(spec.actuator, tuple((n, v) for n, v in spec.axes
                                              if n not in ACTUATOR_AXES))
     t0, _ = evaluate_chunk(nominal, 0)

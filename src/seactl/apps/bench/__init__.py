@@ -32,8 +32,11 @@ def registered() -> dict[str, Callable]:
     return {f.bench_name: f for f in BENCHMARKS}
 
 
-def run_benchmarks(only: Iterable[str] | None = None, repeat: int = 5,
-                   console: Any = None) -> list[dict[str, Any]]:
+def run_benchmarks(only: Iterable[str] | None = None, repeat: int = 5) -> list[dict[str, Any]]:
+    """The benchmarks (all, or those in ``only``) as JSON dicts, each the median of
+    ``repeat`` timed runs; progress (one step per benchmark) goes to
+    :mod:`seactl.base.progress`."""
+    from seactl.base import progress
     from seactl.errors import InputError
 
     benches = registered()
@@ -44,10 +47,11 @@ def run_benchmarks(only: Iterable[str] | None = None, repeat: int = 5,
             raise InputError("only", ", ".join(sorted(unknown)), "one of " + ", ".join(names))
         names = [n for n in names if n in set(only)]
     out: list[dict[str, Any]] = []
-    for name in names:
-        if console is not None:
-            console.print(f"running {name} ...")
-        res = benches[name](repeat)
-        for r in res if isinstance(res, list) else [res]:
-            out.append(r.as_json())
+    with progress.stage("benchmarks", total=len(names)) as stage:
+        for name in names:
+            progress.note(f"benchmark {name} ...")
+            res = benches[name](repeat)
+            for r in res if isinstance(res, list) else [res]:
+                out.append(r.as_json())
+            stage.advance(item=name)
     return out

@@ -9,6 +9,7 @@ import click
 from rich.markup import escape
 from rich.table import Table
 
+from seactl.apps.report_page import count_words, status_counts
 from seactl.errors import InputError
 
 from .common import (
@@ -18,7 +19,6 @@ from .common import (
     console,
     design_options,
     echo_json,
-    err_console,
     json_option,
     pm_text,
     rate_option,
@@ -130,22 +130,19 @@ def reproduce(out: str, only: tuple[str, ...], jobs: int | None) -> None:
 
     if not out.strip():   # (Path("") is the working directory)
         raise InputError("--out", out, "a directory name")
-    summary = run(Path(out), only=only or None, console=err_console, jobs=jobs)
+    summary = run(Path(out), only=only or None, jobs=jobs)
     console.print(f"report: {Path(out) / 'index.html'}", highlight=False)
     console.print(claims_summary(summary), highlight=False)
 
 
 def claims_summary(claims: list[dict[str, Any]]) -> str:
-    """The claims in words: status ``pass`` is reproduced, ``fail`` does not hold as
-    printed (the report gives the reason), ``info`` is a finding (nothing to compare)."""
-    n = {s: sum(1 for c in claims if c["status"] == s) for s in ("pass", "fail", "info")}
-    return (f"{len(claims)} claim{_s(len(claims))} of the paper checked: {n['pass']} "
-            f"reproduced, {n['fail']} {'does' if n['fail'] == 1 else 'do'} not hold as "
-            f"printed (reasons in the report), {n['info']} finding{_s(n['info'])}")
-
-
-def _s(count: int) -> str:
-    return "" if count == 1 else "s"
+    """The claims in the report's words (:data:`~seactl.apps.report_page.WORDS`): ``pass`` is
+    reproduced, ``fail`` does not hold as printed (the report gives the reason), ``info`` is a
+    finding (nothing to compare)."""
+    w = count_words(status_counts(claims))
+    noun = "claim" if len(claims) == 1 else "claims"
+    return (f"{len(claims)} {noun} of the paper checked: {w['pass']}, {w['fail']} "
+            f"(reasons in the report), {w['info']}")
 
 
 @cli.command()
@@ -160,8 +157,7 @@ def bench(as_json: bool, only: tuple[str, ...], repeat: int) -> None:
     """
     from seactl.apps.bench import run_benchmarks
 
-    results = run_benchmarks(only=only or None, repeat=repeat,
-                             console=None if as_json else err_console)
+    results = run_benchmarks(only=only or None, repeat=repeat)
     if as_json:
         echo_json({"benchmarks": results})
         return

@@ -11,6 +11,7 @@ import numpy as np
 from rich.markup import escape
 from rich.table import Table
 
+from seactl.base import progress
 from seactl.base.axes import AXES
 from seactl.base.outputs import CSV_SUFFIXES, FIGURE_SUFFIXES, OutputSet
 from seactl.errors import InputError
@@ -335,17 +336,22 @@ def _latency_map(actuators, fn_rigid, fn_sea, t_max, t_min, n, max_fn, f_v, outs
             raise InputError(flag, "", "at least one frequency")
         jobs.append((model, AXES["fn_hz"].check(fns, f"{flag} [Hz]")))
     _check_latency_budget(jobs, n, max_fn)
-    for model, fns in jobs:
-        mf = max_stable_fn(model, grid[:, None], grid[None, :]) if max_fn else None
-        for f in fns:
-            mp = latency_map(model, float(f), grid, grid)
-            sens = pm_sensitivity(model, float(f), tmin, tmin)
-            dm = model.delay_margins(model.design(float(f), tmin, tmin))
-            maps.append(mp)
-            if mf is not None:
-                maxfns.append((grid, grid, mf))
-            summary.append(_map_summary(model, float(f), mp, sens, dm, n, t_min, t_max))
-            csv_rows += _map_rows(model.name, float(f), grid, mp, mf)
+    total = sum(fns.size + bool(max_fn) for _, fns in jobs)
+    with progress.stage(f"latency maps ({n} x {n} grid)", total=total, unit="maps") as stage:
+        for model, fns in jobs:
+            mf = max_stable_fn(model, grid[:, None], grid[None, :]) if max_fn else None
+            if max_fn:
+                stage.advance(item=f"{model.name}: highest stable f_n")
+            for f in fns:
+                mp = latency_map(model, float(f), grid, grid)
+                sens = pm_sensitivity(model, float(f), tmin, tmin)
+                dm = model.delay_margins(model.design(float(f), tmin, tmin))
+                maps.append(mp)
+                if mf is not None:
+                    maxfns.append((grid, grid, mf))
+                summary.append(_map_summary(model, float(f), mp, sens, dm, n, t_min, t_max))
+                csv_rows += _map_rows(model.name, float(f), grid, mp, mf)
+                stage.advance(item=f"{model.name} at f_n = {float(f):g} Hz")
     if csv:
         outs.write(csv, _map_csv(csv_rows, max_fn))
     if plot:
@@ -568,13 +574,16 @@ def _monte_carlo_checks(model, advice, timing, runs, seed) -> dict[str, Any]:
     from seactl.latency.montecarlo import verify_placement
 
     out = {}
-    for o in advice.options:
-        mc = verify_placement(model, o, timing, runs=runs, seed=seed, t_end_s=MC_SECONDS)
-        if mc is not None:
-            out[o.placement] = {"runs": runs, "seed": seed,
-                                "fraction_stable": float(mc.fraction_stable),
-                                "rms_error_mean": finite_or_none(mc.rms_error_mean),
-                                "rms_error_worst": finite_or_none(mc.rms_error_worst)}
+    with progress.stage(f"Monte Carlo check ({runs:,} runs each)", total=len(advice.options),
+                        unit="placements") as stage:
+        for o in advice.options:
+            mc = verify_placement(model, o, timing, runs=runs, seed=seed, t_end_s=MC_SECONDS)
+            if mc is not None:
+                out[o.placement] = {"runs": runs, "seed": seed,
+                                    "fraction_stable": float(mc.fraction_stable),
+                                    "rms_error_mean": finite_or_none(mc.rms_error_mean),
+                                    "rms_error_worst": finite_or_none(mc.rms_error_worst)}
+            stage.advance(item=o.placement)
     return out
 
 

@@ -3,6 +3,7 @@
 
 from __future__ import annotations
 
+import contextlib
 import math
 import os
 from pathlib import Path
@@ -13,6 +14,7 @@ import numpy as np
 from rich.markup import escape
 from rich.table import Table
 
+from seactl.base import progress
 from seactl.base.axes import ACTUATOR_AXES, AXES, DESIGN_AXES, SAMPLINGS
 from seactl.base.outputs import FIGURE_SUFFIXES, OutputSet
 from seactl.errors import InputError, ResourceError
@@ -262,8 +264,9 @@ def _run(spec, out: str, resume: bool, overwrite: bool, workers, scheduler, quie
     from seactl.sweep.engine import SweepInterrupted, run_sweep
 
     try:  # errors naming out, scheduler, ... read as flags (commands.common._Command)
-        return run_sweep(spec, Path(out), resume=resume, overwrite=overwrite, workers=workers,
-                         scheduler=scheduler, console=None if quiet else err_console)
+        with progress.reporting("off") if quiet else contextlib.nullcontext():
+            return run_sweep(spec, Path(out), resume=resume, overwrite=overwrite,
+                             workers=workers, scheduler=scheduler)
     except SweepInterrupted as exc:
         err_console.print(f"[yellow]{escape(str(exc))}[/yellow]", highlight=False,
                           soft_wrap=True)

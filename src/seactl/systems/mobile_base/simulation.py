@@ -8,11 +8,14 @@ from dataclasses import dataclass
 import numpy as np
 
 from seactl.base.borrow import borrowed
-from seactl.base.jit import njit
+from seactl.base.jit import KernelGroup, njit
 from seactl.base.parallel import in_threads
 from seactl.errors import InputError
 from seactl.systems.mobile_base.kinematics import body_jacobian, kinetic_energy, task_inertia
 from seactl.systems.mobile_base.model import MobileBaseParams
+
+KERNELS = KernelGroup("mobile base", about_s=6)
+"""The group of this module's kernels (the mobile base simulation)."""
 
 
 # -------------------------------------------------------------------- references
@@ -156,8 +159,8 @@ def simulate(p: MobileBaseParams, kx, dx, bq, *, reference=None, duration: float
     sat = np.zeros(B)
     c, mats, gains = _constants(p), _matrices(p), np.stack([kx, dx, bq])
     # the batch over one thread per core (the compiled kernel releases the GIL)
-    in_threads(lambda k: _simulate_batch(c, mats, gains[:, k], ref_ext, V0[k], out[:, :, k],
-                                         sat[k]), B, min_per_thread=2)
+    in_threads(lambda k: _simulate_batch(c, mats, gains, ref_ext, V0, out, sat, k.start,
+                                         k.stop), B, min_per_thread=2)
     if not np.all(np.isfinite(out[0])):
         raise FloatingPointError("base simulation diverged to non-finite values")
     es = None
@@ -193,15 +196,16 @@ def _matrices(p: MobileBaseParams) -> np.ndarray:
 # The per-sample loop is compiled (numba, cached on disk): thousands of samples of a few
 # scalar operations each, where numpy's per-call overhead would outweigh the arithmetic.
 @njit(cache=True, nogil=True)
-def _simulate_batch(c, mats, gains, ref, V0, out, sat):  # pragma: no cover - compiled
-    """The multi-rate base, one batch element at a time.
+def _simulate_batch(c, mats, gains, ref, V0, out, sat, b0, b1):  # pragma: no cover
+    """The multi-rate base, batch elements ``b0`` to ``b1 - 1`` one at a time (whole
+    arrays: one compiled layout however the batch is split over threads).
 
     ``c``: :func:`_constants`; ``mats``: :func:`_matrices`; ``gains``: rows kx, dx, bq;
     ``ref``: x, v, a of the extended reference; ``out``: x, v, tau (and PHI, QM, WM when
     it has 7 rows) per sample, written in place; ``sat``: saturated wheel-samples.
     """
     d_meas, d_cmd = int(c[2]), int(c[3])
-    for b in range(out.shape[2]):
+    for b in range(b0, b1):
         X, V, PHI, QM = np.zeros(3), V0[b].copy(), np.zeros(3), np.zeros(3)
         WM = np.array(_mv(mats[0], V0[b]))         # drivetrain moving with the wheels
         meas = np.zeros((d_meas + 1, 3))           # ring of encoder readings (wheel side)

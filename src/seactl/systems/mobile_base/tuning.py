@@ -8,6 +8,7 @@ from typing import Any
 
 import numpy as np
 
+from seactl.base import progress
 from seactl.base.result import Result, json_value, new_axes
 from seactl.errors import InputError
 from seactl.systems.mobile_base.kinematics import damping_to_joint
@@ -106,8 +107,9 @@ def _limit(g: np.ndarray, fired: np.ndarray) -> tuple[float, float | None]:
 
 
 def _search(p: MobileBaseParams, archs: tuple[str, ...], which: str, lo: float, hi: float,
-            fixed: dict[str, np.ndarray]) -> dict[str, Search]:
-    """Coarse log grid then a linear refinement, all architectures in one batch each."""
+            fixed: dict[str, np.ndarray], stage: progress.Stage) -> dict[str, Search]:
+    """Coarse log grid then a linear refinement, all architectures in one batch each (two
+    steps of ``stage``)."""
     def run(grids: dict[str, np.ndarray]) -> dict[str, Vibration]:
         kx, dx, bq, owner = [], [], [], []
         for a in grids:
@@ -130,12 +132,14 @@ def _search(p: MobileBaseParams, archs: tuple[str, ...], which: str, lo: float, 
 
     grids = {a: np.geomspace(lo, hi, p.grid_points) for a in archs}
     first = run(grids)
+    stage.advance(item=f"{which}: coarse grid")
     refine: dict[str, np.ndarray] = {}
     for a in archs:
         ok, bad = _limit(grids[a], first[a].fired)
         if bad is not None and p.refine_points > 0:
             refine[a] = np.linspace(ok if ok > 0 else bad / 10, bad, p.refine_points + 2)[1:-1]
     second = run(refine) if refine else {}
+    stage.advance(item=f"{which}: refined")
     out = {}
     for a in archs:
         g = grids[a]
@@ -380,16 +384,23 @@ def tune(p: MobileBaseParams = TRIKEY, archs: tuple[str, ...] = ARCHS, *, track:
 
     Each search is a log-spaced grid (``grid_points``) refined linearly (``refine_points``)
     between the last quiet and the first firing candidate, every candidate of every
-    architecture in one batched simulation.
+    architecture in one batched simulation (progress: :mod:`seactl.base.progress`).
     """
     for a in archs:
         if a not in ARCHS:
             raise InputError("arch", a, "cosc, dosc or both")
     archs = tuple(a for a in ARCHS if a in archs)
+    with progress.stage("tuning the mobile base", total=5 if track else 4,
+                        unit="batched simulations") as stage:
+        return _tune(p, archs, track, stage)
+
+
+def _tune(p: MobileBaseParams, archs: tuple[str, ...], track: bool, stage: progress.Stage
+          ) -> MobileBaseComparison:
     sf = p.safety_factor
-    dsearch = _search(p, archs, "damping", p.damping_min, p.damping_max, {})
+    dsearch = _search(p, archs, "damping", p.damping_min, p.damping_max, {}, stage)
     d_op = {a: sf * dsearch[a].limit for a in archs}
-    ksearch = _search(p, archs, "kx", p.kx_min, p.kx_max, d_op)
+    ksearch = _search(p, archs, "kx", p.kx_min, p.kx_max, d_op, stage)
     circle = Circle(p.circle_radius, p.circle_period, p.circle_ramp)
     k_op = {a: sf * ksearch[a].limit for a in archs}
     res = None
@@ -402,6 +413,7 @@ def tune(p: MobileBaseParams = TRIKEY, archs: tuple[str, ...] = ARCHS, *, track:
         bq = np.array([float(damping_to_joint(p, d_op[a])) if a == "dosc" else 0.0
                        for a in archs])
         res = simulate(p, kx, dx, bq, reference=circle, duration=p.circle_duration)
+        stage.advance(item="circle tracking")
         ep, ev = res.rms(after=p.circle_ramp)
         for i, a in enumerate(archs):
             rms_p[a], rms_v[a], sat[a] = float(ep[i]), float(ev[i]), float(res.saturation[i])
