@@ -19,11 +19,10 @@ from urllib.parse import urljoin, urlparse
 
 import pytest
 
+from browser import headless_chromium
+
 ROOT = Path(__file__).resolve().parents[1]
 DOCS = ROOT / "docs"
-CHROMIUM = next((p for p in ("/usr/bin/chromium", "/usr/bin/chromium-browser")
-                 if os.access(p, os.X_OK)), None)
-CHROMEDRIVER = "/usr/bin/chromedriver" if os.access("/usr/bin/chromedriver", os.X_OK) else None
 
 
 def toctree(path: Path) -> list[str]:
@@ -50,27 +49,8 @@ def site() -> Path:
 
 @pytest.fixture(scope="module")
 def browser():
-    if CHROMIUM is None or CHROMEDRIVER is None:
-        pytest.skip("no Chromium/chromedriver on this machine (.ci/run installs Debian's "
-                    "chromium and chromium-driver with apt-get)")
-    from selenium import webdriver
-    from selenium.webdriver.chrome.service import Service
-
-    opts = webdriver.ChromeOptions()
-    opts.binary_location = CHROMIUM
-    for arg in ("--headless=new", "--no-sandbox", "--disable-dev-shm-usage",
-                "--window-size=1400,900"):
-        opts.add_argument(arg)
-    service = Service(CHROMEDRIVER)
-    driver = webdriver.Chrome(service=service, options=opts)
-    driver.set_window_size(1400, 900)
-    try:
+    with headless_chromium(1400, 900) as driver:
         yield driver
-    finally:
-        driver.quit()
-        proc = getattr(service, "process", None)
-        if proc is not None and proc.poll() is None:
-            proc.kill()
 
 
 SIDEBAR_JS = """

@@ -26,6 +26,7 @@ import numpy as np
 import pytest
 
 import seactl as sc
+from browser import headless_chromium
 from seactl.apps.cli import main
 from seactl.errors import InputError
 
@@ -308,9 +309,6 @@ def test_loopback_addresses_and_allow_remote():
 
 
 # ------------------------------------------------------------------ real browser
-CHROMIUM = next((p for p in ("/usr/bin/chromium", "/usr/bin/chromium-browser")
-                 if os.access(p, os.X_OK)), None)
-CHROMEDRIVER = "/usr/bin/chromedriver" if os.access("/usr/bin/chromedriver", os.X_OK) else None
 
 FIND_JS = """
 function deep(root, sel, out) {
@@ -358,29 +356,11 @@ def server():
 
 @pytest.fixture
 def browser(tmp_path):
-    if CHROMIUM is None or CHROMEDRIVER is None:
-        pytest.skip("no Chromium/chromedriver on this machine (.ci/run installs Debian's "
-                    "chromium and chromium-driver with apt-get)")
-    from selenium import webdriver
-    from selenium.webdriver.chrome.service import Service
-
-    opts = webdriver.ChromeOptions()
-    opts.binary_location = CHROMIUM
-    for arg in ("--headless=new", "--no-sandbox", "--disable-dev-shm-usage",
-                "--window-size=1400,1100"):
-        opts.add_argument(arg)
-    opts.add_experimental_option("prefs", {  # several downloads without a prompt
+    prefs = {  # several downloads without a prompt
         "download.default_directory": str(tmp_path),
-        "profile.default_content_setting_values.automatic_downloads": 1})
-    service = Service(CHROMEDRIVER)
-    driver = webdriver.Chrome(service=service, options=opts)
-    try:
+        "profile.default_content_setting_values.automatic_downloads": 1}
+    with headless_chromium(1400, 1100, prefs=prefs) as driver:
         yield driver
-    finally:
-        driver.quit()
-        proc = getattr(service, "process", None)
-        if proc is not None and proc.poll() is None:
-            proc.kill()
 
 
 def _text(driver, element_id: str) -> str | None:

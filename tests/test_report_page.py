@@ -11,12 +11,12 @@ at 1400 x 900 CSS pixels, the size the issue asks about.
 from __future__ import annotations
 
 import json
-import os
 from collections import Counter
 from pathlib import Path
 
 import pytest
 
+from browser import headless_chromium
 from seactl.apps import report
 from seactl.apps.report_page import render_html, summary_line
 
@@ -95,37 +95,13 @@ def test_verdict_per_section_counts_its_claims(snapshot_page):
 
 
 # ------------------------------------------------------------------ browser
-CHROMIUM = next((p for p in ("/usr/bin/chromium", "/usr/bin/chromium-browser")
-                 if os.access(p, os.X_OK)), None)
-CHROMEDRIVER = "/usr/bin/chromedriver" if os.access("/usr/bin/chromedriver", os.X_OK) else None
 
 
 @pytest.fixture(scope="module")
 def browser():
     """Headless Chromium whose viewport is exactly WIDTH x HEIGHT CSS pixels."""
-    if CHROMIUM is None or CHROMEDRIVER is None:
-        pytest.skip("no Chromium/chromedriver on this machine (.ci/run installs Debian's "
-                    "chromium and chromium-driver with apt-get)")
-    pytest.importorskip("selenium", reason="the browser tests need selenium (test extra)")
-    from selenium import webdriver
-    from selenium.webdriver.chrome.service import Service
-
-    opts = webdriver.ChromeOptions()
-    opts.binary_location = CHROMIUM
-    for arg in ("--headless=new", "--no-sandbox", "--disable-dev-shm-usage",
-                f"--window-size={WIDTH},{HEIGHT + 200}"):
-        opts.add_argument(arg)
-    service = Service(CHROMEDRIVER)
-    driver = webdriver.Chrome(service=service, options=opts)
-    try:
-        driver.execute_cdp_cmd("Emulation.setDeviceMetricsOverride", {
-            "width": WIDTH, "height": HEIGHT, "deviceScaleFactor": 1, "mobile": False})
+    with headless_chromium(WIDTH, HEIGHT, exact_viewport=True) as driver:
         yield driver
-    finally:
-        driver.quit()
-        proc = getattr(service, "process", None)
-        if proc is not None and proc.poll() is None:
-            proc.kill()
 
 
 BOXES_JS = """

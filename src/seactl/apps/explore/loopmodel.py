@@ -13,7 +13,6 @@ from __future__ import annotations
 
 import math
 import tempfile
-import time
 from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Any
@@ -23,7 +22,15 @@ import numpy as np
 import seactl as sc
 from seactl.errors import InputError, LoopFileError, SeactlError
 
-from .model import MAX_UPLOAD_BYTES, MODES, PASSIVITY_RANGE_HZ, num_text, roots_views
+from .model import (
+    MAX_UPLOAD_BYTES,
+    MODES,
+    PASSIVITY_RANGE_HZ,
+    num_text,
+    roots_views,
+    run_stages,
+    sampled_words,
+)
 
 RECORD_DT_S = 5e-4
 """Recording interval of a continuous loop response: the one ``seactl step --loop``
@@ -304,12 +311,7 @@ STAGE_NAMES = ("margins and loop views", "roots", "responses", "jitter margins")
 
 def views(c: LoopControls) -> dict[str, Any]:
     """Everything the page shows for the loop controls ``c``: the stages, merged."""
-    t0 = time.perf_counter()
-    acc: dict[str, Any] = {}
-    for stage in STAGES:
-        acc.update(stage(c, acc))
-    acc["compute_ms"] = (time.perf_counter() - t0) * 1e3
-    return acc
+    return run_stages(STAGES, c)
 
 
 def verdict(r: dict[str, Any]) -> str:
@@ -323,12 +325,7 @@ def verdict(r: dict[str, Any]) -> str:
                      f"{num_text(b['delay_margin_ms'], '.3g', ' ms')}"
                      + ("" if jit == "..." else f", jitter margin {num_text(jit, '.3g', ' ms')}")
                      + ".")
-    if r.get("sampled_verdict") is not None:
-        from seactl.simulate.sampled import sampled_verdict_text
-
-        words.append("The loop as simulated: " + sampled_verdict_text(
-            bool(r["stable"]), r["sampled_verdict"], r["sampled_unstable_modes"],
-            r["sampled_rate"]) + ".")
+    words += sampled_words(r)
     if r.get("step_overshoot_pct") is not None:
         words.append(f"Step of {r['step_amplitude']:g} {r['step_unit']}: "
                      f"{r['step_overshoot_pct']:.1f} % overshoot, settles (2 %) in "

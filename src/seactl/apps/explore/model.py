@@ -408,6 +408,17 @@ def robustness_results(d: sc.Design) -> dict[str, Any]:
     return out
 
 
+def sampled_words(r: dict[str, Any]) -> list[str]:
+    """The sentence on the sampled loop's verdict, once that stage has computed it."""
+    if r.get("sampled_verdict") is None:
+        return []
+    from seactl.simulate.sampled import sampled_verdict_text
+
+    return ["The loop as simulated: " + sampled_verdict_text(
+        bool(r["stable"]), r["sampled_verdict"], r["sampled_unstable_modes"],
+        r["sampled_rate"]) + "."]
+
+
 def num_text(x: Any, fmt: str = ".3g", unit: str = "") -> str:
     return "none" if x is None else f"{x:{fmt}}{unit}"
 
@@ -455,12 +466,7 @@ def verdict(r: dict[str, Any], bands: np.ndarray) -> str:
         b = ", ".join(f"{lo:.3g}-{hi:.3g} Hz" for lo, hi in bands[:3])
         words.append(f"Z(jw) is not passive in {b}{' ...' if bands.shape[0] > 3 else ''} "
                      "(the actuator can inject energy there).")
-    if r.get("sampled_verdict") is not None:
-        from seactl.simulate.sampled import sampled_verdict_text
-
-        words.append("The loop as simulated: " + sampled_verdict_text(
-            bool(r["stable"]), r["sampled_verdict"], r["sampled_unstable_modes"],
-            r["sampled_rate"]) + ".")
+    words += sampled_words(r)
     if r.get("step_overshoot_pct") is not None:
         words.append(f"Step of {r['step_amplitude_rad']:g} rad: "
                      f"{r['step_overshoot_pct']:.1f} % overshoot, settles (2 %) in "
@@ -574,9 +580,15 @@ STAGE_NAMES = ("margins and loop views", "roots", "responses", "maps",
 def views(c: Controls) -> dict[str, Any]:
     """Everything the page shows for the controls ``c`` (the callbacks' pure core): the
     :data:`STAGES` in order, merged."""
+    return run_stages(STAGES, c)
+
+
+def run_stages(stages: Any, c: Any) -> dict[str, Any]:
+    """The results of ``stages`` run in order on the controls ``c`` (each sees what the
+    earlier ones computed), merged, with the time they took as ``compute_ms``."""
     t0 = time.perf_counter()
     acc: dict[str, Any] = {}
-    for stage in STAGES:
+    for stage in stages:
         acc.update(stage(c, acc))
     acc["compute_ms"] = (time.perf_counter() - t0) * 1e3
     return acc
