@@ -272,6 +272,33 @@ def test_cli_robust(tmp_path, capsys):
     assert main(["robust", "--fn", "14"]) == 2
 
 
+def test_public_parameter_robustness_is_the_cli_and_the_spec(capsys):
+    """Oracles: the nominal phase margin of ``sc.design`` (the System path, not the sweep
+    evaluator); the spec-level evaluator on the same spec (identical arrays); and the
+    CLI's JSON for the same design, intervals and seed."""
+    import seactl as sc
+
+    k = UT_SEA.spring_stiffness
+    design = dict(fn_hz=14, t_qs_ms=2, t_qd_ms=0.5)
+    r = sc.parameter_robustness(Ij=(0.8 * IJ, 1.2 * IJ), k=(0.8 * k, 1.2 * k),
+                                n_samples=200, seed=3, **design)
+    d = sc.design(14, delays_ms={"stiffness": 2, "damping": 0.5})
+    assert r.nominal_phase_margin_deg == pytest.approx(float(d.margins().phase_margin_deg),
+                                                       rel=1e-12)
+    spec = SweepSpec(UT_SEA, (("fn_hz", (14.0,)), ("t_qs_ms", (2.0,)), ("t_qd_ms", (0.5,)),
+                              ("Ij", (0.8 * IJ, 1.2 * IJ)), ("k", (0.8 * k, 1.2 * k))),
+                     sampling="random", n_samples=200, seed=3)
+    s = parameter_robustness(spec)
+    np.testing.assert_array_equal(r.phase_margin_deg, s.phase_margin_deg)
+    np.testing.assert_array_equal(r.samples["k"], s.samples["k"])
+    assert main(["robust", "--fn", "14", "--t-qs", "2", "--t-qd", "0.5", "--ij", "20%",
+                 "--k", "20%", "--n", "200", "--seed", "3", "--json"]) == 0
+    res = json.loads(capsys.readouterr().out)
+    assert res["p_unstable"] == pytest.approx(r.p_unstable, abs=0)
+    assert res["nominal_phase_margin_deg"] == pytest.approx(r.nominal_phase_margin_deg,
+                                                            rel=1e-12)
+
+
 # ------------------------------------------------------------------ Dask
 @pytest.fixture(scope="module")
 def cluster():

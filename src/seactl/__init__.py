@@ -32,7 +32,7 @@ _PUBLIC = {
                   "JitterResult", "RootsResult"),
     ".api.latency": ("loop_model", "latency_map", "place", "LatencyMapResult", "PlacementResult"),
     ".api.rigid": ("rigid", "RigidBatch"),
-    ".api.sweeps": ("sweep", "read_sweep"),
+    ".api.sweeps": ("sweep", "read_sweep", "parameter_robustness"),
     ".api.mobile_base": ("compare_mobile_base", "mobile_base_params"),
     ".api.userloop": ("UserLoop",),
     ".api.loopbuilder": ("load_loop", "LoopBuilder"),
@@ -49,6 +49,7 @@ __all__ = [
     "JitterResult", "rightmost_roots", "RootsResult",
     # other systems
     "rigid", "RigidBatch", "loop_model", "latency_map", "place", "sweep", "read_sweep",
+    "parameter_robustness",
     "compare_mobile_base", "mobile_base_params", "LatencyMapResult", "PlacementResult",
     # your own loop (loop files, docs/loops.md)
     "load_loop", "LoopBuilder", "UserLoop",

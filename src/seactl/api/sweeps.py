@@ -1,4 +1,5 @@
-"""Design-space sweeps of the public API: :func:`sweep` and :func:`read_sweep`."""
+"""Design-space sweeps of the public API: :func:`sweep`, :func:`read_sweep` and
+:func:`parameter_robustness` (one design over random actuator parameters)."""
 
 from __future__ import annotations
 
@@ -98,3 +99,51 @@ def read_sweep(out: str | Path, columns: Sequence[str] | None = None) -> Any:
     from seactl.sweep.dataset import read_sweep as read
 
     return read(out, columns)
+
+
+def parameter_robustness(*, actuator: Any = "ut-sea", n_samples: int = 2000, seed: int = 0,
+                         chunk_size: int = 5000, **axes: Any) -> Any:
+    """One design's phase margin over random actuator parameters (``seactl robust``).
+
+    The gains are designed for the nominal ``actuator``; each sample draws the plant
+    parameters given as intervals uniformly in them, and the loop's margins are computed
+    with the nominal gains on the sampled plant.  ("Monte Carlo" elsewhere in seactl means
+    random latency and loss: :meth:`System.monte_carlo`.)
+
+    Parameters
+    ----------
+    actuator : str or path or SEAParams
+        Nominal actuator.
+    n_samples, seed : int
+        Number of random samples and their seed.
+    chunk_size : int
+        Samples evaluated per batch.
+    **axes : array_like
+        The design: one value each of ``fn_hz``, ``gs``, ``t_tau_ms``, ``t_qs_ms``,
+        ``t_qd_ms``, ``f_qd_hz``, ``f_taud_hz`` (units in the names); the uncertain plant
+        parameters (``Im``, ``Ij``, ``bm``, ``bj``, ``k``, ``beta``, rotary SI) as
+        ``(low, high)`` intervals.
+
+    Returns
+    -------
+    seactl.sweep.robustness.RobustResult
+        The nominal phase margin, the phase margin and stability of each sample, the
+        sampled parameters, ``p_unstable`` and its Wilson interval ``p_unstable_ci95()``.
+
+    Examples
+    --------
+    >>> import seactl as sc
+    >>> k = sc.UT_SEA.spring_stiffness
+    >>> r = sc.parameter_robustness(fn_hz=14, t_qs_ms=2, k=(0.8 * k, 1.2 * k),
+    ...                             n_samples=200, seed=1)
+    >>> r.n_samples, round(r.nominal_phase_margin_deg, 2)
+    (200, 49.69)
+    """
+    from seactl.sweep.robustness import parameter_robustness as evaluate
+    from seactl.sweep.spec import SweepSpec
+    from seactl.systems.sea.actuators import SEAParams, load_sea
+
+    act = resolve_actuator(actuator, load_sea, SEAParams)
+    spec = SweepSpec(act, axes=tuple((k, tuple(np.ravel(v))) for k, v in axes.items()),
+                     sampling="random", n_samples=n_samples, seed=seed, chunk_size=chunk_size)
+    return evaluate(spec)

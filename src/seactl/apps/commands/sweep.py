@@ -390,7 +390,7 @@ def _robust_options(func):
 def robust(actuator, n_samples, seed, plot_file, as_json, **axes) -> None:
     """Monte Carlo of one design over actuator parameter uncertainty.
 
-    Python: seactl.sweep.robustness.monte_carlo(...).
+    Python: sc.parameter_robustness(...).
 
     \b
     The gains are designed for the nominal actuator; each sample draws the plant's
@@ -405,7 +405,7 @@ def robust(actuator, n_samples, seed, plot_file, as_json, **axes) -> None:
     The same samples, on Dask and stored as Parquet:
     seactl sweep --sample random --n N --seed S with the same options.
     """
-    from seactl.sweep.robustness import parameter_robustness
+    import seactl as sc
 
     fn, gs = axes["fn_hz"], axes["gs"]
     opts = {n: ("none" if axes[n] is None else str(axes[n]),) for n in DESIGN_AXES}
@@ -427,7 +427,8 @@ def robust(actuator, n_samples, seed, plot_file, as_json, **axes) -> None:
                              "two values LO,HI")
     with OutputSet() as outs:
         fig_file = outs.add("--plot", plot_file, FIGURE_SUFFIXES)
-        r = parameter_robustness(spec)
+        r = sc.parameter_robustness(actuator=spec.actuator, n_samples=n_samples, seed=seed,
+                                    chunk_size=spec.chunk_size, **dict(spec.axes))
         fig_path = None
         if fig_file:
             from seactl.apps.plots import robust_histogram_figure
