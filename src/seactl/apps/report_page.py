@@ -36,13 +36,14 @@ def counts_phrase(counts: dict[str, int]) -> str:
     return ", ".join(words[s] for s in WORDS if counts.get(s, 0)) or "none"
 
 
-def summary_line(claims: Sequence[dict[str, Any]]) -> str:
+def summary_line(claims: Sequence[dict[str, Any]], reasons: str = "") -> str:
     """``"142 claims of the paper checked: 105 reproduced, 18 do not hold as printed,
-    19 findings"`` for a list of claims (``claims.json``'s dicts)."""
-    counts = status_counts(claims)
-    w = count_words(counts)
+    19 findings"`` for a list of claims (``claims.json``'s dicts); ``reasons`` (e.g.
+    ``" (reasons in the report)"``) follows the count of claims that do not hold."""
+    w = count_words(status_counts(claims))
     noun = "claim" if len(claims) == 1 else "claims"
-    return f"{len(claims)} {noun} of the paper checked: {w['pass']}, {w['fail']}, {w['info']}"
+    return (f"{len(claims)} {noun} of the paper checked: {w['pass']}, {w['fail']}{reasons}, "
+            f"{w['info']}")
 
 
 def status_counts(claims: Sequence[dict[str, Any]]) -> dict[str, int]:

@@ -9,7 +9,7 @@ import click
 from rich.markup import escape
 from rich.table import Table
 
-from seactl.apps.report_page import count_words, status_counts
+from seactl.apps.report_page import summary_line
 from seactl.errors import InputError
 
 from .common import (
@@ -139,10 +139,7 @@ def claims_summary(claims: list[dict[str, Any]]) -> str:
     """The claims in the report's words (:data:`~seactl.apps.report_page.WORDS`): ``pass`` is
     reproduced, ``fail`` does not hold as printed (the report gives the reason), ``info`` is a
     finding (nothing to compare)."""
-    w = count_words(status_counts(claims))
-    noun = "claim" if len(claims) == 1 else "claims"
-    return (f"{len(claims)} {noun} of the paper checked: {w['pass']}, {w['fail']} "
-            f"(reasons in the report), {w['info']}")
+    return summary_line(claims, reasons=" (reasons in the report)")
 
 
 @cli.command()
