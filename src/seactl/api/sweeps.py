@@ -62,15 +62,21 @@ def sweep(out: str | Path, *, actuator: Any = "ut-sea", sampling: str = "grid",
     (6, 6)
     """
     from seactl.sweep.engine import run_sweep
+
+    spec = _spec(actuator, axes, sampling=sampling, n_samples=n_samples, seed=seed,
+                 chunk_size=chunk_size, z_freqs_hz=tuple(z_freqs_hz))
+    return run_sweep(spec, out, resume=resume, overwrite=overwrite, workers=workers,
+                     scheduler=scheduler, client=client)
+
+
+def _spec(actuator: Any, axes: dict[str, Any], **options: Any) -> Any:
+    """The sweep spec of a nominal ``actuator`` and the values of each axis."""
     from seactl.sweep.spec import SweepSpec
     from seactl.systems.sea.actuators import SEAParams, load_sea
 
     act = resolve_actuator(actuator, load_sea, SEAParams)
-    spec = SweepSpec(act, axes=tuple((k, tuple(np.ravel(v))) for k, v in axes.items()),
-                     sampling=sampling, n_samples=n_samples, seed=seed, chunk_size=chunk_size,
-                     z_freqs_hz=tuple(z_freqs_hz))
-    return run_sweep(spec, out, resume=resume, overwrite=overwrite, workers=workers,
-                     scheduler=scheduler, client=client)
+    return SweepSpec(act, axes=tuple((k, tuple(np.ravel(v))) for k, v in axes.items()),
+                     **options)
 
 
 def read_sweep(out: str | Path, columns: Sequence[str] | None = None) -> Any:
@@ -140,10 +146,6 @@ def parameter_robustness(*, actuator: Any = "ut-sea", n_samples: int = 2000, see
     (200, 49.69)
     """
     from seactl.sweep.robustness import parameter_robustness as evaluate
-    from seactl.sweep.spec import SweepSpec
-    from seactl.systems.sea.actuators import SEAParams, load_sea
 
-    act = resolve_actuator(actuator, load_sea, SEAParams)
-    spec = SweepSpec(act, axes=tuple((k, tuple(np.ravel(v))) for k, v in axes.items()),
-                     sampling="random", n_samples=n_samples, seed=seed, chunk_size=chunk_size)
-    return evaluate(spec)
+    return evaluate(_spec(actuator, axes, sampling="random", n_samples=n_samples, seed=seed,
+                          chunk_size=chunk_size))
