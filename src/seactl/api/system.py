@@ -303,6 +303,22 @@ class System:
         """
         raise self.unsupported("jitter_margins", "a kind of system with named loops")
 
+    def delay_terms(self) -> Any:
+        """The closed loop's characteristic quasi-polynomial as a function of the loops'
+        delays (:class:`seactl.diagram.delayterms.DelayTerms`, delays named by
+        :attr:`loops`): what delay margins along a direction and stability charts vary.
+
+        Returns
+        -------
+        seactl.diagram.delayterms.DelayTerms
+            Of the batch shape.
+        """
+        from seactl.diagram.delayterms import diagram_delay_terms
+
+        diagram = self.diagram
+        names = {diagram.block(block).delay: loop for loop, block in self.links.items()}
+        return diagram_delay_terms(diagram.characteristic(), self.design, names)
+
     def control_transfers(self, name: str) -> Any:
         """Transfer name -> (transfer, divide by ``-s``) for :meth:`to_control`.
 

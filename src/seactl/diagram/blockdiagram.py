@@ -618,6 +618,19 @@ class QuasiForm:
         forms of one diagram evaluated for the same design (a loop's ``N`` and ``D``),
         whose blocks' coefficients and partial products they then compute once."""
         shape = tuple(getattr(design, "shape", ()))
+        keys, coeffs = self.grouped(design, shared)
+        delays = np.stack([np.broadcast_to(sum((np.asarray(getattr(design, d), float)
+                                                for d in k), np.zeros(shape)), shape)
+                           for k in keys])
+        return QuasiPolynomial(coeffs, delays)
+
+    def grouped(self, design: Any, shared: dict | None = None
+                ) -> tuple[list[tuple[str, ...]], np.ndarray]:
+        """The terms of ``design`` grouped by their delays: ``(keys, coeffs)``, ``keys[k]``
+        the sorted names of the design's delay attributes whose sum delays term ``k``
+        (``()`` first: the undelayed term), ``coeffs`` of shape
+        ``(len(keys),) + batch + (n + 1,)`` as :class:`QuasiPolynomial`'s."""
+        shape = tuple(getattr(design, "shape", ()))
         shared = {} if shared is None else shared
         # (powers first while multiplying: each power's coefficients are contiguous)
         factors: dict[tuple[str, bool], np.ndarray] = shared.setdefault("factors", {})
@@ -653,10 +666,7 @@ class QuasiForm:
         coeffs = np.zeros((len(keys),) + shape + (n1,))  # (terms, designs, powers)
         for i, k in enumerate(keys):  # (+ 0: no -0 coefficients, as a sum always gave)
             np.add(np.moveaxis(groups[k], 0, -1), 0.0, out=coeffs[i, ..., :groups[k].shape[0]])
-        delays = np.stack([np.broadcast_to(sum((np.asarray(getattr(design, d), float)
-                                                for d in k), np.zeros(shape)), shape)
-                           for k in keys])
-        return QuasiPolynomial(coeffs, delays)
+        return keys, coeffs
 
 
 def evaluate_forms(forms: Sequence[QuasiForm], design: Any) -> tuple[QuasiPolynomial, ...]:
