@@ -164,15 +164,37 @@ def characteristic_roots(diagram: BlockDiagram, design: Any, *, count: int = 6,
     -------
     Roots
     """
+    q = diagram.characteristic(tuple(cut)).evaluate(design)
+    return quasi_roots(q, count=count, what=f"closed loop of {diagram.name!r}")
+
+
+def quasi_roots(q: QuasiPolynomial, *, count: int = 6, what: str = "quasi-polynomial"
+                ) -> Roots:
+    """The ``count`` rightmost roots of a retarded quasi-polynomial, per design.
+
+    Parameters
+    ----------
+    q : QuasiPolynomial
+        Of any batch shape (the shape of the result).
+    count : int
+        How many roots (conjugate pairs counted once) per design.
+    what : str
+        What ``q`` is, for the error raised when it is neutral.
+
+    Returns
+    -------
+    Roots
+        As :func:`characteristic_roots`.
+    """
     if isinstance(count, bool) or not isinstance(count, (int, np.integer)) or count < 1:
         raise InputError("count", count, "an integer >= 1 (roots per design)")
-    shape = tuple(getattr(design, "shape", ()))
-    q = diagram.characteristic(tuple(cut)).evaluate(design).flat()
-    q.require_retarded(f"closed loop of {diagram.name!r}")
+    shape = q.shape
+    q = q.flat()
+    q.require_retarded(what)
     n = q.shape[0]
     out = np.full((n, count), np.nan + 0j)
     nodes, ok = np.zeros(n, int), np.zeros(n, bool)
-    scale = _frequency_scale(q)
+    scale = frequency_scale(q)
     delayed = q.delays.max(axis=0) * scale > NEGLIGIBLE_DELAY
     for deg, dl in {(int(a), bool(b)) for a, b in zip(q.degree, delayed)}:
         idx = np.nonzero((q.degree == deg) & (delayed == dl))[0]
@@ -198,8 +220,20 @@ def characteristic_roots(diagram: BlockDiagram, design: Any, *, count: int = 6,
                  centre.reshape(per_root), radius.reshape(per_root), size.reshape(per_root))
 
 
-def _frequency_scale(q: QuasiPolynomial) -> np.ndarray:
-    """Fujiwara-type root scale ``max_j (sum_k |c_kj| / |a_n|)^{1/(n-j)}`` [rad/s]."""
+def frequency_scale(q: QuasiPolynomial) -> np.ndarray:
+    """Fujiwara-type root scale ``max_j (sum_k |c_kj| / |a_n|)^{1/(n-j)}`` [rad/s].
+
+    Parameters
+    ----------
+    q : QuasiPolynomial
+        A flat (1-D) batch.
+
+    Returns
+    -------
+    numpy.ndarray
+        Per design [rad/s], at least 1e-12: the scale of the grids of
+        :func:`seactl.analysis.margins.certified_right_roots` and of the root finder.
+    """
     n = q.degree
     rows = np.arange(n.size)
     lead = np.abs(q.coeffs[0, rows, n])
@@ -219,7 +253,7 @@ def _monic(q: QuasiPolynomial, n: int, scale: np.ndarray) -> np.ndarray:
 
 def _polynomial_roots(q: QuasiPolynomial, n: int, count: int) -> np.ndarray:
     """Undelayed designs: the roots of ``sum_k p_k`` (companion eigenvalues, polished)."""
-    scale = _frequency_scale(q)
+    scale = frequency_scale(q)
     c = _monic(q, n, scale).sum(axis=1)
     comp = np.zeros((c.shape[0], n, n))
     comp[:, np.arange(n - 1), np.arange(1, n)] = 1.0
