@@ -166,8 +166,8 @@ def find_compiler(cc: str | None = None) -> str | None:
 
 
 def compile_c(build: Path, proc: ProcessController, cc: str) -> Path:
-    """Compile ``<process>.c`` and its harness in ``build`` with ``cc -std=c99 -Wall
-    -Werror``; the executable."""
+    """Compile ``<process>.c`` and its harness in ``build`` with ``cc`` and
+    :data:`~seactl.codegen.controllers.CFLAGS`; the executable."""
     exe = build / f"{proc.ident}_harness"
     cmd = [cc, *CFLAGS, f"{proc.ident}.c", f"{proc.ident}_main.c", "-o", exe.name]
     try:

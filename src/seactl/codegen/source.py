@@ -9,20 +9,22 @@ from typing import Any
 
 from seactl.codegen import csource, pysource
 from seactl.codegen.controllers import FORMAT, LANGUAGES, Controllers, ProcessController
-from seactl.codegen.parametric import Program
+from seactl.codegen.parametric import Program, render
 from seactl.errors import InputError
 
 UPDATE_RULE = ("set_params(state, params) computes every block's coefficients in double and "
                "commits them only if all are finite and the network is solvable (else "
-               "returns -1 and keeps the old); it keeps every block state and delay buffer, "
-               "so at steady state the output moves at once to the steady value of the new "
-               "parameters, with no transient")
+               "returns -1 and keeps the old); it keeps every block state (the block's input "
+               "filtered by its denominator) and delay buffer, so at steady state the output "
+               "moves at once to the steady value of the new parameters with no transient, "
+               "unless a changed gain steps the input of a derivative (the derivative then "
+               "answers that step)")
 WATCHDOG_RULE = ("step(state, inputs, fresh, outputs): fresh != 0 when the commands (the "
                  "references and messages) were refreshed since the last call; after more "
                  "than watchdog_ticks calls without a fresh command every output is 0 "
                  "(zero actuation) and outputs.watchdog is 1; the states keep running on the "
-                 "inputs given, so the controller resumes without a kick when fresh commands "
-                 "return; watchdog_ticks <= 0 turns the watchdog off")
+                 "inputs given, so they are current when a fresh command returns the outputs "
+                 "to the controller's values; watchdog_ticks <= 0 turns the watchdog off")
 
 
 def banner(ctl: Controllers, prog: Program, comment: str, real: str = "double") -> str:
@@ -49,6 +51,10 @@ def banner(ctl: Controllers, prog: Program, comment: str, real: str = "double") 
 
 def python_class_name(proc: ProcessController | Program) -> str:
     return pysource.class_name(proc.ident)
+
+
+def _text(expr: Any) -> str:
+    return render(expr, lambda n: n, repr)
 
 
 def _params_json(prog: Program) -> list[dict[str, Any]]:
@@ -80,7 +86,8 @@ def to_json(ctl: Controllers, real: str = "double") -> dict[str, Any]:
             item["blocks"] = [{"name": b.name, "src": prog.signals[b.src],
                                "dst": prog.signals[b.dst], "order": b.order,
                                "buffer_samples": b.buffer,
-                               "num": [str(c) for c in b.num], "den": [str(c) for c in b.den]}
+                               "num": [_text(c) for c in b.num],
+                               "den": [_text(c) for c in b.den]}
                               for b in prog.blocks]
         procs.append(item)
     emulated = ctl.effective_delays_s if ctl.emulate_latency else {}
