@@ -1,5 +1,10 @@
 """Per-process discrete controllers of a design, exported as C99, Python and JSON.
 
+What is written is the run-time form of each process (:mod:`seactl.codegen.parametric`:
+blocks whose coefficients are computed from a parameter struct, without the design's
+delays unless ``emulate_latency``); what it is verified against is the state space below,
+the sampled controller of :func:`seactl.simulate.discrete.compile_sampled` split by process.
+
 A design runs on several processes (the block diagram's ``process`` tags: the stiffness
 loop on the ``high-level`` process, torque and damping on the ``embedded`` process), each
 at its own rate.  :func:`compile_processes` splits the sampled controller of

@@ -98,11 +98,35 @@ def _fields(design: Any) -> dict[str, Any]:
     return {k: v for k, v in (f() if f else {}).items() if v is not None}
 
 
-def _traced(block: Block, sym: _Symbols) -> tuple[list[Any], list[Any]]:
+def _printable(expr: Any) -> bool:
+    try:
+        render(expr, str, repr)
+    except ValueError:
+        return False
+    return True
+
+
+def _expressions(block: Block, sym: _Symbols, design: Any) -> tuple[list[Any], list[Any]]:
+    """The block's coefficients as expressions of the design's parameters; a coefficient
+    the generated code cannot compute (a function of a parameter) is fixed at its value,
+    and so is every coefficient of a block whose coefficients are not arithmetic."""
+    try:
+        with np.errstate(all="ignore"):
+            num = [sympy.sympify(c) for c in block.num(sym)]
+            den = [sympy.sympify(c) for c in block.den(sym)]
+    except (TypeError, AttributeError, ValueError, sympy.SympifyError):
+        num_c, den_c = block.coefficients(design)
+        return ([sympy.Float(float(np.ravel(c)[0])) for c in num_c],
+                [sympy.Float(float(np.ravel(c)[0])) for c in den_c])
+    values = {sympy.Symbol(k): float(np.ravel(getattr(design, k))[0]) for k in sym.used}
+    fix = lambda e: e if _printable(e) else sympy.Float(float(e.subs(values)))  # noqa: E731
+    return [fix(e) for e in num], [fix(e) for e in den]
+
+
+def _traced(block: Block, sym: _Symbols, design: Any) -> tuple[list[Any], list[Any]]:
     """The block's coefficients as expressions; padded to one order (leading numerator
     zeros dropped first, as the sampled compiler does)."""
-    num = [sympy.sympify(c) for c in block.num(sym)]
-    den = [sympy.sympify(c) for c in block.den(sym)]
+    num, den = _expressions(block, sym, design)
     while len(num) > len(den) and num[0] == 0:
         num = num[1:]
     if len(num) > len(den) + 1:
@@ -158,12 +182,13 @@ def program(diagram: BlockDiagram, design: Any, ctl: Controllers, proc: ProcessC
     for b in local:
         if b.name not in need_blk:
             continue
-        num, den = _traced(b, sym)
+        num, den = _traced(b, sym, design)
         msg = next((j for j, o in enumerate(proc.outputs)
                     if b.name in mine and o == message_name(b.dst, proc.name)), -1)
         blocks.append(ProgramBlock(b.name, idx[b.src], idx[b.dst], len(den) - 1,
                                    buffers.get(b.name, 0), tuple(num), tuple(den), msg))
-    params = {k: float(np.ravel(fields[k])[0]) for k in fields if k in sym.used}
+    used = set().union(*(e.free_symbols for b in blocks for e in (*b.num, *b.den)))
+    params = {k: float(np.ravel(fields[k])[0]) for k in fields if sympy.Symbol(k) in used}
     limits = tuple((f"limit_{c_ident(o)}", lim) if s is not None else None
                    for o, s, lim in zip(proc.outputs, outs_sig, proc.limits))
     commands = tuple(n for n in proc.inputs if n in msg_in or n in ctl.references)
