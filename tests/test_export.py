@@ -243,6 +243,7 @@ def test_cli_never_touches_other_files(tmp_path, capsys):
     (["--rate", "embedded=3000", "--rate", "high-level=1000", "--rate", "x=1"], "rate"),
     (["--fn", "12", "14"], "one --fn"),
     (["--verify", "--cc", "no-such-compiler-xyz"], "no C compiler"),
+    (["--real", "quad"], "--real"),
 ])
 def test_cli_bad_input_one_line_exit_2(tmp_path, capsys, args, needle):
     out = tmp_path / "ctl"

@@ -140,7 +140,7 @@ def write_export(files: Mapping[str, str], out: str | os.PathLike, marker: str =
 
 
 # ----------------------------------------------------------------------------- verify
-TARGETS = {"double": 1e-9, "float": 1e-4}
+TARGETS = {"double": 1e-12, "float": 1e-4}
 """Largest relative difference an export may show (``real`` of the C -> bound)."""
 
 @dataclass(frozen=True)
@@ -154,7 +154,7 @@ class Verification:
     compiler: str | None
     compile_s: float | None
     ticks: dict[str, int]
-    target: float = 1e-9
+    target: float = 1e-12
     """The relative difference the export is held to (rounding of ``double`` or
     ``float``)."""
 
