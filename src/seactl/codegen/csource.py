@@ -1,10 +1,11 @@
 """A :class:`~seactl.codegen.parametric.Program` as C99: ``<process>.h``, ``<process>.c``
 and the CSV harness ``<process>_main.c``.
 
-The C holds no dynamic memory and calls no library function (``<math.h>`` only for
-``HUGE_VAL``); the parameters live in a struct the caller may change between two calls of
-``step`` (``<process>_set_params``).  ``real`` is ``double`` or ``float`` (the signals,
-states and outputs); the coefficients are computed in ``double``.
+The C holds no dynamic memory (every array is in the state struct, sized at export) and
+calls no library function (``<math.h>`` only for ``HUGE_VAL``); the parameters live in a
+struct the caller may change between two calls of ``step`` (``<process>_set_params``).
+``real`` is ``double`` or ``float`` (the signals, states and outputs); the coefficients
+are computed in ``double``.
 """
 
 from __future__ import annotations
@@ -61,7 +62,7 @@ def header(prog: Program, banner: str, real: str) -> str:
             f"    double bz[{P}_NC], az[{P}_NC];  /* discrete coefficients */\n"
             f"    {p}_real d[{P}_NB], f[{P}_NB], u[{P}_NB];\n"
             f"    {p}_real g[{P}_NS * {P}_NS];    /* (I - F)^-1 */\n"
-            f"    double work[{P}_NS * {P}_NS];\n"
+            f"    double work[2 * {P}_NS * {P}_NS]; /* set_params's workspace */\n"
             f"    {p}_real w[{P}_NW];             /* block states */\n"
             f"    {p}_real buf[{P}_NBUF];         /* emulated latency (if any) */\n"
             f"    int head[{P}_NB];\n"
@@ -136,7 +137,7 @@ void @_default_params(@_params *prm)
 int @_set_params(@_state *s, const @_params *prm)
 {
     double cn[@P_NC], cd[@P_NC], bz[@P_NC], az[@P_NC], d[@P_NB];
-    double *a = s->work;
+    double *a = s->work, *inv = s->work + @P_NS * @P_NS;
     int b, i, j, k, n = @P_NS;
 @COEFFS
     for (b = 0; b < @P_NB; ++b) {
@@ -154,7 +155,6 @@ int @_set_params(@_state *s, const @_params *prm)
     for (b = 0; b < @P_NB; ++b)
         if (@_len[b] == 0) a[@_dst[b] * n + @_src[b]] -= d[b];
     {
-        double inv[@P_NS * @P_NS];
         for (i = 0; i < n * n; ++i) inv[i] = 0.0;
         for (i = 0; i < n; ++i) inv[i * n + i] = 1.0;
         for (k = 0; k < n; ++k) {
