@@ -226,3 +226,30 @@ def test_float_build_is_clean(export, tmp_path):
     steady = float(res.stdout.split()[1])
     prm = _python(export[0]).DEFAULT_PARAMS
     assert steady == pytest.approx(_law(prm), rel=1e-5)
+
+
+@pytest.mark.slow
+@pytest.mark.skipif(CC is None, reason=NO_CC)
+def test_loop_file_harness_under_sanitizers(tmp_path):
+    """The disturbance-observer loop (an algebraic loop solved by the network inverse with
+    pivoting) built with the sanitizers, on random inputs, against the state space of the
+    sampled compiler (:func:`seactl.codegen.controllers.run_process`, oracle (1) of
+    tests/test_export.py) to 1e-12."""
+    from pathlib import Path
+
+    from seactl.codegen.controllers import relative_error, run_process
+
+    path = Path(__file__).resolve().parents[1] / "examples" / "loops" / "sea-dob.toml"
+    res = sc.load_loop(path).export(tmp_path, lang="c")
+    for proc in res.controllers.processes:
+        exe = tmp_path / f"{proc.ident}_san"
+        subprocess.run([CC, *CFLAGS, *SANITIZE, f"{proc.ident}.c", f"{proc.ident}_main.c",
+                        "-o", exe.name], cwd=tmp_path, check=True, capture_output=True)
+        u = np.random.default_rng(4).standard_normal((500, len(proc.inputs)))
+        csv = ",".join(proc.inputs) + "\n" + "".join(
+            ",".join(repr(float(v)) for v in row) + "\n" for row in u)
+        out = subprocess.run([str(exe)], input=csv, capture_output=True, text=True,
+                             timeout=60)
+        assert out.returncode == 0 and "runtime error" not in out.stderr, out.stderr
+        y = np.loadtxt(out.stdout.splitlines()[1:], delimiter=",").reshape(len(u), -1)
+        assert relative_error(y, run_process(proc, u)) <= 1e-12
