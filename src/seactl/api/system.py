@@ -812,11 +812,15 @@ class System:
     # ------------------------------------------------------------ code and runs
     def export(self, out: Any, *, lang: Any = ("c", "python", "json"),
                rates_hz: Any = 1000.0, saturation_a: float | None = None,
-               verify: bool = False, **options: Any) -> Any:
+               verify: bool = False, emulate_latency: bool = False, real: str = "double",
+               **options: Any) -> Any:
         """Write the discrete controller of each process as C99, Python and JSON.
 
-        The sampled controller (Tustin derivatives and filters, whole-sample delay buffers,
-        the current limit) split by process, as the diagram's blocks say (docs/export.md).
+        The sampled controller (Tustin derivatives and filters, the current limit) split
+        by process, as the diagram's blocks say, in the form that runs on the robot: the
+        gains, filter time constants, output limit and watchdog bound in a parameter
+        struct that can be changed at run time (bumpless), a ``reset``, no dynamic memory
+        (docs/export.md).
 
         Parameters
         ----------
@@ -830,11 +834,19 @@ class System:
             (each an integer divisor of the fastest).
         saturation_a : float, optional
             Motor current limit [A] (default: the actuator's; ``inf``: none); the rigid
-            actuator's force limit is ``beta`` times it.
+            actuator's force limit is ``beta`` times it.  The default of the limit
+            parameter.
         verify : bool
-            Compile the C (``cc -std=c99 -Wall -Werror``) and run it and the Python on a
-            sampled step response (:attr:`export_step`) and on random signals against
-            seactl's own sampled controller, before writing.
+            Compile the C (``cc -std=c99 -Wall -Wextra -Werror -pedantic``) and run it and
+            the Python on a sampled step response (:attr:`export_step`) and on random
+            signals against seactl's own sampled controller, before writing.
+        emulate_latency : bool
+            Keep the design's delays in the code as whole-sample buffers (effective delays
+            ``T_s/2 + n T_s``, never shorter than requested; for bench tests).  By default
+            the code holds no delay: on the robot the latency is the platform's, and the
+            code equals the sampled controller with zero delays.
+        real : {"double", "float"}
+            Floating-point type of the C's signals and states.
         **options
             The kind's own options (the SEA's ``zero``).
 
@@ -858,7 +870,8 @@ class System:
         kw, options = self._legacy("export", options, saturation_a=saturation_a)
         return export_design(self.diagram_for(**options), self.design, out, languages=lang,
                              rates_hz=rates_hz, saturation=self.saturation(kw["saturation_a"]),
-                             verify_export=verify, step=self.export_step)
+                             verify_export=verify, step=self.export_step,
+                             emulate_latency=emulate_latency, real=real)
 
     @run_doc
     def run(self, *, duration_s: float = 2.0, rates_hz: Any = 1000.0,

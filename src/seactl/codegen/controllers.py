@@ -27,7 +27,7 @@ from seactl.simulate.realize import realize_tustin
 
 LANGUAGES = ("c", "python", "json")
 FORMAT = "seactl-controller/1"
-CFLAGS = ("-std=c99", "-Wall", "-Werror", "-O2")
+CFLAGS = ("-std=c99", "-Wall", "-Wextra", "-Werror", "-pedantic", "-O2")
 MAX_SIM_TICKS = 4000
 """The verification's step response is at most this many base ticks long."""
 
@@ -72,6 +72,10 @@ class Controllers:
     parameters: dict[str, float]
     effective_delays_s: dict[str, float]
     requested_delays_s: dict[str, float]
+    emulate_latency: bool = True
+    """Whether the processes hold the design's delays as buffers (else zero delays)."""
+    programs: tuple[Any, ...] = ()
+    """The run-time form of each process (:mod:`seactl.codegen.parametric`), if built."""
 
     def process(self, name: str) -> ProcessController:
         for p in self.processes:

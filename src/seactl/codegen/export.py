@@ -1,5 +1,10 @@
 """Per-process discrete controllers of a design, exported as C99, Python and JSON.
 
+What is written is the run-time form of each process (:mod:`seactl.codegen.parametric`:
+blocks whose coefficients are computed from a parameter struct, without the design's
+delays unless ``emulate_latency``); what it is verified against is the state space below,
+the sampled controller of :func:`seactl.simulate.discrete.compile_sampled` split by process.
+
 A design runs on several processes (the block diagram's ``process`` tags: the stiffness
 loop on the ``high-level`` process, torque and damping on the ``embedded`` process), each
 at its own rate.  :func:`compile_processes` splits the sampled controller of
@@ -52,14 +57,20 @@ from seactl.codegen.controllers import (
     MAX_SIM_TICKS,
     Controllers,
     ProcessController,
-    compile_processes,
     random_signals,
     reference_actuation,
     relative_error,
     run_schedule,
     simulation_signals,
 )
-from seactl.codegen.source import check_languages, export_files, python_class_name
+from seactl.codegen.parametric import compile_export
+from seactl.codegen.source import (
+    check_languages,
+    check_real,
+    export_files,
+    python_class_name,
+    to_json,
+)
 from seactl.diagram.blockdiagram import BlockDiagram
 from seactl.errors import InputError, OutputError, ResourceError, SeactlError
 
@@ -129,6 +140,9 @@ def write_export(files: Mapping[str, str], out: str | os.PathLike, marker: str =
 
 
 # ----------------------------------------------------------------------------- verify
+TARGETS = {"double": 1e-12, "float": 1e-4}
+"""Largest relative difference an export may show (``real`` of the C -> bound)."""
+
 @dataclass(frozen=True)
 class Verification:
     """Largest relative difference of each exported implementation from seactl's sampled
@@ -140,6 +154,9 @@ class Verification:
     compiler: str | None
     compile_s: float | None
     ticks: dict[str, int]
+    target: float = 1e-12
+    """The relative difference the export is held to (rounding of ``double`` or
+    ``float``)."""
 
 
 def find_compiler(cc: str | None = None) -> str | None:
@@ -154,8 +171,8 @@ def find_compiler(cc: str | None = None) -> str | None:
 
 
 def compile_c(build: Path, proc: ProcessController, cc: str) -> Path:
-    """Compile ``<process>.c`` and its harness in ``build`` with ``cc -std=c99 -Wall
-    -Werror``; the executable."""
+    """Compile ``<process>.c`` and its harness in ``build`` with ``cc`` and
+    :data:`~seactl.codegen.controllers.CFLAGS`; the executable."""
     exe = build / f"{proc.ident}_harness"
     cmd = [cc, *CFLAGS, f"{proc.ident}.c", f"{proc.ident}_main.c", "-o", exe.name]
     try:
@@ -210,9 +227,10 @@ def verify(diagram: BlockDiagram, design: Any, ctl: Controllers, *,
            rates_hz: Mapping[str, float] | float, saturation: Mapping[str, float] | None,
            languages: Sequence[str] = ("c", "python"), cc: str | None = None,
            t_end_s: float = 0.5, random_ticks: int = 2000, seed: int = 0,
-           step: float = 0.1) -> Verification:
-    """Run the exported code on the signals of a sampled step response and on random
-    signals, against seactl's own sampled controller (:func:`reference_actuation`)."""
+           step: float = 0.1, real: str = "double") -> Verification:
+    """Run the exported code (``ctl.programs``; the C in ``real``) on the signals of a
+    sampled step response and on random signals, against seactl's own sampled controller
+    (:func:`reference_actuation`) of ``design`` (the one ``ctl`` was compiled from)."""
     compiler = find_compiler(cc) if "c" in languages else None
     if "c" in languages and compiler is None:
         raise ResourceError(f"no C compiler found (looked for {cc or '$CC, cc, gcc, clang'}):"
@@ -228,7 +246,7 @@ def verify(diagram: BlockDiagram, design: Any, ctl: Controllers, *,
     compile_s = None
     with tempfile.TemporaryDirectory(prefix="seactl-export-") as tmp:
         build = Path(tmp)
-        for name, text in export_files(ctl, ("c", "python")).items():
+        for name, text in export_files(ctl, ("c", "python"), real).items():
             (build / name).write_text(text)
         runners = {}
         if "python" in languages:
@@ -243,7 +261,8 @@ def verify(diagram: BlockDiagram, design: Any, ctl: Controllers, *,
                 y = run_schedule(ctl, base, runner)
                 errors[f"{lang}/{case}"] = relative_error(y, refs[case])
     return Verification(max(errors.values(), default=0.0), errors, compiler, compile_s,
-                        {k: len(next(iter(b.values()))) for k, b in cases.items()})
+                        {k: len(next(iter(b.values()))) for k, b in cases.items()},
+                        TARGETS[real] if compiler else TARGETS["double"])
 
 
 # ----------------------------------------------------------------------------- one call
@@ -260,6 +279,8 @@ class ExportResult(Result):
         The per-process discrete controllers.
     verification : Verification or None
         The verification, when asked for.
+    real : {"double", "float"}
+        The C's floating-point type.
 
     Attributes
     ----------
@@ -284,6 +305,7 @@ class ExportResult(Result):
     files: list[Path]
     controllers: Controllers
     verification: Verification | None
+    real: str = "double"
 
     @property
     def processes(self) -> tuple[ProcessController, ...]:
@@ -316,14 +338,22 @@ class ExportResult(Result):
         Returns
         -------
         dict
-            ``files``, ``processes`` (``name``, ``rate_hz``, ``inputs``, ``outputs``),
-            ``max_error``, ``errors``, ``compiler``, ``compile_s``.
+            ``files``, ``processes`` (``name``, ``rate_hz``, ``inputs``, ``outputs``,
+            ``params``: the parameter struct), ``emulate_latency``, ``real``,
+            ``requested_delays_s``, ``effective_delays_s``, ``emulated_delays_s`` [s],
+            ``max_error``, ``target``, ``errors``, ``compiler``, ``compile_s``.
         """
+        doc = to_json(self.controllers, self.real)
+        params = {p["name"]: p.get("params") for p in doc["processes"]}
         return {"files": [str(p) for p in self.files],
                 "processes": [{"name": p.name, "rate_hz": p.rate_hz, "inputs": list(p.inputs),
-                               "outputs": list(p.outputs)} for p in self.processes],
-                "max_error": self.max_error, "errors": self.errors,
-                "compiler": self.compiler, "compile_s": self.compile_s}
+                               "outputs": list(p.outputs), "params": params[p.name]}
+                              for p in self.processes],
+                **{k: doc[k] for k in ("emulate_latency", "real", "requested_delays_s",
+                                       "effective_delays_s", "emulated_delays_s")},
+                "max_error": self.max_error,
+                "target": None if self.verification is None else self.verification.target,
+                "errors": self.errors, "compiler": self.compiler, "compile_s": self.compile_s}
 
     def records(self) -> list[dict[str, Any]]:
         """One flat row per process.
@@ -368,16 +398,20 @@ def export_design(diagram: BlockDiagram, design: Any, out: str | os.PathLike, *,
                   languages: Sequence[str] | str = LANGUAGES,
                   rates_hz: Mapping[str, float] | float = 1000.0,
                   saturation: Mapping[str, float] | None = None, verify_export: bool = False,
-                  cc: str | None = None, step: float = 0.1) -> ExportResult:
+                  cc: str | None = None, step: float = 0.1, emulate_latency: bool = False,
+                  real: str = "double") -> ExportResult:
     """Compile, optionally verify (before anything is written), and write an export.
 
+    ``emulate_latency``: keep the design's delays as buffers in the code (else none: the
+    platform's latency is the design's); ``real``: the C's ``double`` or ``float``;
     ``step``: the reference step of the verification's sampled simulation."""
     langs = check_languages(languages)
+    real = check_real(real)
     out = check_export_dir(out)
-    ctl = compile_processes(diagram, design, rates_hz, saturation)
+    ctl, used = compile_export(diagram, design, rates_hz, saturation, emulate_latency)
     ver = None
     if verify_export:
-        ver = verify(diagram, design, ctl, rates_hz=rates_hz, saturation=saturation,
-                     languages=("c", "python"), cc=cc, step=step)
-    files = write_export(export_files(ctl, langs), out)
-    return ExportResult(files, ctl, ver)
+        ver = verify(diagram, used, ctl, rates_hz=rates_hz, saturation=saturation,
+                     languages=("c", "python"), cc=cc, step=step, real=real)
+    files = write_export(export_files(ctl, langs, real), out)
+    return ExportResult(files, ctl, ver, real)

@@ -270,13 +270,14 @@ def run_distributed(diagram: Any, design: Any, *, saturation: dict[str, float] |
     ``step``: the reference step (rad or m); ``on_start(pids)`` is called with the
     children's process ids once they are started."""
     from seactl.base.limits import MIN_SAMPLES
-    from seactl.codegen.controllers import compile_processes
+    from seactl.codegen.parametric import compile_export
     from seactl.codegen.source import export_files
     from seactl.errors import InputError
     from seactl.simulate.discrete import compile_sampled
 
     _check_run(duration_s, extra_latency_s, loss, step, transport, seed)
-    ctl = compile_processes(diagram, design, rates_hz, saturation)
+    # lock-step replay of the analysis model: the processes emulate the design's latency
+    ctl, _ = compile_export(diagram, design, rates_hz, saturation, emulate_latency=True)
     if set(ctl.names) != {"embedded", "high-level"}:
         raise InputError("processes", ", ".join(ctl.names), "exactly embedded and high-level "
                          "(seactl run's layout: plant, embedded, high-level)")

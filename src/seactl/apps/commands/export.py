@@ -1,7 +1,9 @@
 """``seactl export``: the discrete controller of each process as C99, Python and JSON.
 
-JSON: ``{"files": [...], "processes": [{"name", "rate_hz", "inputs", "outputs"}],
-"max_error", "errors", "compiler", "compile_s"}`` (the last four null without --verify).
+JSON: ``{"files": [...], "processes": [{"name", "rate_hz", "inputs", "outputs", "params"}],
+"emulate_latency", "real", "requested_delays_s", "effective_delays_s", "emulated_delays_s",
+"max_error", "target", "errors", "compiler", "compile_s"}`` (the last five null without
+--verify).
 """
 
 from __future__ import annotations
@@ -160,13 +162,19 @@ def system_options(func: Callable[..., Any]) -> Callable[..., Any]:
 @click.option("--lang", default="c,python,json", show_default=True,
               help="Comma-separated: c (<process>.h/.c + CSV harness), python, json.")
 @system_options
+@click.option("--emulate-latency", is_flag=True,
+              help="Keep the design's delays as buffers in the code (bench tests); by "
+                   "default the code holds none: on the robot the latency is the platform's.")
+@click.option("--real", type=click.Choice(("double", "float")), default="double",
+              show_default=True, help="Floating-point type of the C.")
 @click.option("--verify", is_flag=True,
-              help="Compile the C (cc -std=c99 -Wall -Werror) and run it and the Python "
-                   "against seactl's sampled controller before writing.")
+              help="Compile the C (cc -std=c99 -Wall -Wextra -Werror -pedantic) and run it "
+                   "and the Python against seactl's sampled controller before writing.")
 @click.option("--cc", default=None, help="C compiler for --verify [default: $CC, cc, gcc].")
 @json_option
 def export(spec: DesignSpec, loop: Any, out: str, lang: str, system: SystemChoice,
-           verify: bool, cc: str | None, as_json: bool) -> None:
+           emulate_latency: bool, real: str, verify: bool, cc: str | None,
+           as_json: bool) -> None:
     """Write the discrete controller of each process (C99, Python, JSON).
 
     Python: sc.design(...).export(out), sc.rigid(...).export(out),
@@ -174,7 +182,9 @@ def export(spec: DesignSpec, loop: Any, out: str, lang: str, system: SystemChoic
 
     \b
     The sampled controller of the design split by process, each at its own rate:
-    stiffness on 'high-level', torque and damping on 'embedded' (docs/export.md).
+    stiffness on 'high-level', torque and damping on 'embedded' (docs/export.md);
+    gains, filters, output limit and watchdog in a run-time parameter struct; no delay
+    buffers unless --emulate-latency.
     Example:
       seactl export --fn 14 --t-tau 1 --t-qs 2 --t-qd 1 --f-qd 50 --f-taud 100 \\
           --rate embedded=2000 --rate high-level=500 --out ctl --verify
@@ -186,7 +196,8 @@ def export(spec: DesignSpec, loop: Any, out: str, lang: str, system: SystemChoic
     check_export_dir(out)
     diagram, design, sat, step, rates = system.build(spec, loop)
     res = export_design(diagram, design, out, languages=langs, rates_hz=rates,
-                        saturation=sat, verify_export=verify, cc=cc, step=step)
+                        saturation=sat, verify_export=verify, cc=cc, step=step,
+                        emulate_latency=emulate_latency, real=real)
     if as_json:
         echo_json(res.to_dict())
         return
@@ -204,15 +215,18 @@ def _print(res: Any) -> None:
     console.print(t)
     console.print("files: " + escape(", ".join(str(f) for f in res.files)))
     ctl = res.controllers
-    moved = [f"{b} {ctl.requested_delays_s[b] * 1e3:g} -> {e * 1e3:g}"
-             for b, e in ctl.effective_delays_s.items()
-             if abs(e - ctl.requested_delays_s[b]) > 1e-12]
-    if moved:
-        console.print(escape("note: at these rates the whole-sample buffers give effective "
-                             "delays T_s/2 + n T_s [ms]: " + ", ".join(moved)))
+    delays = ", ".join(f"{b} {ctl.requested_delays_s[b] * 1e3:g} -> {e * 1e3:g}"
+                       for b, e in ctl.effective_delays_s.items())
+    if ctl.emulate_latency and delays:
+        console.print(escape("latency emulated by buffers, requested -> effective (T_s/2 + "
+                             "n T_s, never shorter) [ms]: " + delays))
+    elif delays:
+        console.print(escape("no latency in the code (the platform's is the design's; "
+                             "--emulate-latency to emulate it); design delays requested -> "
+                             "effective when sampled [ms]: " + delays))
     v = res.verification
     if v is not None:
         detail = ", ".join(f"{k} {e:.2e}" for k, e in v.errors.items())
-        console.print(f"verified: largest relative difference {v.max_error:.2e} "
-                      f"(target 1e-9; {escape(detail)}); compiled with {escape(v.compiler)} "
-                      f"in {v.compile_s:.2f} s")
+        console.print(f"verified ({res.real}): largest relative difference {v.max_error:.2e} "
+                      f"(target {v.target:g}; {escape(detail)}); compiled with "
+                      f"{escape(v.compiler)} in {v.compile_s:.2f} s")
