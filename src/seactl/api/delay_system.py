@@ -101,7 +101,20 @@ def _not_here(view: str, reason: str) -> Any:
         raise self.unsupported(view, reason)
 
     method.__name__ = view
-    method.__doc__ = f"Not available for a delay equation or quasi-polynomial: {reason}."
+    method.__doc__ = (f"""Not available for a delay equation or quasi-polynomial: {reason}.
+
+        Parameters
+        ----------
+        *args
+            Ignored.
+        **kwargs
+            Ignored.
+
+        Raises
+        ------
+        InputError
+            Always, naming the view and the reason.
+        """)
     return method
 
 
@@ -130,6 +143,13 @@ class DelaySystem(System):
         A title (a file's ``title``; empty when typed in).
     file : str
         The file it was read from (``"<python>"`` when typed in).
+
+    Examples
+    --------
+    >>> import seactl as sc
+    >>> d = sc.delay_equation(-1.0, terms=[(0.5, [1.0, 2.0])])
+    >>> d.shape, d.loops, d.size, type(d[0]).__name__
+    ((2,), ('tau1',), 2, 'DelayEquation')
     """
 
     title: str = ""
@@ -220,7 +240,13 @@ class DelaySystem(System):
         return DelayTerms(coeffs, self._exponents, self.loops, tau)
 
     def labels(self) -> list[str]:
-        """One label per design (flattened batch): its delays [s]."""
+        """One label per design (flattened batch): its delays [s].
+
+        Returns
+        -------
+        list of str
+            ``"tau1=0.5 s, ..."`` per design.
+        """
         cols = {k: np.ravel(v) for k, v in self.delays_s.items()}
         return [", ".join(f"{k}={v[i]:g} s" for k, v in cols.items()) or self.kind
                 for i in range(self.size)]
@@ -319,12 +345,30 @@ class DelayEquation(DelaySystem):
     Made by :func:`delay_equation` (or :func:`load_dde`); a :class:`~seactl.System` of
     kind ``"dde"`` whose ``loops`` are the delay names.
 
+    Parameters
+    ----------
+    a0 : numpy.ndarray
+        ``(n, n)``.
+    mats : sequence of numpy.ndarray
+        The delayed terms' matrices ``A_k``.
+    exponents : numpy.ndarray
+        ``(K, D)``: term ``k``'s delay is ``exponents[k] @ tau``.
+    delays_s : dict
+        Delay name -> delay [s].
+
     Attributes
     ----------
     a0 : numpy.ndarray
         ``(n, n)``.
     terms : list of tuple
         ``(A_k, delay)``: the matrix and its delay (a name's sum, as an expression).
+
+    Examples
+    --------
+    >>> import seactl as sc
+    >>> d = sc.delay_equation([[0.0, 1.0], [-1.0, 0.0]], terms=[([[0, 0], [0, -1]], 0.5)])
+    >>> d.order, d.terms[0][1], d.characteristic.coeffs.shape
+    (2, 'tau1', (2, 3))
     """
 
     kind = "dde"
@@ -353,6 +397,22 @@ class QuasiPolynomialSystem(DelaySystem):
 
     Made by :func:`quasi_polynomial` (or :func:`load_dde`); a :class:`~seactl.System` of
     kind ``"quasi-polynomial"`` whose ``loops`` are the delay names.
+
+    Parameters
+    ----------
+    coeffs : numpy.ndarray
+        ``(J, n + 1)`` ascending coefficients of the terms.
+    exponents : numpy.ndarray
+        ``(J, D)`` exponent rows over the named delays (row 0 undelayed).
+    delays_s : dict
+        Delay name -> delay [s].
+
+    Examples
+    --------
+    >>> import seactl as sc
+    >>> q = sc.quasi_polynomial([1, 0], terms=[([1], 1.0)])
+    >>> q.kind, q.order, q.characteristic.coeffs.tolist()
+    ('quasi-polynomial', 1, [[0.0, 1.0], [1.0, 0.0]])
     """
 
     kind = "quasi-polynomial"
