@@ -246,6 +246,16 @@ def test_large_expansion_refused_up_front(monkeypatch):
     assert time.perf_counter() - start < 0.5
 
 
+def test_high_order_roots_refused_up_front():
+    # Oracle: the time budget: the collocation of an order-40 characteristic (matrices up
+    # to 9,640 square) is refused before any eigenvalue is computed.
+    q = sc.quasi_polynomial(np.r_[1.0, np.zeros(40)], terms=[([1.0], 1.0)])
+    start = time.perf_counter()
+    with pytest.raises(sc.SeactlError, match="order 40"):
+        q.roots(count=1)
+    assert time.perf_counter() - start < 0.5
+
+
 def test_dde_file_errors_name_the_field(tmp_path):
     # Oracle: the file format's documented fields and ranges.
     cases = {'a0 = 0.0\n[[term]]\na = -1.0\n': "exactly one of delay_s",

@@ -29,6 +29,10 @@ from seactl.base.validate import finite_array, float_array
 from seactl.diagram.delayterms import DelayTerms
 from seactl.errors import InputError
 
+COLLOCATION_SECONDS = 6e-9
+"""Estimated time [s] of the root finder's largest collocation per cubed matrix size
+(its eigenvalues), for refusing an equation of too high an order up front."""
+
 _NAME = re.compile(r"[A-Za-z_][A-Za-z0-9_]*\Z")
 _PART = re.compile(r"\s*(?:(\d+)\s*\*\s*)?([A-Za-z_][A-Za-z0-9_]*)\s*(?:\*\s*(\d+)\s*)?\Z")
 
@@ -304,11 +308,16 @@ class DelaySystem(System):
         >>> z = complex(r.roots[0]); round(z.real, 6), round(z.imag, 6)
         (-0.318132, 1.337236)
         """
-        from seactl.analysis.roots import quasi_roots
-        from seactl.base.limits import check_roots
+        from seactl.analysis.roots import MAX_NODES, quasi_roots
+        from seactl.base.limits import check_budget, check_roots
 
         check_roots(self.size, count, bool(self._tau) and any(
             np.any(v > 0) for v in self._tau.values()))
+        m = self.order * (MAX_NODES + 1)
+        check_budget(f"the rightmost roots of one equation of order {self.order} (a "
+                     f"collocation matrix of size up to {m:,})",
+                     seconds=COLLOCATION_SECONDS * float(m) ** 3,
+                     hint="give an equation of lower order")
         return RootsResult(quasi_roots(self.characteristic.at(), count=count,
                                        what=f"{self.kind} characteristic"),
                            self.label_columns())
@@ -471,6 +480,12 @@ def delay_equation(a0: Any, terms: Sequence[tuple[Any, Any]] = (), *,
     DelayEquation
         A :class:`~seactl.System` of kind ``"dde"``; its characteristic
         ``det(s I - A_0 - sum_k A_k e^{-s h_k})`` is expanded exactly.
+
+    Notes
+    -----
+    This form is always retarded (the delayed terms have degree below ``n`` in ``s``); a
+    neutral equation (a delayed derivative) cannot be written in it, and
+    :func:`quasi_polynomial` refuses its characteristic.
 
     Examples
     --------

@@ -31,9 +31,9 @@ import numpy as np
 from seactl.base.limits import check_budget
 from seactl.errors import InputError
 
-EXPANSION_SECONDS_PER_TERM2 = 3e-5
-"""Estimated time [s] of the exact expansion per squared number of its possible terms
-(rounded up, for refusing a large one up front)."""
+EXPANSION_SECONDS = 6e-6
+"""Estimated time [s] of the exact expansion per ``n^4`` times the number of its possible
+delay terms (rounded up, for refusing a large one up front)."""
 
 MAX_ORDER = 40
 """Largest state dimension ``n`` of a delay equation."""
@@ -52,7 +52,7 @@ def check_expansion(n: int, exponents: np.ndarray) -> None:
         raise InputError("a0", f"{n} x {n}", f"a square matrix of size at most {MAX_ORDER}")
     j = possible_terms(n, exponents)
     check_budget(f"the exact expansion of the {n} x {n} characteristic determinant "
-                 f"(up to {j:,} delay terms)", seconds=EXPANSION_SECONDS_PER_TERM2 * j * j,
+                 f"(up to {j:,} delay terms)", seconds=EXPANSION_SECONDS * n**4 * j,
                  hint="give fewer delayed terms or a smaller matrix")
 
 
