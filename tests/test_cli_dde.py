@@ -9,10 +9,13 @@ error contract.
 from __future__ import annotations
 
 import json
+import tempfile
 from pathlib import Path
 
 import mpmath
 import pytest
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
 
 import seactl as sc
 from seactl.apps.cli import main
@@ -64,3 +67,73 @@ def test_bad_input_exits_2_on_one_line(args, needle, capsys):
     out, err = capsys.readouterr()
     assert needle in err and err.startswith("error: ") and len(err.strip().splitlines()) == 1
     assert "Traceback" not in out + err
+
+
+DDE_NUM = ["0.0", "-1.0", "1.0", "0.5", "-2.5", "1e-300", "1e300", "-1e300", "1e6", "3"]
+DDE_DELAYS = ["0.0", "1e-300", "0.001", "1.0", "30.0", "1000.0", "1e6", "1e300", "-1.0"]
+DDE_SETS = ["1", "0", "-1", "nan", "inf", "1e300", "0:2:0.5", "x", "1,2,3", "1e-300"]
+
+
+@st.composite
+def dde_file(draw) -> str:
+    """A random delay-equation or quasi-polynomial file: sizes 1-3, one or two terms, edge
+    values, delays from 0 to 1e300 s (and a negative one), sums of named delays."""
+    num, delay = st.sampled_from(DDE_NUM), st.sampled_from(DDE_DELAYS)
+    if draw(st.booleans()):
+        n = draw(st.integers(1, 3))
+
+        def mat():
+            return "[" + ", ".join("[" + ", ".join(draw(num) for _ in range(n)) + "]"
+                                   for _ in range(n)) + "]"
+        text, key = f"a0 = {mat()}\n", "a"
+        coeff = mat
+    else:
+        rest = ", ".join(draw(num) for _ in range(draw(st.integers(0, 3))))
+        text, key = f"p0 = [1.0, {rest}]\n", "p"
+
+        def coeff():
+            return "[" + ", ".join(draw(num) for _ in range(draw(st.integers(1, 3)))) + "]"
+    named = draw(st.booleans())
+    if named:
+        text += f"[delays_s]\ntau1 = {draw(delay)}\ntau2 = {draw(delay)}\n"
+    for _ in range(draw(st.integers(1, 2))):
+        text += f"[[term]]\n{key} = {coeff()}\n"
+        text += (f'delay = "{draw(st.sampled_from(["tau1", "tau1 + tau2", "2*tau2", "tau3"]))}"\n'
+                 if named else f"delay_s = {draw(delay)}\n")
+    return text
+
+
+def _check_dde_vector(monkeypatch, text, extra, sets):
+    from test_fuzz import check_vector
+
+    monkeypatch.setenv("SEACTL_MAX_SECONDS", "10")
+    with tempfile.TemporaryDirectory(prefix="seactl-dde-") as tmp:
+        path = Path(tmp) / "eq.toml"
+        path.write_text(text)
+        args = ["roots", "--dde", str(path), *extra]
+        for k, v in enumerate(sets):
+            args += ["--set", f"tau{k + 1}={v}"]
+        check_vector(args)
+
+
+VECTORS = (dde_file(), st.sampled_from([[], ["--json"], ["--count", "3"]]),
+           st.lists(st.sampled_from(DDE_SETS), max_size=2))
+
+
+@settings(max_examples=15, deadline=None, derandomize=True, database=None,
+          suppress_health_check=list(HealthCheck))
+@given(*VECTORS)
+def test_fuzz_dde_files_quick(monkeypatch, text, extra, sets):
+    """A few random delay-equation files (deterministic) through ``seactl roots --dde``:
+    the command-line contract of tests/test_fuzz.py (exit 0 or 2, one line, no traceback
+    or warning, time bound)."""
+    _check_dde_vector(monkeypatch, text, extra, sets)
+
+
+@pytest.mark.fuzz
+@settings(max_examples=1000, deadline=None, database=None,
+          suppress_health_check=list(HealthCheck))
+@given(*VECTORS)
+def test_fuzz_dde_files(monkeypatch, text, extra, sets):
+    """The same with 1000 random files (``pytest -m fuzz``)."""
+    _check_dde_vector(monkeypatch, text, extra, sets)

@@ -227,11 +227,20 @@ def test_system_structure_and_refused_views():
     (lambda: sc.delay_equation(0.0, terms=[(1.0, 1.0)], names=["a", "b"]), "one per term"),
     (lambda: sc.quasi_polynomial([3.0]), "degree >= 1"),
     (lambda: sc.delay_equation(np.eye(41)), "at most 40"),
+    (lambda: sc.quasi_polynomial([1, 1e300, 0]), "root scale"),
+    (lambda: sc.quasi_polynomial([1, 0, 0], terms=[([1e-300], 1e-3)]), "root scale"),
 ])
 def test_bad_input_is_refused(make, match):
     # Oracle: the documented valid ranges, named in the error.
     with pytest.raises(sc.InputError, match=match):
         make()
+
+
+def test_delay_far_beyond_the_time_scale_refused():
+    # Oracle: MAX_DELAY_RATIO: s + e^{-s tau} has root scale 1 rad/s; tau = 1e9 s puts a
+    # root every 2 pi 1e-9 rad/s along the axis, refused before any work.
+    with pytest.raises(sc.SeactlError, match="time scale"):
+        sc.delay_equation(0.0, terms=[(-1.0, 1e9)]).roots(count=1)
 
 
 def test_large_expansion_refused_up_front(monkeypatch):

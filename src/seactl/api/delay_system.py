@@ -27,7 +27,20 @@ from seactl.api.results import RootsResult
 from seactl.api.system import System
 from seactl.base.validate import finite_array, float_array
 from seactl.diagram.delayterms import DelayTerms
-from seactl.errors import InputError
+from seactl.errors import InputError, ResourceError
+
+MAX_DELAY_RATIO = 1e8
+"""Longest delay in units of the equation's time scale (1 / its root scale
+:meth:`DelaySystem.reference_frequency`) that :meth:`DelaySystem.roots` accepts: beyond it
+the roots crowd the imaginary axis every ``2 pi / tau`` rad/s, and the certified count's
+scan needs more than about 1e8 frequency points."""
+
+ROOT_SCALE_RANGE = (1e-12, 1e100)
+"""The root scale [rad/s] of a characteristic whose roots are computed in double precision."""
+
+POWER_RANGE = (1e-150, 1e150)
+"""The range of the root scale's power ``n`` (the order): the certified count's bounds
+multiply such powers, which must neither overflow nor vanish."""
 
 COLLOCATION_SECONDS = 6e-9
 """Estimated time [s] of the root finder's largest collocation per cubed matrix size
@@ -165,6 +178,24 @@ class DelaySystem(System):
         self._tau = {k: np.asarray(v, float) for k, v in delays_s.items()}
         self._shape = np.broadcast_shapes(*(v.shape for v in self._tau.values()))
         self.characteristic.at().require_retarded(f"{self.kind} characteristic")
+        self._check_magnitudes()
+
+    def _check_magnitudes(self) -> None:
+        """Refuse coefficients whose roots double precision cannot hold: the Fujiwara root
+        scale ``max_j (sum_k |c_kj| / |c_0n|)^{1/(n-j)}`` (0 when every root is 0) must lie
+        in :data:`ROOT_SCALE_RANGE` and its power ``n`` in :data:`POWER_RANGE`."""
+        c, n = np.abs(self._coeffs), self.order
+        lo, hi = ROOT_SCALE_RANGE
+        with np.errstate(all="ignore"):
+            total = c.sum(axis=0)[:n] / c[0, n]
+            scale = float(np.max(total ** (1.0 / (n - np.arange(n))), initial=0.0))
+            ok = np.all(np.isfinite(self._coeffs)) and (scale == 0 or (
+                lo <= scale <= hi and POWER_RANGE[0] <= scale ** n <= POWER_RANGE[1]))
+        if not ok:
+            raise InputError(f"{self.kind} coefficients", f"a root scale of {scale:.3g} rad/s",
+                             f"a root scale in [{lo:g}, {hi:g}] rad/s whose power {n} (the "
+                             f"order) is in [{POWER_RANGE[0]:g}, {POWER_RANGE[1]:g}]: rescale "
+                             "time (or the values)")
 
     @property
     def loops(self) -> tuple[str, ...]:  # type: ignore[override]
@@ -313,14 +344,24 @@ class DelaySystem(System):
 
         check_roots(self.size, count, bool(self._tau) and any(
             np.any(v > 0) for v in self._tau.values()))
+        ratio = max((float(np.max(v)) for v in self._tau.values()), default=0.0) * \
+            float(np.max(self.reference_frequency()))
+        if ratio > MAX_DELAY_RATIO:
+            raise ResourceError(f"a delay {ratio:.3g} times the time scale of the equation "
+                                f"(1 / its root scale) is beyond the {MAX_DELAY_RATIO:.0e} the "
+                                "root finder and its certified count accept (its roots crowd "
+                                "the imaginary axis every 2 pi / tau rad/s); rescale time or "
+                                "shorten the delay")
         m = self.order * (MAX_NODES + 1)
         check_budget(f"the rightmost roots of one equation of order {self.order} (a "
                      f"collocation matrix of size up to {m:,})",
                      seconds=COLLOCATION_SECONDS * float(m) ** 3,
                      hint="give an equation of lower order")
-        return RootsResult(quasi_roots(self.characteristic.at(), count=count,
-                                       what=f"{self.kind} characteristic"),
-                           self.label_columns())
+        # (candidates far left overflow e^{-s tau}: the residual test rejects them)
+        with np.errstate(over="ignore", invalid="ignore"):
+            roots = quasi_roots(self.characteristic.at(), count=count,
+                                what=f"{self.kind} characteristic")
+        return RootsResult(roots, self.label_columns())
 
     margins = _not_here("margins", "a characteristic has no loop to break; use "
                         "roots().stable, delay_margin() or stability_chart()")

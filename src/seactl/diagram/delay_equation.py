@@ -108,11 +108,19 @@ def _collect(cp: Sequence, n: int, d: int) -> tuple[np.ndarray, np.ndarray]:
     for p, c in enumerate(cp):
         for mono, value in c.terms():
             key = tuple(int(e) for e in mono[:d])
-            table.setdefault(key, np.zeros(n + 1))[n - p] += float(Fraction(
-                int(value.numerator), int(value.denominator)))
+            table.setdefault(key, np.zeros(n + 1))[n - p] += _float(value)
     keys = [(0,) * d] + sorted(k for k in table if any(k) and np.any(table[k] != 0))
     return (np.array([table[k] for k in keys]),
             np.array(keys, int).reshape(len(keys), d))
+
+
+def _float(value) -> float:
+    """A rational coefficient rounded to a float (``inf`` beyond the float range: refused
+    by the caller's magnitude check)."""
+    try:
+        return float(Fraction(int(value.numerator), int(value.denominator)))
+    except OverflowError:
+        return math.inf if int(value.numerator) > 0 else -math.inf
 
 
 def merge_terms(polys: Sequence[np.ndarray], exponents: np.ndarray

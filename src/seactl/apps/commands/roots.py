@@ -195,7 +195,8 @@ def _dde_roots(system: Any, count: int, as_json: bool) -> None:
                    "designs": rows})
         return
     cols = list(system.label_columns())
-    t = Table(title=escape(f"Rightmost roots [rad/s] of the {system.kind} '{system.title}' "
+    title = f" '{system.title}'" if system.title else ""
+    t = Table(title=escape(f"Rightmost roots [rad/s] of the {system.kind}{title} "
                            f"({system.file})"))
     for col in cols:
         t.add_column(escape(f"{col[:-2]} [s]"), justify="right")
