@@ -35,7 +35,7 @@ def test_json_equals_the_api_and_lambert_w(capsys):
     out = json.loads(capsys.readouterr().out)
     api = sc.load_dde("examples/dde/lambert.toml").roots(count=3).records()
     assert out["designs"] == json.loads(json.dumps(api))
-    assert out["kind"] == "quasi-polynomial" and out["delays"] == ["tau1"]
+    assert out["kind"] == "quasi-polynomial" and out["loops"] == ["tau1"]
     w0 = complex(mpmath.lambertw(-1, 0))
     z = out["designs"][0]["roots"][0]
     assert abs(z["re"] - w0.real) < 1e-9 and abs(z["im"] - w0.imag) < 1e-9

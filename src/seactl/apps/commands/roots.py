@@ -129,7 +129,8 @@ def roots(spec: DesignSpec, count: int, rate_hz: float | None, as_json: bool,
 
     With --dde FILE, the roots of a delay equation or quasi-polynomial file
     (docs/delay-equations.md), as sc.load_dde(FILE).roots(count=) gives them; --set
-    NAME=VALUE sets a named delay [s] (JSON: "kind", "file", "delays", "designs").
+    NAME=VALUE sets a named delay [s] (JSON: "kind", "title", "file", "loops": the delay
+    names, "designs").
     """
     if dde is not None:
         return _dde_roots(dde, count, as_json)
@@ -191,8 +192,8 @@ def _dde_roots(system: Any, count: int, as_json: bool) -> None:
     """``seactl roots --dde``: :meth:`seactl.DelaySystem.roots`, one row per design."""
     rows = system.roots(count=count).records()
     if as_json:
-        echo_json({"kind": system.kind, "file": system.file, "delays": list(system.loops),
-                   "designs": rows})
+        echo_json({"kind": system.kind, "title": system.title, "file": system.file,
+                   "loops": list(system.loops), "designs": rows})
         return
     cols = list(system.label_columns())
     title = f" '{system.title}'" if system.title else ""
