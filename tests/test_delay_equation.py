@@ -228,6 +228,8 @@ def test_system_structure_and_refused_views():
     (lambda: sc.quasi_polynomial([3.0]), "degree >= 1"),
     (lambda: sc.delay_equation(np.eye(41)), "at most 40"),
     (lambda: sc.quasi_polynomial([1, 1e300, 0]), "root scale"),
+    (lambda: sc.delay_equation(-1.0, terms=[(0.5, [1.0, 2.0]), (0.2, [1.0, 2.0, 3.0])]),
+     "broadcast"),
     (lambda: sc.quasi_polynomial([1, 0, 0], terms=[([1e-300], 1e-3)]), "root scale"),
 ])
 def test_bad_input_is_refused(make, match):

@@ -113,6 +113,14 @@ def term_delays(delays: Sequence[Any], names: Sequence[str] | None,
     return rows, tuple(order), tau
 
 
+def _batch_shape(tau: Mapping[str, np.ndarray]) -> tuple[int, ...]:
+    try:
+        return np.broadcast_shapes(*(v.shape for v in tau.values()))
+    except ValueError:
+        raise InputError("delays [s]", {k: v.shape for k, v in tau.items()},
+                         "arrays whose shapes broadcast together (one batch)") from None
+
+
 def _not_here(view: str, reason: str) -> Any:
     def method(self: DelaySystem, *args: Any, **kwargs: Any) -> Any:
         raise self.unsupported(view, reason)
@@ -176,7 +184,7 @@ class DelaySystem(System):
                  delays_s: Mapping[str, Any]):
         self._coeffs, self._exponents = coeffs, exponents
         self._tau = {k: np.asarray(v, float) for k, v in delays_s.items()}
-        self._shape = np.broadcast_shapes(*(v.shape for v in self._tau.values()))
+        self._shape = _batch_shape(self._tau)
         self.characteristic.at().require_retarded(f"{self.kind} characteristic")
         self._check_magnitudes()
 
@@ -226,7 +234,7 @@ class DelaySystem(System):
         new = object.__new__(type(self))
         new.__dict__.update(self.__dict__)
         new._tau = {k: np.asarray(v, float) for k, v in tau.items()}
-        new._shape = np.broadcast_shapes(*(v.shape for v in new._tau.values()))
+        new._shape = _batch_shape(new._tau)
         return new
 
     def __getitem__(self, idx: Any) -> DelaySystem:
