@@ -24,6 +24,7 @@ value and what is valid.
 
 from __future__ import annotations
 
+import re
 import tomllib
 from pathlib import Path
 from typing import Any
@@ -62,12 +63,25 @@ class DdeModel(BaseModel):
     term: list[TermModel] = []
 
 
+_TYPE_TAGS = ("list[", "float", "int", "union[")
+_API_FIELD = re.compile(r"terms\[(\d+)\] (delay|matrix|coefficients)")
+
+
 def _where(loc: tuple[Any, ...]) -> str:
+    parts = [str(p) for p in loc if not str(p).startswith(_TYPE_TAGS)]
     if len(loc) >= 2 and loc[0] == "term" and isinstance(loc[1], int):
-        rest = ".".join(str(p) for p in loc[2:] if not str(p).startswith(("list[", "float",
-                                                                            "int")))
+        rest = ".".join(parts[2:])
         return f"term #{loc[1] + 1}" + (f", field {rest!r}" if rest else "")
-    return ".".join(str(p) for p in loc[:1]) or "file"
+    return ".".join(parts) or "file"
+
+
+def _file_field(field: str, key: str) -> str:
+    """An API field (``terms[0] delay``) as the file names it (``term #1, field 'delay'``)."""
+    m = _API_FIELD.fullmatch(field)
+    if m is None:
+        return field
+    name = {"matrix": key, "coefficients": key}.get(m.group(2), m.group(2))
+    return f"term #{int(m.group(1)) + 1}, field {name!r}"
 
 
 def _validation_error(exc: ValidationError, file: str) -> LoopFileError:
@@ -173,4 +187,5 @@ def load_dde(path: Any, **delays_s: Any) -> DelaySystem:
     except LoopFileError:
         raise
     except InputError as exc:
-        raise LoopFileError(file, exc.field, exc.value, exc.valid) from None
+        key = "a" if model.a0 is not None else "p"
+        raise LoopFileError(file, _file_field(exc.field, key), exc.value, exc.valid) from None
