@@ -5,7 +5,8 @@ from __future__ import annotations
 import re
 
 NUMBER = re.compile(r"[-+]?(\d[\d,]*\.?\d*|\.\d+)(e[-+]?\d+)?")
-DIMENSIONLESS = {"GS", "ratio", "ratio d/s", "worst run", "messages", "points", "states"}
+DIMENSIONLESS = {"GS", "ratio", "ratio d/s", "worst run", "messages", "points", "states",
+                 "RHP roots"}
 """Numeric columns whose numbers have no unit: gain scales, ratios, counts, run indices."""
 
 

@@ -36,6 +36,9 @@ _PUBLIC = {
     ".api.mobile_base": ("compare_mobile_base", "mobile_base_params"),
     ".api.userloop": ("UserLoop",),
     ".api.loopbuilder": ("load_loop", "LoopBuilder"),
+    ".api.delay_system": ("delay_equation", "quasi_polynomial", "DelaySystem", "DelayEquation",
+                          "QuasiPolynomialSystem"),
+    ".api.ddefile": ("load_dde",),
     ".errors": ("SeactlError", "InputError", "InfeasibleDesignError", "LoopFileError"),
 }
 _HOME = {name: module for module, names in _PUBLIC.items() for name in names}
@@ -53,6 +56,9 @@ __all__ = [
     "compare_mobile_base", "mobile_base_params", "LatencyMapResult", "PlacementResult",
     # your own loop (loop files, docs/loops.md)
     "load_loop", "LoopBuilder", "UserLoop",
+    # delay equations and quasi-polynomials typed in (docs/delay-equations.md)
+    "delay_equation", "quasi_polynomial", "load_dde", "DelaySystem", "DelayEquation",
+    "QuasiPolynomialSystem",
     # errors and warnings
     "SeactlError", "InputError", "InfeasibleDesignError", "LoopFileError", "UnitWarning",
 ]

@@ -68,7 +68,7 @@ def loop_options(func: Callable) -> Callable:
     @functools.wraps(func)
     def wrapper(*args, loop_file, sets, **kwargs):
         if sets and not loop_file:
-            raise InputError("--set", sets[0], "used with --loop FILE")
+            raise InputError("--set", sets[0], "used with --loop FILE or --dde FILE")
         if loop_file:
             _refuse_sea_options()
         return func(*args, loop=load(loop_file, sets) if loop_file else None, **kwargs)

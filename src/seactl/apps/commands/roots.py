@@ -18,6 +18,7 @@ from .common import (
     rate_option,
     verdict_text,
 )
+from .dde import dde_option
 from .loops import loop_options
 
 
@@ -95,9 +96,10 @@ def _z_text(z: dict[str, Any]) -> str:
               help="Roots per design (a conjugate pair counts once).")
 @rate_option
 @json_option
+@dde_option
 @loop_options
 def roots(spec: DesignSpec, count: int, rate_hz: float | None, as_json: bool,
-          loop: Any) -> None:
+          loop: Any, dde: Any) -> None:
     """Rightmost closed-loop roots [rad/s] with exact delays, and the spectral abscissa.
 
     Python: sc.design(...).roots(count=...).
@@ -124,7 +126,14 @@ def roots(spec: DesignSpec, count: int, rate_hz: float | None, as_json: bool,
 
     With --loop FILE, the roots of the loop file's whole diagram (every break closed),
     as sc.load_loop(FILE).roots(count=) gives them (JSON: "loop", "file", "designs").
+
+    With --dde FILE, the roots of a delay equation or quasi-polynomial file
+    (docs/delay-equations.md), as sc.load_dde(FILE).roots(count=) gives them; --set
+    NAME=VALUE sets a named delay [s] (JSON: "kind", "title", "file", "loops": the delay
+    names, "designs").
     """
+    if dde is not None:
+        return _dde_roots(dde, count, as_json)
     if loop is not None:
         return _loop_roots(loop, count, as_json)
     rows = roots_rows(spec, count)
@@ -174,6 +183,30 @@ def _loop_roots(loop: Any, count: int, as_json: bool) -> None:
         a = r["spectral_abscissa"]
         t.add_row(*[f"{r[k]:g}" for k in varied], "none" if a is None else f"{a:.4g}",
                   _verdict_text(r), _roots_text(r)
+                  + ("" if r["complete"] else " [yellow](incomplete: roots may be missing)"
+                     "[/yellow]"))
+    console.print(t)
+
+
+def _dde_roots(system: Any, count: int, as_json: bool) -> None:
+    """``seactl roots --dde``: :meth:`seactl.DelaySystem.roots`, one row per design."""
+    rows = system.roots(count=count).records()
+    if as_json:
+        echo_json({"kind": system.kind, "title": system.title, "file": system.file,
+                   "loops": list(system.loops), "designs": rows})
+        return
+    cols = list(system.label_columns())
+    title = f" '{system.title}'" if system.title else ""
+    t = Table(title=escape(f"Rightmost roots [rad/s] of the {system.kind}{title} "
+                           f"({system.file})"))
+    for col in cols:
+        t.add_column(escape(f"{col[:-2]} [s]"), justify="right")
+    for col in ("abscissa [1/s]", "stable", "RHP roots", "roots"):
+        t.add_column(escape(col), justify="left" if col == "roots" else "right")
+    for r in rows:
+        a, n = r["spectral_abscissa"], r["right_half_plane_roots"]
+        t.add_row(*[f"{r[k]:g}" for k in cols], "none" if a is None else f"{a:.4g}",
+                  _verdict_text(r), "?" if n is None else str(n), _roots_text(r)
                   + ("" if r["complete"] else " [yellow](incomplete: roots may be missing)"
                      "[/yellow]"))
     console.print(t)
