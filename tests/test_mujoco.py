@@ -159,3 +159,58 @@ def test_importing_the_plant_does_not_import_mujoco():
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
                          check=True)
     assert out.stdout.strip() == "False"
+
+
+def test_band_verdicts():
+    # oracle: a band built by hand; the measured step leaves it by 0.2 at the last tick
+    from seactl.latency.band import compare_band
+
+    t = np.arange(4) * 1e-3
+    lo, hi = np.array([0, 0.2, 0.8, 0.9]), np.array([0, 0.4, 1.0, 1.0])
+    assert compare_band(t, np.array([0, 0.3, 0.9, 0.95]), lo, hi, 10).within
+    v = compare_band(t, np.array([0, 0.3, 0.9, 1.2]), lo, hi, 10, tolerance=0.0)
+    assert not v.within and v.ticks_outside == 1 and v.t_worst_s == 3e-3
+    assert v.max_outside == pytest.approx(0.2) and v.verdict.startswith("outside: 1 of 4")
+
+
+def test_mujoco_step_inside_and_outside_the_monte_carlo_band():
+    # oracle: the band of System.monte_carlo's machinery around the MuJoCo step of the
+    # same design holds it when the latency distribution covers the design's delay, and
+    # does not when every latency is twice as long
+    from seactl.latency.band import step_band
+    from seactl.latency.models import Uniform
+
+    d = sc.design(14, delays_ms={"torque": 1, "stiffness": 2, "damping": 1},
+                  filters_hz=(50, 100))
+    kw = {"rates_hz": 1000.0, "saturation": d.saturation()}
+    run = simulate_mujoco(d.diagram_for(), d.design, {"q_des": Step(0.01)}, 0.3,
+                          outputs=("q_j",), substeps=10, **kw)
+    band = {"step": 0.01, "reference": "q_des", "output": "q_j", "links": d.links, **kw}
+    inside = step_band(d.diagram_for(), d.design, run.t_s, run.outputs["q_j"],
+                       latency={"stiffness": Uniform(1e-3, 3e-3)}, **band)
+    outside = step_band(d.diagram_for(), d.design, run.t_s, run.outputs["q_j"],
+                        latency={"stiffness": Uniform(4e-3, 6e-3)}, **band)
+    assert inside.within and inside.max_width > 0.01
+    assert not outside.within and outside.max_outside > 0.05
+
+
+@pytest.mark.parametrize("system", [
+    sc.design(14, delays_ms={"torque": 1, "stiffness": 2, "damping": 1}, filters_hz=(50, 100)),
+    sc.rigid(8, delays_ms={"stiffness": 1.5, "damping": 1.5})])
+def test_run_on_the_mujoco_plant(system):
+    # oracle: the replay of the measured timing on the exact linear plant (the difference
+    # is MuJoCo's RK4 error, 1e-4 s steps) and the band for the run's measured latency
+    # (drawn independently per message, so a run's own stalls may leave it by a little:
+    # bounded at 1% of the step, the timing itself is not deterministic)
+    res = system.run(duration_s=0.3, transport="udp", plant="mujoco")
+    s = res.summary
+    assert s["plant"] == "mujoco" and s["plant_timestep_s"] == 1e-4
+    assert s["replay_max_diff"] < 1e-8
+    band = s["prediction_band"]
+    assert band["within"] == (band["verdict"] == "within the predicted band")
+    assert band["max_outside"] < 0.01 and band["runs"] in (1, 200)   # 1: one latency
+
+
+def test_run_refuses_a_band_without_mujoco():
+    with pytest.raises(sc.InputError, match="latency"):
+        sc.design(14).run(duration_s=0.3, transport="udp", latency={"stiffness": "uniform:1:3"})
