@@ -196,7 +196,8 @@ def test_mujoco_step_inside_and_outside_the_monte_carlo_band():
 
 @pytest.mark.parametrize("system", [
     sc.design(14, delays_ms={"torque": 1, "stiffness": 2, "damping": 1}, filters_hz=(50, 100)),
-    sc.rigid(8, delays_ms={"stiffness": 1.5, "damping": 1.5})])
+    pytest.param(sc.rigid(8, delays_ms={"stiffness": 1.5, "damping": 1.5}),
+                 marks=pytest.mark.slow)])
 def test_run_on_the_mujoco_plant(system):
     # oracle: the replay of the measured timing on the exact linear plant (the difference
     # is MuJoCo's RK4 error, 1e-4 s steps) and the band for the run's measured latency
@@ -214,3 +215,16 @@ def test_run_on_the_mujoco_plant(system):
 def test_run_refuses_a_band_without_mujoco():
     with pytest.raises(sc.InputError, match="latency"):
         sc.design(14).run(duration_s=0.3, transport="udp", latency={"stiffness": "uniform:1:3"})
+
+
+@pytest.mark.parametrize("args, needle", [
+    (["--latency", "stiffness=uniform:1:3"], "--plant mujoco only"),
+    (["--plant", "mujoco", "--latency", "speed=uniform:1:3"], "stiffness, damping, torque"),
+    (["--plant", "mujoco", "--latency", "stiffness=bogus"], "--latency")])
+def test_cli_band_bad_input(args, needle, capsys):
+    # oracle: the CLI's contract (one line, exit 2), before any process starts
+    from seactl.apps.cli import main
+
+    assert main(["run", "--fn", "14", "--transport", "udp", *args]) == 2
+    err = capsys.readouterr().err
+    assert err.startswith("error: ") and err.count("\n") == 1 and needle in err, err
