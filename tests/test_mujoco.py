@@ -111,6 +111,20 @@ def test_closed_loop_step_matches_the_sampled_simulation(system, bound):
     assert 12 < e2 / e4 < 20
 
 
+def test_impulse_of_the_external_torque_matches_the_sampled_simulation():
+    # oracle: the sampled simulation's impulse (a jump of the load's velocity); RK4's order
+    from seactl.simulate.inputs import Impulse
+
+    d = sc.design(14, filters_hz=(50, 100))
+    inputs, kw = {"tau_ext": Impulse(0.05)}, {"rates_hz": 1000.0, "saturation": d.saturation()}
+    ref = np.ravel(simulate(d.diagram_for(), d.design, inputs, 0.3, mode="sampled",
+                            outputs=("q_j",), **kw).outputs["q_j"])
+    err = [np.max(np.abs(simulate_mujoco(d.diagram_for(), d.design, inputs, 0.3,
+                                         outputs=("q_j",), substeps=n, **kw).outputs["q_j"]
+                         - ref)) / np.max(np.abs(ref)) for n in (2, 4)]
+    assert err[0] < 1e-6 and 12 < err[0] / err[1] < 20
+
+
 def test_closed_loop_converges_to_the_continuous_step():
     # oracle: System.step() (continuous, zero delays); sampling adds half a period of
     # delay, so the difference is first order in the period: / 2 from 2 kHz to 4 kHz (a
