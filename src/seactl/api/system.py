@@ -877,13 +877,16 @@ class System:
     def run(self, *, duration_s: float = 2.0, rates_hz: Any = 1000.0,
             amplitude: float | None = None, transport: str = "zenoh",
             extra_latency_s: float = 0.0, loss: float = 0.0, seed: int = 0,
-            saturation_a: float | None = None, **options: Any) -> Any:
+            saturation_a: float | None = None, plant: str = "builtin", latency: Any = None,
+            **options: Any) -> Any:
         """Run the exported controllers as three OS processes on loopback.
 
-        A plant process (the plant integrated exactly at the fastest rate), the exported
-        ``embedded`` and ``high-level`` controllers, messages over Zenoh (or UDP) on
-        127.0.0.1; then the measured response is compared with the sampled simulation
-        replaying the measured timing of the high-level link (docs/export.md).
+        A plant process (the plant integrated exactly at the fastest rate, or MuJoCo), the
+        exported ``embedded`` and ``high-level`` controllers, messages over Zenoh (or UDP)
+        on 127.0.0.1; then the measured response is compared with the sampled simulation
+        replaying the measured timing of the high-level link (docs/export.md).  On the
+        MuJoCo plant the measured step is also judged against the band of sampled step
+        responses for the ``latency`` distribution (docs/mujoco.md).
 
         Parameters
         ----------
@@ -896,6 +899,13 @@ class System:
         {link_parameters}
         saturation_a : float, optional
             Motor current limit [A] (default: the actuator's).
+        plant : {"builtin", "mujoco"}
+            The plant process: seactl's exact linear plant, or the MuJoCo model of the
+            actuator (:mod:`seactl.codegen.mjcf`; the ``sim`` extra; SEA and rigid only).
+        latency : dict, optional
+            With ``plant="mujoco"``: loop name -> latency model (as :meth:`monte_carlo`)
+            of the prediction band (default: the run's measured latency of the high-level
+            loop; ``{}``: the design's delays, one nominal response).
         **options
             The kind's own options (the SEA's ``zero``).
 
@@ -903,7 +913,9 @@ class System:
         -------
         seactl.codegen.runtime.RunResult
             ``summary`` (latency per link with histograms, ``replay_max_diff``,
-            ``nominal_max_diff``, ...), the responses and the latency samples.
+            ``nominal_max_diff``, ``plant``; with MuJoCo ``prediction_band``: the
+            verdict ``"within the predicted band"`` or ``"outside: ..."`` and its
+            numbers), the responses and the latency samples.
 
         Examples
         --------
@@ -919,10 +931,29 @@ class System:
         kw, options = self._legacy("run", options, amplitude=amplitude,
                                    saturation_a=saturation_a)
         a = self._amplitude(kw["amplitude"], self.default_step, self.step_unit)
-        return run_distributed(self.diagram_for(**options), self.design,
-                               saturation=self.saturation(kw["saturation_a"]), step=a,
-                               duration_s=duration_s, rates_hz=rates_hz, transport=transport,
-                               extra_latency_s=extra_latency_s, loss=loss, seed=seed)
+        diagram, sat = self.diagram_for(**options), self.saturation(kw["saturation_a"])
+        if plant == "mujoco":
+            from seactl.codegen.mjcf import plant_model
+            from seactl.latency.band import check_band_latency
+            from seactl.latency.models import parse_latency
+
+            plant_model(self.design)   # an SEA or a rigid actuator, before any process
+            lat = None if latency is None else \
+                {k: parse_latency(v, f"latency {k}") if isinstance(v, str) else v
+                 for k, v in latency.items()}
+            check_band_latency(lat, self.links)
+        elif latency is not None:
+            raise InputError("latency", latency, "used with plant='mujoco' only")
+        res = run_distributed(diagram, self.design, saturation=sat, step=a,
+                              duration_s=duration_s, rates_hz=rates_hz, transport=transport,
+                              extra_latency_s=extra_latency_s, loss=loss, seed=seed,
+                              plant=plant)
+        if plant == "mujoco":
+            from seactl.latency.band import run_band
+
+            run_band(res, diagram, self.design, reference=self.reference, links=self.links,
+                     latency=lat, rates_hz=rates_hz, saturation=sat, seed=seed)
+        return res
 
     def sweep(self, out: Any, **options: Any) -> Any:
         """Write this system's design space as a resumable Parquet table (the sweep

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import heapq
+import json
 import random
 import time
 from pathlib import Path
@@ -24,12 +25,45 @@ from seactl.codegen.transports import load_controller_class, peer_timeout_s
 
 
 # ----------------------------------------------------------------------------- plant
+class MatrixPlant:
+    """The builtin plant: ``x+ = Hx x + Ha a`` over one base period, sensed ``Cx x + Ca a``
+    (the sampled simulation's exact zero-order-hold matrices)."""
+
+    def __init__(self, npz: str):
+        m = np.load(npz)
+        self.Hx, self.Ha, self.Cx, self.Ca = m["Hx"], m["Ha"], m["Cx"], m["Ca"]
+        self.x = np.zeros(self.Hx.shape[0])
+
+    def advance(self, act: np.ndarray) -> None:
+        self.x = self.Hx @ self.x + self.Ha @ act
+
+    def sense(self, act: np.ndarray) -> np.ndarray:
+        return self.Cx @ self.x + self.Ca @ act
+
+
+class MujocoPlantProcess:
+    """``--plant mujoco``: the model of :mod:`seactl.codegen.mjcf` stepped by MuJoCo."""
+
+    def __init__(self, cfg: dict[str, Any]):
+        from seactl.codegen.mjcf import PlantModel
+        from seactl.codegen.mujoco_plant import MujocoPlant
+
+        model = PlantModel.from_dict(json.loads(Path(cfg["plant_model"]).read_text()))
+        self.plant = MujocoPlant(model, 1.0 / cfg["base_rate_hz"], cfg["sensed"],
+                                 cfg["actuation"])
+
+    def advance(self, act: np.ndarray) -> None:
+        self.plant.advance(act)
+
+    def sense(self, act: np.ndarray) -> np.ndarray:
+        return self.plant.sense()
+
+
 def run_plant(cfg: dict[str, Any], link: Any) -> dict[str, np.ndarray]:
-    m = np.load(cfg["plant_npz"])
-    Hx, Ha, Cx, Ca = m["Hx"], m["Ha"], m["Cx"], m["Ca"]
+    plant = MujocoPlantProcess(cfg) if cfg.get("plant") == "mujoco" else \
+        MatrixPlant(cfg["plant_npz"])
     Tb, K = 1.0 / cfg["base_rate_hz"], int(cfg["ticks"])
-    x = np.zeros(Hx.shape[0])
-    act, act_tick = np.zeros(Ha.shape[1]), -1
+    act, act_tick = np.zeros(len(cfg["actuation"])), -1
     q = np.full(K + 1, np.nan)
     used = np.full(K + 1, -2)
     recv = []
@@ -62,8 +96,8 @@ def run_plant(cfg: dict[str, Any], link: Any) -> dict[str, np.ndarray]:
                     act, act_tick = np.array(vals), tick
         if k > 0:
             used[k - 1] = act_tick   # the command applied over [k-1, k]
-            x = Hx @ x + Ha @ act
-        y = Cx @ x + Ca @ act
+            plant.advance(act)
+        y = plant.sense(act)
         q[k] = y[0]   # the first sensed signal: the output analyse_run compares
         msg = pack(SENSE, k, y[:len(cfg["sensed"])])
         for r in ("embedded", "high-level"):

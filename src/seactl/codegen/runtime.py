@@ -6,7 +6,8 @@ rigid actuator (any diagram :func:`seactl.codegen.controllers.compile_processes`
 
 ``plant``
     The clock.  Every base period it integrates the actuator over the period that just
-    ended (exactly, zero-order hold, the sampled simulation's plant matrices) with the
+    ended (exactly, zero-order hold, the sampled simulation's plant matrices; or, with
+    ``plant="mujoco"``, MuJoCo stepping the model of :mod:`seactl.codegen.mjcf`) with the
     command computed for it, samples the sensed signals and sends them to the other two
     processes.  The plant and the embedded process are one actuator and its drive: when
     the command is not there at the tick, the plant waits for it (a late command,
@@ -261,14 +262,15 @@ def run_distributed(diagram: Any, design: Any, *, saturation: dict[str, float] |
                     step: float, duration_s: float = 2.0,
                     rates_hz: dict[str, float] | float = 1000.0, extra_latency_s: float = 0.0,
                     loss: float = 0.0, seed: int = 0, transport: str = "zenoh",
-                    on_start: Any = None) -> RunResult:
+                    plant: str = "builtin", on_start: Any = None) -> RunResult:
     """Run a design's exported controllers as three OS processes on loopback for
     ``duration_s`` and compare with the sampled simulation (module doc).
 
     ``diagram``/``design``/``saturation``: as for
     :func:`seactl.codegen.controllers.compile_processes`;
-    ``step``: the reference step (rad or m); ``on_start(pids)`` is called with the
-    children's process ids once they are started."""
+    ``step``: the reference step (rad or m); ``plant``: ``"builtin"`` (the exact linear
+    plant) or ``"mujoco"`` (:mod:`seactl.codegen.mjcf`, :data:`MUJOCO_TIMESTEP_S`);
+    ``on_start(pids)`` is called with the children's process ids once they are started."""
     from seactl.base.limits import MIN_SAMPLES
     from seactl.codegen.parametric import compile_export
     from seactl.codegen.source import export_files
@@ -276,6 +278,8 @@ def run_distributed(diagram: Any, design: Any, *, saturation: dict[str, float] |
     from seactl.simulate.discrete import compile_sampled
 
     _check_run(duration_s, extra_latency_s, loss, step, transport, seed)
+    if plant not in PLANTS:
+        raise InputError("plant", plant, " or ".join(PLANTS))
     # lock-step replay of the analysis model: the processes emulate the design's latency
     ctl, _ = compile_export(diagram, design, rates_hz, saturation, emulate_latency=True)
     if set(ctl.names) != {"embedded", "high-level"}:
@@ -296,6 +300,7 @@ def run_distributed(diagram: Any, design: Any, *, saturation: dict[str, float] |
         for name, text in export_files(ctl, ("python",)).items():
             (run_dir / "export" / name).write_text(text)
         np.savez(run_dir / "plant.npz", **_plant_matrices(plan))
+        mj = _mujoco_model(design, Tb, run_dir) if plant == "mujoco" else {}
         cfg = {"base_rate_hz": ctl.base_rate_hz, "ticks": K, "step": float(step),
                "period_ticks": {p.name: p.period_ticks for p in ctl.processes},
                "plant_npz": str(run_dir / "plant.npz"), "export_dir": str(run_dir / "export"),
@@ -303,12 +308,36 @@ def run_distributed(diagram: Any, design: Any, *, saturation: dict[str, float] |
                "references": list(ctl.references), "actuation": list(ctl.actuation),
                "message": _message_at_rest(run_dir / "export", ctl, step),
                "extra_latency_s": float(extra_latency_s), "loss": float(loss),
-               "seed": int(seed), "transport": transport, "run_id": run_dir.name[-8:]}
+               "seed": int(seed), "transport": transport, "run_id": run_dir.name[-8:],
+               "plant": plant, **mj}
         _start(cfg, run_dir, on_start)
         logs = {r: dict(np.load(run_dir / f"log-{r}.npz")) for r in ROLES}
-    return analyse_run(diagram, design, ctl, logs, K, step, saturation, rates_hz,
-                    {"transport": transport, "extra_latency_ms": extra_latency_s * 1e3,
-                     "loss": loss})
+    res = analyse_run(diagram, design, ctl, logs, K, step, saturation, rates_hz,
+                      {"transport": transport, "extra_latency_ms": extra_latency_s * 1e3,
+                       "loss": loss})
+    res.summary["plant"] = plant
+    if mj:
+        res.summary["plant_timestep_s"] = mj["plant_timestep_s"]
+    return res
+
+
+PLANTS = ("builtin", "mujoco")
+"""The plants of a run: seactl's exact linear plant, or MuJoCo (the ``sim`` extra)."""
+
+MUJOCO_TIMESTEP_S = 1e-4
+"""MuJoCo's largest integration step in a run [s] (RK4; a whole fraction of the period)."""
+
+
+def _mujoco_model(design: Any, period_s: float, run_dir: Path) -> dict[str, Any]:
+    """Write the MuJoCo plant of ``design`` for the plant process; its config entries."""
+    from seactl.codegen.mjcf import plant_model
+    from seactl.codegen.mujoco_plant import import_mujoco
+
+    import_mujoco()   # refuse before any process starts when MuJoCo is missing
+    h = period_s / max(1, math.ceil(period_s / MUJOCO_TIMESTEP_S - 1e-9))
+    path = run_dir / "plant-mujoco.json"
+    path.write_text(json.dumps(plant_model(design, h).to_dict()))
+    return {"plant_model": str(path), "plant_timestep_s": h}
 
 
 def _message_at_rest(export_dir: Path, ctl: Any, step: float) -> dict[str, float]:

@@ -3,7 +3,10 @@
 JSON: the run's summary ``{"transport", "duration_s", "ticks", "rates_hz",
 "extra_latency_ms", "loss", "dropped", "links": {LINK: {"count", "mean_ms", "p50_ms",
 "p99_ms", "max_ms", "jitter_ms"}}, "late_commands", "tracking_rms", "replay_max_diff",
-"nominal_max_diff", "final_value"}`` plus ``"files"``.
+"nominal_max_diff", "final_value", "plant"}`` (with ``--plant mujoco`` also
+``"plant_timestep_s"`` and ``"prediction_band"``: ``{"verdict", "within", "runs",
+"ticks_outside", "max_outside", "t_worst_s", "max_width", "tolerance", "latency"}``) plus
+``"files"``.
 """
 
 from __future__ import annotations
@@ -51,12 +54,19 @@ def _float(name: str, text: str, lo: float, hi: float) -> float:
               help="Seed of the loss (an integer >= 0).")
 @click.option("--transport", type=click.Choice(["zenoh", "udp"]), default="zenoh",
               show_default=True, help="Message transport (loopback only).")
+@click.option("--plant", type=click.Choice(["builtin", "mujoco"]), default="builtin",
+              show_default=True, help="The plant process: the exact linear plant, or the "
+              "actuator's MuJoCo model (pip install 'seactl[sim]'; SEA and rigid only).")
+@click.option("--latency", "latency", multiple=True, metavar="LOOP=MODEL",
+              help="--plant mujoco: latency model of a loop for the prediction band, in ms "
+                   "(e.g. stiffness=uniform:1:3; repeatable); default: the run's measured "
+                   "latency of the high-level loop.")
 @click.option("--out", default=None, type=click.Path(file_okay=False),
               help="New or empty directory for summary.json, response.csv, latency-*.csv.")
 @json_option
 def run(spec: DesignSpec, loop: Any, system: SystemChoice, duration: str, step: str | None,
-        extra_latency: str, loss: str, seed: int, transport: str, out: str | None,
-        as_json: bool) -> None:
+        extra_latency: str, loss: str, seed: int, transport: str, plant: str,
+        latency: tuple[str, ...], out: str | None, as_json: bool) -> None:
     """Run the design's controllers as three processes (plant, embedded, high-level).
 
     Python: sc.design(...).run(), sc.rigid(...).run(), sc.load_loop(...).run().
@@ -65,9 +75,12 @@ def run(spec: DesignSpec, loop: Any, system: SystemChoice, duration: str, step: 
     The plant integrates the actuator at the fastest rate; the embedded and high-level
     processes run the exported Python controllers; messages go over Zenoh (or UDP) on
     127.0.0.1.  Reports each link's measured latency, the tracking error, and the
-    response against the sampled simulation replaying the measured link timing.
+    response against the sampled simulation replaying the measured link timing.  With
+    --plant mujoco, MuJoCo integrates the actuator's model and the measured step is
+    judged against the band of sampled responses for the latency (docs/mujoco.md).
       seactl run --fn 14 --t-tau 1 --t-qs 2 --t-qd 1 --f-qd 50 --f-taud 100 --duration 2
       seactl run --system rigid --fn 8 --t-s 1.5 --t-d 1.5 --transport udp
+      seactl run --fn 14 --t-qs 2 --f-qd 50 --f-taud 100 --plant mujoco --transport udp
     """
     from seactl.codegen.export import check_export_dir, write_export
     from seactl.codegen.runtime import RUN_MARKER, run_distributed, run_files
@@ -78,13 +91,21 @@ def run(spec: DesignSpec, loop: Any, system: SystemChoice, duration: str, step: 
         default_step = kind.default_step
     unit = loop.step_unit if loop is not None else kind.step_unit
     amplitude = default_step if step is None else _float(f"--step [{unit}]", step, 1e-6, 1.0)
+    band = _band_latency(plant, latency, design, system.system)
     if out is not None:
         check_export_dir(out, RUN_MARKER, "a run")
     res = run_distributed(
         diagram, design, saturation=sat, rates_hz=rates, transport=transport, step=amplitude,
         duration_s=_float("--duration [s]", duration, 0.1, 60),
         extra_latency_s=_float("--extra-latency [ms]", extra_latency, 0, 1000) / 1e3,
-        loss=_float("--loss", loss, 0.0, 0.99), seed=seed)
+        loss=_float("--loss", loss, 0.0, 0.99), seed=seed, plant=plant)
+    if plant == "mujoco":
+        from seactl.latency.band import run_band
+        from seactl.latency.montecarlo import MODEL_LINKS
+
+        run_band(res, diagram, design, reference=kind.reference,
+                 links=MODEL_LINKS[system.system], latency=band, rates_hz=rates,
+                 saturation=sat, seed=seed)
     files = write_export(run_files(res), out, RUN_MARKER, "a run") if out else []
     key = "amplitude" if loop is not None else f"amplitude_{unit}"
     if as_json:
@@ -107,5 +128,36 @@ def run(spec: DesignSpec, loop: Any, system: SystemChoice, duration: str, step: 
     console.print(f"measured vs sampled simulation replaying the measured link timing: "
                   f"max diff {s['replay_max_diff']:.2e} of the step; vs the nominal "
                   f"simulation (design delays): {s['nominal_max_diff']:.2e}")
+    if "prediction_band" in s:
+        b = s["prediction_band"]
+        console.print(f"MuJoCo plant (step {s['plant_timestep_s']:g} s): measured step vs "
+                      f"the band of {b['runs']} sampled responses: {escape(b['verdict'])}")
     if files:
         console.print("files: " + escape(", ".join(str(f) for f in files)))
+
+
+def _band_latency(plant: str, items: tuple[str, ...], design: Any,
+                  kind: str) -> dict[str, Any] | None:
+    """``--latency`` items as latency models (None: the run's measured latency); MuJoCo's
+    plant checked before any process starts."""
+    from seactl.latency.models import parse_latency, parse_link_specs
+
+    if plant != "mujoco":
+        if items:
+            raise InputError("--latency", items[0], "used with --plant mujoco only")
+        return None
+    from seactl.codegen.mjcf import plant_model
+    from seactl.codegen.mujoco_plant import import_mujoco
+    from seactl.latency.band import check_band_latency
+    from seactl.latency.montecarlo import MODEL_LINKS
+
+    plant_model(design)
+    import_mujoco()
+    if not items:
+        return None
+    lat = parse_link_specs(items, parse_latency, "--latency")
+    try:
+        check_band_latency(lat, MODEL_LINKS[kind])
+    except InputError as exc:
+        raise InputError("--latency", exc.value, exc.valid) from None
+    return lat
