@@ -272,3 +272,12 @@ def test_cli_bad_rate_is_one_line(capsys):
     assert main(["jitter", "--fn", "14", "--rate", "-5"]) == 2
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and err[0].startswith("error:") and "--rate" in err[0]
+
+
+def test_loop_file_rate_is_refused_cleanly():
+    # A loop file has continuous jitter margins only: a rate is a seactl error, not a crash.
+    from pathlib import Path
+
+    loop = sc.load_loop(Path(__file__).resolve().parents[1] / "examples/loops/rigid.toml")
+    with pytest.raises(sc.InputError):
+        loop.jitter_margins(rate_hz=1000)
