@@ -157,6 +157,9 @@ def jitter(spec: DesignSpec, traces: tuple[str, ...], rate_hz: float | None,
     if rate_hz is not None:
         for line in sampled_callout(rows):
             console.print(escape(line), highlight=False)
+        console.print(f"Sampled at {rate_hz:g} Hz: each loop stays stable when its measurement "
+                      "is sampled late by any delay varying in [0, J] (J in ms, samples in "
+                      "brackets; docs/theory/sampled-jitter.md).", highlight=False)
     console.print("A loop stays stable under any latency variation within its jitter margin "
                   "(sufficient, not necessary); the delay margin is for a constant extra "
                   "delay.", highlight=False)
