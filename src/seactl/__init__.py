@@ -32,6 +32,7 @@ _PUBLIC = {
                   "JitterResult", "RootsResult"),
     ".api.latency": ("loop_model", "latency_map", "place", "LatencyMapResult", "PlacementResult"),
     ".api.rigid": ("rigid", "RigidBatch"),
+    ".api.sampled_jitter": ("SampledJitterResult",),
     ".api.sweeps": ("sweep", "read_sweep", "parameter_robustness"),
     ".api.mobile_base": ("compare_mobile_base", "mobile_base_params"),
     ".api.userloop": ("UserLoop",),
@@ -49,7 +50,7 @@ __all__ = [
     # SEA designs
     "design", "Design", "SEAParams", "UT_SEA", "load_sea", "feasible_fn_range",
     "MarginsResult", "SampledMarginsResult", "ImpedanceResult", "ResponseResult",
-    "JitterResult", "rightmost_roots", "RootsResult",
+    "JitterResult", "rightmost_roots", "RootsResult", "SampledJitterResult",
     # other systems
     "rigid", "RigidBatch", "loop_model", "latency_map", "place", "sweep", "read_sweep",
     "parameter_robustness",

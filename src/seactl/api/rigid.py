@@ -249,6 +249,15 @@ class RigidBatch(System):
         z = 1.0 / (s * rigid_compliance()(self.rigid, s))
         return ImpedanceResponse("block-diagram", f, z, "linear", True)
 
+    def jitter_loops(self) -> tuple[Any, dict[str, str], Any]:
+        """The rigid loop model's diagram, its taps (whole loop, stiffness, damping) and
+        the design batch."""
+        from seactl.latency.maps import rigid_model
+
+        m = rigid_model(self.rigid.actuator)
+        return m.diagram, {"overall": m.sensor, "stiffness": m.stiffness_tap,
+                           "damping": m.damping_tap}, self.rigid
+
     def jitter_core(self) -> Any:
         """Jitter margins of the whole loop and the stiffness and damping loops
         (:func:`seactl.latency.jitter.model_jitter_margins` of the rigid loop model).

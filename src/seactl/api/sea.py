@@ -321,6 +321,14 @@ class Design(System):
 
         return passivity(self.sea, f_range_hz, model=model, load=load)
 
+    def jitter_loops(self) -> tuple[Any, dict[str, str], Any]:
+        """The split SEA diagram, its taps and the design batch
+        (:data:`seactl.latency.jitter.SEA_TAPS`)."""
+        from seactl.latency.jitter import SEA_TAPS
+        from seactl.latency.maps import sea_split_diagram
+
+        return sea_split_diagram(), dict(SEA_TAPS), self.sea
+
     def jitter_core(self) -> Any:
         """Jitter margins of the outer, stiffness, damping and torque loops
         (:func:`seactl.latency.jitter.sea_jitter_margins`).

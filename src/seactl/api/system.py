@@ -512,21 +512,37 @@ class System:
             raise InputError("port", port, "one of " + ", ".join(self.ports))
         return ImpedanceResult(self.impedance_response(f_hz, port, **options), self.labels())
 
-    def jitter_margins(self) -> JitterResult:
+    def jitter_loops(self) -> tuple[Any, dict[str, str], Any]:
+        """The split diagram, its taps (loop name -> signal) and the design batch that
+        the jitter margins break (the same loops as :meth:`jitter_core`)."""
+        raise self.unsupported("jitter_margins(rate_hz=...)", "a kind of system with named "
+                               "loops")
+
+    def jitter_margins(self, rate_hz: Any = None) -> Any:
         """Jitter margins of the whole loop and of each delayed loop alone (Kao-Lincoln
-        small-gain bound with exact delays).
+        small-gain bound with exact delays; with ``rate_hz``, of the sampled loop).
 
         The jitter margin of a loop is the largest ``J`` such that any *time-varying*
         extra delay in ``[0, J]`` at that loop's break keeps the closed loop stable:
         ``J = 1 / max_w (w |T(jw)|)``, ``T = L/(1+L)`` the complementary sensitivity there
         (:mod:`seactl.latency.jitter`); 0 for an unstable design.
 
+        Parameters
+        ----------
+        rate_hz : float, optional
+            ``None`` (default): the continuous loop.  A rate [Hz]: the sampled loop that
+            ``step(mode="sampled")`` runs at that rate (as :meth:`margins`), with the
+            measurement at each break sampled late by a delay varying in ``[0, J]``
+            (:mod:`seactl.simulate.sampled_jitter`, docs/theory/sampled-jitter.md); one rate
+            for every process.
+
         Returns
         -------
-        JitterResult
+        JitterResult or SampledJitterResult
             Arrays of the batch shape (``jitter_margin_s``, ``stiffness_jitter_margin_s``,
             ``damping_jitter_margin_s``, ``torque_jitter_margin_s`` (SEA; None for the rigid
-            actuator), ``delay_margin_s``, ``stable``), with ``records()``.
+            actuator), ``delay_margin_s``, ``stable``), with ``records()``; sampled:
+            ``jitter_margin_samples``, ``rate_hz``, ``verdict`` instead of the delay margin.
 
         Examples
         --------
@@ -541,6 +557,14 @@ class System:
         >>> bool(j.damping_jitter_margin_s < j.stiffness_jitter_margin_s)
         True
         """
+        if rate_hz is not None:
+            from seactl.api.sampled_jitter import SampledJitterResult
+            from seactl.simulate.sampled_jitter import sampled_jitter_margins
+
+            diagram, taps, design = self.jitter_loops()
+            return SampledJitterResult(sampled_jitter_margins(
+                diagram, design, taps, rate_hz, self.reference_frequency()),
+                self.label_columns(gains=False))
         return JitterResult(self.jitter_core(), self.label_columns(gains=False))
 
     def to_control(self, kind: str = "frd", *, transfer: str = "loop", f_hz: Any = None,

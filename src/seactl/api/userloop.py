@@ -671,9 +671,15 @@ class UserLoop(System):
             sampled_margins(self.diagram, self.design, sig, rates, w_ref),
             self.label_columns()) for name, sig in self.breaks.items()})
 
-    def jitter_margins(self) -> LoopJitterResult:
+    def jitter_margins(self, rate_hz: Any = None) -> LoopJitterResult:
         """Jitter margins at every named break (Kao-Lincoln small-gain bound with exact
         delays), with the delay margins and stability of :meth:`analyze`.
+
+        Parameters
+        ----------
+        rate_hz : None
+            The sampled loop's jitter margin is not available for loop files (only for
+            the SEA and the rigid actuator): any rate is refused.
 
         Returns
         -------
@@ -682,6 +688,9 @@ class UserLoop(System):
             ``jitter_margin_s`` (the outermost break's), ``delay_margin_s``, ``stable``,
             ``records()``.
         """
+        if rate_hz is not None:
+            raise self.unsupported("jitter_margins(rate_hz=...)", "the SEA or the rigid "
+                                   "actuator (loop files: continuous jitter margins only)")
         a = self._analyze(self.design, True)
         return LoopJitterResult(self.name, {b.name: b.jitter_margin_s for b in a.breaks},
                                 {b.name: b.margins.delay_margin_s for b in a.breaks},

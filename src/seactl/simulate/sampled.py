@@ -42,7 +42,7 @@ from seactl.simulate.network import balance_batched
 from seactl.simulate.period import period_map
 
 __all__ = ["SampledMargins", "SampledRoots", "schur_count", "sampled_margins",
-           "sampled_roots", "sampled_verdict_text", "rate_text", "verdict_word"]
+           "sampled_roots", "broken_responses", "sampled_verdict_text", "rate_text", "verdict_word"]
 
 MAP_TOLERANCE = 64
 """The certificate must hold for every map within ``MAP_TOLERANCE S u ||A||_F`` of the
@@ -545,6 +545,29 @@ def sampled_margins(diagram: BlockDiagram, design: Any, sensor: str, rates_hz: A
     return SampledMargins(*(a.reshape(shape) for a in (pm, fc, gm, fp, dm, samples, jit,
                                                         jit_n)),
                           count, radius, rates, T)
+
+
+def broken_responses(diagram: BlockDiagram, design: Any, sensor: str, rates_hz: Any,
+                     signal: str) -> tuple[Any, float]:
+    """The one-rate sampled loop broken at ``sensor`` (:func:`broken`), as a function of the
+    frequency: ``respond(rows, theta) -> (L, G)`` with ``L(e^{j theta})`` the loop transfer
+    and ``G(e^{j theta})`` the transfer from the injected signal to the controller signal
+    ``signal`` (e.g. the actuation), the loop still open; ``rows`` index the flat batch and
+    ``theta`` is ``(rows, F)`` [rad/sample].  Returns ``(respond, period_s)``."""
+    cut, inj, ret = broken(diagram, sensor)
+    plan = _plan(cut, design, rates_hz, (ret, signal))
+    A, B, C, D, T = _maps(plan, True)
+    col = plan.info["controller_inputs"].index(inj)
+    B, D = B[..., col:col + 1], D[..., col:col + 1]
+    core, depth = _core_size(plan), plan.nbuf.max(axis=1, initial=0)
+    ir, ia = plan.order.index(ret), plan.order.index(signal)
+    ol_r = _OpenLoop(A, B, C[:, ir:ir + 1], D[:, ir:ir + 1], core, depth)
+    ol_a = _OpenLoop(A, B, C[:, ia:ia + 1], D[:, ia:ia + 1], core, depth)
+
+    def respond(rows: np.ndarray, theta: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        return ol_r.take(rows).response(theta), -ol_a.take(rows).response(theta)
+
+    return respond, T
 
 
 def sampled_verdict_text(continuous_stable: bool | None, verdict: str, modes: int,

@@ -44,6 +44,15 @@ def _ms(x: float | None, stable: bool) -> str:
     return "inf" if x is None else f"{x:.3f}"
 
 
+def _sampled_ms(sj: dict[str, Any], prefix: str) -> str:
+    """A sampled jitter margin [ms] with its samples, or the verdict that stands for it."""
+    if f"{prefix}jitter_margin_ms" not in sj:
+        return "-"
+    if sj["verdict"] != "stable":
+        return verdict_text(sj["verdict"])
+    return f"{sj[f'{prefix}jitter_margin_ms']:.3f} ({sj[f'{prefix}jitter_margin_samples']:.1f})"
+
+
 def parse_traces(tokens: tuple[str, ...]) -> dict[str, Any]:
     """``LINK=FILE.csv`` (a measured latency trace, e.g. ``seactl run``'s
     ``latency-stiffness.csv``) -> :class:`~seactl.latency.models.Empirical` per link."""
@@ -97,19 +106,23 @@ def jitter(spec: DesignSpec, traces: tuple[str, ...], rate_hz: float | None,
     Example (Table I):
       seactl jitter --fn 12 14 16 18 20 --t-tau 0.5 --t-qs 2 --t-qd 0.5 --f-qd 50 --f-taud 100
 
-    With --rate, the loop sampled at that rate beside them (JSON "sampled" per design):
-    its certified verdict, delay margin, and outer-loop jitter margin for a delay varying
-    by whole samples (jitter_margin_samples: any variation of 0..N extra samples is
-    tolerated, small gain on the discrete loop, scanned; docs/theory/sampled.md).
+    With --rate, the loop sampled at that rate beside them: its certified verdict and
+    delay margin (JSON "sampled": .margins(rate_hz=...)) and each loop's jitter margin when
+    the measurement is sampled late by a delay varying in [0, J] (JSON "sampled_jitter":
+    .jitter_margins(rate_hz=...), in ms and in samples; sampled-data small-gain bound with
+    the aliased plant, docs/theory/sampled-jitter.md).
     """
     measured = parse_traces(traces)
     rows = jitter_rows(spec)
     checks = trace_checks(spec, rows, measured)
     keys = JSON_KEYS
     if rate_hz is not None:
-        for r, sm in zip(rows, spec.designs().margins(rate_hz).records()):
+        designs = spec.designs()
+        for r, sm, sj in zip(rows, designs.margins(rate_hz).records(),
+                             designs.jitter_margins(rate_hz=rate_hz).records()):
             r["sampled"] = {k: sm[k] for k in SAMPLED_KEYS}
-        keys = JSON_KEYS + ("sampled",)
+            r["sampled_jitter"] = {k: v for k, v in sj.items() if k not in ("fn_hz", "gs")}
+        keys = JSON_KEYS + ("sampled", "sampled_jitter")
     if as_json:
         echo_json({"designs": [{k: r[k] for k in keys} for r in rows]}
                   | ({"traces": checks} if checks else {}))
@@ -119,7 +132,9 @@ def jitter(spec: DesignSpec, traces: tuple[str, ...], rate_hz: float | None,
                            f"T_qd={spec.t_qd_ms:g} ms)"))
     cols = ["f_n [Hz]", "GS", "outer loop [ms]", "stiffness [ms]", "damping [ms]",
             "torque [ms]", "delay margin [ms]", "bottleneck"] + (
-        [f"sampled {rate_hz:g} Hz", "sampled outer loop [ms]", "sampled DM [ms]"]
+        [f"sampled {rate_hz:g} Hz"] + [f"sampled {k} [ms] (samples)" for k in
+                                       ("outer loop", "stiffness", "damping", "torque")]
+        + ["sampled DM [ms]"]
         if rate_hz else [])
     for col in cols:
         t.add_column(escape(col), justify="right")
@@ -130,10 +145,10 @@ def jitter(spec: DesignSpec, traces: tuple[str, ...], rate_hz: float | None,
         worst = min(finite, key=finite.get) if finite and stable else "-"
         extra = []
         if rate_hz is not None:
-            sm = r["sampled"]
+            sm, sj = r["sampled"], r["sampled_jitter"]
             ok = sm["verdict"] == "stable"
-            extra = [verdict_text(sm["verdict"]), _ms(sm["jitter_margin_ms"], ok)
-                     + ("" if not ok else f" ({sm['jitter_margin_samples']} samples)"),
+            extra = [verdict_text(sm["verdict"]),
+                     *(_sampled_ms(sj, p) for p in ("", "stiffness_", "damping_", "torque_")),
                      _ms(sm["delay_margin_ms"], ok)]
         t.add_row(f"{r['fn_hz']:g}", f"{r['gs']:g}", _ms(r["jitter_margin_ms"], stable),
                   *(_ms(v, stable) for v in loops.values()),
@@ -142,6 +157,9 @@ def jitter(spec: DesignSpec, traces: tuple[str, ...], rate_hz: float | None,
     if rate_hz is not None:
         for line in sampled_callout(rows):
             console.print(escape(line), highlight=False)
+        console.print(f"Sampled at {rate_hz:g} Hz: each loop stays stable when its measurement "
+                      "is sampled late by any delay varying in [0, J] (J in ms, samples in "
+                      "brackets; docs/theory/sampled-jitter.md).", highlight=False)
     console.print("A loop stays stable under any latency variation within its jitter margin "
                   "(sufficient, not necessary); the delay margin is for a constant extra "
                   "delay.", highlight=False)
