@@ -877,7 +877,8 @@ class System:
     def run(self, *, duration_s: float = 2.0, rates_hz: Any = 1000.0,
             amplitude: float | None = None, transport: str = "zenoh",
             extra_latency_s: float = 0.0, loss: float = 0.0, seed: int = 0,
-            saturation_a: float | None = None, **options: Any) -> Any:
+            saturation_a: float | None = None, realtime: bool = False,
+            **options: Any) -> Any:
         """Run the exported controllers as three OS processes on loopback.
 
         A plant process (the plant integrated exactly at the fastest rate), the exported
@@ -896,6 +897,10 @@ class System:
         {link_parameters}
         saturation_a : float, optional
             Motor current limit [A] (default: the actuator's).
+        realtime : bool
+            Free-running processes, each on its own clock, running the exported C
+            (compiled with the system's ``cc``), with timing statistics in the summary;
+            default: lock-step, the exact replay check.
         **options
             The kind's own options (the SEA's ``zero``).
 
@@ -922,7 +927,8 @@ class System:
         return run_distributed(self.diagram_for(**options), self.design,
                                saturation=self.saturation(kw["saturation_a"]), step=a,
                                duration_s=duration_s, rates_hz=rates_hz, transport=transport,
-                               extra_latency_s=extra_latency_s, loss=loss, seed=seed)
+                               extra_latency_s=extra_latency_s, loss=loss, seed=seed,
+                               realtime=bool(realtime))
 
     def sweep(self, out: Any, **options: Any) -> Any:
         """Write this system's design space as a resumable Parquet table (the sweep

@@ -10,16 +10,18 @@ from __future__ import annotations
 
 import subprocess
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
-from seactl.codegen.controllers import CFLAGS, c_ident
-from seactl.codegen.parametric import Program
+if TYPE_CHECKING:   # the processes load only CController: no sympy in a run's children
+    from seactl.codegen.parametric import Program
 
 
 def shim_source(prog: Program) -> str:
     """``<p>_rt.c``: ``<p>_rt_init()`` and ``int <p>_rt_step(const double *in, int fresh,
     double *out)`` (inputs and outputs in the order of the structs; returns the
     watchdog flag)."""
+    from seactl.codegen.controllers import c_ident
+
     p = prog.ident
     ins = "".join(f"    in.{c_ident(n)} = ({p}_real)x[{i}];\n" for i, n in enumerate(prog.inputs))
     outs = "".join(f"    y[{i}] = (double)out.{c_ident(n)};\n"
@@ -40,6 +42,7 @@ def shim_source(prog: Program) -> str:
 def build_library(build: Path, prog: Program, cc: str) -> Path:
     """Compile ``<p>.c`` (already in ``build``) and its shim into ``lib<p>.so`` with
     ``cc`` and the export's warning flags plus ``-fPIC -shared``."""
+    from seactl.codegen.controllers import CFLAGS
     from seactl.errors import SeactlError
 
     p = prog.ident

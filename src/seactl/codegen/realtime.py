@@ -225,7 +225,7 @@ def free_run(cfg: dict[str, Any], link: Any, role: str, tick: Any,
         clock.sleep_until_tick(k)
         now = time.monotonic()
         drain(link, inboxes, stops)
-        tick(k, now, inboxes, outbox)
+        tick(k, time.monotonic(), inboxes, outbox)   # the samples' use time: after drain
         index.append(k)
         wake.append(now)
         done.append(time.monotonic())

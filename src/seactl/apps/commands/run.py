@@ -3,7 +3,9 @@
 JSON: the run's summary ``{"transport", "duration_s", "ticks", "rates_hz",
 "extra_latency_ms", "loss", "dropped", "links": {LINK: {"count", "mean_ms", "p50_ms",
 "p99_ms", "max_ms", "jitter_ms"}}, "late_commands", "tracking_rms", "replay_max_diff",
-"nominal_max_diff", "final_value"}`` plus ``"files"``.
+"nominal_max_diff", "final_value"}`` plus ``"files"``; with ``--realtime``, ``"mode":
+"realtime"``, ``"processes"``, ``"links"`` with counts and timing, ``"missed_deadlines"``,
+``"lost"``, ``"watchdog_events"`` (docs/export.md).
 """
 
 from __future__ import annotations
@@ -51,12 +53,15 @@ def _float(name: str, text: str, lo: float, hi: float) -> float:
               help="Seed of the loss (an integer >= 0).")
 @click.option("--transport", type=click.Choice(["zenoh", "udp"]), default="zenoh",
               show_default=True, help="Message transport (loopback only).")
+@click.option("--realtime", is_flag=True,
+              help="Free-running processes, each on its own clock, running the exported C "
+                   "(default: lock-step, the exact replay check).")
 @click.option("--out", default=None, type=click.Path(file_okay=False),
               help="New or empty directory for summary.json, response.csv, latency-*.csv.")
 @json_option
 def run(spec: DesignSpec, loop: Any, system: SystemChoice, duration: str, step: str | None,
-        extra_latency: str, loss: str, seed: int, transport: str, out: str | None,
-        as_json: bool) -> None:
+        extra_latency: str, loss: str, seed: int, transport: str, realtime: bool,
+        out: str | None, as_json: bool) -> None:
     """Run the design's controllers as three processes (plant, embedded, high-level).
 
     Python: sc.design(...).run(), sc.rigid(...).run(), sc.load_loop(...).run().
@@ -68,6 +73,13 @@ def run(spec: DesignSpec, loop: Any, system: SystemChoice, duration: str, step: 
     response against the sampled simulation replaying the measured link timing.
       seactl run --fn 14 --t-tau 1 --t-qs 2 --t-qd 1 --f-qd 50 --f-taud 100 --duration 2
       seactl run --system rigid --fn 8 --t-s 1.5 --t-d 1.5 --transport udp
+
+    \b
+    --realtime: every process on its own clock at its rate, never waiting for another;
+    the controllers are the exported C (compiled with cc); reports period jitter, missed
+    deadlines, latency, stale and lost messages and watchdog events.
+      seactl run --fn 14 --t-tau 1 --t-qs 2 --t-qd 1 --rate embedded=1000 \\
+          --rate high-level=500 --duration 10 --realtime
     """
     from seactl.codegen.export import check_export_dir, write_export
     from seactl.codegen.runtime import RUN_MARKER, run_distributed, run_files
@@ -84,11 +96,14 @@ def run(spec: DesignSpec, loop: Any, system: SystemChoice, duration: str, step: 
         diagram, design, saturation=sat, rates_hz=rates, transport=transport, step=amplitude,
         duration_s=_float("--duration [s]", duration, 0.1, 60),
         extra_latency_s=_float("--extra-latency [ms]", extra_latency, 0, 1000) / 1e3,
-        loss=_float("--loss", loss, 0.0, 0.99), seed=seed)
+        loss=_float("--loss", loss, 0.0, 0.99), seed=seed, realtime=realtime)
     files = write_export(run_files(res), out, RUN_MARKER, "a run") if out else []
     key = "amplitude" if loop is not None else f"amplitude_{unit}"
     if as_json:
         echo_json(res.summary | {key: amplitude, "files": [str(f) for f in files]})
+        return
+    if realtime:
+        _print_realtime(res.summary, amplitude, unit, transport, files)
         return
     s = res.summary
     t = Table(title=f"seactl run ({s['system']}): step {amplitude:g} {unit}, "
@@ -107,5 +122,43 @@ def run(spec: DesignSpec, loop: Any, system: SystemChoice, duration: str, step: 
     console.print(f"measured vs sampled simulation replaying the measured link timing: "
                   f"max diff {s['replay_max_diff']:.2e} of the step; vs the nominal "
                   f"simulation (design delays): {s['nominal_max_diff']:.2e}")
+    if files:
+        console.print("files: " + escape(", ".join(str(f) for f in files)))
+
+
+def _ms(d: dict[str, Any], key: str) -> str:
+    return f"{d[key]:.3f}" if d.get("count") else "-"
+
+
+def _print_realtime(s: dict[str, Any], amplitude: float, unit: str, transport: str,
+                    files: list[Any]) -> None:
+    """The free-running run's process and link tables."""
+    title = (f"seactl run --realtime ({s['system']}): step {amplitude:g} {unit}, "
+             f"{s['duration_s']:g} s over {transport}, exported C")
+    t = Table(title=title)
+    for col in ("process", "rate [Hz]", "ticks", "missed deadlines", "jitter mean [ms]",
+                "jitter p99 [ms]", "jitter max [ms]", "watchdog events", "watchdog ticks"):
+        t.add_column(escape(col))
+    for name, p in s["processes"].items():
+        j = p["period_jitter"]
+        t.add_row(escape(name), f"{p['rate_hz']:g}", str(p["ticks"]),
+                  str(p["missed_deadlines"]), _ms(j, "mean_ms"), _ms(j, "p99_ms"),
+                  _ms(j, "max_ms"), str(p.get("watchdog_events", "-")),
+                  str(p.get("watchdog_ticks", "-")))
+    console.print(t)
+    t = Table()
+    for col in ("link", "sent", "received", "lost", "stale ticks", "latency mean [ms]",
+                "latency p99 [ms]", "latency max [ms]"):
+        t.add_column(escape(col))
+    for link, v in s["links"].items():
+        lat = v["latency"]
+        t.add_row(escape(link), str(v["sent"]), str(v["received"]), str(v["lost"]),
+                  str(v["stale_ticks"]), _ms(lat, "mean_ms"), _ms(lat, "p99_ms"),
+                  _ms(lat, "max_ms"))
+    console.print(t)
+    console.print(f"tracking RMS error {s['tracking_rms']:.3g} {unit}; final value "
+                  f"{s['final_value']:.4f} of the step; vs the nominal simulation (design "
+                  f"delays): max diff {s['nominal_max_diff']:.2e} of the step; injected "
+                  f"losses {s['dropped']}")
     if files:
         console.print("files: " + escape(", ".join(str(f) for f in files)))
