@@ -40,14 +40,13 @@ def test_inbox_counts_gaps_reorders_and_the_missing_tail():
     # receiver got 0, 1, 4, 3, 6 (2, 5, 7, 8, 9 never came; 3 came after 4)
     box = Inbox([0.0])
     for seq in (0, 1, 4, 3, 6):
-        box.put(seq, sent_s=float(seq), recv_s=seq + 0.5, values=[float(seq)])
+        box.put(seq, sent_s=float(seq), values=[float(seq)])
     box.close(10)
     assert (box.received, box.lost, box.reordered) == (5, 5, 1)
     assert box.received + box.lost == box.sent == 10
     assert box.values == [6.0]                     # zero-order hold: the newest, not the last
     assert box.take(7.0) and not box.take(8.0)     # one new sample, then a stale tick
     assert box.stale == 1 and box.use_s == [1.0]   # used 1 s after it was sent
-    assert box.transit_s == [0.5] * 5
 
 
 def test_clock_never_wakes_before_its_deadline():
@@ -117,7 +116,6 @@ def _check_consistent(s: dict, duration_s: float, min_share: float) -> None:
         assert min(v["sent"], v["received"], v["lost"], v["reordered"], v["stale_ticks"]) >= 0
         assert v["received"] + v["lost"] == v["sent"], link       # nothing lost uncounted
         assert v["sent"] == s["processes"][sender[link]]["ticks"]  # one message per tick
-        assert v["transit"]["count"] == v["received"]
         # every tick of the receiver used a new sample or was stale
         assert v["latency"]["count"] + v["stale_ticks"] == s["processes"][receiver[link]]["ticks"]
         lat = v["latency"]

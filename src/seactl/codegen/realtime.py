@@ -10,8 +10,9 @@ Each message carries the sender's sequence number on that link and its send time
 receiver counts, per link: received samples, lost ones (sequence gaps, and at the end
 the sequence numbers the sender's final STOP says were sent and never came), reordered
 ones (a sample older than the newest: counted as received, no longer as lost), stale
-ticks (no new sample since the previous tick), the transit time (send to receive) and
-the latency of each sample it used (send to the tick that first used it).  So
+ticks (no new sample since the previous tick) and the latency of each sample it used
+(send to the tick that first used it).  A process sleeps between its ticks, so it
+takes its messages at its ticks; a receive time between ticks is not observed.  So
 ``received + lost = sent`` on every link, by construction of the counts rather than
 assumed.
 
@@ -106,12 +107,10 @@ class Inbox:
         self.values, self.newest, self.sent_s, self.new = list(default), -1, math.nan, False
         self.received = self.lost = self.reordered = self.stale = 0
         self.sent: int | None = None
-        self.transit_s: list[float] = []
         self.use_s: list[float] = []
 
-    def put(self, seq: int, sent_s: float, recv_s: float, values: Any) -> None:
+    def put(self, seq: int, sent_s: float, values: Any) -> None:
         self.received += 1
-        self.transit_s.append(recv_s - sent_s)
         if seq > self.newest:
             self.lost += seq - self.newest - 1
             self.newest, self.sent_s, self.values, self.new = seq, sent_s, list(values), True
@@ -140,7 +139,6 @@ class Inbox:
         return {prefix + "counts": np.array([self.sent if self.sent is not None else -1,
                                              self.received, self.lost, self.reordered,
                                              self.stale]),
-                prefix + "transit_s": np.array(self.transit_s),
                 prefix + "use_s": np.array(self.use_s)}
 
 
@@ -190,7 +188,7 @@ def drain(link: Any, inboxes: dict[int, Inbox], stops: set[int]) -> None:
     while (got := link.recv(0.0)) is not None:
         kind, seq, sent_s, vals = unpack(got[0])
         if kind in inboxes:
-            inboxes[kind].put(seq, sent_s, got[1], vals)
+            inboxes[kind].put(seq, sent_s, vals)
         elif kind == STOP:
             sender = ROLES[int(vals[0])]
             inboxes[_kind_from(sender)].close(seq)

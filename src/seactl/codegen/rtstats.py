@@ -3,7 +3,7 @@
 Per process: ticks run, deadlines missed (skipped), the period jitter (each actual period
 between two ticks minus its nominal length) and the wake-up lateness (tick start minus
 its deadline), and the watchdog.  Per link: the counts (sent, received, lost, reordered,
-stale ticks), the latency from send to use and the transit time from send to receive.
+stale ticks) and the latency from send to use.
 Times in milliseconds.
 """
 
@@ -55,8 +55,7 @@ def link_stats(log: dict[str, np.ndarray], link: str) -> dict[str, Any]:
     key = link_key(link)
     sent, received, lost, reordered, stale = (int(v) for v in log[key + "counts"])
     return {"sent": sent, "received": received, "lost": lost, "reordered": reordered,
-            "stale_ticks": stale, "latency": distribution_ms(log[key + "use_s"]),
-            "transit": distribution_ms(log[key + "transit_s"])}
+            "stale_ticks": stale, "latency": distribution_ms(log[key + "use_s"])}
 
 
 def realtime_summary(logs: dict[str, dict[str, np.ndarray]]) -> dict[str, Any]:
