@@ -10,7 +10,6 @@ from __future__ import annotations
 
 import json
 import math
-import shutil
 import time
 
 import numpy as np
@@ -122,24 +121,42 @@ def _check_consistent(s: dict, duration_s: float, min_share: float) -> None:
         if lat["count"]:
             assert 0.0 <= lat["min_ms"] <= lat["p50_ms"] <= lat["p99_ms"] <= lat["max_ms"]
     assert s["lost"] == sum(v["lost"] for v in s["links"].values())
+    # the watchdog acts only on ticks without a fresh command: stale on the message link
+    wd = s["processes"]["embedded"]["watchdog_ticks"]
+    assert wd <= s["links"]["high-level->embedded"]["stale_ticks"]
 
 
-@pytest.mark.skipif(shutil.which("cc") is None, reason="needs a C compiler")
-def test_short_realtime_run_with_losses_counts_every_message(tmp_path, capsys):
+@needs_cc
+def test_short_realtime_run_counts_every_lost_message_and_trips_the_watchdog(tmp_path, capsys):
     # oracle: the sender's own count of the messages it dropped (injected loss) equals
-    # the receiver's count of sequence gaps; Zenoh is reliable, so nothing else is lost
+    # the receiver's count of sequence gaps (nothing else is lost on loopback); with 90 %
+    # of the high-level messages dropped, runs of 4 or more drops in a row (8 ms without
+    # a fresh command, P = 0.9^4 = 0.66 at each of 500 messages) exceed the embedded
+    # watchdog's bound (3 high-level periods, 6 embedded calls), so the C's watchdog acts
     code = main(["run", "--fn", "14", "--t-tau", "1", "--t-qs", "2", "--t-qd", "1",
                  "--f-qd", "50", "--f-taud", "100", "--rate", "embedded=1000",
                  "--rate", "high-level=500", "--duration", "1", "--realtime",
-                 "--loss", "0.3", "--seed", "4", "--out", str(tmp_path / "r"), "--json"])
+                 "--transport", "udp", "--loss", "0.9", "--seed", "4",
+                 "--out", str(tmp_path / "r"), "--json"])
     assert code in (0, None)
     s = json.loads(capsys.readouterr().out)
     _check_consistent(s, 1.0, min_share=0.5)
     assert s["dropped"] > 0
     assert s["links"]["high-level->embedded"]["lost"] == s["dropped"]
     assert s["lost"] == s["dropped"]
+    emb = s["processes"]["embedded"]
+    assert emb["watchdog_events"] >= 1
     saved = json.loads((tmp_path / "r" / "summary.json").read_text())
     assert saved["links"] == s["links"]
+
+
+def test_realtime_without_a_compiler_is_a_one_line_error(monkeypatch, capsys):
+    import seactl.codegen.export as export
+
+    monkeypatch.setattr(export, "find_compiler", lambda cc=None: None)
+    assert main(["run", "--fn", "14", "--duration", "0.5", "--realtime"]) == 2
+    err = capsys.readouterr().err.strip()
+    assert err.startswith("error:") and "no C compiler" in err and len(err.splitlines()) == 1
 
 
 @pytest.mark.slow
