@@ -63,13 +63,18 @@ class CController:
     """A process's compiled controller: ``step(fresh) -> watchdog``, reading ``inputs``
     and writing ``outputs`` (preallocated lists of floats, struct order) in place.
 
-    ``binding`` is ``"cffi"`` or ``"ctypes"``."""
+    ``binding``: ``"cffi"``, ``"ctypes"``, or None for cffi when it is installed, else
+    ctypes (the attribute says which)."""
 
-    def __init__(self, lib: Path, ident: str, n_in: int, n_out: int):
-        try:
-            import cffi
-        except ImportError:
-            cffi = None
+    def __init__(self, lib: Path, ident: str, n_in: int, n_out: int,
+                 binding: str | None = None):
+        cffi = None
+        if binding in (None, "cffi"):
+            try:
+                import cffi
+            except ImportError:
+                if binding == "cffi":
+                    raise
         if cffi is not None:
             self.binding = "cffi"
             ffi = cffi.FFI()
