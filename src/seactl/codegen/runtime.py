@@ -33,6 +33,11 @@ peer).
 The prediction replays the run in the sampled simulation: the high-level link is driven
 by the measured arrival schedule (which high-level message the embedded process used at
 each tick), so measured and simulated responses differ only if the model is wrong.
+
+``realtime=True`` runs the same three processes free instead (:mod:`seactl.codegen.realtime`:
+each on its own clock, the controllers being the exported C compiled per run,
+:mod:`seactl.codegen.cbinding`); its summary holds the timing statistics
+(:mod:`seactl.codegen.rtstats`) and no replay.
 """
 
 from __future__ import annotations
