@@ -171,3 +171,7 @@ def test_ten_second_realtime_run_over_zenoh():
     _check_consistent(s, 10.0, min_share=0.9)
     assert s["lost"] == 0
     assert np.all(np.isfinite(res.q_measured))
+    rows = {r["link"]: r for r in res.records()}
+    assert rows["embedded->plant"]["sent"] == s["links"]["embedded->plant"]["sent"]
+    assert rows["embedded->plant"]["p99_ms"] == pytest.approx(
+        s["links"]["embedded->plant"]["latency"]["p99_ms"], rel=1e-9)

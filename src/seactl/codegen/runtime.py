@@ -119,11 +119,16 @@ class RunResult(Result):
         -------
         list of dict
             ``link``, ``count``, ``mean_ms``, ``p50_ms``, ``p99_ms``, ``max_ms``,
-            ``jitter_ms``.
+            ``jitter_ms``; free-running: ``link``, ``sent``, ``received``, ``lost``,
+            ``reordered``, ``stale_ticks`` and the send-to-use latency's ``count``,
+            ``mean_ms``, ``p50_ms``, ``p99_ms``, ``max_ms``, ``min_ms``.
         """
-        return [{"link": link, **{k: json_value(v) for k, v in stats.items()
-                                  if k != "histogram"}}
-                for link, stats in self.summary.get("links", {}).items()]
+        rows = []
+        for link, stats in self.summary.get("links", {}).items():
+            flat = {k: v for k, v in stats.items() if k not in ("histogram", "latency")}
+            rows.append({"link": link, **{k: json_value(v) for k, v in
+                                          (flat | stats.get("latency", {})).items()}})
+        return rows
 
     def plot(self, ax: Any = None) -> Any:
         """The measured response against both simulations.
@@ -141,7 +146,8 @@ class RunResult(Result):
         ax = new_axes(ax)
         t_ms = self.t_s * 1e3
         ax.plot(t_ms, self.q_measured, label="measured", lw=2)
-        ax.plot(t_ms, self.q_replay, "--", label="simulated, measured timing")
+        if np.any(np.isfinite(self.q_replay)):   # none for a free-running run
+            ax.plot(t_ms, self.q_replay, "--", label="simulated, measured timing")
         ax.plot(t_ms, self.q_nominal, ":", label="simulated, design delays")
         ax.set_xlabel("time [ms]")
         ax.set_ylabel(str(self.summary.get("output", "output")))
