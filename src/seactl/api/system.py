@@ -902,7 +902,7 @@ class System:
             amplitude: float | None = None, transport: str = "zenoh",
             extra_latency_s: float = 0.0, loss: float = 0.0, seed: int = 0,
             saturation_a: float | None = None, plant: str = "builtin", latency: Any = None,
-            **options: Any) -> Any:
+            realtime: bool = False, **options: Any) -> Any:
         """Run the exported controllers as three OS processes on loopback.
 
         A plant process (the plant integrated exactly at the fastest rate, or MuJoCo), the
@@ -930,6 +930,10 @@ class System:
             With ``plant="mujoco"``: loop name -> latency model (as :meth:`monte_carlo`)
             of the prediction band (default: the run's measured latency of the high-level
             loop; ``{}``: the design's delays, one nominal response).
+        realtime : bool
+            Free-running processes, each on its own clock, running the exported C
+            (compiled with the system's ``cc``), with timing statistics in the summary;
+            default: lock-step, the exact replay check.
         **options
             The kind's own options (the SEA's ``zero``).
 
@@ -971,7 +975,7 @@ class System:
         res = run_distributed(diagram, self.design, saturation=sat, step=a,
                               duration_s=duration_s, rates_hz=rates_hz, transport=transport,
                               extra_latency_s=extra_latency_s, loss=loss, seed=seed,
-                              plant=plant)
+                              plant=plant, realtime=bool(realtime))
         if plant == "mujoco":
             from seactl.latency.band import run_band
 

@@ -337,7 +337,7 @@ class UserLoop(System):
     def run(self, *, duration_s: float = 2.0, rates_hz: Any = None,
             amplitude: float | None = None, transport: str = "zenoh",
             extra_latency_s: float = 0.0, loss: float = 0.0, seed: int = 0,
-            step: float | None = None) -> Any:
+            step: float | None = None, realtime: bool = False) -> Any:
         """Run the exported controllers as three OS processes on loopback.
 
         As :meth:`seactl.Design.run`, for a loop file whose processes are ``embedded`` and
@@ -354,6 +354,8 @@ class UserLoop(System):
         {link_parameters}
         step : float, optional
             Deprecated spelling of ``amplitude``.
+        realtime : bool
+            Free-running processes running the exported C (as :meth:`seactl.Design.run`).
 
         Returns
         -------
@@ -377,7 +379,7 @@ class UserLoop(System):
                                step=self.default_step if amplitude is None else amplitude,
                                duration_s=duration_s, rates_hz=self._export_rates(rates_hz),
                                transport=transport, extra_latency_s=extra_latency_s,
-                               loss=loss, seed=seed)
+                               loss=loss, seed=seed, realtime=bool(realtime))
 
     def _transfer(self, name: str) -> tuple[Any, bool]:
         """The transfer :meth:`to_control` exports and whether it is divided by ``-s``."""

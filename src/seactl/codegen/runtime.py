@@ -34,6 +34,11 @@ peer).
 The prediction replays the run in the sampled simulation: the high-level link is driven
 by the measured arrival schedule (which high-level message the embedded process used at
 each tick), so measured and simulated responses differ only if the model is wrong.
+
+``realtime=True`` runs the same three processes free instead (:mod:`seactl.codegen.realtime`:
+each on its own clock, the controllers being the exported C compiled per run,
+:mod:`seactl.codegen.cbinding`); its summary holds the timing statistics
+(:mod:`seactl.codegen.rtstats`) and no replay.
 """
 
 from __future__ import annotations
@@ -54,6 +59,8 @@ import numpy as np
 from seactl.base.result import Result, json_value, new_axes
 from seactl.codegen.processes import run_embedded, run_high_level, run_plant
 from seactl.codegen.protocol import ROLES, STARTUP_TIMEOUT_S, TRANSPORTS, LostPeer
+from seactl.codegen.realtime import link_key, prepare_rt
+from seactl.codegen.rtstats import LINK_ROLES
 from seactl.codegen.transports import UdpLink, ZenohLink, handshake, load_controller_class
 
 
@@ -113,11 +120,16 @@ class RunResult(Result):
         -------
         list of dict
             ``link``, ``count``, ``mean_ms``, ``p50_ms``, ``p99_ms``, ``max_ms``,
-            ``jitter_ms``.
+            ``jitter_ms``; free-running: ``link``, ``sent``, ``received``, ``lost``,
+            ``reordered``, ``stale_ticks`` and the send-to-use latency's ``count``,
+            ``mean_ms``, ``p50_ms``, ``p99_ms``, ``max_ms``, ``min_ms``.
         """
-        return [{"link": link, **{k: json_value(v) for k, v in stats.items()
-                                  if k != "histogram"}}
-                for link, stats in self.summary.get("links", {}).items()]
+        rows = []
+        for link, stats in self.summary.get("links", {}).items():
+            flat = {k: v for k, v in stats.items() if k not in ("histogram", "latency")}
+            rows.append({"link": link, **{k: json_value(v) for k, v in
+                                          (flat | stats.get("latency", {})).items()}})
+        return rows
 
     def plot(self, ax: Any = None) -> Any:
         """The measured response against both simulations.
@@ -135,7 +147,8 @@ class RunResult(Result):
         ax = new_axes(ax)
         t_ms = self.t_s * 1e3
         ax.plot(t_ms, self.q_measured, label="measured", lw=2)
-        ax.plot(t_ms, self.q_replay, "--", label="simulated, measured timing")
+        if np.any(np.isfinite(self.q_replay)):   # none for a free-running run
+            ax.plot(t_ms, self.q_replay, "--", label="simulated, measured timing")
         ax.plot(t_ms, self.q_nominal, ":", label="simulated, design delays")
         ax.set_xlabel("time [ms]")
         ax.set_ylabel(str(self.summary.get("output", "output")))
@@ -262,7 +275,8 @@ def run_distributed(diagram: Any, design: Any, *, saturation: dict[str, float] |
                     step: float, duration_s: float = 2.0,
                     rates_hz: dict[str, float] | float = 1000.0, extra_latency_s: float = 0.0,
                     loss: float = 0.0, seed: int = 0, transport: str = "zenoh",
-                    plant: str = "builtin", on_start: Any = None) -> RunResult:
+                    plant: str = "builtin", on_start: Any = None,
+                    realtime: bool = False) -> RunResult:
     """Run a design's exported controllers as three OS processes on loopback for
     ``duration_s`` and compare with the sampled simulation (module doc).
 
@@ -270,7 +284,10 @@ def run_distributed(diagram: Any, design: Any, *, saturation: dict[str, float] |
     :func:`seactl.codegen.controllers.compile_processes`;
     ``step``: the reference step (rad or m); ``plant``: ``"builtin"`` (the exact linear
     plant) or ``"mujoco"`` (:mod:`seactl.codegen.mjcf`, :data:`MUJOCO_TIMESTEP_S`);
-    ``on_start(pids)`` is called with the children's process ids once they are started."""
+    ``on_start(pids)`` is called with the children's process ids once they are started.
+    ``realtime``: free-running processes running the exported C
+    (:mod:`seactl.codegen.realtime`) instead of the lock-step replay check (built-in plant
+    only)."""
     from seactl.base.limits import MIN_SAMPLES
     from seactl.codegen.parametric import compile_export
     from seactl.codegen.source import export_files
@@ -280,8 +297,13 @@ def run_distributed(diagram: Any, design: Any, *, saturation: dict[str, float] |
     _check_run(duration_s, extra_latency_s, loss, step, transport, seed)
     if plant not in PLANTS:
         raise InputError("plant", plant, " or ".join(PLANTS))
-    # lock-step replay of the analysis model: the processes emulate the design's latency
-    ctl, _ = compile_export(diagram, design, rates_hz, saturation, emulate_latency=True)
+    if realtime and plant != "builtin":
+        raise InputError("plant", plant, "builtin with realtime=True (the free-running "
+                         "plant process integrates the exact linear plant)")
+    # lock-step replay of the analysis model: the processes emulate the design's latency;
+    # free-running: the code that would be flashed, the latency is the platform's
+    ctl, _ = compile_export(diagram, design, rates_hz, saturation,
+                            emulate_latency=not realtime)
     if set(ctl.names) != {"embedded", "high-level"}:
         raise InputError("processes", ", ".join(ctl.names), "exactly embedded and high-level "
                          "(seactl run's layout: plant, embedded, high-level)")
@@ -297,7 +319,8 @@ def run_distributed(diagram: Any, design: Any, *, saturation: dict[str, float] |
     with tempfile.TemporaryDirectory(prefix="seactl-run-") as tmp:
         run_dir = Path(tmp)
         (run_dir / "export").mkdir()
-        for name, text in export_files(ctl, ("python",)).items():
+        langs = ("python", "c") if realtime else ("python",)
+        for name, text in export_files(ctl, langs).items():
             (run_dir / "export" / name).write_text(text)
         np.savez(run_dir / "plant.npz", **_plant_matrices(plan))
         mj = _mujoco_model(design, Tb, run_dir) if plant == "mujoco" else {}
@@ -309,12 +332,18 @@ def run_distributed(diagram: Any, design: Any, *, saturation: dict[str, float] |
                "message": _message_at_rest(run_dir / "export", ctl, step),
                "extra_latency_s": float(extra_latency_s), "loss": float(loss),
                "seed": int(seed), "transport": transport, "run_id": run_dir.name[-8:],
-               "plant": plant, **mj}
+               "plant": plant, **mj, "realtime": bool(realtime)}
+        if realtime:
+            cfg |= _realtime_config(ctl, run_dir / "export", duration_s)
         _start(cfg, run_dir, on_start)
         logs = {r: dict(np.load(run_dir / f"log-{r}.npz")) for r in ROLES}
-    res = analyse_run(diagram, design, ctl, logs, K, step, saturation, rates_hz,
-                      {"transport": transport, "extra_latency_ms": extra_latency_s * 1e3,
-                       "loss": loss})
+    injected = {"transport": transport, "extra_latency_ms": extra_latency_s * 1e3,
+                "loss": loss}
+    if realtime:
+        res = analyse_realtime(diagram, design, ctl, logs, step, saturation, rates_hz,
+                               injected | {"compiler": cfg["rt_compiler"]})
+    else:
+        res = analyse_run(diagram, design, ctl, logs, K, step, saturation, rates_hz, injected)
     res.summary["plant"] = plant
     if mj:
         res.summary["plant_timestep_s"] = mj["plant_timestep_s"]
@@ -338,6 +367,28 @@ def _mujoco_model(design: Any, period_s: float, run_dir: Path) -> dict[str, Any]
     path = run_dir / "plant-mujoco.json"
     path.write_text(json.dumps(plant_model(design, h).to_dict()))
     return {"plant_model": str(path), "plant_timestep_s": h}
+
+
+def _realtime_config(ctl: Any, build: Path, duration_s: float) -> dict[str, Any]:
+    """Each controller's C compiled into a shared library in ``build``; each process's
+    rate and number of deadlines."""
+    from seactl.codegen.cbinding import build_library
+    from seactl.codegen.export import find_compiler
+    from seactl.errors import ResourceError
+
+    cc = find_compiler()
+    if cc is None:
+        raise ResourceError("no C compiler found (looked for $CC, cc, gcc, clang): "
+                            "run --realtime runs the exported C")
+    progs = {p.name: p for p in ctl.programs}
+    rates = {p.name: p.rate_hz for p in ctl.processes} | {"plant": ctl.base_rate_hz}
+    return {"rt_rates_hz": rates,
+            "rt_ticks": {r: int(round(duration_s * f)) for r, f in rates.items()},
+            "rt_lib": {n: str(build_library(build, p, cc)) for n, p in progs.items()},
+            "rt_ident": {n: p.ident for n, p in progs.items()},
+            "rt_inputs": {n: list(p.inputs) for n, p in progs.items()},
+            "rt_outputs": {n: list(p.outputs) for n, p in progs.items()},
+            "rt_compiler": cc}
 
 
 def _message_at_rest(export_dir: Path, ctl: Any, step: float) -> dict[str, float]:
@@ -421,6 +472,42 @@ def analyse_run(diagram: Any, design: Any, ctl: Any, logs: dict[str, dict[str, n
     return RunResult(k * Tb, q, q_rep, q_nom, lat_s, summary)
 
 
+def analyse_realtime(diagram: Any, design: Any, ctl: Any,
+                     logs: dict[str, dict[str, np.ndarray]], step: float, sat: dict[str, float],
+                     rates_hz: Any, injected: dict[str, Any]) -> RunResult:
+    """A free-running run: its timing statistics, tracking error and the nominal
+    simulation (no replay: the timing is not reproducible)."""
+    from seactl.codegen.rtstats import realtime_summary
+    from seactl.simulate.engine import simulate
+    from seactl.simulate.inputs import Step
+
+    Tb = 1.0 / ctl.base_rate_hz
+    q = logs["plant"]["q"]
+    ok = np.isfinite(q)
+    k = np.arange(q.size)
+    q = np.interp(k, k[ok], q[ok]) if ok.any() else q   # skipped ticks: interpolated
+    out, ref = ctl.sensed[0], ctl.references[0]
+    nom = simulate(diagram, design, {ref: Step(step)}, (q.size - 1) * Tb, mode="sampled",
+                   outputs=(out,), rates_hz=rates_hz, saturation=sat)
+    q_nom = np.ravel(nom.outputs[out])[:q.size]
+    rt = realtime_summary(logs)
+    lat_s = {link: logs[role][link_key(link) + "use_s"]
+             for link, role in LINK_ROLES.items()}
+    summary = {
+        "mode": "realtime", "transport": injected["transport"], "system": diagram.name,
+        "duration_s": q.size * Tb, "ticks": int(q.size),
+        "rates_hz": {p.name: p.rate_hz for p in ctl.processes}, "output": out,
+        "step": float(step), "extra_latency_ms": injected["extra_latency_ms"],
+        "loss": injected["loss"], "controller": "exported C", "compiler": injected["compiler"],
+        **rt,
+        "tracking_rms": float(np.sqrt(np.mean((q - step) ** 2))),
+        "replay_max_diff": None,
+        "nominal_max_diff": float(np.max(np.abs(q - q_nom)) / abs(step)),
+        "final_value": float(q[-1] / step),
+    }
+    return RunResult(k * Tb, q, np.full(q.size, np.nan), q_nom, lat_s, summary)
+
+
 RUN_MARKER = ".seactl-run"
 
 
@@ -457,6 +544,9 @@ def worker_main(role: str, config: str) -> int:
     _fine_timer()
     cfg = json.loads(Path(config).read_text())
     run = {"plant": run_plant, "embedded": run_embedded, "high-level": run_high_level}[role]
+    if cfg.get("realtime"):   # loaded (the controller's library) before the clock starts
+        job = prepare_rt(cfg, role)
+        run = lambda cfg, link: job(link)  # noqa: E731
     try:
         link = (UdpLink if cfg["transport"] == "udp" else ZenohLink)(cfg, role)
     except Exception as exc:  # e.g. a Zenoh endpoint taken meanwhile

@@ -6,7 +6,8 @@ JSON: the run's summary ``{"transport", "duration_s", "ticks", "rates_hz",
 "nominal_max_diff", "final_value", "plant"}`` (with ``--plant mujoco`` also
 ``"plant_timestep_s"`` and ``"prediction_band"``: ``{"verdict", "within", "runs",
 "ticks_outside", "max_outside", "t_worst_s", "max_width", "tolerance", "latency"}``) plus
-``"files"``.
+``"files"``; with ``--realtime``, ``"mode": "realtime"``, ``"processes"``, ``"links"`` with
+counts and timing, ``"missed_deadlines"``, ``"lost"``, ``"watchdog_events"`` (docs/export.md).
 """
 
 from __future__ import annotations
@@ -61,12 +62,15 @@ def _float(name: str, text: str, lo: float, hi: float) -> float:
               help="--plant mujoco: latency model of a loop for the prediction band, in ms "
                    "(e.g. stiffness=uniform:1:3; repeatable); default: the run's measured "
                    "latency of the high-level loop.")
+@click.option("--realtime", is_flag=True,
+              help="Free-running processes, each on its own clock, running the exported C "
+                   "(default: lock-step, the exact replay check).")
 @click.option("--out", default=None, type=click.Path(file_okay=False),
               help="New or empty directory for summary.json, response.csv, latency-*.csv.")
 @json_option
 def run(spec: DesignSpec, loop: Any, system: SystemChoice, duration: str, step: str | None,
         extra_latency: str, loss: str, seed: int, transport: str, plant: str,
-        latency: tuple[str, ...], out: str | None, as_json: bool) -> None:
+        latency: tuple[str, ...], realtime: bool, out: str | None, as_json: bool) -> None:
     """Run the design's controllers as three processes (plant, embedded, high-level).
 
     Python: sc.design(...).run(), sc.rigid(...).run(), sc.load_loop(...).run().
@@ -81,6 +85,13 @@ def run(spec: DesignSpec, loop: Any, system: SystemChoice, duration: str, step: 
       seactl run --fn 14 --t-tau 1 --t-qs 2 --t-qd 1 --f-qd 50 --f-taud 100 --duration 2
       seactl run --system rigid --fn 8 --t-s 1.5 --t-d 1.5 --transport udp
       seactl run --fn 14 --t-qs 2 --f-qd 50 --f-taud 100 --plant mujoco --transport udp
+
+    \b
+    --realtime: every process on its own clock at its rate, never waiting for another;
+    the controllers are the exported C (compiled with cc); reports period jitter, missed
+    deadlines, latency, stale and lost messages and watchdog events.
+      seactl run --fn 14 --t-tau 1 --t-qs 2 --t-qd 1 --rate embedded=1000 \\
+          --rate high-level=500 --duration 10 --realtime
     """
     from seactl.codegen.export import check_export_dir, write_export
     from seactl.codegen.runtime import RUN_MARKER, run_distributed, run_files
@@ -98,7 +109,7 @@ def run(spec: DesignSpec, loop: Any, system: SystemChoice, duration: str, step: 
         diagram, design, saturation=sat, rates_hz=rates, transport=transport, step=amplitude,
         duration_s=_float("--duration [s]", duration, 0.1, 60),
         extra_latency_s=_float("--extra-latency [ms]", extra_latency, 0, 1000) / 1e3,
-        loss=_float("--loss", loss, 0.0, 0.99), seed=seed, plant=plant)
+        loss=_float("--loss", loss, 0.0, 0.99), seed=seed, plant=plant, realtime=realtime)
     if plant == "mujoco":
         from seactl.latency.band import run_band
         from seactl.latency.montecarlo import MODEL_LINKS
@@ -110,6 +121,9 @@ def run(spec: DesignSpec, loop: Any, system: SystemChoice, duration: str, step: 
     key = "amplitude" if loop is not None else f"amplitude_{unit}"
     if as_json:
         echo_json(res.summary | {key: amplitude, "files": [str(f) for f in files]})
+        return
+    if realtime:
+        _print_realtime(res.summary, amplitude, unit, transport, files)
         return
     s = res.summary
     t = Table(title=f"seactl run ({s['system']}): step {amplitude:g} {unit}, "
@@ -161,3 +175,39 @@ def _band_latency(plant: str, items: tuple[str, ...], design: Any,
     except InputError as exc:
         raise InputError("--latency", exc.value, exc.valid) from None
     return lat
+def _ms(d: dict[str, Any], key: str) -> str:
+    return f"{d[key]:.3f}" if d.get("count") else "-"
+
+
+def _print_realtime(s: dict[str, Any], amplitude: float, unit: str, transport: str,
+                    files: list[Any]) -> None:
+    """The free-running run's process and link tables."""
+    title = (f"seactl run --realtime ({s['system']}): step {amplitude:g} {unit}, "
+             f"{s['duration_s']:g} s over {transport}, exported C")
+    t = Table(title=title)
+    for col in ("process", "rate [Hz]", "ticks", "missed deadlines", "jitter mean [ms]",
+                "jitter p99 [ms]", "jitter max [ms]", "watchdog events", "watchdog ticks"):
+        t.add_column(escape(col))
+    for name, p in s["processes"].items():
+        j = p["period_jitter"]
+        t.add_row(escape(name), f"{p['rate_hz']:g}", str(p["ticks"]),
+                  str(p["missed_deadlines"]), _ms(j, "mean_ms"), _ms(j, "p99_ms"),
+                  _ms(j, "max_ms"), str(p.get("watchdog_events", "-")),
+                  str(p.get("watchdog_ticks", "-")))
+    console.print(t)
+    t = Table()
+    for col in ("link", "sent", "received", "lost", "stale ticks", "latency mean [ms]",
+                "latency p99 [ms]", "latency max [ms]"):
+        t.add_column(escape(col))
+    for link, v in s["links"].items():
+        lat = v["latency"]
+        t.add_row(escape(link), str(v["sent"]), str(v["received"]), str(v["lost"]),
+                  str(v["stale_ticks"]), _ms(lat, "mean_ms"), _ms(lat, "p99_ms"),
+                  _ms(lat, "max_ms"))
+    console.print(t)
+    console.print(f"tracking RMS error {s['tracking_rms']:.3g} {unit}; final value "
+                  f"{s['final_value']:.4f} of the step; vs the nominal simulation (design "
+                  f"delays): max diff {s['nominal_max_diff']:.2e} of the step; injected "
+                  f"losses {s['dropped']}")
+    if files:
+        console.print("files: " + escape(", ".join(str(f) for f in files)))
