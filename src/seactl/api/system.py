@@ -513,8 +513,14 @@ class System:
         return ImpedanceResult(self.impedance_response(f_hz, port, **options), self.labels())
 
     def jitter_loops(self) -> tuple[Any, dict[str, str], Any]:
-        """The split diagram, its taps (loop name -> signal) and the design batch that
-        the jitter margins break (the same loops as :meth:`jitter_core`)."""
+        """The split diagram, its taps and the design batch the jitter margins break.
+
+        Returns
+        -------
+        tuple
+            ``(diagram, taps, design)``: taps map a loop name to its signal (the same
+            loops as :meth:`jitter_core`).
+        """
         raise self.unsupported("jitter_margins(rate_hz=...)", "a kind of system with named "
                                "loops")
 
