@@ -35,6 +35,7 @@ _PUBLIC = {
     ".api.sweeps": ("sweep", "read_sweep", "parameter_robustness"),
     ".api.mobile_base": ("compare_mobile_base", "mobile_base_params"),
     ".api.userloop": ("UserLoop",),
+    ".api.delayresult": ("DelayMarginResult",),
     ".api.loopbuilder": ("load_loop", "LoopBuilder"),
     ".errors": ("SeactlError", "InputError", "InfeasibleDesignError", "LoopFileError"),
 }
@@ -53,6 +54,8 @@ __all__ = [
     "compare_mobile_base", "mobile_base_params", "LatencyMapResult", "PlacementResult",
     # your own loop (loop files, docs/loops.md)
     "load_loop", "LoopBuilder", "UserLoop",
+    # delay margin along a direction of the delays
+    "DelayMarginResult",
     # errors and warnings
     "SeactlError", "InputError", "InfeasibleDesignError", "LoopFileError", "UnitWarning",
 ]
