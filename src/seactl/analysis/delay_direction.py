@@ -70,6 +70,9 @@ POINT_SECONDS = 2e-7
 """Estimated time per grid point, design and ``(K + J)^2`` (eigenvalues of ``P_w``'s
 companion matrix and the terms' evaluation), rounded up: for refusing work up front."""
 
+CHUNK_BYTES = 64e6
+"""Memory of the grid points evaluated at once (their companion matrices)."""
+
 NEWTON_STEPS = 60
 
 
@@ -223,7 +226,7 @@ class _Ray:
         W = int((n_log + n_lin).max()) + 2
         check_budget(f"the delay-margin sweep ({idx.size} design(s) x {W:,} frequencies)",
                      seconds=idx.size * W * POINT_SECONDS * (self.K + len(self.k)) ** 2,
-                     n_bytes=16.0 * idx.size * min(W, _CHUNK) * (self.K + len(self.k)) * 4,
+                     n_bytes=CHUNK_BYTES,
                      hint="a long fixed delay turns the phase often up to the roots' "
                           "bound; shorten the delays that do not move")
         i = np.arange(W)[None, :]
@@ -253,8 +256,9 @@ class _Ray:
             return t, w_at
         w = self.grid(idx, density)
         starts = []
-        for lo in range(0, w.shape[1], max(1, _CHUNK // idx.size)):
-            sl = slice(max(lo - 1, 0), lo + max(1, _CHUNK // idx.size) + 1)
+        cols = max(1, int(CHUNK_BYTES / (16.0 * (self.K**2 + self.K + len(self.k)) * idx.size)))
+        for lo in range(0, w.shape[1], cols):
+            sl = slice(max(lo - 1, 0), lo + cols + 1)
             starts.append(_candidates(self.coefficients(idx, w[:, sl]), w[:, sl]))
         rows = np.concatenate([s[0] for s in starts])
         w0 = np.concatenate([s[1] for s in starts])
@@ -303,9 +307,6 @@ class _Ray:
         ok = before & np.where(finite, beyond >= 0, beyond == 0)
         return ok, finite & (beyond == 0)
 
-
-_CHUNK = 200_000
-"""Grid points (designs x frequencies) evaluated at once."""
 
 
 def _residual(cf: np.ndarray, c: np.ndarray, k: np.ndarray, w: np.ndarray, th: np.ndarray
