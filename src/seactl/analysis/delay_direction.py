@@ -66,9 +66,10 @@ CHECK_FRACTIONS = (0.0, 0.25, 0.5, 0.75, 0.95)
 BEYOND = 1e-3
 """The count just beyond the margin is taken at ``t* (1 + BEYOND)``."""
 
-POINT_SECONDS = 2e-7
-"""Estimated time per grid point, design and ``(K + J)^2`` (eigenvalues of ``P_w``'s
-companion matrix and the terms' evaluation), rounded up: for refusing work up front."""
+POINT_SECONDS = (1e-5, 1e-6, 1e-7)
+"""Estimated time per grid point and design: a constant, per term (``J``) and per cubed
+degree ``K`` of ``P_w`` (its companion eigenvalues), rounded up: for refusing work up
+front."""
 
 CHUNK_BYTES = 64e6
 """Memory of the grid points evaluated at once (their companion matrices)."""
@@ -220,15 +221,17 @@ class _Ray:
         with np.errstate(divide="ignore"):
             step = np.where(c_max > 0, 2 * np.pi / (TURN_POINTS * density * c_max), np.inf)
         w_lin = np.clip(step / (ratio - 1.0), w_lo, w_hi)
-        n_log = np.ceil(per * np.log10(w_lin / w_lo)).astype(int)
+        n_log = np.ceil(per * np.log10(w_lin / w_lo))
         n_lin = np.where(w_hi > w_lin, np.ceil((w_hi - w_lin) / np.where(
-            np.isfinite(step), step, 1.0)), 0).astype(int)
-        W = int((n_log + n_lin).max()) + 2
-        check_budget(f"the delay-margin sweep ({idx.size} design(s) x {W:,} frequencies)",
-                     seconds=idx.size * W * POINT_SECONDS * (self.K + len(self.k)) ** 2,
-                     n_bytes=CHUNK_BYTES,
+            np.isfinite(step), step, 1.0)), 0.0)
+        W = float((n_log + n_lin).max()) + 2
+        check_budget(f"the delay-margin sweep ({idx.size} design(s) x {W:,.4g} frequencies)",
+                     seconds=idx.size * W * float(np.dot(POINT_SECONDS, (
+                         1.0, len(self.k), float(self.K) ** 3))),
+                     n_bytes=CHUNK_BYTES + 16.0 * idx.size * W,
                      hint="a long fixed delay turns the phase often up to the roots' "
                           "bound; shorten the delays that do not move")
+        W = int(W)
         i = np.arange(W)[None, :]
         w = np.where(i <= n_log[:, None], w_lo[:, None] * ratio ** i,
                      w_lin[:, None] + (i - n_log[:, None]) * np.where(
