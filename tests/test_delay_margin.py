@@ -40,6 +40,19 @@ def test_equal_growth_at_the_loop_break_is_the_loops_delay_margin():
                   * np.maximum(1, np.abs(s)) ** (q.coeffs.shape[-1] - 1))
 
 
+def test_each_break_of_the_paper_loop_file():
+    # Oracle: the loop file's certified delay margin at each break (analyze()): the torque
+    # break's loop holds only the torque delay, the outer break's loop the stiffness and
+    # damping delays, once on each path (the torque loop closed inside it).
+    loop = sc.load_loop("examples/loops/paper-sea.toml")
+    breaks = {b.name: float(b.margins.delay_margin_s)
+              for b in loop.analyze(jitter=False).breaks}
+    torque = loop.delay_margin({"tau_delay": 1})
+    outer = loop.delay_margin({"Kq_fb": 1, "Bq_fb": 1})
+    assert float(torque.delay_margin_s) == pytest.approx(breaks["torque"], rel=1e-9)
+    assert float(outer.delay_margin_s) == pytest.approx(breaks["outer"], rel=1e-9)
+
+
 def _scalar(a, b, tau0):
     """``s + a + b e^{-s tau}`` as DelayTerms, a batch over ``a`` and ``b``."""
     a, b, tau0 = (np.asarray(x, float) for x in (a, b, tau0))
