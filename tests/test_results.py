@@ -60,6 +60,8 @@ UNITLESS = {
                      "real_interval"),
                     "s-plane values in rad/s (real parts 1/s), named as python-control "
                     "names poles"),
+    **dict.fromkeys(("verified", "touch"), "a boolean (a delay margin's checks)"),
+    "direction": "dimensionless weights d / max(d), per delay name",
     **dict.fromkeys(("z", "magnitude", "stiffness"), "in the result's own `unit`"),
     **dict.fromkeys(("position", "q_measured", "q_replay", "q_nominal", "bound"),
                     "in the system's position unit (rad or m), or relative to the step"),

@@ -36,6 +36,7 @@ _PUBLIC = {
     ".api.sweeps": ("sweep", "read_sweep", "parameter_robustness"),
     ".api.mobile_base": ("compare_mobile_base", "mobile_base_params"),
     ".api.userloop": ("UserLoop",),
+    ".api.delayresult": ("DelayMarginResult",),
     ".api.loopbuilder": ("load_loop", "LoopBuilder"),
     ".api.delay_system": ("delay_equation", "quasi_polynomial", "DelaySystem", "DelayEquation",
                           "QuasiPolynomialSystem"),
@@ -60,6 +61,8 @@ __all__ = [
     # delay equations and quasi-polynomials typed in (docs/delay-equations.md)
     "delay_equation", "quasi_polynomial", "load_dde", "DelaySystem", "DelayEquation",
     "QuasiPolynomialSystem",
+    # delay margin along a direction of the delays
+    "DelayMarginResult",
     # errors and warnings
     "SeactlError", "InputError", "InfeasibleDesignError", "LoopFileError", "UnitWarning",
 ]

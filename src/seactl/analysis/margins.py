@@ -486,7 +486,7 @@ def _check_grid_budget(count: np.ndarray, tau_max: np.ndarray, top: np.ndarray) 
     check_budget(f"the certified margin scan ({total:.3g} frequency points)",
                  seconds=total * BASE_POINT_SECONDS,
                  hint=f"its largest design needs {count[i]:.3g}: a loop delay of "
-                      f"{tau_max[i] * 1e3:.3g} ms turns the phase every "
+                      f"{tau_max[i]:.3g} s turns the phase every "
                       f"{2 * np.pi / max(tau_max[i], 1e-300):.3g} rad/s up to {top[i]:.3g} "
                       "rad/s, where the loop's fastest pole lies; slow the fastest block "
                       "(a filter's cut-off) or shorten the delay")
@@ -907,6 +907,18 @@ def count_right_roots(q: QuasiPolynomial, w_ref: np.ndarray) -> tuple[np.ndarray
     scan.run(np.asarray(w_ref, float), q.delays.max(axis=0), top)
     Z, odd = _stepan_count(q, scan)
     return Z, ~odd & ~scan.uncertain
+
+
+def check_count_budget(q: QuasiPolynomial, w_ref: np.ndarray) -> None:
+    """Refuse up front, before other work, a :func:`count_right_roots` of the flat ``q``
+    whose scan would exceed the time budget: its grid grows with the longest delay (one
+    step per half turn of its phase up to the Cauchy radius)."""
+    tau = q.delays.max(axis=0)
+    top = cauchy_bound(q)
+    ok = np.isfinite(top)  # (the others: left to the count itself, which says why)
+    if ok.any():
+        w = np.broadcast_to(np.asarray(w_ref, float), top.shape)[ok]
+        _check_grid_budget(_base_grid_count(w, tau[ok], top[ok]), tau[ok], top[ok])
 
 
 def closed_loop_right_roots(diagram: BlockDiagram, design: Any, w_ref: Any) -> np.ndarray:

@@ -47,7 +47,7 @@ from typing import Any
 
 import numpy as np
 
-from seactl.analysis.margins import certified_right_roots, count_right_roots
+from seactl.analysis.margins import certified_right_roots, check_count_budget, count_right_roots
 from seactl.analysis.rootdiscs import inclusion_discs
 from seactl.base.parallel import eigvals
 from seactl.diagram.blockdiagram import BlockDiagram, QuasiPolynomial, shifted
@@ -195,6 +195,7 @@ def quasi_roots(q: QuasiPolynomial, *, count: int = 6, what: str = "quasi-polyno
     out = np.full((n, count), np.nan + 0j)
     nodes, ok = np.zeros(n, int), np.zeros(n, bool)
     scale = frequency_scale(q)
+    check_count_budget(q, scale)
     delayed = q.delays.max(axis=0) * scale > NEGLIGIBLE_DELAY
     for deg, dl in {(int(a), bool(b)) for a, b in zip(q.degree, delayed)}:
         idx = np.nonzero((q.degree == deg) & (delayed == dl))[0]
@@ -355,7 +356,13 @@ def _complete(q: QuasiPolynomial, found: np.ndarray, count: int, scale: np.ndarr
     sigma = np.where(np.isfinite(sigma), sigma, -0.05 * scale)
     mult = np.where(found.imag > 0, 2, 1)
     expected = np.where(np.isfinite(re) & (re > sigma[:, None]), mult, 0).sum(axis=1)
-    Z, certain = count_right_roots(shifted(q, sigma), scale)
+    with np.errstate(over="ignore", invalid="ignore"):
+        q = shifted(q, sigma)
+    # (e^{-sigma tau} overflows for a delay of millions of time constants: not confirmed)
+    ok = np.isfinite(q.coeffs).all(axis=(0, 2))
+    Z, certain = np.zeros(ok.size, int), np.zeros(ok.size, bool)
+    if ok.any():
+        Z[ok], certain[ok] = count_right_roots(q.take(np.nonzero(ok)[0]), scale[ok])
     return certain & (Z == expected)
 
 

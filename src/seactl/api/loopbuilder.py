@@ -107,8 +107,8 @@ class LoopBuilder:
             self._data["parameters"][k] = v
         return self
 
-    def process(self, name: str, rate_hz: float = 1000.0, latency_ms: float | str = 0.0
-                ) -> LoopBuilder:
+    def process(self, name: str, rate_hz: float = 1000.0, latency_ms: float | str | None = None,
+                latency_s: float | str | None = None) -> LoopBuilder:
         """Declare a process (a processor the controller blocks run on).
 
         Parameters
@@ -119,14 +119,18 @@ class LoopBuilder:
             Its rate [Hz] (sampled simulations).
         latency_ms : float or str
             The delay of its blocks that say ``delay_ms="process"`` [ms] (number or
-            expression).
+            expression; default 0).
+        latency_s : float or str, optional
+            The same in seconds (give one of the two).
 
         Returns
         -------
         LoopBuilder
             This builder.
         """
-        self._data["processes"][name] = {"rate_hz": rate_hz, "latency_ms": latency_ms}
+        self._data["processes"][name] = {"rate_hz": rate_hz, **{
+            k: v for k, v in (("latency_ms", latency_ms), ("latency_s", latency_s))
+            if v is not None}}
         return self
 
     def block(self, name: str, kind: str, *, input: str | Sequence[str], output: str,
@@ -149,7 +153,8 @@ class LoopBuilder:
         process : str, optional
             The process a controller block runs on.
         delay_ms : float or str, optional
-            Exact delay [ms]: number, expression, or ``"process"`` (its latency).
+            Exact delay [ms]: number, expression, or ``"process"`` (its latency); or
+            ``delay_s=`` (in ``params``) in seconds, not both.
         measurement : str, optional
             The measured signal of a ``dob`` block.
         **params : Any

@@ -480,6 +480,46 @@ class System:
         return RootsResult(characteristic_roots(self.diagram, self.design, count=count),
                            self.label_columns(gains=False))
 
+    def delay_margin(self, direction: Any = None) -> Any:
+        """Delay margin along a direction of the delay vector, with exact delays.
+
+        The delays move on ``tau0 + t d / max(d)`` from the design's own ``tau0``; the
+        margin is the smallest ``t >= 0`` [s] (the extra delay of the most-moved delay)
+        at which a characteristic root reaches the imaginary axis: 0 if unstable at
+        ``tau0``, ``inf`` if none ever does.  Frequency sweeping on the exact
+        quasi-polynomial (:mod:`seactl.analysis.delay_direction`), checked by certified
+        root counts along the ray (docs/theory/delay-margin.md).
+
+        Parameters
+        ----------
+        direction : dict or sequence, optional
+            Delay name (of :meth:`delay_terms`, the :attr:`loops`) -> weight >= 0 (absent:
+            0, the delay stays), or weights in the order of ``delay_terms().names``;
+            default: every delay grows alike.  The weights' ratios must be ratios of
+            integers up to 16 (commensurate).
+
+        Returns
+        -------
+        DelayMarginResult
+            ``delay_margin_s``, ``crossing_hz``, ``crossing_delays_s``, ``stable``,
+            ``verified``, ``touch`` (batch shape), ``records()``, ``to_dict()``.
+
+        Examples
+        --------
+        >>> import seactl as sc
+        >>> d = sc.design(14, delays_ms={"torque": 0.5, "stiffness": 2, "damping": 0.5},
+        ...               filters_hz=(50, 100))
+        >>> m = d.delay_margin({"stiffness": 1})
+        >>> round(float(m.delay_margin_s) * 1e3, 2), round(float(m.crossing_hz), 2)
+        (15.65, 8.84)
+        """
+        from seactl.analysis.delay_direction import direction_margin
+        from seactl.api.delayresult import DelayMarginResult
+
+        terms = self.delay_terms()
+        return DelayMarginResult(direction_margin(terms, direction), terms.names, terms.shape,
+                                 self.label_columns(gains=False))
+
     def impedance(self, f_hz: Any, *, port: str | None = None,
                   **options: Any) -> ImpedanceResult:
         """Impedance felt at a port, ``Z(j 2 pi f) = force / velocity``, with exact delays.

@@ -203,6 +203,17 @@ def check_simulation(n_designs: int, mode: str, rate_hz: float, t_end_s: float,
                               "min(0.1 ms, the smallest positive delay))"))
 
 
+def check_delay_buffers(n_designs: int, n_delayed: int, samples: float, step_s: float) -> None:
+    """Refuse up front delay buffers larger than the machine's memory: a simulation keeps,
+    per delayed block and design, a ring of the longest delay's ``samples`` steps of
+    ``step_s`` [s] (8 bytes each), so the memory grows with the delay's length."""
+    n_bytes = 8.0 * n_designs * max(n_delayed, 1) * (float(samples) + 3.0)
+    check_budget(f"the simulation's delay buffers ({float(samples):,.4g} steps of "
+                 f"{step_s:.3g} s hold its longest delay, {float(samples) * step_s:.4g} s)",
+                 n_bytes=n_bytes, hint="shorten the longest delay, simulate fewer designs, "
+                                       "or (sampled) lower the rate")
+
+
 SAMPLED_SECONDS_PER_STATE3 = 1e-7
 """Time per design and cubed state of the sampled loop's verdict (period map,
 eigenvalues, Stein certificate), and per frequency of its margin scan

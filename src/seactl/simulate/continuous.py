@@ -10,7 +10,7 @@ from typing import Any
 import numpy as np
 
 from seactl.base.jit import KernelGroup, njit
-from seactl.base.limits import check_budget, simulation_estimate
+from seactl.base.limits import check_budget, check_delay_buffers, simulation_estimate
 from seactl.base.parallel import in_threads
 from seactl.diagram.blockdiagram import BlockDiagram
 from seactl.errors import InputError
@@ -91,6 +91,8 @@ def compile_continuous(diagram: BlockDiagram, design: Any, inputs: Mapping[str, 
     check_size(n, steps, steps // every + 1, f"the continuous step is {dt:.3g} s (the "
                 "smallest positive delay, at most 0.1 ms): give a coarser record_dt, a "
                 "shorter t_end_s, or fewer designs")
+    longest = max((float(np.max(d)) for d in delays.values()), default=0.0)
+    check_delay_buffers(n, len(delayed), longest / dt, dt)
     reals = [realize_continuous(b, design, shape, n, derivative_tau_s) for b in blocks]
     exo = list(diagram.inputs)
     inst = {b.name: np.ones(n) for b in blocks}

@@ -9,6 +9,7 @@ from typing import Any
 
 import numpy as np
 
+from seactl.base.limits import check_delay_buffers
 from seactl.diagram.blockdiagram import Block, BlockDiagram
 from seactl.errors import InputError
 from seactl.simulate.continuous import check_size, fill_diverged
@@ -112,11 +113,15 @@ def buffer_samples(delay_s: Any, period_s: float) -> np.ndarray:
 def delay_buffers(delayed: Sequence[Block], design: Any, shape: tuple[int, ...], n: int,
              period: Mapping[str, float], ticks: Mapping[str, int]
              ) -> tuple[dict[str, np.ndarray], dict[str, np.ndarray]]:
-    """Whole-sample buffer lengths [base ticks] and effective delays [s] of delayed blocks."""
+    """Whole-sample buffer lengths [base ticks] and effective delays [s] of delayed blocks
+    (refused up front if the buffers would not fit in memory)."""
     nbuf, eff = {}, {}
     for b in delayed:
         T = delay_attr(design, b, shape, n)
         Ts = period[b.name]
+        tick = ticks.get(b.process, 1)
+        check_delay_buffers(n, len(delayed), float(np.max(T, initial=0.0)) / Ts * tick,
+                            Ts / tick)
         nb = buffer_samples(T, Ts)
         nbuf[b.name] = nb * ticks.get(b.process, 1)  # in base ticks
         eff[b.name] = (Ts / 2 + nb * Ts).reshape(shape)

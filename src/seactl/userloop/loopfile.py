@@ -126,8 +126,23 @@ def parameter_order(variables: Mapping[str, Any], parameters: Mapping[str, Any],
 
 # ------------------------------------------------------------------ blocks
 @dataclass(frozen=True)
+class Delay:
+    """A block's delay as the file gives it: the expression and its field, ``delay_ms``
+    (milliseconds) or ``delay_s`` (seconds); called, the delay [ms]."""
+
+    expr: Expr
+    field: str
+
+    def __call__(self, env: Mapping[str, Any]) -> np.ndarray:
+        value = self.expr(env)
+        return value * 1e3 if self.field == "delay_s" else value
+
+
+@dataclass(frozen=True)
 class BlockSpec:
-    """A validated user block: its kind, signed inputs and parsed parameters."""
+    """A validated user block: its kind, signed inputs and parsed parameters;
+    ``delay_ms`` is its :class:`Delay`, ``"process"`` or None, ``delay_field`` the field
+    that gave it."""
 
     name: str
     kind: str
@@ -135,8 +150,9 @@ class BlockSpec:
     output: str
     measurement: str | None
     process: str | None
-    delay_ms: Expr | str | None
+    delay_ms: Delay | str | None
     params: dict[str, Any]
+    delay_field: str = "delay_ms"
 
     @property
     def role(self) -> str:
@@ -200,8 +216,8 @@ def parse_block(data: Mapping[str, Any], file: str, known: Sequence[str],
         raise LoopFileError(file, f"{label}, field 'measurement'", bm.measurement,
                             "used only by kind 'dob'")
     process = _block_process(bm, kind, label, file, processes, default_process)
-    delay = _block_delay(bm, kind, label, file, known, process)
-    return BlockSpec(name, bm.kind, inputs, output, meas, process, delay, params)
+    delay, field = _block_delay(bm, kind, label, file, known, process)
+    return BlockSpec(name, bm.kind, inputs, output, meas, process, delay, params, field)
 
 
 def _block_process(bm: BlockModel, kind: Kind, label: str, file: str,
@@ -225,21 +241,28 @@ def _block_process(bm: BlockModel, kind: Kind, label: str, file: str,
 
 
 def _block_delay(bm: BlockModel, kind: Kind, label: str, file: str, known: Sequence[str],
-                 process: str | None) -> Expr | str | None:
-    if bm.delay_ms is None:
+                 process: str | None) -> tuple[Delay | str | None, str]:
+    """The block's delay (``delay_ms`` or ``delay_s``, not both) and the field giving it."""
+    if bm.delay_ms is not None and bm.delay_s is not None:
+        raise LoopFileError(file, f"{label}, fields 'delay_ms' and 'delay_s'",
+                            f"{bm.delay_ms!r} and {bm.delay_s!r}",
+                            "one of the two (milliseconds or seconds)")
+    field = "delay_s" if bm.delay_s is not None else "delay_ms"
+    value = getattr(bm, field)
+    if value is None:
         if bm.kind == "delay":
-            raise LoopFileError(file, f"{label}, field 'delay_ms'", None,
-                                "required for kind 'delay' (milliseconds)")
-        return None
+            raise LoopFileError(file, f"{label}, field 'delay_ms' or 'delay_s'", None,
+                                "required for kind 'delay' (milliseconds or seconds)")
+        return None, field
     if kind.role == "plant":
-        raise LoopFileError(file, f"{label}, field 'delay_ms'", bm.delay_ms,
+        raise LoopFileError(file, f"{label}, field {field!r}", value,
                             "absent: delays belong to controller and sensor blocks")
-    if bm.delay_ms == "process":
+    if value == "process":
         if process is None:
-            raise LoopFileError(file, f"{label}, field 'delay_ms'", "process",
-                                "a block on a process (delay_ms = 'process' takes its latency)")
-        return "process"
-    return parse_expr(bm.delay_ms, file, f"{label}, field 'delay_ms'", known)
+            raise LoopFileError(file, f"{label}, field {field!r}", "process",
+                                f"a block on a process ({field} = 'process' takes its latency)")
+        return "process", field
+    return Delay(parse_expr(value, file, f"{label}, field {field!r}", known), field), field
 
 
 def _polymul(a: Sequence[Any], b: Sequence[Any]) -> list[Any]:
@@ -382,10 +405,12 @@ class CompiledLoop:
                 if e.delay_ms is not None:
                     ms = np.asarray(lat[b.process] if e.delay_ms == "process"
                                     else e.delay_ms(env), float)
-                    if not np.all((ms >= 0) & (ms <= 1000)):
-                        raise LoopFileError(self.file, f"block {b.name!r}, field 'delay_ms'",
-                                            float(np.min(ms)) if np.any(ms < 0) else
-                                            float(np.max(ms)), ">= 0 and <= 1000 ms")
+                    ok = (ms >= 0) & np.isfinite(ms)
+                    if not np.all(ok):
+                        unit = 1e-3 if b.delay_field == "delay_s" else 1.0
+                        raise LoopFileError(self.file, f"block {b.name!r}, field "
+                                            f"{b.delay_field!r}", float(ms[~ok].flat[0]) * unit,
+                                            ">= 0 and finite")
                     out[f"{e.name}__T"] = ms / 1e3
         return out
 
@@ -394,8 +419,14 @@ class CompiledLoop:
         """Each process's latency [ms] (its expression evaluated, or the override)."""
         out = {}
         for p, m in self.model.processes.items():
-            expr = parse_expr(m.latency_ms, self.file, f"process {p!r}, field 'latency_ms'",
-                              self.names)
+            if m.latency_ms is not None and m.latency_s is not None:
+                raise LoopFileError(self.file, f"process {p!r}, fields 'latency_ms' and "
+                                    "'latency_s'", f"{m.latency_ms!r} and {m.latency_s!r}",
+                                    "one of the two (milliseconds or seconds)")
+            field = "latency_s" if m.latency_s is not None else "latency_ms"
+            expr = Delay(parse_expr(getattr(m, field) or 0.0, self.file,
+                                    f"process {p!r}, field {field!r}", self.names),
+                         "delay_s" if field == "latency_s" else "delay_ms")
             given = (latency_ms or {}).get(p)
             out[p] = expr(env) if given is None else float_array(f"latency_ms {p}", given)
             if out[p].size == 0:

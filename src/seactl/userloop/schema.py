@@ -106,8 +106,8 @@ KINDS: dict[str, Kind] = {
 }
 """The block library (docs/loops.md lists each kind's fields)."""
 
-COMMON_BLOCK_KEYS = {"name", "kind", "input", "output", "process", "delay_ms", "measurement",
-           "description"}
+COMMON_BLOCK_KEYS = {"name", "kind", "input", "output", "process", "delay_ms", "delay_s",
+                     "measurement", "description"}
 
 
 # ------------------------------------------------------------------ file schema
@@ -117,8 +117,10 @@ class _Model(BaseModel):
 
 class ProcessModel(_Model):
     rate_hz: float = Field(1000.0, gt=0, allow_inf_nan=False, description="rate [Hz]")
-    latency_ms: float | str = Field(0.0, description="latency of a block with delay_ms = "
-                                    "'process' [ms]: number or expression")
+    latency_ms: float | str | None = Field(None, description="latency of a block with "
+                                           "delay = 'process' [ms]: number or expression")
+    latency_s: float | str | None = Field(None, description="the same in seconds (give "
+                                          "one of the two; neither: 0)")
 
 
 class BreakModel(_Model):
@@ -168,6 +170,7 @@ class BlockModel(BaseModel):
     output: str
     process: str | None = None
     delay_ms: float | str | None = None
+    delay_s: float | str | None = None
     measurement: str | None = None
     description: str = ""
 

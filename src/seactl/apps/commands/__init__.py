@@ -5,6 +5,7 @@ entry point and the only importer of this package.
 """
 from . import (
     core,  # noqa: F401
+    delay_margin,  # noqa: F401
     explore,  # noqa: F401
     export,  # noqa: F401
     impedance,  # noqa: F401

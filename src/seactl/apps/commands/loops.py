@@ -93,6 +93,7 @@ LOOP_OPTIONS: dict[str, frozenset[str]] = {
                       "transport", "realtime", "out", "as_json"}),
     "place": frozenset({"as_json"}),
     "roots": frozenset({"count", "as_json"}),
+    "delay-margin": frozenset({"direction", "as_json"}),
 }
 """Per command, the options (click parameter names) that apply to a loop file; every other
 option of the command describes a built-in loop (its design, actuator, rate, Monte Carlo)
