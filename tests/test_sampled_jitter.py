@@ -281,3 +281,17 @@ def test_loop_file_rate_is_refused_cleanly():
     loop = sc.load_loop(Path(__file__).resolve().parents[1] / "examples/loops/rigid.toml")
     with pytest.raises(sc.InputError):
         loop.jitter_margins(rate_hz=1000)
+
+
+def test_plot_draws_one_bar_per_loop_and_design():
+    # Oracle: the records (one bar per loop and design, heights the margins in ms).
+    import matplotlib
+
+    matplotlib.use("Agg")
+    r = sc.rigid([6, 8], delays_ms={"stiffness": 1.5, "damping": 1.5}).jitter_margins(
+        rate_hz=2000)
+    ax = r.plot()
+    heights = sorted(p.get_height() for p in ax.patches)
+    expected = sorted(1e3 * float(v) for a in (r.jitter_margin_s, r.stiffness_jitter_margin_s,
+                                               r.damping_jitter_margin_s) for v in a)
+    np.testing.assert_allclose(heights, expected)

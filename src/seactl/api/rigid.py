@@ -250,8 +250,13 @@ class RigidBatch(System):
         return ImpedanceResponse("block-diagram", f, z, "linear", True)
 
     def jitter_loops(self) -> tuple[Any, dict[str, str], Any]:
-        """The rigid loop model's diagram, its taps (whole loop, stiffness, damping) and
-        the design batch."""
+        """The rigid loop model's diagram, its taps and the design batch.
+
+        Returns
+        -------
+        tuple
+            ``(diagram, taps, design)``, taps for the whole loop, stiffness and damping.
+        """
         from seactl.latency.maps import rigid_model
 
         m = rigid_model(self.rigid.actuator)

@@ -173,5 +173,30 @@ class SampledJitterResult(Result):
         return rows
 
     def plot(self, ax: Any = None) -> Any:
-        """Not drawn: tabulate :meth:`records` (docs/jitter.md shows the rate sweep)."""
-        raise NotImplementedError(f"{type(self).__name__}.plot")
+        """Bars of each loop's sampled jitter margin [ms], one group per design.
+
+        Parameters
+        ----------
+        ax : matplotlib.axes.Axes, optional
+            Axes to draw on (default: a new figure).
+
+        Returns
+        -------
+        matplotlib.axes.Axes
+            The axes.
+        """
+        from seactl.base.result import new_axes
+
+        ax = new_axes(ax)
+        loops = {"whole loop": self.jitter_margin_s, "stiffness": self.stiffness_jitter_margin_s,
+                 "damping": self.damping_jitter_margin_s, "torque": self.torque_jitter_margin_s}
+        loops = {k: np.ravel(v) * 1e3 for k, v in loops.items() if v is not None}
+        n = len(next(iter(loops.values())))
+        width = 0.8 / len(loops)
+        for i, (name, ms) in enumerate(loops.items()):
+            ax.bar(np.arange(n) + i * width, ms, width, label=name)
+        ax.set_xticks(np.arange(n) + 0.4 - width / 2, [str(i) for i in range(n)])
+        ax.set_xlabel("design")
+        ax.set_ylabel(f"jitter margin at {self.rate_hz:g} Hz [ms]")
+        ax.legend()
+        return ax

@@ -322,8 +322,13 @@ class Design(System):
         return passivity(self.sea, f_range_hz, model=model, load=load)
 
     def jitter_loops(self) -> tuple[Any, dict[str, str], Any]:
-        """The split SEA diagram, its taps and the design batch
-        (:data:`seactl.latency.jitter.SEA_TAPS`)."""
+        """The split SEA diagram, its taps and the design batch.
+
+        Returns
+        -------
+        tuple
+            ``(diagram, taps, design)``, the taps of :data:`seactl.latency.jitter.SEA_TAPS`.
+        """
         from seactl.latency.jitter import SEA_TAPS
         from seactl.latency.maps import sea_split_diagram
 

@@ -300,6 +300,8 @@ class ExportResult(Result):
         The C compiler used.
     compile_s : float or None
         Time to compile every process [s].
+    real : {"double", "float"}
+        The C's floating-point type (dimensionless).
     """
 
     files: list[Path]
