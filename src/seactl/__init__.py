@@ -36,6 +36,7 @@ _PUBLIC = {
     ".api.mobile_base": ("compare_mobile_base", "mobile_base_params"),
     ".api.userloop": ("UserLoop",),
     ".api.loopbuilder": ("load_loop", "LoopBuilder"),
+    ".api.chartresult": ("StabilityChartResult",),
     ".errors": ("SeactlError", "InputError", "InfeasibleDesignError", "LoopFileError"),
 }
 _HOME = {name: module for module, names in _PUBLIC.items() for name in names}
@@ -53,6 +54,8 @@ __all__ = [
     "compare_mobile_base", "mobile_base_params", "LatencyMapResult", "PlacementResult",
     # your own loop (loop files, docs/loops.md)
     "load_loop", "LoopBuilder", "UserLoop",
+    # stability charts over two delays
+    "StabilityChartResult",
     # errors and warnings
     "SeactlError", "InputError", "InfeasibleDesignError", "LoopFileError", "UnitWarning",
 ]
