@@ -51,9 +51,9 @@ def frequency_bounds(tp: TorusPolynomial, max_s: tuple[float, float]) -> tuple[f
     at most ``sum_i |c_ji| w^i + |p_j(0)| w tau_j``)."""
     c = tp.coeffs
     undelayed = (tp.a == 0) & (tp.b == 0) & (tp.fixed_s == 0)
-    if undelayed.sum() != 1:
-        raise InputError("delay terms", "no single undelayed term", "a retarded equation")
-    p0 = c[undelayed][0]
+    p0 = c[undelayed].sum(axis=0)
+    if not np.any(p0):
+        raise InputError("delay terms", "no undelayed term", "a retarded equation")
     n = int(np.nonzero(p0)[0].max())
     others = np.abs(c[~undelayed]).sum(axis=0)
     if np.any(others[n:] != 0):
