@@ -42,6 +42,15 @@ def chart_arguments(delays: Any, max_s: Any, resolution: Any, names: tuple[str, 
 class StabilityChartResult(Result):
     """Crossing curves and certified right-half-plane root counts over two delays.
 
+    Parameters
+    ----------
+    chart : seactl.analysis.stability_chart.Chart
+        What :func:`seactl.analysis.stability_chart.stability_chart` computed.
+    delays : tuple of str
+        The two delays varied.
+    max_s : tuple of float
+        The chart's extent [s].
+
     Attributes
     ----------
     delays : tuple of str
@@ -74,6 +83,14 @@ class StabilityChartResult(Result):
         ``observed_change`` (the counts' difference across the curve) and ``consistent``.
     consistent : bool
         Every check agrees.
+
+    Examples
+    --------
+    >>> import seactl as sc
+    >>> c = sc.rigid(8, delays_ms={"stiffness": 1.5, "damping": 1.5}).stability_chart(
+    ...     ("stiffness", "damping"), (0.02, 0.02), resolution=400)
+    >>> sorted(r["right_half_plane_roots"] for r in c.records()), c.design_stable
+    ([0, 2], True)
     """
 
     def __init__(self, chart: Any, delays: tuple[str, str], max_s: tuple[float, float]):

@@ -573,7 +573,7 @@ class System:
         --------
         >>> import seactl as sc
         >>> r = sc.rigid(8, delays_ms={"stiffness": 1.5, "damping": 1.5})
-        >>> c = r.stability_chart(("stiffness", "damping"), (0.02, 0.02))
+        >>> c = r.stability_chart(("stiffness", "damping"), (0.02, 0.02), resolution=200)
         >>> c.design_stable == bool(r.margins().stable), c.consistent
         (True, True)
         """

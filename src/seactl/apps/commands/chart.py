@@ -125,7 +125,8 @@ def chart(spec: DesignSpec, rigid: tuple | None, delays: str, max_s: str | None,
     the imaginary axis) and the certified number of right-half-plane roots in each region
     they bound; the other delays stay at the design's.
 
-    Python: system.stability_chart(delays=(NAME1, NAME2), max_s=(T1, T2)).
+    Python: sc.design(...).stability_chart(delays=(NAME1, NAME2), max_s=(T1, T2)), and the
+    same on sc.rigid(...) and sc.load_loop(FILE).
 
     \b
     Examples:
