@@ -12,6 +12,8 @@ from seactl.errors import InputError
 
 RESOLUTION = (100, 4000)
 """The raster's pixels per side: the range accepted."""
+THIN_MARK = 100
+"""Stable regions of fewer raster pixels are marked in :meth:`StabilityChartResult.plot`."""
 
 
 def chart_arguments(delays: Any, max_s: Any, resolution: Any, names: tuple[str, ...]
@@ -155,7 +157,8 @@ class StabilityChartResult(Result):
                 "consistent": self.consistent}
 
     def plot(self, ax: Any = None) -> Any:
-        """The stable regions shaded, the crossing curves and the design's point.
+        """The stable regions shaded (a diamond marks each one too thin to see), the
+        crossing curves and the design's point.
 
         Parameters
         ----------
@@ -175,6 +178,11 @@ class StabilityChartResult(Result):
                   vmax=1.6, interpolation="nearest")
         for c in self.curves:
             ax.plot(c["tau1_s"] * scale, c["tau2_s"] * scale, color="C3", lw=0.9)
+        thin = (self.region_right_roots == 0) & (self.region_pixels < THIN_MARK)
+        if thin.any():
+            p = self.region_points_s[thin] * scale
+            ax.plot(p[:, 0], p[:, 1], "D", color="C2", ms=4, ls="none",
+                    label="thin stable region")
         ax.plot(self.design_point_s[0] * scale, self.design_point_s[1] * scale,
                 marker="o" if self.design_stable else "x", color="k", ls="none",
                 label="design (" + ("stable" if self.design_stable else "unstable") + ")")
