@@ -8,9 +8,10 @@ k_i) / w``.  Frequencies run over ``[w_lo, w_hi]``, bounds outside which no cros
 the chart (:func:`frequency_bounds`); the grid is refined until consecutive solutions are
 matched one to one (a first-order prediction along ``w``), each step moves a curve by at
 most :data:`STEP` of the chart, and every interval where solutions appear or vanish (the
-curves' turning points) is bisected to a relative width of :data:`END_WIDTH`.  Matched
-solutions form chains; each chain's copies ``(k1, k2)`` that enter the chart are the
-branches.
+curves' turning points) is bisected to a relative width of :data:`END_WIDTH`; where the
+resultant has a root near the unit circle, steps are at most :data:`NEAR_STEP` relative
+(where a short crossing interval may lie between two frequencies).  Matched solutions
+form chains; each chain's copies ``(k1, k2)`` that enter the chart are the branches.
 """
 
 from __future__ import annotations
@@ -24,6 +25,11 @@ from seactl.errors import InputError
 
 STEP = 0.004
 """Largest move of a curve between two frequencies, as a fraction of the chart's sides."""
+NEAR_CIRCLE = 0.05
+"""Where the resultant has a root this close to the unit circle but no solution lies on
+it, the grid is refined to :data:`NEAR_STEP` (a short crossing interval between two
+frequencies passes close to the circle there)."""
+NEAR_STEP = 1e-3
 END_WIDTH = 1e-11
 """Relative width to which an interval where solutions appear or vanish is bisected."""
 START_POINTS = 256
@@ -143,22 +149,25 @@ def sweep(tp: TorusPolynomial, max_s: tuple[float, float]) -> tuple[np.ndarray, 
     if not w_hi > w_lo:
         return np.zeros(0), np.zeros((0, 1)), np.zeros((0, 1)), np.zeros((0, 1), int)
     w = np.linspace(w_lo, w_hi, START_POINTS)
-    th1, th2 = torus_solutions(tp, w)
+    th1, th2, near = torus_solutions(tp, w, gap=True)
     for _ in range(MAX_PASSES):
         v1, v2 = _velocity(tp, w, th1, th2)
         nxt, one = match(w, th1, th2, v1, v2)
         bad = ~one | _too_long(w, th1, th2, nxt, max_s)
         bad &= np.diff(w) > END_WIDTH * w[1:]
+        close = np.minimum(near[:-1], near[1:]) < NEAR_CIRCLE
+        bad |= close & (np.diff(w) > NEAR_STEP * w[1:])
         if not bad.any():
             return w, th1, th2, nxt
         if w.size + bad.sum() > MAX_POINTS:
             break
         new = 0.5 * (w[:-1] + w[1:])[bad]
-        n1, n2 = torus_solutions(tp, new)
+        n1, n2, n3 = torus_solutions(tp, new, gap=True)
         m = max(th1.shape[1], n1.shape[1])
         w = np.concatenate([w, new])
         order = np.argsort(w, kind="stable")
         w = w[order]
+        near = np.concatenate([near, n3])[order]
         th1 = np.concatenate([_pad(th1, m), _pad(n1, m)])[order]
         th2 = np.concatenate([_pad(th2, m), _pad(n2, m)])[order]
     raise InputError("stability chart", "crossing curves not resolved within "

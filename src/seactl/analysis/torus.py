@@ -157,16 +157,18 @@ def newton_angles(tp: TorusPolynomial, c: np.ndarray, th1: np.ndarray, th2: np.n
     return np.mod(th1, TWO_PI), np.mod(th2, TWO_PI), np.abs(P)
 
 
-def torus_solutions(tp: TorusPolynomial, w: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+def torus_solutions(tp: TorusPolynomial, w: np.ndarray, gap: bool = False) -> tuple:
     """Every ``(theta1, theta2)`` in ``[0, 2 pi)^2`` with ``P_w(e^{-j theta1},
     e^{-j theta2}) = 0``, per frequency: ``(F, M)`` arrays, NaN-padded, sorted by
-    ``theta1``."""
+    ``theta1``; with ``gap``, also ``(F,)`` the distance ``min | |z1| - 1 |`` of the
+    resultant's roots from the unit circle (where solutions are about to appear)."""
     A, B = tp.degrees
     if A < 1 or B < 1:
         raise InputError("delays", "a delay that no term depends on",
                          "two delays that both enter the characteristic equation")
     c = tp.grid(w)
     z1 = poly_roots(resultant_coeffs(c))                      # (F, 2AB)
+    near = np.nanmin(np.abs(np.abs(z1) - 1.0), axis=1, initial=np.inf)
     on1 = np.abs(np.abs(z1) - 1.0) < CIRCLE_TOL
     z1 = np.where(on1, z1 / np.abs(np.where(on1, z1, 1.0)), np.nan)
     zp = np.where(np.isfinite(z1), z1, 0)[..., None] ** np.arange(A + 1)
@@ -179,7 +181,8 @@ def torus_solutions(tp: TorusPolynomial, w: np.ndarray) -> tuple[np.ndarray, np.
     th2 = np.where(on2, -np.angle(np.where(on2, z2, 1)), 0.0)
     th1, th2, res = newton_angles(tp, c, th1, th2)
     keep = on2 & (res <= RESIDUAL_TOL * tp.scale(w)[:, None])
-    return _unique(np.where(keep, th1, np.nan), np.where(keep, th2, np.nan))
+    out = _unique(np.where(keep, th1, np.nan), np.where(keep, th2, np.nan))
+    return (*out, near) if gap else out
 
 
 def _unique(th1: np.ndarray, th2: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
