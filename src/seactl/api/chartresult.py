@@ -85,6 +85,8 @@ class StabilityChartResult(Result):
         ``observed_change`` (the counts' difference across the curve) and ``consistent``.
     consistent : bool
         Every check agrees.
+    stable_mask : numpy.ndarray
+        ``(n, n)`` bool: the raster pixels in a region with a certified count of 0.
 
     Examples
     --------
