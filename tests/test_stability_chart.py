@@ -142,6 +142,13 @@ def test_thin_stable_islands_found_where_a_grid_misses_them():
         missed += not (np.hypot(*(grid_stable - centre).T) < 1.2).any()
     assert missed >= 1
     assert not chart.design_stable and independent_right_roots(0.5, 0.5) == 2
+    # A second derivation: the same equation drawn as a block diagram, time in ms
+    # (examples/loops/delayed-oscillator.toml), has the same islands, scaled by 1e-3.
+    loop = sc.load_loop("examples/loops/delayed-oscillator.toml")
+    ms = loop.stability_chart(("feedback1", "feedback2"), (MAX * 1e-3, MAX * 1e-3))
+    islands = ms.region_points_s[ms.region_right_roots == 0] * 1e3
+    assert len(islands) == len(stable)
+    assert np.hypot(*(islands[:, None] - stable[None]).T).min(axis=0).max() < 0.05
 
 
 # ------------------------------------------------------------------ (c) actuators
