@@ -41,6 +41,7 @@ _PUBLIC = {
     ".api.delay_system": ("delay_equation", "quasi_polynomial", "DelaySystem", "DelayEquation",
                           "QuasiPolynomialSystem"),
     ".api.ddefile": ("load_dde",),
+    ".api.chartresult": ("StabilityChartResult",),
     ".errors": ("SeactlError", "InputError", "InfeasibleDesignError", "LoopFileError"),
 }
 _HOME = {name: module for module, names in _PUBLIC.items() for name in names}
@@ -63,6 +64,8 @@ __all__ = [
     "QuasiPolynomialSystem",
     # delay margin along a direction of the delays
     "DelayMarginResult",
+    # stability charts over two delays
+    "StabilityChartResult",
     # errors and warnings
     "SeactlError", "InputError", "InfeasibleDesignError", "LoopFileError", "UnitWarning",
 ]

@@ -613,6 +613,51 @@ class System:
                 self.label_columns(gains=False))
         return JitterResult(self.jitter_core(), self.label_columns(gains=False))
 
+    def stability_chart(self, delays: Any, max_s: Any, *, resolution: int = 1000) -> Any:
+        """Stability chart over two delays: the crossing curves and the certified number of
+        right-half-plane roots in each region they bound, the other delays at the design's.
+
+        The curves are the delays at which a root crosses the imaginary axis, computed
+        exactly by frequency sweeping (each frequency's solutions on the torus by
+        polynomial root finding, Newton-polished); each region's count is certified by the
+        argument principle at one of its points and checked against the direction in which
+        the roots cross the curves (:mod:`seactl.analysis.stability_chart`).
+
+        Parameters
+        ----------
+        delays : tuple of str
+            The two delays varied, among :attr:`loops` (the names of
+            :meth:`delay_terms`).
+        max_s : tuple of float
+            The chart ``[0, max_s[0]] x [0, max_s[1]]`` [s].
+        resolution : int
+            Pixels per side of the raster that separates the regions (100 to 4000).
+
+        Returns
+        -------
+        StabilityChartResult
+            Curves, regions with their counts, the design's point, ``to_dict()``,
+            ``records()`` (one per region) and ``plot()``.
+
+        Examples
+        --------
+        >>> import seactl as sc
+        >>> r = sc.rigid(8, delays_ms={"stiffness": 1.5, "damping": 1.5})
+        >>> c = r.stability_chart(("stiffness", "damping"), (0.02, 0.02), resolution=200)
+        >>> c.design_stable == bool(r.margins().stable), c.consistent
+        (True, True)
+        """
+        from seactl.analysis.stability_chart import stability_chart
+        from seactl.api.chartresult import StabilityChartResult, chart_arguments
+
+        if self.size != 1:
+            raise InputError("stability_chart", f"a batch of {self.size} designs",
+                             "one design: select one with system[i]")
+        terms = self.delay_terms()
+        names, extent = chart_arguments(delays, max_s, resolution, terms.names)
+        return StabilityChartResult(stability_chart(terms, names, extent, resolution),
+                                    names, extent)
+
     def to_control(self, kind: str = "frd", *, transfer: str = "loop", f_hz: Any = None,
                    order: int = 3) -> Any:
         """Export to python-control: exact-delay frequency response or a Padé model.

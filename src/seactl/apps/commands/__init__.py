@@ -4,6 +4,7 @@ Importing this package attaches every command to :data:`cli`; :mod:`seactl.apps.
 entry point and the only importer of this package.
 """
 from . import (
+    chart,  # noqa: F401
     core,  # noqa: F401
     delay_margin,  # noqa: F401
     explore,  # noqa: F401

@@ -94,6 +94,7 @@ LOOP_OPTIONS: dict[str, frozenset[str]] = {
     "place": frozenset({"as_json"}),
     "roots": frozenset({"count", "as_json"}),
     "delay-margin": frozenset({"direction", "as_json"}),
+    "chart": frozenset({"delays", "max_s", "max_ms", "resolution", "plot", "as_json"}),
 }
 """Per command, the options (click parameter names) that apply to a loop file; every other
 option of the command describes a built-in loop (its design, actuator, rate, Monte Carlo)
