@@ -1,0 +1,281 @@
+"""A multi-joint SEA robot from its URDF as a seactl.System: :class:`Robot` and :func:`robot`.
+
+The rigid body comes from pinocchio (:mod:`seactl.systems.robot.model`), the loop is one
+block diagram (:mod:`seactl.systems.robot.loops`): one SEA per joint with its torque and
+damping loops on the joint's embedded process, the stiffness (joint space, or task space
+``J^T K_x J``) on the central process with its latency.  Every view of
+:class:`seactl.System` works on it; :meth:`Robot.margins_by_break` breaks each loop of
+each joint in turn.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass, replace
+from pathlib import Path
+from typing import Any, ClassVar
+
+import numpy as np
+
+from seactl.api.arguments import delays_by_loop, filter_cutoffs
+from seactl.api.sea import SEA_LOOPS
+from seactl.api.system import System
+from seactl.base.validate import finite_array
+from seactl.errors import InputError
+
+SPACES = ("joint", "task")
+
+
+@dataclass(frozen=True, eq=False)
+class Robot(System):
+    """A robot's linearized loop at ``q0`` (a single design; build it with :func:`robot`).
+
+    Attributes
+    ----------
+    body : seactl.systems.robot.model.RigidBody
+        Joints, ``q0``, mass matrix, damping, task Jacobian.
+    actuators : tuple of SEAParams
+        Per joint, the actuator with the joint's effective inertia ``M_jj(q0)`` and the
+        URDF's damping as its load (what its gains were designed for).
+    gains : tuple of Gains
+        Per joint (``Kq`` is the designed joint stiffness; the loop uses ``stiffness``).
+    stiffness : numpy.ndarray
+        The stiffness matrix on the central process [N m/rad] (``n x n``).
+    space : str
+        ``"joint"`` or ``"task"``.
+    """
+
+    body: Any
+    actuators: tuple
+    gains: tuple
+    stiffness: np.ndarray
+    space: str
+    fn_hz: float
+    gs: float
+    delays: dict
+    filters_hz: tuple
+    task_stiffness: tuple | None
+
+    kind: ClassVar[str] = "robot"
+    step_unit: ClassVar[str] = "rad"
+    default_step: ClassVar[float] = 0.01
+    impulse_unit: ClassVar[str] = "N m s"
+    default_impulse: ClassVar[float] = 0.05
+    reference: ClassVar[str] = "q_des.j1"
+    disturbance: ClassVar[str] = "tau_ext.j1"
+    output: ClassVar[str] = "q_j.j1"
+    actuation: ClassVar[str] = "i_m.j1"
+    sensor: ClassVar[str] = "q_sens.j1"
+    ports: ClassVar[tuple[str, ...]] = ()
+
+    # ------------------------------------------------------------ structure
+    @property
+    def n(self) -> int:
+        """The number of joints."""
+        return self.body.n
+
+    @property
+    def loops(self) -> tuple[str, ...]:  # type: ignore[override]
+        """``stiffness`` (the central process), ``torque.jN`` and ``damping.jN``."""
+        return ("stiffness",) + tuple(f"{loop}.j{j + 1}" for j in range(self.n)
+                                      for loop in ("torque", "damping"))
+
+    @property
+    def breaks(self) -> dict[str, str]:
+        """Loop break name (``outer.j1``, ``stiffness.j1``, ``damping.j1``, ``torque.j1``,
+        ...) -> the diagram's signal broken there."""
+        from seactl.systems.robot.loops import BREAKS
+
+        return {f"{loop}.j{j + 1}": f"{signal}.j{j + 1}" for j in range(self.n)
+                for loop, signal in BREAKS.items()}
+
+    @property
+    def shape(self) -> tuple[int, ...]:
+        return ()
+
+    def __getitem__(self, idx: Any) -> Robot:
+        if idx is Ellipsis or idx == ():
+            return self
+        raise IndexError(f"index {idx!r} of a robot (a single design)")
+
+    @property
+    def diagram(self) -> Any:
+        from seactl.systems.robot.loops import robot_diagram
+
+        return robot_diagram(self.n, self.space == "task")
+
+    @property
+    def design(self) -> Any:
+        from seactl.systems.robot.loops import robot_design
+        from seactl.systems.sea.loops import filter_time_constant
+
+        f_qd, f_taud = self.filters_hz
+        joints = []
+        for j, (a, g) in enumerate(zip(self.actuators, self.gains)):
+            joints.append(dict(Im=a.Im, bm=a.bm, k=a.k, beta=a.beta, bj=a.bj, Bq=g.Bq,
+                               Ktau=g.Ktau, Btau=g.Btau, Tf_qd=filter_time_constant(f_qd),
+                               Tf_taud=filter_time_constant(f_taud),
+                               T_tau=self.delays["torque"], T_qd=self.delays["damping"]))
+        return robot_design(np.linalg.inv(self.body.mass_matrix), self.stiffness, joints,
+                            self.delays["stiffness"])
+
+    @property
+    def delays_s(self) -> dict[str, np.ndarray]:
+        out = {"stiffness": np.asarray(self.delays["stiffness"])}
+        for j in range(self.n):
+            out[f"torque.j{j + 1}"] = np.asarray(self.delays["torque"])
+            out[f"damping.j{j + 1}"] = np.asarray(self.delays["damping"])
+        return out
+
+    @property
+    def links(self) -> dict[str, str]:
+        out = {"stiffness": "Kq_fb_j1j1"}
+        for j in range(self.n):
+            out[f"torque.j{j + 1}"] = f"tau_delay_j{j + 1}"
+            out[f"damping.j{j + 1}"] = f"Bq_fb_j{j + 1}"
+        return out
+
+    @property
+    def max_current_a(self) -> float:
+        return float(min(a.max_current for a in self.actuators))
+
+    @property
+    def amperes_per_actuation(self) -> float:
+        return 1.0
+
+    def reference_frequency(self) -> np.ndarray:
+        """The largest of the joints' SEA reference frequencies [rad/s]."""
+        from seactl.systems.sea.loops import SEADesign, Timing
+        from seactl.systems.sea.views import sea_reference_frequency
+
+        return np.asarray(max(float(sea_reference_frequency(SEADesign(a, g, Timing())))
+                              for a, g in zip(self.actuators, self.gains)))
+
+    def impulse_inertia(self) -> np.ndarray:
+        return np.asarray(float(self.body.mass_matrix[0, 0]))
+
+    def labels(self) -> list[str]:
+        return [f"{self.space} space, f_n={self.fn_hz:g} Hz, GS={self.gs:g}"]
+
+    def label_columns(self, gains: bool = True) -> dict[str, Any]:
+        return {"fn_hz": np.asarray(self.fn_hz), "gs": np.asarray(self.gs)}
+
+    # ------------------------------------------------------------ the robot's own views
+    def margins_by_break(self) -> dict[str, Any]:
+        """The margins of every loop break, the other loops closed (exact delays, certified
+        verdicts as :meth:`margins`).
+
+        Returns
+        -------
+        dict
+            Break name (``outer.j1``, ``stiffness.j1``, ``damping.j1``, ``torque.j1``, ...)
+            -> :class:`~seactl.api.results.MarginsResult`.
+        """
+        from seactl.analysis.margins import default_grid, loop_margins
+        from seactl.api.results import MarginsResult
+
+        grid = default_grid(self.reference_frequency())
+        return {name: MarginsResult(loop_margins(self.diagram.loop(signal), self.design, grid),
+                                    self.label_columns())
+                for name, signal in self.breaks.items()}
+
+
+def _actuator_map(actuators: Any, joints: Sequence[str]) -> list[Any]:
+    from seactl.systems.sea.actuators import SEAParams, load_sea
+
+    def one(spec: Any) -> Any:
+        return spec if isinstance(spec, SEAParams) else load_sea(spec)
+
+    if not isinstance(actuators, Mapping):
+        a = one(actuators)
+        return [a] * len(joints)
+    unknown = [k for k in actuators if k not in joints]
+    if unknown:
+        raise InputError("actuators", unknown[0], "joint names of the URDF: " + ", ".join(joints))
+    missing = [j for j in joints if j not in actuators]
+    if missing:
+        raise InputError("actuators", f"joint {missing[0]!r} without an actuator",
+                         "an actuator (preset or TOML file) for every joint: " + ", ".join(joints))
+    return [one(actuators[j]) for j in joints]
+
+
+def _task_stiffness(body: Any, kq: np.ndarray, task_stiffness: Any) -> tuple[np.ndarray, tuple]:
+    """``J^T diag(k_x I3, k_r I3) J`` and ``(k_x [N/m], k_r [N m/rad])``; by default
+    ``k_r = k_x reach^2`` and ``k_x`` such that the largest eigenvalue is the smallest
+    designed joint stiffness."""
+    J = body.jacobian
+    if task_stiffness is None:
+        reach = body.reach_m if body.reach_m > 0 else 1.0
+        w = np.diag([1.0] * 3 + [reach ** 2] * 3)
+        top = float(np.linalg.eigvalsh(J.T @ w @ J).max())
+        if top <= 0:
+            raise InputError("task", body.frame, "a frame the joints move (its Jacobian is 0)")
+        kx = float(kq.min()) / top
+        kr = kx * reach ** 2
+    else:
+        kx, kr = (float(x) for x in finite_array("task_stiffness", task_stiffness, minimum=0.0))
+    K = J.T @ np.diag([kx] * 3 + [kr] * 3) @ J
+    return 0.5 * (K + K.T), (kx, kr)
+
+
+def robot(urdf: str | Path, *, actuators: Any = "ut-sea", space: str = "joint",
+          task: str | None = None, q0: Any = None, fn_hz: float = 14.0, gs: float = 1.0,
+          delays_ms: Mapping[str, Any] | None = None,
+          filters_hz: Sequence[Any] = (None, None),
+          task_stiffness: Sequence[float] | None = None) -> Robot:
+    """A robot's linearized SEA loop at ``q0``, from its URDF.
+
+    Parameters
+    ----------
+    urdf : str or path
+        A URDF of revolute joints (fixed base); one SEA per joint.
+    actuators : str or path or SEAParams or dict
+        One actuator for every joint (preset name, TOML file), or joint name -> actuator.
+    space : {"joint", "task"}
+        Stiffness in joint space (each joint its designed ``K_q``) or in task space
+        (``J^T K_x J`` of the frame ``task``).
+    task : str, optional
+        The task frame (required in task space).
+    q0 : sequence of float, optional
+        The configuration [rad] (default: zeros).
+    fn_hz, gs : float
+        Each joint's critically damped design (:func:`seactl.design`) for its effective
+        inertia ``M_jj(q0)`` and its URDF damping.
+    delays_ms : dict, optional
+        ``"torque"``, ``"stiffness"`` (the central process), ``"damping"`` [ms], the same
+        for every joint.
+    filters_hz : tuple
+        ``(f_qd, f_taud)`` [Hz] (None: no filter).
+    task_stiffness : (float, float), optional
+        ``(k_x [N/m], k_r [N m/rad])`` in task space (default: see docs/robots.md).
+
+    Returns
+    -------
+    Robot
+        A :class:`seactl.System` of kind ``"robot"``.
+    """
+    from seactl.systems.robot.model import linearize, load_model
+    from seactl.systems.sea.design import critically_damped_gains
+
+    if space not in SPACES:
+        raise InputError("space", space, "one of " + ", ".join(SPACES))
+    if space == "task" and task is None:
+        raise InputError("task", None, "a frame of the URDF (task space needs one)")
+    model = load_model(urdf)
+    body = linearize(model, q0, task)
+    acts = [replace(a, joint_inertia=float(body.mass_matrix[j, j]),
+                    joint_damping=float(body.damping[j]))
+            for j, a in enumerate(_actuator_map(actuators, body.joints))]
+    fn = float(finite_array("fn_hz", fn_hz, minimum=0.0, strict=True))
+    g = float(finite_array("gs", gs, minimum=0.0, strict=True))
+    gains = tuple(critically_damped_gains(a, fn, gs=g) for a in acts)
+    kq = np.array([float(x.Kq) for x in gains])
+    if space == "joint":
+        K, kxr = np.diag(kq), None
+    else:
+        K, kxr = _task_stiffness(body, kq, task_stiffness)
+    t_tau, t_qs, t_qd = delays_by_loop(delays_ms, SEA_LOOPS, ("T_tau", "T_qs", "T_qd"))
+    filters = tuple(None if f is None else float(f)
+                    for f in filter_cutoffs(filters_hz, ("f_qd", "f_taud")))
+    delays = {"torque": float(t_tau), "stiffness": float(t_qs), "damping": float(t_qd)}
+    return Robot(body, tuple(acts), gains, K, space, fn, g, delays, filters, kxr)
