@@ -35,8 +35,9 @@ class Robot(System):
     body : seactl.systems.robot.model.RigidBody
         Joints, ``q0``, mass matrix, damping, task Jacobian.
     actuators : tuple of SEAParams
-        Per joint, the actuator with the joint's effective inertia ``M_jj(q0)`` and the
-        URDF's damping as its load (what its gains were designed for).
+        Per joint, the actuator with the joint's effective inertia
+        (:func:`design_inertia`) and the URDF's damping as its load (what its gains were
+        designed for).
     gains : tuple of Gains
         Per joint (``Kq`` is the designed joint stiffness; the loop uses ``stiffness``).
     stiffness : numpy.ndarray
@@ -180,6 +181,13 @@ class Robot(System):
                 for name, signal in self.breaks.items()}
 
 
+def design_inertia(mass_matrix: np.ndarray) -> np.ndarray:
+    """Per joint the inertia its SEA is designed for: ``1 / (M^{-1})_jj`` [kg m^2], what
+    the joint's spring feels when the other joints are torque-controlled (free), the
+    smallest inertia it can see (``M_jj`` when the joints are decoupled)."""
+    return 1.0 / np.diag(np.linalg.inv(mass_matrix))
+
+
 def _actuator_map(actuators: Any, joints: Sequence[str]) -> list[Any]:
     from seactl.systems.sea.actuators import SEAParams, load_sea
 
@@ -218,6 +226,19 @@ def _task_stiffness(body: Any, kq: np.ndarray, task_stiffness: Any) -> tuple[np.
     return 0.5 * (K + K.T), (kx, kr)
 
 
+def _joint_gains(actuator: Any, fn_hz: float, gs: float, joint: str) -> Any:
+    """The joint's critically damped gains; an infeasible design names the joint."""
+    from seactl.errors import InfeasibleDesignError
+    from seactl.systems.sea.design import critically_damped_gains
+
+    try:
+        return critically_damped_gains(actuator, fn_hz, gs=gs)
+    except InfeasibleDesignError as exc:
+        raise InfeasibleDesignError(f"joint {joint!r} (effective inertia "
+                                    f"{actuator.Ij:.4g} kg m^2): {exc}", fn_hz=exc.fn_hz,
+                                    feasible_hz=exc.feasible_hz) from None
+
+
 def robot(urdf: str | Path, *, actuators: Any = "ut-sea", space: str = "joint",
           task: str | None = None, q0: Any = None, fn_hz: float = 14.0, gs: float = 1.0,
           delays_ms: Mapping[str, Any] | None = None,
@@ -240,7 +261,7 @@ def robot(urdf: str | Path, *, actuators: Any = "ut-sea", space: str = "joint",
         The configuration [rad] (default: zeros).
     fn_hz, gs : float
         Each joint's critically damped design (:func:`seactl.design`) for its effective
-        inertia ``M_jj(q0)`` and its URDF damping.
+        inertia ``1 / (M(q0)^{-1})_jj`` (:func:`design_inertia`) and its URDF damping.
     delays_ms : dict, optional
         ``"torque"``, ``"stiffness"`` (the central process), ``"damping"`` [ms], the same
         for every joint.
@@ -255,7 +276,6 @@ def robot(urdf: str | Path, *, actuators: Any = "ut-sea", space: str = "joint",
         A :class:`seactl.System` of kind ``"robot"``.
     """
     from seactl.systems.robot.model import linearize, load_model
-    from seactl.systems.sea.design import critically_damped_gains
 
     if space not in SPACES:
         raise InputError("space", space, "one of " + ", ".join(SPACES))
@@ -263,12 +283,12 @@ def robot(urdf: str | Path, *, actuators: Any = "ut-sea", space: str = "joint",
         raise InputError("task", None, "a frame of the URDF (task space needs one)")
     model = load_model(urdf)
     body = linearize(model, q0, task)
-    acts = [replace(a, joint_inertia=float(body.mass_matrix[j, j]),
-                    joint_damping=float(body.damping[j]))
+    inertia = design_inertia(body.mass_matrix)
+    acts = [replace(a, joint_inertia=float(inertia[j]), joint_damping=float(body.damping[j]))
             for j, a in enumerate(_actuator_map(actuators, body.joints))]
     fn = float(finite_array("fn_hz", fn_hz, minimum=0.0, strict=True))
     g = float(finite_array("gs", gs, minimum=0.0, strict=True))
-    gains = tuple(critically_damped_gains(a, fn, gs=g) for a in acts)
+    gains = tuple(_joint_gains(a, fn, g, name) for a, name in zip(acts, body.joints))
     kq = np.array([float(x.Kq) for x in gains])
     if space == "joint":
         K, kxr = np.diag(kq), None
