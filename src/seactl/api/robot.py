@@ -112,7 +112,7 @@ class Robot(System):
 
         f_qd, f_taud = self.filters_hz
         joints = []
-        for j, (a, g) in enumerate(zip(self.actuators, self.gains)):
+        for a, g in zip(self.actuators, self.gains):
             joints.append(dict(Im=a.Im, bm=a.bm, k=a.k, beta=a.beta, bj=a.bj, Bq=g.Bq,
                                Ktau=g.Ktau, Btau=g.Btau, Tf_qd=filter_time_constant(f_qd),
                                Tf_taud=filter_time_constant(f_taud),

@@ -9,9 +9,14 @@ model is loaded, never when this module is.
 
 from __future__ import annotations
 
+import os
+import sys
+import tempfile
+from contextlib import contextmanager
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
+from xml.etree import ElementTree
 
 import numpy as np
 
@@ -61,10 +66,17 @@ def load_model(urdf: str | Path) -> Any:
     if not path.is_file():
         raise InputError("urdf", str(urdf), "an existing URDF file")
     try:
-        model = pin.buildModelFromUrdf(str(path))
-    except (ValueError, RuntimeError, OSError) as exc:
-        first = str(exc).strip().splitlines()[0] if str(exc).strip() else type(exc).__name__
-        raise InputError("urdf", str(urdf), f"a valid URDF file ({first})") from None
+        ElementTree.parse(path)
+    except (ElementTree.ParseError, OSError) as exc:
+        raise InputError("urdf", str(urdf), f"a valid URDF file (XML: {exc})") from None
+    with _quiet_stderr() as said:
+        try:
+            model = pin.buildModelFromUrdf(str(path))
+        except (ValueError, RuntimeError, OSError) as exc:
+            model, error = None, exc
+    if model is None:
+        words = " ".join(said().split()) or str(error).strip() or type(error).__name__
+        raise InputError("urdf", str(urdf), f"a valid URDF file ({words[:200]})")
     if model.nv == 0:
         raise InputError("urdf", str(urdf), "a robot with at least one moving joint")
     for j in range(1, model.njoints):
@@ -74,6 +86,24 @@ def load_model(urdf: str | Path) -> Any:
                              "revolute joints only (one SEA per joint); found "
                              + model.joints[j].shortname())
     return model
+
+
+@contextmanager
+def _quiet_stderr():
+    """Hold what the URDF parser (C++) writes to file descriptor 2; yields a function
+    returning it, so a bad file gives one line of error and nothing else."""
+    sys.stderr.flush()
+    saved = os.dup(2)
+    with tempfile.TemporaryFile(mode="w+b") as held:
+        os.dup2(held.fileno(), 2)
+        text: list[str] = []
+        try:
+            yield lambda: "".join(text)
+        finally:
+            os.dup2(saved, 2)
+            os.close(saved)
+        held.seek(0)
+        text.append(held.read().decode(errors="replace"))
 
 
 def check_q0(model: Any, q0: Any) -> np.ndarray:
