@@ -130,7 +130,7 @@ def linearize(model: Any, q0: Any = None, task: str | None = None) -> RigidBody:
     pin = pinocchio()
     q = check_q0(model, q0)
     data = model.createData()
-    M = np.array(pin.crba(model, data, q))
+    M = np.array(pin.crba(model, data, q)).reshape(model.nv, model.nv)
     M = np.triu(M) + np.triu(M, 1).T  # crba fills the upper triangle
     jac, reach = None, 0.0
     if task is not None:
@@ -141,7 +141,9 @@ def linearize(model: Any, q0: Any = None, task: str | None = None) -> RigidBody:
         fid = model.getFrameId(task)
         pin.computeJointJacobians(model, data, q)
         pin.updateFramePlacements(model, data)
-        jac = np.array(pin.getFrameJacobian(model, data, fid, pin.LOCAL_WORLD_ALIGNED))
+        # (a one-joint Jacobian comes back as a vector: shaped back to 6 x n)
+        jac = np.array(pin.getFrameJacobian(model, data, fid, pin.LOCAL_WORLD_ALIGNED)
+                       ).reshape(6, model.nv)
         reach = float(np.linalg.norm(data.oMf[fid].translation - data.oMi[1].translation))
     return RigidBody(tuple(model.names[1:]), q, M, np.array(model.damping, float), task,
                      jac, reach)
