@@ -30,7 +30,7 @@ SPACES = ("joint", "task")
 class Robot(System):
     """A robot's linearized loop at ``q0`` (a single design; build it with :func:`robot`).
 
-    Attributes
+    Parameters
     ----------
     body : seactl.systems.robot.model.RigidBody
         Joints, ``q0``, mass matrix, damping, task Jacobian.
@@ -44,6 +44,22 @@ class Robot(System):
         The stiffness matrix on the central process [N m/rad] (``n x n``).
     space : str
         ``"joint"`` or ``"task"``.
+    fn_hz, gs : float
+        The joints' design (natural frequency [Hz], gain scale).
+    delays : dict
+        ``"torque"``, ``"stiffness"``, ``"damping"`` -> delay [s].
+    filters_hz : tuple
+        ``(f_qd, f_taud)`` [Hz] or None.
+    task_stiffness : tuple or None
+        ``(k_x [N/m], k_r [N m/rad])`` in task space.
+
+    Examples
+    --------
+    >>> import seactl as sc
+    >>> r = sc.robot("examples/robots/planar_2link.urdf", space="task", task="tool",
+    ...              q0=[0.3, 0.8], fn_hz=14)                   # doctest: +SKIP
+    >>> r.kind, r.n, sorted(r.margins_by_break())[:2]           # doctest: +SKIP
+    ('robot', 2, ['damping.j1', 'damping.j2'])
     """
 
     body: Any
@@ -84,7 +100,8 @@ class Robot(System):
     @property
     def breaks(self) -> dict[str, str]:
         """Loop break name (``outer.j1``, ``stiffness.j1``, ``damping.j1``, ``torque.j1``,
-        ...) -> the diagram's signal broken there."""
+        ...) -> the diagram's signal broken there.
+        """
         from seactl.systems.robot.loops import BREAKS
 
         return {f"{loop}.j{j + 1}": f"{signal}.j{j + 1}" for j in range(self.n)
@@ -145,7 +162,13 @@ class Robot(System):
         return 1.0
 
     def reference_frequency(self) -> np.ndarray:
-        """The largest of the joints' SEA reference frequencies [rad/s]."""
+        """The largest of the joints' SEA reference frequencies [rad/s].
+
+        Returns
+        -------
+        numpy.ndarray
+            A scalar [rad/s].
+        """
         from seactl.systems.sea.loops import SEADesign, Timing
         from seactl.systems.sea.views import sea_reference_frequency
 
@@ -274,6 +297,23 @@ def robot(urdf: str | Path, *, actuators: Any = "ut-sea", space: str = "joint",
     -------
     Robot
         A :class:`seactl.System` of kind ``"robot"``.
+
+    Raises
+    ------
+    InputError
+        A missing or invalid URDF, a frame it does not have, a joint without an actuator,
+        a ``q0`` of the wrong length, delays or filters out of range.
+    InfeasibleDesignError
+        A joint whose actuator has no critically damped design at ``fn_hz`` (named).
+
+    Examples
+    --------
+    >>> import seactl as sc
+    >>> r = sc.robot("examples/robots/planar_2link.urdf", q0=[0.3, 0.8], fn_hz=14,
+    ...              delays_ms={"torque": 0.5, "stiffness": 2, "damping": 0.5},
+    ...              filters_hz=(50, 100))                       # doctest: +SKIP
+    >>> round(float(r.margins().phase_margin_deg), 2), bool(r.margins().stable)  # doctest: +SKIP
+    (37.65, True)
     """
     from seactl.systems.robot.model import linearize, load_model
 
