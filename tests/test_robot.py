@@ -54,6 +54,15 @@ def test_one_link_robot_is_the_sea_design(tmp_path):
     assert np.all(np.abs(zr - zd) <= 1e-9 * np.abs(zd))
     sr, sd = r.step(t_end_s=0.3), d.step(t_end_s=0.3)
     assert np.max(np.abs(sr.position - sd.position)) <= 1e-9
+    ir, id_ = r.impulse(t_end_s=0.3), d.impulse(t_end_s=0.3)
+    assert np.max(np.abs(ir.position - id_.position)) <= 1e-9 * np.max(np.abs(id_.position))
+    # the delay terms: the same quasi-polynomial up to a constant factor (the SEA's load
+    # block carries I_j, the robot's M^-1 gain 1 / I_j)
+    qr, qd = r.delay_terms().at(r.delay_terms().delays_s), d.delay_terms().at(
+        d.delay_terms().delays_s)
+    s = np.array([3j, 100j, 2.0 + 700j])
+    ratio = qr(s) / qd(s)
+    assert np.allclose(ratio, ratio[0], rtol=1e-9)
     # the task-space robot of one joint: J^T K_x J is the designed K_q itself (default k_x)
     rt = sc.robot(one_link(tmp_path), space="task", task="tool", fn_hz=14, **TABLE_I)
     assert abs(float(rt.stiffness[0, 0]) - float(d.gains.Kq)) <= 1e-9 * float(d.gains.Kq)

@@ -5,9 +5,13 @@ Per joint ``j`` (signals suffixed ``.jN``, blocks ``_jN``) the blocks of the SEA
 embedded process, the motor and the spring.  The joint's load is the robot's rigid body,
 linearized at ``q0`` with gravity compensated (docs/theory/robot.md)::
 
-    acc.jk  += Minv_jk tau_net.jk        (the inverse mass matrix as constant gains)
-    vel.j    = acc.j / s,   q_j = vel.j / s
+    p.j      = tau_net.j / s              (the generalized momentum M(q0) qd)
+    vel.j   += Minv_jk p.k                (the inverse mass matrix as constant gains)
+    q_j      = vel.j / s
     tau_net.j = tau_k.j + tau_ext.j - b_j vel.j
+
+(the momentum is integrated before the mass matrix is inverted, so an external torque
+reaches every other signal through an integrator: no direct feed-through)
 
 The stiffness acts on the central process with one latency ``T_qs``:
 ``tau_fb.j -= sum_k K_jk e^{-s T_qs} qs.k`` (``K`` diagonal in joint space, ``J^T K_x J``
@@ -89,7 +93,7 @@ def _joint_blocks(j: int) -> list[Block]:
         Block("ext_load" + b, "tau_ext" + t, "tau_net" + t, role=plant),
         Block("joint_damping" + b, "vel" + t, "tau_net" + t, num=lambda p: (-f("bj")(p),),
               role=plant),
-        Block("integrate_acc" + b, "acc" + t, "vel" + t, den=lambda p: (1.0, 0.0),
+        Block("momentum" + b, "tau_net" + t, "p" + t, den=lambda p: (1.0, 0.0),
               role=plant),
         Block("integrate_vel" + b, "vel" + t, "q_j" + t, den=lambda p: (1.0, 0.0),
               role=plant),
@@ -97,11 +101,12 @@ def _joint_blocks(j: int) -> list[Block]:
 
 
 def _pair_blocks(j: int, k: int, coupled: bool) -> list[Block]:
-    """The gains from joint ``k`` to joint ``j``: ``Minv_jk`` (the rigid body), and the
+    """The gains from joint ``k`` to joint ``j``: ``Minv_jk`` (the rigid body: momentum to
+    velocity), and the
     stiffness ``K_jk`` (reference and feedback on the central process), where
     ``coupled`` (the off-diagonal ones of a task-space stiffness)."""
     tj, tk, jk = joint_tag(j), joint_tag(k), f"{block_tag(j)}{block_tag(k)[1:]}"
-    out = [Block("Minv" + jk, "tau_net" + tk, "acc" + tj,
+    out = [Block("Minv" + jk, "p" + tk, "vel" + tj,
                  num=lambda p, n="Minv" + jk: (getattr(p, n),),
                  role="plant")]
     if j == k or coupled:
