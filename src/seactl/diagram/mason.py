@@ -52,42 +52,52 @@ def constant_gain(b: Any) -> float | None:
     return None
 
 
-def _cycles(edges: dict[str, list[tuple[str, float | str]]]) -> list[tuple[frozenset, list]]:
-    """Every simple cycle as ``(nodes, [gain, ...])`` (one entry per choice of parallel
-    edges); ``edges[src]`` lists ``(dst, gain)``, ``gain`` a block name or a constant."""
-    order = {n: i for i, n in enumerate(sorted(edges.keys() | {d for v in edges.values()
-                                                              for d, _ in v}))}
-    out: list[tuple[frozenset, list]] = []
+def _cycles(edges: dict[str, list[tuple[str, float | str]]]) -> list[tuple[int, list]]:
+    """Every simple cycle as ``(node bit mask, [gain, ...])`` (one entry per choice of
+    parallel edges); ``edges[src]`` lists ``(dst, gain)``, ``gain`` a block name or a
+    constant.  Each cycle is found once, from its first node in a fixed order."""
+    nodes = sorted(edges.keys() | {d for v in edges.values() for d, _ in v})
+    order = {n: i for i, n in enumerate(nodes)}
+    out: list[tuple[int, list]] = []
 
-    def walk(start: str, node: str, path: list[str], gains: list) -> None:
+    def walk(start: int, node: str, mask: int, gains: list) -> None:
         for dst, gain in edges.get(node, ()):
-            if dst == start:
-                out.append((frozenset(path), gains + [gain]))
-            elif order[dst] > order[start] and dst not in path:
-                walk(start, dst, path + [dst], gains + [gain])
+            i = order[dst]
+            if i == start:
+                out.append((mask, gains + [gain]))
+            elif i > start and not mask >> i & 1:
+                walk(start, dst, mask | 1 << i, gains + [gain])
 
-    for start in sorted(order, key=order.get):
-        walk(start, start, [start], [])
+    for node in nodes:
+        walk(order[node], node, 1 << order[node], [])
     return out
 
 
 def graph_determinant(edges: dict[str, list[tuple[str, float | str]]]
                       ) -> dict[frozenset, float]:
     """``det(I - A)`` as ``{frozenset of block names: coefficient}``."""
-    cycles = [(nodes, frozenset(g for g in gains if isinstance(g, str)),
-               float(np.prod([g for g in gains if not isinstance(g, str)])))
-              for nodes, gains in _cycles(edges)]
-    terms: dict[frozenset, float] = {}
+    names: dict[str, int] = {}
+    cycles = []
+    for mask, gains in _cycles(edges):
+        bits = 0
+        for g in gains:
+            if isinstance(g, str):
+                bits |= 1 << names.setdefault(g, len(names))
+        cycles.append((mask, bits, -float(np.prod([g for g in gains
+                                                   if not isinstance(g, str)]))))
+    by_bits: dict[int, float] = {}
 
-    def add(i: int, used: frozenset, blocks: frozenset, coef: float) -> None:
-        terms[blocks] = terms.get(blocks, 0.0) + coef
+    def add(i: int, used: int, blocks: int, coef: float) -> None:
+        by_bits[blocks] = by_bits.get(blocks, 0.0) + coef
         for k in range(i, len(cycles)):
-            nodes, b, c = cycles[k]
-            if not (nodes & used):
-                add(k + 1, used | nodes, blocks | b, -coef * c)
+            mask, b, c = cycles[k]
+            if not mask & used:
+                add(k + 1, used | mask, blocks | b, coef * c)
 
-    add(0, frozenset(), frozenset(), 1.0)
-    return {k: v for k, v in terms.items() if v != 0.0}
+    add(0, 0, 0, 1.0)
+    index = list(names)
+    return {frozenset(index[i] for i in range(len(index)) if bits >> i & 1): v
+            for bits, v in by_bits.items() if v != 0.0}
 
 
 def _edges(diagram: BlockDiagram, held: set[str], extra: Sequence[tuple[str, str, str]] = ()
