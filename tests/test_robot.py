@@ -201,3 +201,20 @@ def test_cli_json_is_the_api(capsys):
     assert rec["breaks"]["outer.j1"]["phase_margin_deg"] == pytest.approx(
         float(r.margins().phase_margin_deg), rel=1e-9)
     assert rec["stable"] is True and rec["spectral_abscissa_per_s"] < 0
+
+
+def test_workspace_map_is_each_configuration(tmp_path):
+    """Oracle: sc.robot at each configuration alone; the worst is the unstable one."""
+    q = [[0.3, 0.8], [0.0, 1.5]]
+    delays = dict(TABLE_I["delays_ms"], stiffness=18.0)  # between the two delay margins
+    m = sc.workspace_map(ARMS / "planar_2link.urdf", q, fn_hz=14, delays_ms=delays,
+                         filters_hz=(50, 100))
+    for i, row in enumerate(q):
+        alone = sc.robot(ARMS / "planar_2link.urdf", q0=row, fn_hz=14, delays_ms=delays,
+                         filters_hz=(50, 100)).margins()
+        assert bool(m.stable[i]) == bool(alone.stable)
+        assert m.phase_margin_deg[i] == float(alone.phase_margin_deg)
+    assert m.records()[0]["j1_rad"] == 0.3
+    assert m.stable.tolist() == [False, True] and m.worst == 0
+    with pytest.raises(sc.InputError):
+        sc.workspace_map(ARMS / "planar_2link.urdf", [0.3, 0.8])

@@ -339,3 +339,44 @@ def robot(urdf: str | Path, *, actuators: Any = "ut-sea", space: str = "joint",
                     for f in filter_cutoffs(filters_hz, ("f_qd", "f_taud")))
     delays = {"torque": float(t_tau), "stiffness": float(t_qs), "damping": float(t_qd)}
     return Robot(body, tuple(acts), gains, K, space, fn, g, delays, filters, kxr)
+
+
+def workspace_map(urdf: str | Path, configurations: Any, **options: Any) -> Any:
+    """The same robot design at each configuration: where it loses stability.
+
+    Parameters
+    ----------
+    urdf : str or path
+        As :func:`robot`.
+    configurations : array_like
+        ``(m, n)`` joint angles [rad], one row per configuration (a grid or a trajectory).
+    **options
+        The other keywords of :func:`robot` (``actuators``, ``space``, ``task``, ``fn_hz``,
+        ``delays_ms``, ...); the gains are designed anew at each configuration.
+
+    Returns
+    -------
+    seactl.api.robotmap.WorkspaceMap
+        ``stable``, ``phase_margin_deg`` and ``delay_margin_ms`` at ``outer.j1`` per
+        configuration, ``worst``, ``records()``, ``plot()``.
+
+    Examples
+    --------
+    >>> import seactl as sc
+    >>> m = sc.workspace_map("examples/robots/planar_2link.urdf",
+    ...                      [[0.3, 0.8], [0.0, 1.5]], fn_hz=14)   # doctest: +SKIP
+    >>> m.stable.tolist()                                          # doctest: +SKIP
+    [True, True]
+    """
+    from seactl.api.robotmap import WorkspaceMap
+
+    q = np.asarray(configurations, float) if not isinstance(configurations, str) else None
+    if q is None or q.ndim != 2 or q.shape[0] == 0 or not np.all(np.isfinite(q)):
+        raise InputError("configurations", configurations,
+                         "an (m, n) array of joint angles [rad], one row per configuration")
+    robots = [robot(urdf, q0=row, **options) for row in q]
+    margins = [r.margins() for r in robots]
+    return WorkspaceMap(robots[0].body.joints, q,
+                        np.array([bool(m.stable) for m in margins]),
+                        np.array([float(m.phase_margin_deg) for m in margins]),
+                        np.array([float(m.delay_margin_ms) for m in margins]))
