@@ -122,6 +122,50 @@ def test_planar_plant_matches_finite_differences_of_aba(name, q0):
         assert np.allclose(got, fd, rtol=1e-5, atol=1e-7 * np.abs(fd).max())
 
 
+def mujoco_plant(urdf: Path, q0: np.ndarray, s: complex) -> np.ndarray:
+    """``q / tau`` at ``s`` from central differences of MuJoCo's forward dynamics of the
+    URDF as MuJoCo compiles it (its own inertias, its passive joint damping), gravity in
+    the arm's plane, compensated with MuJoCo's bias force at rest."""
+    mujoco = pytest.importorskip("mujoco", reason="MuJoCo is not installed")
+    model = mujoco.MjModel.from_xml_path(str(urdf))
+    model.opt.gravity[:] = (0.0, -9.81, 0.0)
+    data = mujoco.MjData(model)
+    n = model.nv
+
+    def qacc(q, v, u):
+        data.qpos[:], data.qvel[:], data.qfrc_applied[:] = q, 0.0, 0.0
+        mujoco.mj_forward(model, data)
+        gravity = data.qfrc_bias.copy()
+        data.qvel[:], data.qfrc_applied[:] = v, gravity + u
+        mujoco.mj_forward(model, data)
+        return data.qacc.copy()
+
+    h, z = 1e-6, np.zeros(n)
+    cols = [[], [], []]
+    for i in range(n):
+        e = np.eye(n)[i] * h
+        cols[0].append((qacc(q0 + e, z, z) - qacc(q0 - e, z, z)) / (2 * h))
+        cols[1].append((qacc(q0, e, z) - qacc(q0, -e, z)) / (2 * h))
+        cols[2].append((qacc(q0, z, e) - qacc(q0, z, -e)) / (2 * h))
+    Aq, Av, Bu = (np.array(c).T for c in cols)
+    return np.linalg.solve(s * s * np.eye(n) - s * Av - Aq, Bu)
+
+
+@pytest.mark.parametrize("name, q0", [("planar_2link", [0.3, 0.8]),
+                                      ("planar_3link", [0.3, 0.6, -0.4])])
+def test_planar_plant_matches_finite_differences_of_mujoco(name, q0):
+    """Oracle: mujoco_plant (issue 41: the linearized loop against MuJoCo's model)."""
+    urdf = ARMS / f"{name}.urdf"
+    r = sc.robot(urdf, q0=q0, fn_hz=40)
+    cut = tuple(f"tau_k.j{k + 1}" for k in range(r.n))
+    for s in (2j * np.pi * 3.0, 1.0 + 2j * np.pi * 40.0):
+        fd = mujoco_plant(urdf, np.array(q0), s)
+        got = np.array([[complex(r.diagram.transfer(f"q_j.j{l_ + 1}", f"tau_ext.j{k + 1}",
+                                                    cut)(r.design, s)[0])
+                         for k in range(r.n)] for l_ in range(r.n)])
+        assert np.allclose(got, fd, rtol=1e-5, atol=1e-7 * np.abs(fd).max())
+
+
 @pytest.mark.parametrize("q0, t_qs_ms", [([0.3, 0.8], 2.0), ([0.0, 1.5], 2.0),
                                          ([0.3, 0.8], 30.0)])
 def test_planar_arm_certified_verdict_agrees_with_its_roots(q0, t_qs_ms):
