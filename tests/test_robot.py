@@ -54,6 +54,9 @@ def test_one_link_robot_is_the_sea_design(tmp_path):
     assert np.all(np.abs(zr - zd) <= 1e-9 * np.abs(zd))
     sr, sd = r.step(t_end_s=0.3), d.step(t_end_s=0.3)
     assert np.max(np.abs(sr.position - sd.position)) <= 1e-9
+    f = np.array([0.5, 5.0, 50.0, 500.0])
+    zr, zd = r.impedance_matrix(f)[:, 0, 0], d.impedance(f).z
+    assert np.all(np.abs(zr - zd) <= 1e-9 * np.abs(zd))
     ir, id_ = r.impulse(t_end_s=0.3), d.impulse(t_end_s=0.3)
     assert np.max(np.abs(ir.position - id_.position)) <= 1e-9 * np.max(np.abs(id_.position))
     # the delay terms: the same quasi-polynomial up to a constant factor (the SEA's load
@@ -182,6 +185,17 @@ def test_planar_arm_certified_verdict_agrees_with_its_roots(q0, t_qs_ms):
                            for loop in ("outer", "stiffness", "damping", "torque")}
     # every break sees the same closed loop: one verdict
     assert {bool(b.stable) for b in breaks.values()} == {bool(m.stable)}
+
+
+def test_impedance_matrix_low_frequency_is_the_stiffness():
+    """Oracle: s Z -> K (the stiffness matrix) as s -> 0 (the torque loops track, the
+    damping vanishes with s): a closed-form limit of the loop."""
+    r = sc.robot(ARMS / "planar_2link.urdf", space="task", task="tool", q0=[0.3, 0.8],
+                 fn_hz=14, **TABLE_I)
+    f = 1e-5
+    z = r.impedance_matrix([f])[0]
+    assert np.allclose((2j * np.pi * f * z).real, r.stiffness, rtol=1e-4)
+    assert np.allclose(z, z.T, rtol=1e-6)  # reciprocal: M, K, J^T K_x J symmetric
 
 
 def test_task_stiffness_is_jt_kx_j():

@@ -204,6 +204,35 @@ class Robot(System):
                 for name, signal in self.breaks.items()}
 
 
+    def impedance_matrix(self, f_hz: Any) -> np.ndarray:
+        """The joint-space impedance matrix ``Z(j 2 pi f)`` felt by the links: with every
+        joint's motion imposed (references 0), ``Z_jk = tau_k.j / (-s q_j.k)``, the SEA's
+        joint impedance per element (the links' own inertia excluded).
+
+        Parameters
+        ----------
+        f_hz : array_like
+            Frequencies [Hz] > 0, 1-D.
+
+        Returns
+        -------
+        numpy.ndarray
+            ``(len(f_hz), n, n)`` complex [N m s/rad].  Its singular values are the
+            principal impedances; the smallest eigenvalue of its Hermitian part
+            ``(Z + Z^H) / 2`` is negative where the loop is not passive.
+        """
+        f = finite_array("f_hz", f_hz, minimum=0.0, strict=True).reshape(-1)
+        s = 2j * np.pi * f
+        cut = tuple(f"q_j.j{k + 1}" for k in range(self.n))
+        design = self.design
+        z = np.empty((f.size, self.n, self.n), complex)
+        for j in range(self.n):
+            for k in range(self.n):
+                z[:, j, k] = self.diagram.transfer(f"tau_k.j{j + 1}", f"q_j.j{k + 1}", cut)(
+                    design, s) / (-s)
+        return z
+
+
 def design_inertia(mass_matrix: np.ndarray) -> np.ndarray:
     """Per joint the inertia its SEA is designed for: ``1 / (M^{-1})_jj`` [kg m^2], what
     the joint's spring feels when the other joints are torque-controlled (free), the
