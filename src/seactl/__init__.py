@@ -33,6 +33,7 @@ _PUBLIC = {
     ".api.latency": ("loop_model", "latency_map", "place", "LatencyMapResult", "PlacementResult"),
     ".api.rigid": ("rigid", "RigidBatch"),
     ".api.sampled_jitter": ("SampledJitterResult",),
+    ".api.robot": ("robot", "Robot", "workspace_map"),
     ".api.sweeps": ("sweep", "read_sweep", "parameter_robustness"),
     ".api.mobile_base": ("compare_mobile_base", "mobile_base_params"),
     ".api.userloop": ("UserLoop",),
@@ -56,6 +57,7 @@ __all__ = [
     # other systems
     "rigid", "RigidBatch", "loop_model", "latency_map", "place", "sweep", "read_sweep",
     "parameter_robustness",
+    "robot", "Robot", "workspace_map",
     "compare_mobile_base", "mobile_base_params", "LatencyMapResult", "PlacementResult",
     # your own loop (loop files, docs/loops.md)
     "load_loop", "LoopBuilder", "UserLoop",

@@ -14,6 +14,7 @@ from . import (
     loops,  # noqa: F401
     mobile_base,  # noqa: F401
     placement,  # noqa: F401
+    robot,  # noqa: F401
     roots,  # noqa: F401
     run,  # noqa: F401
     simulate,  # noqa: F401

@@ -1,0 +1,411 @@
+"""A multi-joint SEA robot from its URDF as a seactl.System: :class:`Robot` and :func:`robot`.
+
+The rigid body comes from pinocchio (:mod:`seactl.systems.robot.model`), the loop is one
+block diagram (:mod:`seactl.systems.robot.loops`): one SEA per joint with its torque and
+damping loops on the joint's embedded process, the stiffness (joint space, or task space
+``J^T K_x J``) on the central process with its latency.  Every view of
+:class:`seactl.System` works on it; :meth:`Robot.margins_by_break` breaks each loop of
+each joint in turn.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass, replace
+from pathlib import Path
+from typing import Any, ClassVar
+
+import numpy as np
+
+from seactl.api.arguments import delays_by_loop, filter_cutoffs
+from seactl.api.sea import SEA_LOOPS
+from seactl.api.system import System
+from seactl.base.validate import finite_array
+from seactl.errors import InputError
+
+SPACES = ("joint", "task")
+
+
+@dataclass(frozen=True, eq=False)
+class Robot(System):
+    """A robot's linearized loop at ``q0`` (a single design; build it with :func:`robot`).
+
+    Parameters
+    ----------
+    body : seactl.systems.robot.model.RigidBody
+        Joints, ``q0``, mass matrix, damping, task Jacobian.
+    actuators : tuple of SEAParams
+        Per joint, the actuator with the joint's effective inertia
+        (:func:`design_inertia`) and the URDF's damping as its load (what its gains were
+        designed for).
+    gains : tuple of Gains
+        Per joint (``Kq`` is the designed joint stiffness; the loop uses ``stiffness``).
+    stiffness : numpy.ndarray
+        The stiffness matrix on the central process [N m/rad] (``n x n``).
+    space : str
+        ``"joint"`` or ``"task"``.
+    fn_hz, gs : float
+        The joints' design (natural frequency [Hz], gain scale).
+    delays : dict
+        ``"torque"``, ``"stiffness"``, ``"damping"`` -> delay [s].
+    filters_hz : tuple
+        ``(f_qd, f_taud)`` [Hz] or None.
+    task_stiffness : tuple or None
+        ``(k_x [N/m], k_r [N m/rad])`` in task space.
+
+    Examples
+    --------
+    >>> import seactl as sc
+    >>> r = sc.robot("examples/robots/planar_2link.urdf", space="task", task="tool",
+    ...              q0=[0.3, 0.8], fn_hz=14)                   # doctest: +SKIP
+    >>> r.kind, r.n, sorted(r.margins_by_break())[:2]           # doctest: +SKIP
+    ('robot', 2, ['damping.j1', 'damping.j2'])
+    """
+
+    body: Any
+    actuators: tuple
+    gains: tuple
+    stiffness: np.ndarray
+    space: str
+    fn_hz: float
+    gs: float
+    delays: dict
+    filters_hz: tuple
+    task_stiffness: tuple | None
+
+    kind: ClassVar[str] = "robot"
+    step_unit: ClassVar[str] = "rad"
+    default_step: ClassVar[float] = 0.01
+    impulse_unit: ClassVar[str] = "N m s"
+    default_impulse: ClassVar[float] = 0.05
+    reference: ClassVar[str] = "q_des.j1"
+    disturbance: ClassVar[str] = "tau_ext.j1"
+    output: ClassVar[str] = "q_j.j1"
+    actuation: ClassVar[str] = "i_m.j1"
+    sensor: ClassVar[str] = "q_sens.j1"
+    ports: ClassVar[tuple[str, ...]] = ()
+
+    # ------------------------------------------------------------ structure
+    @property
+    def n(self) -> int:
+        """The number of joints."""
+        return self.body.n
+
+    @property
+    def loops(self) -> tuple[str, ...]:  # type: ignore[override]
+        """``stiffness`` (the central process), ``torque.jN`` and ``damping.jN``."""
+        return ("stiffness",) + tuple(f"{loop}.j{j + 1}" for j in range(self.n)
+                                      for loop in ("torque", "damping"))
+
+    @property
+    def breaks(self) -> dict[str, str]:
+        """Loop break name (``outer.j1``, ``stiffness.j1``, ``damping.j1``, ``torque.j1``,
+        ...) -> the diagram's signal broken there.
+        """
+        from seactl.systems.robot.loops import BREAKS
+
+        return {f"{loop}.j{j + 1}": f"{signal}.j{j + 1}" for j in range(self.n)
+                for loop, signal in BREAKS.items()}
+
+    @property
+    def shape(self) -> tuple[int, ...]:
+        return ()
+
+    def __getitem__(self, idx: Any) -> Robot:
+        if idx is Ellipsis or idx == ():
+            return self
+        raise IndexError(f"index {idx!r} of a robot (a single design)")
+
+    @property
+    def diagram(self) -> Any:
+        from seactl.systems.robot.loops import robot_diagram
+
+        return robot_diagram(self.n, self.space == "task")
+
+    @property
+    def design(self) -> Any:
+        from seactl.systems.robot.loops import robot_design
+        from seactl.systems.sea.loops import filter_time_constant
+
+        f_qd, f_taud = self.filters_hz
+        joints = []
+        for a, g in zip(self.actuators, self.gains):
+            joints.append(dict(Im=a.Im, bm=a.bm, k=a.k, beta=a.beta, bj=a.bj, Bq=g.Bq,
+                               Ktau=g.Ktau, Btau=g.Btau, Tf_qd=filter_time_constant(f_qd),
+                               Tf_taud=filter_time_constant(f_taud),
+                               T_tau=self.delays["torque"], T_qd=self.delays["damping"]))
+        return robot_design(np.linalg.inv(self.body.mass_matrix), self.stiffness, joints,
+                            self.delays["stiffness"])
+
+    @property
+    def delays_s(self) -> dict[str, np.ndarray]:
+        out = {"stiffness": np.asarray(self.delays["stiffness"])}
+        for j in range(self.n):
+            out[f"torque.j{j + 1}"] = np.asarray(self.delays["torque"])
+            out[f"damping.j{j + 1}"] = np.asarray(self.delays["damping"])
+        return out
+
+    @property
+    def links(self) -> dict[str, str]:
+        out = {"stiffness": "Kq_fb_j1j1"}
+        for j in range(self.n):
+            out[f"torque.j{j + 1}"] = f"tau_delay_j{j + 1}"
+            out[f"damping.j{j + 1}"] = f"Bq_fb_j{j + 1}"
+        return out
+
+    @property
+    def max_current_a(self) -> float:
+        return float(min(a.max_current for a in self.actuators))
+
+    @property
+    def amperes_per_actuation(self) -> float:
+        return 1.0
+
+    def reference_frequency(self) -> np.ndarray:
+        """The largest of the joints' SEA reference frequencies [rad/s].
+
+        Returns
+        -------
+        numpy.ndarray
+            A scalar [rad/s].
+        """
+        from seactl.systems.sea.loops import SEADesign, Timing
+        from seactl.systems.sea.views import sea_reference_frequency
+
+        return np.asarray(max(float(sea_reference_frequency(SEADesign(a, g, Timing())))
+                              for a, g in zip(self.actuators, self.gains)))
+
+    def impulse_inertia(self) -> np.ndarray:
+        return np.asarray(float(self.body.mass_matrix[0, 0]))
+
+    def labels(self) -> list[str]:
+        return [f"{self.space} space, f_n={self.fn_hz:g} Hz, GS={self.gs:g}"]
+
+    def label_columns(self, gains: bool = True) -> dict[str, Any]:
+        return {"fn_hz": np.asarray(self.fn_hz), "gs": np.asarray(self.gs)}
+
+    # ------------------------------------------------------------ the robot's own views
+    def margins_by_break(self) -> dict[str, Any]:
+        """The margins of every loop break, the other loops closed (exact delays, certified
+        verdicts as :meth:`margins`).
+
+        Returns
+        -------
+        dict
+            Break name (``outer.j1``, ``stiffness.j1``, ``damping.j1``, ``torque.j1``, ...)
+            -> :class:`~seactl.api.results.MarginsResult`.
+        """
+        from seactl.analysis.margins import default_grid, loop_margins
+        from seactl.api.results import MarginsResult
+
+        grid = default_grid(self.reference_frequency())
+        return {name: MarginsResult(loop_margins(self.diagram.loop(signal), self.design, grid),
+                                    self.label_columns())
+                for name, signal in self.breaks.items()}
+
+
+    def impedance_matrix(self, f_hz: Any) -> np.ndarray:
+        """The joint-space impedance matrix ``Z(j 2 pi f)`` felt by the links: with every
+        joint's motion imposed (references 0), ``Z_jk = tau_k.j / (-s q_j.k)``, the SEA's
+        joint impedance per element (the links' own inertia excluded).
+
+        Parameters
+        ----------
+        f_hz : array_like
+            Frequencies [Hz] > 0, 1-D.
+
+        Returns
+        -------
+        numpy.ndarray
+            ``(len(f_hz), n, n)`` complex [N m s/rad].  Its singular values are the
+            principal impedances; the smallest eigenvalue of its Hermitian part
+            ``(Z + Z^H) / 2`` is negative where the loop is not passive.
+        """
+        f = finite_array("f_hz", f_hz, minimum=0.0, strict=True).reshape(-1)
+        s = 2j * np.pi * f
+        cut = tuple(f"q_j.j{k + 1}" for k in range(self.n))
+        design = self.design
+        z = np.empty((f.size, self.n, self.n), complex)
+        for j in range(self.n):
+            for k in range(self.n):
+                z[:, j, k] = self.diagram.transfer(f"tau_k.j{j + 1}", f"q_j.j{k + 1}", cut)(
+                    design, s) / (-s)
+        return z
+
+
+def design_inertia(mass_matrix: np.ndarray) -> np.ndarray:
+    """Per joint the inertia its SEA is designed for: ``1 / (M^{-1})_jj`` [kg m^2], what
+    the joint's spring feels when the other joints are torque-controlled (free), the
+    smallest inertia it can see (``M_jj`` when the joints are decoupled)."""
+    return 1.0 / np.diag(np.linalg.inv(mass_matrix))
+
+
+def _actuator_map(actuators: Any, joints: Sequence[str]) -> list[Any]:
+    from seactl.systems.sea.actuators import SEAParams, load_sea
+
+    def one(spec: Any) -> Any:
+        return spec if isinstance(spec, SEAParams) else load_sea(spec)
+
+    if not isinstance(actuators, Mapping):
+        a = one(actuators)
+        return [a] * len(joints)
+    unknown = [k for k in actuators if k not in joints]
+    if unknown:
+        raise InputError("actuators", unknown[0], "joint names of the URDF: " + ", ".join(joints))
+    missing = [j for j in joints if j not in actuators]
+    if missing:
+        raise InputError("actuators", f"joint {missing[0]!r} without an actuator",
+                         "an actuator (preset or TOML file) for every joint: " + ", ".join(joints))
+    return [one(actuators[j]) for j in joints]
+
+
+def _task_stiffness(body: Any, kq: np.ndarray, task_stiffness: Any) -> tuple[np.ndarray, tuple]:
+    """``J^T diag(k_x I3, k_r I3) J`` and ``(k_x [N/m], k_r [N m/rad])``; by default
+    ``k_r = k_x reach^2`` and ``k_x`` such that the largest eigenvalue is the smallest
+    designed joint stiffness."""
+    J = body.jacobian
+    if task_stiffness is None:
+        reach = body.reach_m if body.reach_m > 0 else 1.0
+        w = np.diag([1.0] * 3 + [reach ** 2] * 3)
+        top = float(np.linalg.eigvalsh(J.T @ w @ J).max())
+        if top <= 0:
+            raise InputError("task", body.frame, "a frame the joints move (its Jacobian is 0)")
+        kx = float(kq.min()) / top
+        kr = kx * reach ** 2
+    else:
+        kx, kr = (float(x) for x in finite_array("task_stiffness", task_stiffness, minimum=0.0))
+    K = J.T @ np.diag([kx] * 3 + [kr] * 3) @ J
+    return 0.5 * (K + K.T), (kx, kr)
+
+
+def _joint_gains(actuator: Any, fn_hz: float, gs: float, joint: str) -> Any:
+    """The joint's critically damped gains; an infeasible design names the joint."""
+    from seactl.errors import InfeasibleDesignError
+    from seactl.systems.sea.design import critically_damped_gains
+
+    try:
+        return critically_damped_gains(actuator, fn_hz, gs=gs)
+    except InfeasibleDesignError as exc:
+        raise InfeasibleDesignError(f"joint {joint!r} (effective inertia "
+                                    f"{actuator.Ij:.4g} kg m^2): {exc}", fn_hz=exc.fn_hz,
+                                    feasible_hz=exc.feasible_hz) from None
+
+
+def robot(urdf: str | Path, *, actuators: Any = "ut-sea", space: str = "joint",
+          task: str | None = None, q0: Any = None, fn_hz: float = 14.0, gs: float = 1.0,
+          delays_ms: Mapping[str, Any] | None = None,
+          filters_hz: Sequence[Any] = (None, None),
+          task_stiffness: Sequence[float] | None = None) -> Robot:
+    """A robot's linearized SEA loop at ``q0``, from its URDF.
+
+    Parameters
+    ----------
+    urdf : str or path
+        A URDF of revolute joints (fixed base); one SEA per joint.
+    actuators : str or path or SEAParams or dict
+        One actuator for every joint (preset name, TOML file), or joint name -> actuator.
+    space : {"joint", "task"}
+        Stiffness in joint space (each joint its designed ``K_q``) or in task space
+        (``J^T K_x J`` of the frame ``task``).
+    task : str, optional
+        The task frame (required in task space).
+    q0 : sequence of float, optional
+        The configuration [rad] (default: zeros).
+    fn_hz, gs : float
+        Each joint's critically damped design (:func:`seactl.design`) for its effective
+        inertia ``1 / (M(q0)^{-1})_jj`` (:func:`design_inertia`) and its URDF damping.
+    delays_ms : dict, optional
+        ``"torque"``, ``"stiffness"`` (the central process), ``"damping"`` [ms], the same
+        for every joint.
+    filters_hz : tuple
+        ``(f_qd, f_taud)`` [Hz] (None: no filter).
+    task_stiffness : (float, float), optional
+        ``(k_x [N/m], k_r [N m/rad])`` in task space (default: see docs/robots.md).
+
+    Returns
+    -------
+    Robot
+        A :class:`seactl.System` of kind ``"robot"``.
+
+    Raises
+    ------
+    InputError
+        A missing or invalid URDF, a frame it does not have, a joint without an actuator,
+        a ``q0`` of the wrong length, delays or filters out of range.
+    InfeasibleDesignError
+        A joint whose actuator has no critically damped design at ``fn_hz`` (named).
+
+    Examples
+    --------
+    >>> import seactl as sc
+    >>> r = sc.robot("examples/robots/planar_2link.urdf", q0=[0.3, 0.8], fn_hz=14,
+    ...              delays_ms={"torque": 0.5, "stiffness": 2, "damping": 0.5},
+    ...              filters_hz=(50, 100))                       # doctest: +SKIP
+    >>> round(float(r.margins().phase_margin_deg), 2), bool(r.margins().stable)  # doctest: +SKIP
+    (37.65, True)
+    """
+    from seactl.systems.robot.model import linearize, load_model
+
+    if space not in SPACES:
+        raise InputError("space", space, "one of " + ", ".join(SPACES))
+    if space == "task" and task is None:
+        raise InputError("task", None, "a frame of the URDF (task space needs one)")
+    model = load_model(urdf)
+    body = linearize(model, q0, task)
+    inertia = design_inertia(body.mass_matrix)
+    acts = [replace(a, joint_inertia=float(inertia[j]), joint_damping=float(body.damping[j]))
+            for j, a in enumerate(_actuator_map(actuators, body.joints))]
+    fn = float(finite_array("fn_hz", fn_hz, minimum=0.0, strict=True))
+    g = float(finite_array("gs", gs, minimum=0.0, strict=True))
+    gains = tuple(_joint_gains(a, fn, g, name) for a, name in zip(acts, body.joints))
+    kq = np.array([float(x.Kq) for x in gains])
+    if space == "joint":
+        K, kxr = np.diag(kq), None
+    else:
+        K, kxr = _task_stiffness(body, kq, task_stiffness)
+    t_tau, t_qs, t_qd = delays_by_loop(delays_ms, SEA_LOOPS, ("T_tau", "T_qs", "T_qd"))
+    filters = tuple(None if f is None else float(f)
+                    for f in filter_cutoffs(filters_hz, ("f_qd", "f_taud")))
+    delays = {"torque": float(t_tau), "stiffness": float(t_qs), "damping": float(t_qd)}
+    return Robot(body, tuple(acts), gains, K, space, fn, g, delays, filters, kxr)
+
+
+def workspace_map(urdf: str | Path, configurations: Any, **options: Any) -> Any:
+    """The same robot design at each configuration: where it loses stability.
+
+    Parameters
+    ----------
+    urdf : str or path
+        As :func:`robot`.
+    configurations : array_like
+        ``(m, n)`` joint angles [rad], one row per configuration (a grid or a trajectory).
+    **options
+        The other keywords of :func:`robot` (``actuators``, ``space``, ``task``, ``fn_hz``,
+        ``delays_ms``, ...); the gains are designed anew at each configuration.
+
+    Returns
+    -------
+    seactl.api.robotmap.WorkspaceMap
+        ``stable``, ``phase_margin_deg`` and ``delay_margin_ms`` at ``outer.j1`` per
+        configuration, ``worst``, ``records()``, ``plot()``.
+
+    Examples
+    --------
+    >>> import seactl as sc
+    >>> m = sc.workspace_map("examples/robots/planar_2link.urdf",
+    ...                      [[0.3, 0.8], [0.0, 1.5]], fn_hz=14)   # doctest: +SKIP
+    >>> m.stable.tolist()                                          # doctest: +SKIP
+    [True, True]
+    """
+    from seactl.api.robotmap import WorkspaceMap
+
+    q = np.asarray(configurations, float) if not isinstance(configurations, str) else None
+    if q is None or q.ndim != 2 or q.shape[0] == 0 or not np.all(np.isfinite(q)):
+        raise InputError("configurations", configurations,
+                         "an (m, n) array of joint angles [rad], one row per configuration")
+    robots = [robot(urdf, q0=row, **options) for row in q]
+    margins = [r.margins() for r in robots]
+    return WorkspaceMap(robots[0].body.joints, q,
+                        np.array([bool(m.stable) for m in margins]),
+                        np.array([float(m.phase_margin_deg) for m in margins]),
+                        np.array([float(m.delay_margin_ms) for m in margins]))

@@ -1,0 +1,126 @@
+"""``seactl robot``: a multi-joint SEA robot from its URDF, linearized at a configuration."""
+
+from __future__ import annotations
+
+from typing import Any
+
+import click
+from rich.markup import escape
+from rich.table import Table
+
+from seactl.base.axes import AXES
+from seactl.errors import InputError
+
+from .common import axis_option, cli, console, echo_json, finite_or_none, json_option, pm_text
+
+ROBOT_AXES = ("fn_hz", "gs", "t_tau_ms", "t_qs_ms", "t_qd_ms", "f_qd_hz", "f_taud_hz")
+
+
+def _q0(text: str | None) -> list[float] | None:
+    if text is None:
+        return None
+    try:
+        return [float(x) for x in text.split(",")]
+    except ValueError:
+        raise InputError("--q0 [rad]", text, "comma-separated joint angles, e.g. 0.3,0.8"
+                         ) from None
+
+
+def _actuators(text: str) -> Any:
+    """``PRESET|FILE`` for every joint, or ``joint=PRESET|FILE,...``."""
+    if "=" not in text:
+        return text
+    out = {}
+    for part in text.split(","):
+        joint, _, spec = part.partition("=")
+        if not joint or not spec:
+            raise InputError("--actuators", text, "PRESET, FILE, or JOINT=PRESET|FILE,...")
+        out[joint.strip()] = spec.strip()
+    return out
+
+
+def robot_record(r: Any, margins: dict[str, Any], roots: Any) -> dict[str, Any]:
+    """The JSON of ``seactl robot``: the model, the per-break margins, the verdict."""
+    breaks = {}
+    for name, m in margins.items():
+        breaks[name] = {"phase_margin_deg": finite_or_none(m.phase_margin_deg),
+                        "crossover_hz": finite_or_none(m.crossover_hz),
+                        "gain_margin_db": finite_or_none(m.gain_margin_db),
+                        "delay_margin_ms": finite_or_none(m.delay_margin_ms),
+                        "stable": bool(m.stable)}
+    kx = r.task_stiffness
+    return {"joints": list(r.body.joints), "q0_rad": r.body.q0.tolist(), "space": r.space,
+            "task": r.body.frame, "fn_hz": r.fn_hz, "gs": r.gs,
+            "delays_ms": {k: 1e3 * v for k, v in r.delays.items()},
+            "design_inertia_kg_m2": [a.Ij for a in r.actuators],
+            "task_stiffness_n_per_m": None if kx is None else kx[0],
+            "task_rotational_stiffness_nm_per_rad": None if kx is None else kx[1],
+            "stiffness_nm_per_rad": r.stiffness.tolist(),
+            "stable": bool(next(iter(margins.values())).stable),
+            "spectral_abscissa_per_s": finite_or_none(roots.spectral_abscissa),
+            "roots_complete": not bool(roots.uncertain),
+            "breaks": breaks}
+
+
+@cli.command()
+@click.option("--urdf", required=True, help="URDF file of the robot (revolute joints).")
+@click.option("--actuators", default="ut-sea", show_default=True,
+              help="SEA preset or TOML file for every joint, or JOINT=PRESET|FILE,...")
+@click.option("--space", type=click.Choice(["joint", "task"]), default="joint",
+              show_default=True, help="Stiffness in joint space or in task space.")
+@click.option("--task", default=None, help="Task frame (a frame of the URDF; task space).")
+@click.option("--q0", default=None, help="Configuration [rad], comma-separated (default 0).")
+@axis_option("fn_hz")
+@axis_option("gs")
+@axis_option("t_tau_ms")
+@axis_option("t_qs_ms")
+@axis_option("t_qd_ms")
+@axis_option("f_qd_hz")
+@axis_option("f_taud_hz")
+@json_option
+def robot(urdf: str, actuators: str, space: str, task: str | None, q0: str | None,
+          as_json: bool, **axes: Any) -> None:
+    """Margins of every loop break, certified verdict and spectral abscissa of a robot.
+
+    Python: sc.robot(urdf, actuators=..., space=..., task=..., q0=...).
+
+    \b
+    Example:
+      seactl robot --urdf examples/robots/planar_2link.urdf --q0 0.3,0.8 --fn 14 \\
+          --t-tau 0.5 --t-qs 2 --t-qd 0.5 --f-qd 50 --f-taud 100
+
+    The rigid body is linearized at q0 with gravity compensated; each joint's SEA is
+    designed for its apparent inertia 1/(M^-1)_jj; the stiffness runs on the central
+    process (delay --t-qs), damping and torque loops on each joint's embedded process.
+    Breaks: outer.jN (the SEA's outer loop), stiffness.jN, damping.jN, torque.jN.
+    """
+    import seactl as sc
+
+    v = {n: None if axes[n] is None else float(AXES[n].check(axes[n], AXES[n].option))
+         for n in ROBOT_AXES}
+    r = sc.robot(urdf, actuators=_actuators(actuators), space=space, task=task, q0=_q0(q0),
+                 fn_hz=v["fn_hz"], gs=v["gs"],
+                 delays_ms={"torque": v["t_tau_ms"], "stiffness": v["t_qs_ms"],
+                            "damping": v["t_qd_ms"]},
+                 filters_hz=(v["f_qd_hz"], v["f_taud_hz"]))
+    rec = robot_record(r, r.margins_by_break(), r.roots(count=4))
+    if as_json:
+        echo_json(rec)
+        return
+    _print(rec)
+
+
+def _print(rec: dict[str, Any]) -> None:
+    t = Table(title=f"{len(rec['joints'])}-joint robot, {rec['space']} space, "
+                    f"f_n={rec['fn_hz']:g} Hz, q0={rec['q0_rad']} rad")
+    for col in ("break", "PM [deg]", "crossover [Hz]", "GM [dB]", "delay margin [ms]"):
+        t.add_column(escape(col))
+    for name, b in rec["breaks"].items():
+        t.add_row(name, pm_text(b["phase_margin_deg"], b["stable"]),
+                  *("none" if b[k] is None else f"{b[k]:.4g}"
+                    for k in ("crossover_hz", "gain_margin_db", "delay_margin_ms")))
+    console.print(t)
+    verdict = "stable" if rec["stable"] else "[red]UNSTABLE[/red]"
+    sa = rec["spectral_abscissa_per_s"]
+    console.print(f"certified verdict: {verdict}; spectral abscissa "
+                  f"{'none' if sa is None else format(sa, '.4g')} 1/s")
