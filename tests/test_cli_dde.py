@@ -137,3 +137,25 @@ def test_fuzz_dde_files_quick(monkeypatch, text, extra, sets):
 def test_fuzz_dde_files(monkeypatch, text, extra, sets):
     """The same with 1000 random files (``pytest -m fuzz``)."""
     _check_dde_vector(monkeypatch, text, extra, sets)
+
+
+def test_chart_and_delay_margin_take_a_dde_file(capsys, tmp_path):
+    # Oracle: the API on the same file (sc.load_dde(...).delay_margin() and
+    # .stability_chart(...)); a design option beside --dde is refused in one line.
+    path = "examples/dde/gkc-2x2.toml"
+    assert main(["delay-margin", "--dde", path, "--json"]) == 0
+    got = json.loads(capsys.readouterr().out)["designs"][0]
+    assert got["delay_margin_s"] == pytest.approx(
+        float(sc.load_dde(path).delay_margin().delay_margin_s), rel=1e-9)  # (JSON: 10 digits)
+    two = "examples/dde/two-delays.toml"
+    png = tmp_path / "chart.png"
+    assert main(["chart", "--dde", two, "--delays", "tau1,tau2", "--max-s", "10,10",
+                 "--resolution", "300", "--plot", str(png), "--json"]) == 0
+    out = json.loads(capsys.readouterr().out)
+    ref = sc.load_dde(two).stability_chart(("tau1", "tau2"), (10, 10), resolution=300)
+    assert out["system"] == "dde" and out["design"]["stable"] == bool(ref.design_stable)
+    assert png.stat().st_size > 0
+    assert main(["chart", "--dde", two, "--delays", "tau1,tau2", "--max-s", "1,1",
+                 "--fn", "3"]) == 2
+    err = capsys.readouterr().err
+    assert err.startswith("error: ") and err.count("\n") == 1 and "--fn" in err

@@ -279,3 +279,36 @@ def test_dde_file_errors_name_the_field(tmp_path):
         path.write_text(text)
         with pytest.raises(sc.LoopFileError, match=match):
             sc.load_dde(path)
+
+
+@pytest.mark.parametrize("case", PUBLISHED, ids=[c["source"] for c in PUBLISHED])
+def test_published_delay_margin_end_to_end(case):
+    # Oracle: the crossings solved with mpmath above (which match the printed figures).
+    # The first example is stable from tau = 0 up to its critical delay; the second is
+    # stable only between its two crossings, so its margin from a delay inside that
+    # interval is the distance to the upper end.
+    taus = [t for t, _ in crossings(case["a0"], case["a1"])]
+    start = 0.0 if case["rhp_below"] == 0 else 0.5 * (taus[0] + taus[1])
+    end = taus[0] if case["rhp_below"] == 0 else taus[1]
+    m = sc.delay_equation(case["a0"], terms=[(case["a1"], start)]).delay_margin()
+    assert bool(m.stable) and bool(m.verified)
+    assert abs(float(m.delay_margin_s) - (end - start)) < 1e-8
+    if case["rhp_below"] == 2:  # below the first crossing: unstable, margin 0
+        m0 = sc.delay_equation(case["a0"], terms=[(case["a1"], 0.5 * taus[0])]).delay_margin()
+        assert not bool(m0.stable) and float(m0.delay_margin_s) == 0.0
+
+
+def test_chart_and_delay_margin_agree_on_a_two_delay_equation():
+    # Oracle: two independent constructions of the same crossing: the delay margin's
+    # sweep along a ray (a polynomial in one exponential) and the chart's curves (a
+    # resultant over the torus); the margin's crossing point must lie on a chart branch
+    # (to the chart's sampling of the branch) and flip the chart's certified region count.
+    s = sc.load_dde("examples/dde/two-delays.toml")
+    m = s.delay_margin({"tau2": 1.0})
+    hit = np.array([m.crossing_delays_s["tau1"], m.crossing_delays_s["tau2"]], float).ravel()
+    c = s.stability_chart(("tau1", "tau2"), (10.0, 10.0), resolution=400)
+    pts = np.concatenate([np.column_stack([b["tau1_s"], b["tau2_s"]]) for b in c.curves])
+    assert np.min(np.hypot(*(pts - hit).T)) < 0.01
+    below = s.with_delays(tau2=hit[1] - 0.05).roots(count=2).right_half_plane_roots
+    above = s.with_delays(tau2=hit[1] + 0.05).roots(count=2).right_half_plane_roots
+    assert int(below) == 0 and int(above) == 2

@@ -257,8 +257,20 @@ class _NoDesign:
         raise AttributeError(name)
 
 
-def _constant_gain(b: Block) -> float | None:
-    """The block's value if it is an undelayed constant independent of the design."""
+def constant_gain(b: Block) -> float | None:
+    """The block's value if it is an undelayed constant independent of the design (the
+    symbolic derivation and the cycle expansion substitute such blocks by their value).
+
+    Parameters
+    ----------
+    b : Block
+        A block.
+
+    Returns
+    -------
+    float or None
+        Its constant gain, or None if it is delayed or reads the design.
+    """
     if b.delay is not None:
         return None
     try:
@@ -322,7 +334,7 @@ def _structure_key(diagram: BlockDiagram, output: str, input: str, cut: tuple[st
 
     parts = [f"v1|{version('sympy')}|{output}|{input}|{','.join(cut)}|{kind}"]
     for b in diagram.blocks:
-        parts.append(f"{b.name}|{b.src}|{b.dst}|{_constant_gain(b)!r}")
+        parts.append(f"{b.name}|{b.src}|{b.dst}|{constant_gain(b)!r}")
     return hashlib.sha256("\n".join(parts).encode()).hexdigest()[:32]
 
 
@@ -403,7 +415,7 @@ def _derive(diagram: BlockDiagram, output: str, input: str, cut: tuple[str, ...]
     # Constant undelayed blocks (sums, sensors, sign changes) need no evaluation.
     sym = {}
     for b in diagram.blocks:
-        const = _constant_gain(b)
+        const = constant_gain(b)
         sym[b.name] = sp.Symbol(b.name) if const is None else sp.nsimplify(const)
     A = sp.eye(len(unknowns))
     rhs = sp.zeros(len(unknowns), 1)
@@ -611,7 +623,7 @@ class QuasiForm:
     @cached_property
     def dynamic(self) -> tuple[Block, ...]:
         """Blocks that are not design-independent constants (their denominators multiply)."""
-        return tuple(b for b in self.diagram.blocks if _constant_gain(b) is None)
+        return tuple(b for b in self.diagram.blocks if constant_gain(b) is None)
 
     def evaluate(self, design: Any, shared: dict | None = None) -> QuasiPolynomial:
         """The quasi-polynomial of ``design``; ``shared``: a dict kept between the
@@ -770,7 +782,7 @@ def _determinant(diagram: BlockDiagram, held: tuple[str, ...]) -> Any:
     A = sp.eye(len(unknowns))
     for b in diagram.blocks:
         if b.dst in index and b.src in index:
-            const = _constant_gain(b)
+            const = constant_gain(b)
             A[index[b.dst], index[b.src]] -= sp.Symbol(b.name) if const is None \
                 else sp.nsimplify(const)
     expr = sp.expand(A.det(method="berkowitz"))

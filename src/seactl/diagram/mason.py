@@ -27,29 +27,11 @@ from seactl.diagram.blockdiagram import (
     BlockDiagram,
     QuasiForm,
     Transfer,
+    constant_gain,
     evaluate_forms,
 )
 
 PROBE = "__probe__"
-
-
-class _NoDesign:
-    def __getattr__(self, name: str):
-        raise AttributeError(name)
-
-
-def constant_gain(b: Any) -> float | None:
-    """The block's value if it is an undelayed constant independent of the design (the
-    rule by which the symbolic derivation substitutes constants: the terms agree)."""
-    if b.delay is not None:
-        return None
-    try:
-        num, den = b.num(_NoDesign()), b.den(_NoDesign())
-    except AttributeError:
-        return None
-    if len(num) == 1 and len(den) == 1 and all(isinstance(c, (int, float)) for c in (*num, *den)):
-        return float(num[0]) / float(den[0])
-    return None
 
 
 def _cycles(edges: dict[str, list[tuple[str, float | str]]]) -> list[tuple[int, list]]:

@@ -18,6 +18,7 @@ from seactl.base.outputs import FIGURE_SUFFIXES, OutputSet
 from seactl.errors import InputError
 
 from .common import DesignSpec, cli, console, design_options, echo_json, json_option, units_given
+from .dde import dde_option
 from .loops import loop_options
 
 SYSTEMS = ("sea", "rigid")
@@ -117,16 +118,17 @@ def _number(flag: str, text: str) -> float:
 @click.option("--plot", "plot", default=None, metavar="FILE.png|.svg|.pdf",
               help="Write the chart: stable regions shaded, crossing curves, the design.")
 @json_option
+@dde_option
 @loop_options
 def chart(spec: DesignSpec, rigid: tuple | None, delays: str, max_s: str | None,
           max_ms: str | None, resolution: int, plot: str | None, as_json: bool,
-          loop: Any) -> None:
+          loop: Any, dde: Any) -> None:
     """Stability chart over two delays: the crossing curves (delays where a root crosses
     the imaginary axis) and the certified number of right-half-plane roots in each region
     they bound; the other delays stay at the design's.
 
     Python: sc.design(...).stability_chart(delays=(NAME1, NAME2), max_s=(T1, T2)), and the
-    same on sc.rigid(...) and sc.load_loop(FILE).
+    same on sc.rigid(...), sc.load_loop(FILE) and sc.load_dde(FILE).
 
     \b
     Examples:
@@ -135,6 +137,7 @@ def chart(spec: DesignSpec, rigid: tuple | None, delays: str, max_s: str | None,
         --max-ms 20,20
       seactl chart --loop examples/loops/paper-sea.toml --delays Kq_fb,Bq_fb \\
         --max-s 0.02,0.02 --json
+      seactl chart --dde examples/dde/two-delays.toml --delays tau1,tau2 --max-s 10,10
 
     The curves are computed exactly (frequency sweeping: every solution on the torus of
     each frequency by polynomial root finding, Newton-polished); each region's count is
@@ -145,7 +148,7 @@ def chart(spec: DesignSpec, rigid: tuple | None, delays: str, max_s: str | None,
         plot_p = outs.add("--plot", plot, FIGURE_SUFFIXES)
         names = parse_pair("--delays", delays, numbers=False)
         extent = chart_extent(max_s, max_ms)
-        kind, system = chart_system(spec, loop, rigid)
+        kind, system = ("dde", dde) if dde is not None else chart_system(spec, loop, rigid)
         result = system.stability_chart(names, extent, resolution=resolution)
         if plot_p:
             from seactl.apps.plots import pyplot

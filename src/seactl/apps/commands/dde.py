@@ -1,5 +1,5 @@
 """``--dde FILE.toml``: a delay equation or quasi-polynomial file (docs/delay-equations.md)
-instead of a built-in design, for ``seactl roots``; ``--set NAME=VALUE`` overrides its named
+instead of a built-in design, for ``seactl roots``, ``chart`` and ``delay-margin``; ``--set NAME=VALUE`` overrides its named
 delays [s] (a range ``START:STOP:STEP`` or ``a,b,c`` is a batch axis)."""
 
 from __future__ import annotations
@@ -15,8 +15,10 @@ from seactl.errors import InputError
 
 from .loops import parse_sets
 
-DDE_OPTIONS = frozenset({"count", "as_json", "dde_file", "sets"})
-"""The options (click parameter names) that apply with ``--dde``."""
+DDE_OPTIONS = frozenset({"count", "as_json", "dde_file", "sets", "delays", "max_s", "max_ms",
+                         "resolution", "plot", "direction"})
+"""The options (click parameter names) that apply with ``--dde`` (in ``seactl roots``,
+``chart`` and ``delay-margin``)."""
 
 
 def _refuse_other_options() -> None:

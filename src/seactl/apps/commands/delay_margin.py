@@ -12,6 +12,7 @@ from rich.table import Table
 from seactl.errors import InputError
 
 from .common import DesignSpec, cli, console, design_options, echo_json, json_option
+from .dde import dde_option
 from .loops import loop_options
 
 
@@ -54,16 +55,20 @@ def _margin_text(r: dict[str, Any]) -> str:
                    "integers up to 16; default: every delay grows alike.  SEA: torque, "
                    "stiffness, damping; a loop file: its delay names.")
 @json_option
+@dde_option
 @loop_options
-def delay_margin(spec: DesignSpec, direction: str | None, as_json: bool, loop: Any) -> None:
+def delay_margin(spec: DesignSpec, direction: str | None, as_json: bool, loop: Any,
+                 dde: Any) -> None:
     """Delay margin along a direction of the delays, with exact delays.
 
-    Python: sc.design(...).delay_margin(direction); sc.load_loop(FILE).delay_margin(direction).
+    Python: sc.design(...).delay_margin(direction); sc.load_loop(FILE).delay_margin(direction);
+    sc.load_dde(FILE).delay_margin(direction).
 
     \b
     Examples:
       seactl delay-margin --fn 14 --t-tau 0.5 --t-qs 2 --t-qd 0.5 --direction stiffness=1
       seactl delay-margin --loop examples/loops/rigid.toml --direction K_fb=1,B_fb=2
+      seactl delay-margin --dde examples/dde/gkc-2x2.toml
 
     The delays move from the design's own along tau0 + t d / max(d); the margin t [s] is
     the extra delay of the most-moved delay when a closed-loop root first reaches the
@@ -73,7 +78,9 @@ def delay_margin(spec: DesignSpec, direction: str | None, as_json: bool, loop: A
     the checks disagreed, 'touch': the root touches the axis and goes back.
     """
     weights = parse_direction(direction)
-    if loop is not None:
+    if dde is not None:
+        systems, title = [dde], f"{dde.kind} '{dde.title}'"
+    elif loop is not None:
         systems, title = [loop], f"loop '{loop.name}' ({loop.file})"
     else:
         systems = spec.all_designs()
