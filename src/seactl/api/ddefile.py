@@ -25,17 +25,13 @@ value and what is valid.
 from __future__ import annotations
 
 import re
-import tomllib
-from pathlib import Path
 from typing import Any
 
 from pydantic import BaseModel, ConfigDict, Field, ValidationError
 
 from seactl.api.delay_system import DelaySystem, delay_equation, quasi_polynomial
-from seactl.base.limits import MAX_LOOP_FILE_BYTES, MAX_NESTING, human_bytes
-from seactl.base.outputs import note_input
 from seactl.errors import InputError, LoopFileError
-from seactl.userloop.schema import check_toml_nesting
+from seactl.userloop.schema import read_toml_file
 
 Number = float | int
 Matrix = Number | list[list[Number]]
@@ -92,30 +88,6 @@ def _validation_error(exc: ValidationError, file: str) -> LoopFileError:
     if err["type"] == "extra_forbidden":
         return LoopFileError(file, where, err.get("input"), "unknown key")
     return LoopFileError(file, where, err.get("input"), err["msg"].lower())
-
-
-def _read(path: Any) -> dict[str, Any]:
-    if not isinstance(path, (str, Path)):
-        raise InputError("path", type(path).__name__, "a path to a .toml delay-equation file")
-    p = Path(path)
-    if not p.is_file():
-        raise LoopFileError(str(path), "file", None, "an existing .toml delay-equation file")
-    note_input(p)
-    try:
-        if p.stat().st_size > MAX_LOOP_FILE_BYTES:
-            raise LoopFileError(str(path), "file", None, f"a file of at most "
-                                f"{human_bytes(MAX_LOOP_FILE_BYTES)}")
-        text = p.read_text()
-        check_toml_nesting(text, str(path))
-        return tomllib.loads(text)
-    except (tomllib.TOMLDecodeError, UnicodeDecodeError) as exc:
-        raise LoopFileError(str(path), "file", None, f"valid TOML ({exc})") from None
-    except RecursionError:
-        raise LoopFileError(str(path), "file", None, f"arrays and tables nested at most "
-                            f"{MAX_NESTING} deep") from None
-    except OSError as exc:
-        raise LoopFileError(str(path), "file", None, f"a readable file ({exc.strerror})"
-                            ) from None
 
 
 def _term_delay(t: TermModel, k: int, file: str) -> Any:
@@ -175,7 +147,7 @@ def load_dde(path: Any, **delays_s: Any) -> DelaySystem:
     ('quasi-polynomial', ('tau1',))
     """
     file = str(path)
-    data = _read(path)
+    data = read_toml_file(path, "delay-equation file")
     try:
         model = DdeModel.model_validate(data)
     except ValidationError as exc:

@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import tomllib
 from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
@@ -10,12 +9,10 @@ from typing import Any
 import numpy as np
 
 from seactl.api.userloop import UserLoop
-from seactl.base.limits import MAX_LOOP_FILE_BYTES, MAX_NESTING, human_bytes
-from seactl.base.outputs import note_input
-from seactl.errors import InputError, LoopFileError
+from seactl.errors import LoopFileError
 from seactl.userloop.expressions import parse_expr
 from seactl.userloop.loopfile import check_name, compile_loop, parse_block
-from seactl.userloop.schema import check_toml_nesting
+from seactl.userloop.schema import read_toml_file
 
 _BUILDER = "<builder>"
 
@@ -316,27 +313,6 @@ def load_loop(path: str | Path, **values: Any) -> UserLoop:
     >>> m.phase_margin_deg.round(4).tolist(), (90 - np.degrees([0.05, 0.1])).round(4).tolist()
     ([87.1352, 84.2704], [87.1352, 84.2704])
     """
-    if not isinstance(path, (str, Path)):
-        raise InputError("path", type(path).__name__, "a path to a .toml loop file")
-    p = Path(path)
-    if not p.is_file():
-        raise LoopFileError(str(path), "file", None, "an existing .toml loop file")
-    note_input(p)
-    try:
-        if p.stat().st_size > MAX_LOOP_FILE_BYTES:
-            raise LoopFileError(str(path), "file", None, f"a loop file of at most "
-                                f"{human_bytes(MAX_LOOP_FILE_BYTES)} (this one has "
-                                f"{human_bytes(p.stat().st_size)})")
-        text = p.read_text()
-        check_toml_nesting(text, str(path))
-        data = tomllib.loads(text)
-    except (tomllib.TOMLDecodeError, UnicodeDecodeError) as exc:
-        raise LoopFileError(str(path), "file", None, f"valid TOML ({exc})") from None
-    except RecursionError:
-        raise LoopFileError(str(path), "file", None, f"arrays and tables nested at most "
-                            f"{MAX_NESTING} deep") from None
-    except OSError as exc:
-        raise LoopFileError(str(path), "file", None, f"a readable file ({exc.strerror})"
-                            ) from None
+    data = read_toml_file(path, "loop file")
     loop = UserLoop(compile_loop(data, str(path)))
     return loop.with_values(**values) if values else loop

@@ -4,8 +4,10 @@ from __future__ import annotations
 
 import math
 import re
+import tomllib
 from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
+from pathlib import Path
 from typing import Any
 
 import numpy as np
@@ -13,14 +15,17 @@ from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_valida
 
 from seactl.base.limits import (
     MAX_LOOP_BLOCKS,
+    MAX_LOOP_FILE_BYTES,
     MAX_LOOP_ORDER,
     MAX_LOOP_SIGNALS,
     MAX_NESTING,
     RANGES,
     derive_seconds,
+    human_bytes,
     human_seconds,
 )
-from seactl.errors import LoopFileError
+from seactl.base.outputs import note_input
+from seactl.errors import InputError, LoopFileError
 
 
 # ------------------------------------------------------------------ block kinds
@@ -251,6 +256,48 @@ def check_toml_nesting(text: str, file: str) -> None:
                 raise LoopFileError(file, f"key {key!r} (line {lineno})", None,
                                     f"arrays and tables nested at most {MAX_NESTING} deep")
         depth = max(depth, 0)
+
+
+def read_toml_file(path: Any, what: str) -> dict[str, Any]:
+    """The table of a TOML file (a loop file, a delay-equation file), refused with
+    :class:`~seactl.errors.LoopFileError` when it is missing, larger than
+    :data:`~seactl.base.limits.MAX_LOOP_FILE_BYTES`, nested too deep or not valid TOML.
+
+    Parameters
+    ----------
+    path : str or os.PathLike
+        The file.
+    what : str
+        What the file is, for the messages (``"loop file"``).
+
+    Returns
+    -------
+    dict
+        The parsed table.
+    """
+    if not isinstance(path, (str, Path)):
+        raise InputError("path", type(path).__name__, f"a path to a .toml {what}")
+    p = Path(path)
+    if not p.is_file():
+        raise LoopFileError(str(path), "file", None, f"an existing .toml {what}")
+    note_input(p)
+    try:
+        size = p.stat().st_size
+        if size > MAX_LOOP_FILE_BYTES:
+            raise LoopFileError(str(path), "file", None, f"a {what} of at most "
+                                f"{human_bytes(MAX_LOOP_FILE_BYTES)} (this one has "
+                                f"{human_bytes(size)})")
+        text = p.read_text()
+        check_toml_nesting(text, str(path))
+        return tomllib.loads(text)
+    except (tomllib.TOMLDecodeError, UnicodeDecodeError) as exc:
+        raise LoopFileError(str(path), "file", None, f"valid TOML ({exc})") from None
+    except RecursionError:
+        raise LoopFileError(str(path), "file", None, f"arrays and tables nested at most "
+                            f"{MAX_NESTING} deep") from None
+    except OSError as exc:
+        raise LoopFileError(str(path), "file", None, f"a readable file ({exc.strerror})"
+                            ) from None
 
 
 def check_nesting(data: Any, file: str) -> None:

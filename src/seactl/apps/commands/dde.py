@@ -1,6 +1,7 @@
 """``--dde FILE.toml``: a delay equation or quasi-polynomial file (docs/delay-equations.md)
-instead of a built-in design, for ``seactl roots``, ``chart`` and ``delay-margin``; ``--set NAME=VALUE`` overrides its named
-delays [s] (a range ``START:STOP:STEP`` or ``a,b,c`` is a batch axis)."""
+instead of a built-in design, for ``seactl roots``, ``chart`` and ``delay-margin``;
+``--set NAME=VALUE`` overrides its named delays [s] (a range ``START:STOP:STEP`` or
+``a,b,c`` is a batch axis)."""
 
 from __future__ import annotations
 
