@@ -1,10 +1,12 @@
 """Jitter margin of the sampled loop (``System.jitter_margins(rate_hz=...)``).
 
-Oracles: a closed-form alias sum (the partial-fraction series of ``1/sin^4``); the same
-bound computed independently with python-control (ZOH and Tustin discretizations), the
-alias sum in closed form from the plant's state space (Poisson summation) and a dense
-scan; the continuous Kao-Lincoln margin as the period shrinks; a time-domain simulation
-written here (exact plant transitions, late samples) under switching delays.
+Oracles: a closed-form alias sum (the partial-fraction series of ``1/sin^4``); mpmath's
+``nsum`` of the alias series of the rigid and SEA plants written here from their
+equations of motion; the same bound computed independently with python-control (ZOH and
+Tustin discretizations), the alias sum in closed form from the plant's state space
+(Poisson summation) and a dense scan (the certified peak never below it); the continuous
+Kao-Lincoln margin as the period shrinks; a time-domain simulation written here (exact
+plant transitions, late samples) under switching delays.
 """
 
 from __future__ import annotations
@@ -16,7 +18,8 @@ import pytest
 from scipy.linalg import expm
 
 import seactl as sc
-from seactl.simulate.sampled_jitter import alias_sum, jitter_samples, plant_path
+from seactl.simulate.alias import alias_factor, alias_sum, plant_realization
+from seactl.simulate.sampled_jitter import actuation_signal, jitter_samples, plant_path
 
 RIGID = {"stiffness": 1.5, "damping": 1.5}
 
@@ -50,20 +53,81 @@ def test_alias_sum_double_integrator_closed_form():
     # Oracle: sum_k 1/(x+k)^4 = pi^4 (2 + cos 2 pi x) / (3 sin^4 pi x) (partial fractions of
     # pi^2 / sin^2 differentiated twice); P = 1/s^2, s_k = j (theta + 2 pi k) / h.
     h = 1e-3
-    theta = np.array([[0.01, 0.3, 1.0, 2.5, np.pi]])
+    theta = np.array([0.01, 0.3, 1.0, 2.5, np.pi])
     x = theta / (2 * np.pi)
     exact = (h / (2 * np.pi)) ** 4 * np.pi**4 * (2 + np.cos(2 * np.pi * x)) \
         / (3 * np.sin(np.pi * x) ** 4)
-    got = alias_sum(lambda _d, s: 1 / s**2, None, theta, h)
-    np.testing.assert_allclose(got, exact, rtol=1e-8)   # (the tails are estimated)
+    A, B, C = np.array([[0.0, 0.0], [1.0, 0.0]]), np.array([[1.0], [0.0]]), \
+        np.array([[0.0, 1.0]])
+    np.testing.assert_allclose(alias_sum(A, B, C, theta, h), exact, rtol=1e-11)
+    with pytest.raises(sc.InputError, match="at most one integrator"):
+        alias_factor(A, B, C, h)        # its pole at z = 1 would not cancel in g
 
 
-def _rigid_bound(rate_hz: float) -> float:
-    """The sampled jitter margin [samples] of the rigid actuator's whole loop, computed
-    here: python-control's ZOH plant and Tustin filter, whole-sample buffers, the alias sum
-    in closed form from the plant's state space, a dense scan with local refinement."""
+def _sea_design():
+    return sc.design(14, delays_ms={"torque": 0.5, "stiffness": 2, "damping": 0.5},
+                     filters_hz=(50, 100))
+
+
+def _mp_alias(P, theta: float, h: float) -> float:
+    """sum_k |P(j (theta + 2 pi k) / h)|^2 by mpmath's nsum (each side extrapolated)."""
+    import mpmath as mp
+
+    f = lambda k: abs(P(1j * (theta + 2 * mp.pi * k) / h)) ** 2  # noqa: E731
+    return float(mp.nsum(f, [0, mp.inf]) + mp.nsum(f, [-mp.inf, -1]))
+
+
+@pytest.mark.parametrize("rate_hz", [1000.0, 16000.0])
+def test_alias_closed_form_matches_mpmath_nsum(rate_hz):
+    # Oracle: mpmath's nsum of the alias series, the plants written here from their
+    # equations of motion (rigid: 1/(m s^2 + b s); SEA: motor and load inertias joined by
+    # the spring, load position beta k / Delta and spring torque beta k (Ij s^2 + bj s) /
+    # Delta, Delta = (Im s^2 + bm s + k)(Ij s^2 + bj s + k) - k^2).  Both the sum and
+    # |z - 1|^2 times it as the closed-form row W (integrator cancelled) to 1e-10.
+    import mpmath as mp
+
+    mp.mp.dps = 30
+    h = 1.0 / rate_hz
+    p = _rigid().rigid
+    m, b = float(p.m), float(p.b)
+    a = _sea_design().jitter_loops()[2].actuator
+    from seactl.systems.rigid.model import RIGID_DIAGRAM
+
+    Im, Ij, bm, bj, k, beta = (float(getattr(a, n)) for n in ("Im", "Ij", "bm", "bj", "k",
+                                                              "beta"))
+    delta = lambda s: (Im * s**2 + bm * s + k) * (Ij * s**2 + bj * s + k) - k**2  # noqa
+    sea_diagram, _taps, sea = _sea_design().jitter_loops()
+    cases = [(RIGID_DIAGRAM, p, "x_sens", lambda s: 1 / (m * s**2 + b * s)),
+             (sea_diagram, sea, "q_sens", lambda s: beta * k / delta(s)),
+             (sea_diagram, sea, "tau_sens", lambda s: beta * k * (Ij * s**2 + bj * s)
+              / delta(s))]
+    theta = np.array([0.002, 0.05, 0.4, 2.0, np.pi])
+    for diagram, design, tap, P in cases:
+        act = actuation_signal(diagram)
+        A, B, C, D = (x[0] for x in plant_realization(plant_path(diagram, design, tap),
+                                                      design, tap, act))
+        assert D[0, 0] == 0.0
+        ref = np.array([_mp_alias(P, t, h) for t in theta])
+        np.testing.assert_allclose(alias_sum(A, B, C, theta, h), ref, rtol=1e-10)
+        Aw, Bw, Cw, Dw = alias_factor(A, B, C, h)
+        z = np.exp(1j * theta)[:, None, None]
+        Wz = Cw @ np.linalg.solve(z * np.eye(Aw.shape[0]) - Aw, np.broadcast_to(
+            Bw, theta.shape + Bw.shape)) + Dw
+        w2, want = np.sum(np.abs(Wz[:, 0, :]) ** 2, axis=-1), \
+            np.abs(np.exp(1j * theta) - 1) ** 2 * ref
+        # W's rounding is relative to its size in the loop's band (where g peaks); far
+        # above it W is many orders smaller and only its absolute error, a 1e-10 of the
+        # band's size, matters for the peak
+        band = want >= 1e-6 * want.max()
+        np.testing.assert_allclose(w2[band], want[band], rtol=1e-10)
+        np.testing.assert_allclose(w2, want, rtol=0, atol=1e-10 * want.max())
+
+
+def _rigid_gain(rate_hz: float):
+    """g(theta) of the rigid actuator's whole loop, computed here: python-control's ZOH
+    plant and Tustin filter, whole-sample buffers, the alias sum in closed form from the
+    plant's state space (Poisson summation)."""
     import control
-    from scipy.optimize import minimize_scalar
 
     p = _rigid().rigid
     m, b, K, B, Tf = (float(getattr(p, k)) for k in ("m", "b", "K", "B", "Tf_v"))
@@ -88,6 +152,15 @@ def _rigid_bound(rate_hz: float) -> float:
         alias = h * np.einsum("fi,ij,fj->f", R, Q, R.conj()).real
         return np.abs(z - 1) * np.abs(M) * np.sqrt(alias)
 
+    return g
+
+
+def _rigid_bound(rate_hz: float) -> float:
+    """The sampled jitter margin [samples] of the rigid actuator's whole loop: a dense
+    scan of :func:`_rigid_gain` with local refinement."""
+    from scipy.optimize import minimize_scalar
+
+    g = _rigid_gain(rate_hz)
     grid = np.pi * np.logspace(-5, 0, 20001)
     vals = g(grid)
     i = int(np.argmax(vals))
@@ -105,6 +178,62 @@ def test_rigid_bound_matches_independent_computation(rate_hz):
     np.testing.assert_allclose(float(j.jitter_margin_samples), _rigid_bound(rate_hz),
                                rtol=1e-5)
     assert float(j.jitter_margin_s) == pytest.approx(float(j.jitter_margin_samples) / rate_hz)
+
+
+def _scan_peaks(system, rate_hz: float) -> tuple[dict, dict]:
+    """Per loop: the reported g and its brute-force scan on 1e5 angles, g evaluated by
+    another route: the sampled margins' frequency response (folded registers,
+    ``sampled.broken_responses``) times the alias sum in closed form (checked against
+    mpmath above)."""
+    from seactl.simulate.sampled import broken_responses
+    from seactl.simulate.sampled_jitter import sampled_jitter_margins
+
+    diagram, taps, design = system.jitter_loops()
+    j = sampled_jitter_margins(diagram, design, taps, rate_hz, system.reference_frequency())
+    act = actuation_signal(diagram)
+    theta = np.pi * np.r_[np.logspace(-6, 0, 50_000), np.linspace(0, 1, 50_000)[1:]]
+    scans = {}
+    for name, tap in taps.items():
+        A, B, C, _ = (x[0] for x in plant_realization(plant_path(diagram, design, tap),
+                                                      design, tap, act))
+        respond, h = broken_responses(diagram, design, tap, rate_hz, act)
+        L, G = respond(np.array([0]), theta[None, :])
+        scans[name] = float(np.max(np.abs(np.exp(1j * theta) - 1) * np.abs(G[0] / (1 + L[0]))
+                                   * np.sqrt(alias_sum(A, B, C, theta, h))))
+    return {k: float(v) for k, v in j.peak.items()}, scans
+
+
+@pytest.mark.parametrize("rate_hz", [1000.0, pytest.param(16000.0, marks=pytest.mark.slow)])
+def test_peak_never_below_dense_scan_rigid(rate_hz):
+    # Oracle: _scan_peaks.  The reported g is an upper bound: never below the scan's
+    # largest value, and tight (within 1e-7 of it).
+    peaks, scans = _scan_peaks(_rigid(), rate_hz)
+    for name in scans:
+        assert scans[name] <= peaks[name] <= scans[name] * (1 + 1e-7), name
+
+
+@pytest.mark.slow
+def test_peak_never_below_dense_scan_sea():
+    # Oracle: _scan_peaks, every loop of the SEA design at 4 kHz.
+    peaks, scans = _scan_peaks(_sea_design(), 4000.0)
+    for name in scans:
+        assert scans[name] <= peaks[name] <= scans[name] * (1 + 1e-7), name
+
+
+def test_discrete_peak_bounds_random_systems():
+    # Oracle: a 1e5-point scan of ||C (zI - A)^-1 B + D|| (numpy solves); stable random
+    # systems with poles up to 0.999 from the circle.
+    from seactl.certify.hinf import discrete_gain, discrete_peak
+
+    rng = np.random.default_rng(1)
+    theta = np.linspace(0, np.pi, 100_001)
+    for radius in (0.9, 0.97, 0.999):
+        A = rng.normal(size=(8, 8))
+        A *= radius / np.max(np.abs(np.linalg.eigvals(A)))
+        B, C, D = rng.normal(size=(8, 3)), rng.normal(size=(1, 8)), rng.normal(size=(1, 3))
+        up, _th, lo = discrete_peak(A, B, C, D)
+        scan = discrete_gain(A, B, C, D, theta).max()
+        assert lo <= up and scan <= up <= scan * (1 + 1e-4)
 
 
 def test_sampled_margin_tends_to_continuous():

@@ -21,10 +21,15 @@ the ``sqrt(N ceil(N))`` factor (equal to ``N`` at whole samples, where it is the
 ``N g < 1``) and the limit ``J -> 1 / max_w w |T(jw)|`` as ``h -> 0`` are in
 docs/theory/sampled-jitter.md.
 
-``g`` is scanned, not proven: 1200 log-spaced points of ``theta`` up to Nyquist, every
-local maximum within half of the largest refined by three zooms; the alias sum takes
-``|k| <= ALIAS_TERMS`` terms and bounds the rest by the decay ``|P_y| ~ |w|^-r`` seen at
-its end.
+``g`` is computed exactly, not scanned: ``|z - 1| P_alias`` is ``||W(z)||`` for a
+rational row ``W`` in closed form (the alias series summed by Parseval, no truncation;
+the integrator's pole at ``z = 1`` cancelled; :mod:`seactl.simulate.alias`), so
+``g(theta) = ||M(z) W(z)||`` on the unit circle with ``M W`` a stable discrete-time
+system, and ``g``'s maximum is its H-infinity norm, bracketed by level sets
+(:func:`seactl.certify.hinf.discrete_peak`: a level with no crossing of the circle is an
+upper bound) to a relative ``2 PEAK_RTOL``, more only where rounding made a level look
+crossed.  The reported ``g`` is the upper end: the margin computed from it is never
+above the one the exact ``g`` gives.
 """
 
 from __future__ import annotations
@@ -35,15 +40,19 @@ from typing import Any
 
 import numpy as np
 
-from seactl.diagram.blockdiagram import BlockDiagram, DesignSubset
+from seactl.certify.hinf import discrete_gain, discrete_peak
+from seactl.diagram.blockdiagram import BlockDiagram
 from seactl.errors import InputError
-from seactl.simulate.sampled import FREQUENCIES, broken_responses, rate_text, sampled_roots
+from seactl.simulate.alias import alias_factor, plant_realization
+from seactl.simulate.discrete import compile_sampled
+from seactl.simulate.period import period_map
+from seactl.simulate.sampled import broken, broken_responses, rate_text, sampled_roots
 
-__all__ = ["ALIAS_TERMS", "SampledJitter", "alias_sum", "plant_path", "jitter_samples",
+__all__ = ["PEAK_RTOL", "SampledJitter", "gain_system", "plant_path", "jitter_samples",
            "sampled_jitter_margins", "actuation_signal"]
 
-ALIAS_TERMS = 64
-"""Aliases ``k = -64 .. 64`` summed exactly; the rest is bounded from their decay."""
+PEAK_RTOL = 1e-9
+"""The reported ``g`` is an upper bound of the true one, within about ``2 PEAK_RTOL``."""
 
 
 def actuation_signal(diagram: BlockDiagram) -> str:
@@ -74,76 +83,51 @@ def plant_path(diagram: BlockDiagram, design: Any, tap: str) -> BlockDiagram:
     return BlockDiagram(f"{diagram.name}-plant-{tap}", plant + chain)
 
 
-def alias_sum(plant: Any, design: Any, theta: np.ndarray, period_s: float) -> np.ndarray:
-    """``sum_k |P(j (theta + 2 pi k) / h)|^2`` over every integer ``k`` for a flat batch
-    (``theta`` of shape ``(n, F)``): ``|k| <= ALIAS_TERMS`` exactly, the two tails as
-    ``|P_K|^2 K / (2r - 1)`` with ``r`` the decay exponent between ``K/2`` and ``K``
-    (``inf`` where ``|P|`` does not decay faster than ``|w|^-0.75``)."""
-    K = ALIAS_TERMS
-    k = np.arange(-K, K + 1)
-    s = 1j * (theta[..., None] + 2 * np.pi * k) / period_s
-    P = np.abs(np.broadcast_to(plant(design, s.reshape(theta.shape[0], -1)),
-                               (theta.shape[0], s[0].size)).reshape(s.shape))
-    total = np.sum(P**2, axis=-1)
-    for end, half in ((0, K // 2), (-1, -K // 2 - 1)):
-        ratio = np.abs(s[..., end] / s[..., half])
-        with np.errstate(divide="ignore", invalid="ignore"):
-            r = np.log(P[..., half] / P[..., end]) / np.log(ratio)
-            tail = P[..., end] ** 2 * K / (2 * r - 1)
-        total = total + np.where(r > 0.75, tail, np.where(P[..., end] == 0, 0.0, np.inf))
-    return total
+def _closed_loop(plan: Any, row: int, inj: str, ret: str, act: str
+                 ) -> tuple[np.ndarray, ...]:
+    """``M = G / (1 + L)`` of one design as a state space: the broken loop's one-tick map
+    (injection -> return and -> actuation) closed by ``injected = returned + e``."""
+    A, B, C, D, _ = period_map(plan, slice(row, row + 1), True)
+    col = plan.info["controller_inputs"].index(inj)
+    ir, ia = plan.order.index(ret), plan.order.index(act)
+    A, B, C, D = A[0], B[0][:, col:col + 1], C[0], D[0][:, col:col + 1]
+    k = 1.0 / (1.0 - D[ir, 0])
+    Cr, Ca = C[ir:ir + 1], C[ia:ia + 1]
+    return A + k * B @ Cr, k * B, Ca + k * D[ia, 0] * Cr, k * D[ia:ia + 1]
 
 
-def _gain(respond: Any, plant: Any, design: Any, rows: np.ndarray, theta: np.ndarray,
-          period_s: float) -> np.ndarray:
-    """``|z - 1| |G/(1 + L)| P_alias`` on ``theta`` (rows of the flat batch)."""
-    L, G = respond(rows, theta)
-    alias = alias_sum(plant, design.take(rows), theta, period_s)
-    with np.errstate(all="ignore"):
-        g = np.abs(np.exp(1j * theta) - 1) * np.abs(G / (1 + L)) * np.sqrt(alias)
-    return np.where(np.isnan(g), np.inf, g)
+def gain_system(M: tuple[np.ndarray, ...], W: tuple[np.ndarray, ...]
+                ) -> tuple[np.ndarray, ...]:
+    """``F = M W`` in series (``W`` a row: its inputs are ``F``'s), so that
+    ``||F(e^{j theta})|| = g(theta)`` when ``||W||^2 = |z - 1|^2 P_alias^2``."""
+    Am, Bm, Cm, Dm = M
+    Aw, Bw, Cw, Dw = W
+    A = np.block([[Aw, np.zeros((Aw.shape[0], Am.shape[0]))], [Bm @ Cw, Am]])
+    return A, np.vstack([Bw, Bm @ Dw]), np.hstack([Dm @ Cw, Cm]), Dm @ Dw
 
 
-class _Flat:
-    """A design batch seen flat, with row subsets (``take``)."""
-
-    def __init__(self, design: Any, shape: tuple[int, ...]):
-        self.design, self.shape = design, shape
-
-    def take(self, rows: np.ndarray) -> Any:
-        return DesignSubset(self.design, np.asarray(rows, np.intp), self.shape)
-
-
-def _peak(respond: Any, plant: Any, flat: _Flat, n: int, period_s: float,
-          theta_lo: np.ndarray, passes: int = 3, points: int = 9
+def _peak(plan: Any, names: tuple[str, str, str], plant: tuple[np.ndarray, ...],
+          period_s: float, rows: np.ndarray, start: np.ndarray, respond: Any
           ) -> tuple[np.ndarray, np.ndarray]:
-    """Largest ``g(theta)`` over ``(0, pi]`` per design and where: the log-spaced scan, then
-    every local maximum within half of the largest zoomed ``passes`` times on ``points``
-    sub-points (each zoom keeps the two intervals around its best point)."""
-    u = np.linspace(0.0, 1.0, FREQUENCIES)
-    lo = np.minimum(theta_lo, 1e-3 * np.pi)[:, None]
-    theta = lo * (np.pi / lo) ** u
-    theta[:, -1] = np.pi
-    rows = np.arange(n)
-    g = _gain(respond, plant, flat, rows, theta, period_s)
-    best = np.argmax(g, axis=1)
-    peak, where = g[rows, best], theta[rows, best]
-    gi = g[:, 1:-1]
-    b, i = np.nonzero((gi >= g[:, :-2]) & (gi >= g[:, 2:]) & (gi >= 0.5 * peak[:, None])
-                      & np.isfinite(gi))
-    if b.size:
-        a, c = np.log(theta[b, i]), np.log(theta[b, i + 2])
-        frac = np.linspace(0.0, 1.0, points)
-        sub = np.arange(b.size)
-        for _ in range(passes):
-            x = a[:, None] + (c - a)[:, None] * frac
-            fx = _gain(respond, plant, flat, b, np.exp(x), period_s)
-            k = np.clip(np.argmax(fx, axis=1), 1, points - 2)
-            a, c = x[sub, k - 1], x[sub, k + 1]
-            top, wtop = fx[sub, np.argmax(fx, axis=1)], np.exp(x[sub, np.argmax(fx, axis=1)])
-            order = np.argsort(top)   # ascending: the largest per design is written last
-            up = order[top[order] > peak[b[order]]]
-            peak[b[up]], where[b[up]] = top[up], wtop[up]
+    """Per design, an upper bound of ``g`` over ``0 < theta <= pi`` (above it by at most a
+    relative ``2 PEAK_RTOL``) and where ``g`` comes that close: NaN outside ``rows`` (the
+    designs whose map is stable: the level-set test needs it), inf where the plant has a
+    feedthrough to the tap (the alias series diverges)."""
+    peak, where = np.full(start.size, np.nan), np.full(start.size, np.nan)
+    Ap, Bp, Cp, Dp = plant
+    for i in rows:
+        if Dp[i, 0, 0] != 0.0:
+            peak[i], where[i] = np.inf, np.pi
+            continue
+        W = alias_factor(Ap[i], Bp[i], Cp[i], period_s)
+        F = gain_system(_closed_loop(plan, int(i), *names), W)
+
+        def gain(theta, i=i, W=W):   # |M| from the folded registers, ||W|| small
+            L, G = respond(np.array([i]), theta[None, :])
+            return np.abs(G[0] / (1 + L[0])) * discrete_gain(*W, theta)
+
+        peak[i], where[i], _ = discrete_peak(*F, rtol=PEAK_RTOL, start=start[i:i + 1],
+                                             gain=gain)
     return peak, where
 
 
@@ -173,7 +157,8 @@ class SampledJitter:
     margin_s : loop -> ``J = N h`` [s] (0 where the sampled loop is unstable, NaN where its
         verdict is uncertain).
     samples : loop -> ``N`` (real; :func:`jitter_samples`).
-    peak : loop -> ``g`` (dimensionless).
+    peak : loop -> ``g`` (dimensionless; an upper bound, about ``2e-9`` above; NaN
+        where the sampled map is not stable).
     peak_hz : loop -> where ``g`` peaks [Hz].
     unstable_modes : the certified verdict of the sampled loop (-1: uncertain).
     rates_hz, period_s : the process rates and the sampling period [s].
@@ -196,8 +181,9 @@ def sampled_jitter_margins(diagram: BlockDiagram, design: Any, taps: Mapping[str
                            rates_hz: Any, w_ref: Any) -> SampledJitter:
     """Jitter margins of the sampled loop broken at each tap (loop name -> signal).
 
-    ``w_ref`` [rad/s] sets the scan's low end (a hundredth of it).  A multi-rate loop is
-    refused: it is periodic, so the frequency-domain bound does not apply.
+    ``w_ref`` [rad/s] (the loop's bandwidth) is where the peak's search evaluates first.
+    A multi-rate loop is refused: it is periodic, so the frequency-domain bound does not
+    apply.
 
     Examples
     --------
@@ -219,15 +205,20 @@ def sampled_jitter_margins(diagram: BlockDiagram, design: Any, taps: Mapping[str
                          "domain bound does not apply)")
     act = actuation_signal(diagram)
     count = roots.unstable_modes.reshape(n)
+    # the bound needs a stable map: certified, or (verdict uncertain) computed inside
+    stable = np.flatnonzero((count == 0) | ((count < 0)
+                                            & (roots.spectral_radius.reshape(n) < 1)))
     w = np.broadcast_to(np.asarray(w_ref, float), shape).reshape(n)
-    flat = _Flat(design, shape)
     out: dict[str, dict[str, np.ndarray]] = {"margin_s": {}, "samples": {}, "peak": {},
                                              "peak_hz": {}}
     T = roots.period_s
     for name, tap in taps.items():
-        plant = plant_path(diagram, design, tap).transfer(tap, act)
-        respond, T = broken_responses(diagram, design, tap, rates_hz, act)
-        peak, theta = _peak(respond, plant, flat, n, T, w * T / 100)
+        plant = plant_realization(plant_path(diagram, design, tap), design, tap, act)
+        cut, inj, ret = broken(diagram, tap)
+        plan = compile_sampled(cut, design, {}, 1e-6, (ret, act),
+                               rates_hz=dict(roots.rates_hz))
+        respond, _ = broken_responses(diagram, design, tap, rates_hz, act)
+        peak, theta = _peak(plan, (inj, ret, act), plant, T, stable, w * T, respond)
         N = np.where(count == 0, jitter_samples(peak), np.where(count > 0, 0.0, np.nan))
         for key, v in (("margin_s", N * T), ("samples", N), ("peak", peak),
                        ("peak_hz", theta / (2 * np.pi * T))):
