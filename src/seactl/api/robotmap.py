@@ -26,6 +26,9 @@ class WorkspaceMap(Result):
         Phase margin at ``outer.j1`` [deg], ``(m,)``.
     delay_margin_ms : numpy.ndarray
         Delay margin at ``outer.j1`` [ms], ``(m,)``.
+    worst : int
+        The index of the configuration with the smallest phase margin (an unstable one
+        first).
 
     Examples
     --------
