@@ -98,12 +98,12 @@ def test_mujoco_agrees_with_the_verdict_across_the_delay_margin(q0):
     """Oracle: the certified verdict at 0.8x and 1.2x of the central process's predicted
     delay margin (System.delay_margin along the stiffness delay), itself checked against
     the rightmost roots and the sampled loop's period map at 1 kHz; MuJoCo's response to
-    an impulse on joint 1 (Robot.verify_mujoco's runs, read here on their own) decays
+    an impulse on joint 1 (Robot.mujoco_check's runs, read here on their own) decays
     below the margin and grows above it."""
     r = arm(q0)
     margin = r.delay_margin({"stiffness": 1})
     assert bool(margin.verified)
-    check = r.verify_mujoco((0.8, 1.2), t_end_s=1.0, gravity_mps2=GRAVITY)
+    check = r.mujoco_check((0.8, 1.2), t_end_s=1.0, gravity_mps2=GRAVITY)
     assert check.delay_margin_s == pytest.approx(float(margin.crossing_delays_s["stiffness"]))
     assert check.stable.tolist() == [True, False]
     for factor, stable, y in zip(check.factors, check.stable, check.q_j1_rad):
@@ -118,10 +118,26 @@ def test_mujoco_agrees_with_the_verdict_across_the_delay_margin(q0):
     assert check.agrees
 
 
-def test_verify_mujoco_refuses_bad_arguments():
+def test_mujoco_check_refuses_bad_arguments():
     """A behaviour: InputError naming the argument, before any run."""
     r = arm([0.3, 0.8])
     for kw, field in ((dict(factors=[]), "factors"), (dict(factors=[0.8, -1]), "factors"),
                       (dict(t_end_s=50.0), "t_end_s"), (dict(impulse=0.0), "impulse")):
         with pytest.raises(sc.InputError, match=field):
-            r.verify_mujoco(**kw)
+            r.mujoco_check(**kw)
+
+
+def test_cli_mujoco_check_is_the_api(capsys):
+    """Oracle: the API (Robot.mujoco_check) on the same robot: the CLI prints its records."""
+    import json
+
+    from seactl.apps.cli import main
+
+    argv = ["robot", "--urdf", str(ARM), "--q0", "0,1.5", "--fn", "20", "--t-tau", "0.5",
+            "--t-qs", "2", "--t-qd", "0.5", "--f-qd", "50", "--f-taud", "100",
+            "--mujoco-check", "--json"]
+    assert main(argv) == 0
+    got = json.loads(capsys.readouterr().out)["mujoco_check"]
+    want = arm([0.0, 1.5]).mujoco_check().records()
+    assert [r["agree"] for r in got] == [True, True]
+    assert got == want

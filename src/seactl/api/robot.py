@@ -53,7 +53,7 @@ class Robot(System):
     task_stiffness : tuple or None
         ``(k_x [N/m], k_r [N m/rad])`` in task space.
     urdf : str or None
-        The URDF file it was built from (what :meth:`verify_mujoco` compiles).
+        The URDF file it was built from (what :meth:`mujoco_check` compiles).
 
     Examples
     --------
@@ -235,7 +235,7 @@ class Robot(System):
                     design, s) / (-s)
         return z
 
-    def verify_mujoco(self, factors: Sequence[float] = (0.8, 1.2), *, t_end_s: float = 1.0,
+    def mujoco_check(self, factors: Sequence[float] = (0.8, 1.2), *, t_end_s: float = 1.0,
                       impulse: float = 1e-3, rate_hz: float = 1000.0,
                       gravity_mps2: Sequence[float] = (0.0, 0.0, -9.81)) -> Any:
         """Run the robot in MuJoCo with the central delay at multiples of its predicted
@@ -271,9 +271,9 @@ class Robot(System):
             Bad arguments, MuJoCo not installed, a URDF MuJoCo does not compile, or a
             design whose central delay margin is not finite and positive.
         """
-        from seactl.api.robotcheck import mujoco_check
+        from seactl.api.robotcheck import run_check
 
-        return mujoco_check(self, factors, t_end_s, impulse, rate_hz, gravity_mps2)
+        return run_check(self, factors, t_end_s, impulse, rate_hz, gravity_mps2)
 
 
 def design_inertia(mass_matrix: np.ndarray) -> np.ndarray:

@@ -1,5 +1,5 @@
 """A robot's certified verdicts against MuJoCo across its central delay margin:
-:class:`MujocoCheck` (:meth:`seactl.Robot.verify_mujoco`)."""
+:class:`MujocoCheck` (:meth:`seactl.Robot.mujoco_check`)."""
 
 from __future__ import annotations
 
@@ -67,7 +67,7 @@ class MujocoCheck(Result):
     >>> r = sc.robot("examples/robots/planar_2link.urdf", q0=[0.0, 1.5], fn_hz=20,
     ...              delays_ms={"torque": 0.5, "stiffness": 2, "damping": 0.5},
     ...              filters_hz=(50, 100))                       # doctest: +SKIP
-    >>> c = r.verify_mujoco(gravity_mps2=(0, -9.81, 0))          # doctest: +SKIP
+    >>> c = r.mujoco_check(gravity_mps2=(0, -9.81, 0))          # doctest: +SKIP
     >>> c.agrees, c.stable.tolist(), round(c.delay_margin_s * 1e3, 2)  # doctest: +SKIP
     (True, [True, False], 15.39)
     """
@@ -150,9 +150,9 @@ def _check_args(factors: Any, t_end_s: float, impulse: float, rate_hz: float) ->
     return f
 
 
-def mujoco_check(robot: Any, factors: Any, t_end_s: float, impulse: float, rate_hz: float,
+def run_check(robot: Any, factors: Any, t_end_s: float, impulse: float, rate_hz: float,
                  gravity_mps2: Any) -> MujocoCheck:
-    """:meth:`seactl.Robot.verify_mujoco` (its docstring)."""
+    """:meth:`seactl.Robot.mujoco_check` (its docstring)."""
     from dataclasses import replace
 
     from seactl.codegen.mujoco_robot import simulate_robot_mujoco
