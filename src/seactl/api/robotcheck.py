@@ -159,6 +159,8 @@ def run_check(robot: Any, factors: Any, t_end_s: float, impulse: float, rate_hz:
     from seactl.simulate.inputs import Impulse
 
     f = _check_args(factors, t_end_s, impulse, rate_hz)
+    if robot.urdf is None:
+        raise InputError("urdf", None, "a robot built by seactl.robot from a URDF file")
     margin = robot.delay_margin({"stiffness": 1})
     t_star = float(np.ravel(margin.crossing_delays_s["stiffness"])[0])
     if not (np.isfinite(t_star) and float(np.ravel(margin.delay_margin_s)[0]) > 0):
