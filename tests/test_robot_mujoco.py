@@ -149,3 +149,17 @@ def test_cli_mujoco_check_is_the_api(capsys):
     want = arm([0.0, 1.5]).mujoco_check().records()
     assert [r["agree"] for r in got] == [True, True]
     assert got == want
+
+
+def test_cli_mujoco_check_without_mujoco_is_one_line(capsys, monkeypatch):
+    """A behaviour: without MuJoCo, one line saying how to install it, exit 2."""
+    import sys
+
+    from seactl.apps.cli import main
+
+    monkeypatch.setitem(sys.modules, "mujoco", None)  # import mujoco -> ImportError
+    assert main(["robot", "--urdf", str(ARM), "--q0", "0,1.5", "--fn", "20",
+                 "--mujoco-check"]) == 2
+    out = capsys.readouterr()
+    assert out.out == "" and out.err.count("\n") == 1
+    assert out.err.startswith("error: ") and "seactl[sim]" in out.err

@@ -159,6 +159,11 @@ def run_check(robot: Any, factors: Any, t_end_s: float, impulse: float, rate_hz:
     from seactl.simulate.inputs import Impulse
 
     f = _check_args(factors, t_end_s, impulse, rate_hz)
+    try:
+        import mujoco  # noqa: F401
+    except ImportError:
+        raise InputError("mujoco_check", "mujoco", "MuJoCo installed: pip install "
+                         "'seactl[sim]'") from None
     if robot.urdf is None:
         raise InputError("urdf", None, "a robot built by seactl.robot from a URDF file")
     margin = robot.delay_margin({"stiffness": 1})
