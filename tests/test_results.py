@@ -69,6 +69,11 @@ UNITLESS = {
                     "s-plane values in rad/s (real parts 1/s), named as python-control "
                     "names poles"),
     **dict.fromkeys(("verified", "touch"), "a boolean (a delay margin's checks)"),
+    **dict.fromkeys(("mujoco_stable", "agree", "agrees"),
+                    "a boolean (a robot's MuJoCo check against its verdicts)"),
+    **dict.fromkeys(("factors", "envelope_ratio"), "a dimensionless ratio (MuJoCo check)"),
+    "worst": "a count or an index (the worst configuration of a workspace map)",
+    "joints": "words (a workspace map's joint names)",
     "direction": "dimensionless weights d / max(d), per delay name",
     **dict.fromkeys(("z", "magnitude", "stiffness"), "in the result's own `unit`"),
     **dict.fromkeys(("position", "q_measured", "q_replay", "q_nominal", "bound"),

@@ -34,6 +34,7 @@ _PUBLIC = {
     ".api.rigid": ("rigid", "RigidBatch"),
     ".api.sampled_jitter": ("SampledJitterResult",),
     ".api.robot": ("robot", "Robot", "workspace_map"),
+    ".api.robotcheck": ("MujocoCheck",),
     ".api.sweeps": ("sweep", "read_sweep", "parameter_robustness"),
     ".api.mobile_base": ("compare_mobile_base", "mobile_base_params"),
     ".api.userloop": ("UserLoop",),
@@ -57,7 +58,7 @@ __all__ = [
     # other systems
     "rigid", "RigidBatch", "loop_model", "latency_map", "place", "sweep", "read_sweep",
     "parameter_robustness",
-    "robot", "Robot", "workspace_map",
+    "robot", "Robot", "workspace_map", "MujocoCheck",
     "compare_mobile_base", "mobile_base_params", "LatencyMapResult", "PlacementResult",
     # your own loop (loop files, docs/loops.md)
     "load_loop", "LoopBuilder", "UserLoop",

@@ -52,6 +52,8 @@ class Robot(System):
         ``(f_qd, f_taud)`` [Hz] or None.
     task_stiffness : tuple or None
         ``(k_x [N/m], k_r [N m/rad])`` in task space.
+    urdf : str or None
+        The URDF file it was built from (what :meth:`mujoco_check` compiles).
 
     Examples
     --------
@@ -72,6 +74,7 @@ class Robot(System):
     delays: dict
     filters_hz: tuple
     task_stiffness: tuple | None
+    urdf: str | None = None
 
     kind: ClassVar[str] = "robot"
     step_unit: ClassVar[str] = "rad"
@@ -232,6 +235,46 @@ class Robot(System):
                     design, s) / (-s)
         return z
 
+    def mujoco_check(self, factors: Sequence[float] = (0.8, 1.2), *, t_end_s: float = 1.0,
+                      impulse: float = 1e-3, rate_hz: float = 1000.0,
+                      gravity_mps2: Sequence[float] = (0.0, 0.0, -9.81)) -> Any:
+        """Run the robot in MuJoCo with the central delay at multiples of its predicted
+        delay margin, beside the certified verdict at each (docs/robots.md).
+
+        MuJoCo compiles the URDF; each joint gets a rotor and a spring, gravity is
+        compensated, seactl's sampled controllers tick at ``rate_hz``
+        (:mod:`seactl.codegen.mujoco_robot`); an impulse of the external torque on joint
+        1 starts each run at rest at ``q0``.
+
+        Parameters
+        ----------
+        factors : sequence of float
+            Multiples (> 0) of the central delay at the predicted crossing.
+        t_end_s : float
+            Simulated time of each run [s], in [0.1, 20].
+        impulse : float
+            The impulse on joint 1 [N m s] (small: the linear regime), > 0.
+        rate_hz : float
+            The controllers' rate [Hz].
+        gravity_mps2 : sequence of 3 float
+            Gravity in the world frame [m/s^2] (compensated).
+
+        Returns
+        -------
+        seactl.api.robotcheck.MujocoCheck
+            Per factor the certified verdict, MuJoCo's envelope ratio and verdict,
+            ``agree``; ``agrees``, ``records()``, ``plot()``.
+
+        Raises
+        ------
+        InputError
+            Bad arguments, MuJoCo not installed, a URDF MuJoCo does not compile, or a
+            design whose central delay margin is not finite and positive.
+        """
+        from seactl.api.robotcheck import run_check
+
+        return run_check(self, factors, t_end_s, impulse, rate_hz, gravity_mps2)
+
 
 def design_inertia(mass_matrix: np.ndarray) -> np.ndarray:
     """Per joint the inertia its SEA is designed for: ``1 / (M^{-1})_jj`` [kg m^2], what
@@ -367,7 +410,7 @@ def robot(urdf: str | Path, *, actuators: Any = "ut-sea", space: str = "joint",
     filters = tuple(None if f is None else float(f)
                     for f in filter_cutoffs(filters_hz, ("f_qd", "f_taud")))
     delays = {"torque": float(t_tau), "stiffness": float(t_qs), "damping": float(t_qd)}
-    return Robot(body, tuple(acts), gains, K, space, fn, g, delays, filters, kxr)
+    return Robot(body, tuple(acts), gains, K, space, fn, g, delays, filters, kxr, str(urdf))
 
 
 def workspace_map(urdf: str | Path, configurations: Any, **options: Any) -> Any:

@@ -46,15 +46,20 @@ class MujocoPlant:
         The actuation signals :meth:`advance` takes, in this order.
     inputs : sequence of str
         The physical inputs :meth:`advance` takes, in this order.
+    qpos0 : array_like, optional
+        The starting positions (MuJoCo's ``qpos``, default zeros): the operating point,
+        the origin of the sensed signals (the diagram's signals are deviations from it).
     """
 
     def __init__(self, model: PlantModel, period_s: float, sensed: Sequence[str],
-                 actuation: Sequence[str], inputs: Sequence[str] = ()):
+                 actuation: Sequence[str], inputs: Sequence[str] = (), qpos0: Any = None):
         mj = import_mujoco()
         self.mj = mj
         self.model = model
         self.m = mj.MjModel.from_xml_string(model.xml)
         self.d = mj.MjData(self.m)
+        self.qpos0 = np.zeros(self.m.nq) if qpos0 is None else np.asarray(qpos0, float)
+        self.d.qpos[:] = self.qpos0
         n = period_s / model.timestep_s
         if not (n >= 1 and abs(n - round(n)) <= 1e-6 * n):
             raise InputError("timestep_s [s]", model.timestep_s,
@@ -78,8 +83,8 @@ class MujocoPlant:
         return self.m.actuator(name).id, factor
 
     def sense(self) -> np.ndarray:
-        """The sensed signals at the current time."""
-        return self.S @ self.d.qpos
+        """The sensed signals at the current time (from the starting positions)."""
+        return self.S @ (self.d.qpos - self.qpos0)
 
     def advance(self, actuation: Sequence[float], inputs: Sequence[float] = ()) -> None:
         """Hold ``actuation`` and ``inputs`` over one period; MuJoCo clips each control to
@@ -164,13 +169,25 @@ def simulate_mujoco(diagram: Any, design: Any, inputs: Mapping[str, Any], t_end_
     MujocoRun
         The recorded signals per tick.
     """
-    from seactl.simulate.discrete import SampledState, compile_sampled, control_tick
-    from seactl.simulate.inputs import Impulse
-
     if int(np.prod(getattr(design, "shape", ()), dtype=int)) != 1:
         raise InputError("design", f"batch of shape {design.shape}", "a single design")
     if not (isinstance(substeps, (int, np.integer)) and 1 <= substeps <= 10_000):
         raise InputError("substeps", substeps, "an integer in [1, 10000]")
+    plan, signals = sampled_plan(diagram, design, inputs, t_end_s, outputs, rates_hz,
+                                 saturation)
+    Tb = plan.base_period_s
+    plant = MujocoPlant(plant_model(design, Tb / substeps, integrator), Tb, *signals)
+    return close_loop(plan, plant, signals, inputs, outputs)
+
+
+def sampled_plan(diagram: Any, design: Any, inputs: Mapping[str, Any], t_end_s: float,
+                 outputs: Sequence[str], rates_hz: Any,
+                 saturation: Mapping[str, float] | None) -> tuple[Any, tuple]:
+    """The sampled controller's plan (:func:`seactl.simulate.discrete.compile_sampled`)
+    and the plant's signals ``(sensed, actuation, inputs)`` (:func:`plant_signals`);
+    ``outputs`` may not name a plant signal MuJoCo does not sense."""
+    from seactl.simulate.discrete import compile_sampled
+
     sensed, actuation, exo = plant_signals(diagram)
     plant_only = {b.dst for b in diagram.blocks if b.role == "plant"} - set(sensed)
     for o in outputs:
@@ -180,9 +197,19 @@ def simulate_mujoco(diagram: Any, design: Any, inputs: Mapping[str, Any], t_end_
     ctrl_out = [o for o in outputs if o not in sensed and o not in actuation]
     plan = compile_sampled(diagram, design, inputs, t_end_s, ctrl_out, rates_hz=rates_hz,
                            saturation=saturation)
-    Tb = plan.base_period_s
-    plant = MujocoPlant(plant_model(design, Tb / substeps, integrator), Tb, sensed,
-                        actuation, exo)
+    return plan, (sensed, actuation, exo)
+
+
+def close_loop(plan: Any, plant: MujocoPlant, signals: tuple, inputs: Mapping[str, Any],
+               outputs: Sequence[str]) -> MujocoRun:
+    """Run the sampled controller of ``plan`` against ``plant`` tick by tick: sense, one
+    controller tick (:func:`seactl.simulate.discrete.control_tick`), hold the actuation
+    and the physical inputs over one period of MuJoCo steps."""
+    from seactl.simulate.discrete import SampledState, control_tick
+    from seactl.simulate.inputs import Impulse
+
+    sensed, actuation, exo = signals
+    ctrl_out = [o for o in outputs if o not in sensed and o not in actuation]
     kicks = [inputs[e].area if isinstance(inputs.get(e), Impulse) else 0.0 for e in exo]
     if any(kicks):
         plant.kick(kicks)
@@ -204,7 +231,8 @@ def simulate_mujoco(diagram: Any, design: Any, inputs: Mapping[str, Any], t_end_
             u = [0.0 if f is None else float(np.ravel(f(np.array(plan.t_s[k])))[0])
                  for f in exo_t]
             plant.advance(act[:, 0], u)
-    info = {"substeps": int(substeps), "timestep_s": Tb / substeps, "integrator": integrator,
+    info = {"substeps": plant.substeps, "timestep_s": plant.model.timestep_s,
+            "integrator": plant.model.integrator,
             "rates_hz": plan.info["rates_hz"],
             "effective_delays_s": {b: float(np.ravel(v)[0])
                                    for b, v in plan.info["effective_delays_s"].items()}}

@@ -77,9 +77,12 @@ def robot_record(r: Any, margins: dict[str, Any], roots: Any) -> dict[str, Any]:
 @axis_option("t_qd_ms")
 @axis_option("f_qd_hz")
 @axis_option("f_taud_hz")
+@click.option("--mujoco-check", is_flag=True,
+              help="Also run the robot in MuJoCo at 0.8x and 1.2x of the central delay "
+                   "margin and compare with the certified verdicts (needs mujoco).")
 @json_option
 def robot(urdf: str, actuators: str, space: str, task: str | None, q0: str | None,
-          as_json: bool, **axes: Any) -> None:
+          mujoco_check: bool, as_json: bool, **axes: Any) -> None:
     """Margins of every loop break, certified verdict and spectral abscissa of a robot.
 
     Python: sc.robot(urdf, actuators=..., space=..., task=..., q0=...).
@@ -93,6 +96,7 @@ def robot(urdf: str, actuators: str, space: str, task: str | None, q0: str | Non
     designed for its apparent inertia 1/(M^-1)_jj; the stiffness runs on the central
     process (delay --t-qs), damping and torque loops on each joint's embedded process.
     Breaks: outer.jN (the SEA's outer loop), stiffness.jN, damping.jN, torque.jN.
+    --mujoco-check: Python r.mujoco_check() (docs/robots.md, "In MuJoCo").
     """
     import seactl as sc
 
@@ -104,10 +108,14 @@ def robot(urdf: str, actuators: str, space: str, task: str | None, q0: str | Non
                             "damping": v["t_qd_ms"]},
                  filters_hz=(v["f_qd_hz"], v["f_taud_hz"]))
     rec = robot_record(r, r.margins_by_break(), r.roots(count=4))
+    if mujoco_check:
+        rec["mujoco_check"] = r.mujoco_check().records()
     if as_json:
         echo_json(rec)
         return
     _print(rec)
+    if mujoco_check:
+        _print_check(rec["mujoco_check"])
 
 
 def _print(rec: dict[str, Any]) -> None:
@@ -124,3 +132,18 @@ def _print(rec: dict[str, Any]) -> None:
     sa = rec["spectral_abscissa_per_s"]
     console.print(f"certified verdict: {verdict}; spectral abscissa "
                   f"{'none' if sa is None else format(sa, '.4g')} 1/s")
+
+
+def _print_check(rows: list[dict[str, Any]]) -> None:
+    t = Table(title=f"MuJoCo across the central delay margin "
+                    f"({1e3 * rows[0]['delay_margin_s']:.4g} ms)")
+    for col in ("factor", "central delay [ms]", "certified", "abscissa [1/s]",
+                "MuJoCo envelope ratio", "MuJoCo growth [1/s]", "agree"):
+        t.add_column(escape(col))
+    for r in rows:
+        t.add_row(f"{r['factor']:g}", f"{1e3 * r['central_delay_s']:.4g}",
+                  "stable" if r["stable"] else "unstable",
+                  f"{r['spectral_abscissa_per_s']:.3g}", f"{r['envelope_ratio']:.3g}",
+                  f"{r['growth_rate_per_s']:.3g}",
+                  "yes" if r["agree"] else "[red]NO[/red]")
+    console.print(t)
