@@ -43,8 +43,6 @@ UNITLESS = {
     **dict.fromkeys(("labels", "label"), "legend labels / label columns"),
     "seconds": "the unit is the name (a sweep's wall time)",
     "real": "the exported C's floating-point type (a word)",
-    "worst": "an index (a workspace map's worst configuration)",
-    "joints": "names (a robot's joints)",
     **dict.fromkeys(("stable", "uncertain", "converged", "complete", "has_crossover", "load"),
                     "a boolean"),
     **dict.fromkeys(("verdict", "kind", "mode", "model", "unit", "units", "arch", "loop",

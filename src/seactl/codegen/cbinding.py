@@ -8,7 +8,6 @@ with the system compiler, and loaded through cffi when it is installed, else cty
 
 from __future__ import annotations
 
-import subprocess
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
@@ -42,20 +41,13 @@ def shim_source(prog: Program) -> str:
 def build_library(build: Path, prog: Program, cc: str) -> Path:
     """Compile ``<p>.c`` (already in ``build``) and its shim into ``lib<p>.so`` with
     ``cc`` and the export's warning flags plus ``-fPIC -shared``."""
-    from seactl.codegen.controllers import CFLAGS
-    from seactl.errors import SeactlError
+    from seactl.codegen.export import run_compiler
 
     p = prog.ident
     (build / f"{p}_rt.c").write_text(shim_source(prog))
     lib = build / f"lib{p}.so"
-    cmd = [cc, *CFLAGS, "-fPIC", "-shared", f"{p}.c", f"{p}_rt.c", "-o", lib.name]
-    try:
-        res = subprocess.run(cmd, cwd=build, capture_output=True, text=True, timeout=120)
-    except (OSError, subprocess.TimeoutExpired) as exc:
-        raise SeactlError(f"cannot run the C compiler {cc}: {exc}") from None
-    if res.returncode != 0:
-        first = (res.stderr.strip().splitlines() or ["no message"])[0]
-        raise SeactlError(f"the C compiler rejected the run library of {prog.name!r}: {first}")
+    run_compiler(cc, ["-fPIC", "-shared", f"{p}.c", f"{p}_rt.c", "-o", lib.name], build,
+                 f"the run library of {prog.name!r}")
     return lib
 
 

@@ -174,15 +174,23 @@ def compile_c(build: Path, proc: ProcessController, cc: str) -> Path:
     """Compile ``<process>.c`` and its harness in ``build`` with ``cc`` and
     :data:`~seactl.codegen.controllers.CFLAGS`; the executable."""
     exe = build / f"{proc.ident}_harness"
-    cmd = [cc, *CFLAGS, f"{proc.ident}.c", f"{proc.ident}_main.c", "-o", exe.name]
+    run_compiler(cc, [f"{proc.ident}.c", f"{proc.ident}_main.c", "-o", exe.name], build,
+                 f"the export of {proc.name!r}")
+    return exe
+
+
+def run_compiler(cc: str, args: list[str], build: Path, what: str) -> None:
+    """Run ``cc`` with :data:`~seactl.codegen.controllers.CFLAGS` and ``args`` in ``build``;
+    :class:`~seactl.errors.SeactlError` naming ``what`` and the first line of the
+    compiler's message if it cannot run or rejects the code."""
+    cmd = [cc, *CFLAGS, *args]
     try:
         res = subprocess.run(cmd, cwd=build, capture_output=True, text=True, timeout=120)
     except (OSError, subprocess.TimeoutExpired) as exc:
         raise SeactlError(f"cannot run the C compiler {cc}: {exc}") from None
     if res.returncode != 0:
         first = (res.stderr.strip().splitlines() or ["no message"])[0]
-        raise SeactlError(f"the C compiler rejected the export of {proc.name!r}: {first}")
-    return exe
+        raise SeactlError(f"the C compiler rejected {what}: {first}")
 
 
 def _c_runner(exes: Mapping[str, Path]) -> Any:
