@@ -232,7 +232,7 @@ def test_run_refuses_a_band_without_mujoco():
 
 
 @pytest.mark.parametrize("args, needle", [
-    (["--latency", "stiffness=uniform:1:3"], "--plant mujoco only"),
+    (["--latency", "stiffness=uniform:1:3"], "--plant mujoco or --realtime only"),
     (["--plant", "mujoco", "--latency", "speed=uniform:1:3"], "stiffness, damping, torque"),
     (["--plant", "mujoco", "--latency", "stiffness=bogus"], "--latency")])
 def test_cli_band_bad_input(args, needle, capsys):
