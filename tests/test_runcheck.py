@@ -81,12 +81,18 @@ def test_run_check_uses_the_designs_margins(lockstep):
     assert json.dumps(res.summary)   # JSON-ready
 
 
-def test_injected_latency_beyond_the_margin_is_outside():
-    # oracle: 20 ms injected on the high-level -> embedded link; the loop's delay limit is
-    # 18 ms (< 20 ms + the design's 2 ms): the check must fail on the delay limit
-    d = _design()
-    res = d.run(duration_s=0.3, transport="udp", extra_latency_s=0.02)
-    c = res.summary["latency_check"]["stiffness"]
+def test_injected_latency_beyond_the_margin_is_outside(capsys):
+    # oracle: 20 ms injected on the high-level -> embedded link; the loop's delay limit
+    # (the API's delay_margin along the stiffness delay of the same design, 18 ms) is
+    # below 20 ms + the design's 2 ms: the check must fail on the delay limit
+    from seactl.apps.cli import main
+
+    assert main(["run", "--fn", "14", "--t-tau", "1", "--t-qs", "2", "--t-qd", "1",
+                 "--f-qd", "50", "--f-taud", "100", "--transport", "udp", "--duration",
+                 "0.3", "--extra-latency", "20", "--json"]) in (0, None)
+    c = json.loads(capsys.readouterr().out)["latency_check"]["stiffness"]
+    dm = _design().delay_margin({"stiffness": 1}).records()[0]["delay_margin_s"]
+    assert c["delay_limit_ms"] == pytest.approx(2.0 + 1e3 * dm, rel=1e-12)
     assert c["max_ms"] >= 22.0 > c["delay_limit_ms"]
     assert not c["within"] and c["verdict"].startswith("outside: ")
     assert "delay limit" in c["verdict"]

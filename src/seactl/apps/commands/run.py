@@ -172,14 +172,16 @@ def _print_checks(s: dict[str, Any]) -> None:
         t = Table(title="measured latency per delayed loop vs the design's margins")
         for col in ("loop", "design delay [ms]", "mean [ms]", "max [ms]", "spread [ms]",
                     "p99-p1 [ms]", "jitter margin [ms]", "sampled jitter margin [ms]",
-                    "delay limit [ms]", "verdict"):
+                    "delay limit [ms]", "within"):
             t.add_column(escape(col))
         for loop, c in checks.items():
             t.add_row(escape(loop), *(_num(c[k]) for k in (
                 "design_delay_ms", "mean_ms", "max_ms", "spread_ms", "spread_p99_p1_ms",
                 "jitter_margin_ms", "sampled_jitter_margin_ms", "delay_limit_ms")),
-                escape(c["verdict"]))
+                "yes" if c["within"] else "no")
         console.print(t)
+        for loop, c in checks.items():
+            console.print(f"{escape(loop)}: {escape(c['verdict'])}")
     if "prediction_band" in s:
         b = s["prediction_band"]
         plant = (f"MuJoCo plant (step {s['plant_timestep_s']:g} s)"
