@@ -137,7 +137,7 @@ def plant_signals(diagram: Any) -> tuple[list[str], list[str], list[str]]:
 def simulate_mujoco(diagram: Any, design: Any, inputs: Mapping[str, Any], t_end_s: float, *,
                     outputs: Sequence[str] = (), rates_hz: Any = 1000.0,
                     saturation: Mapping[str, float] | None = None, substeps: int = 10,
-                    integrator: str = "RK4") -> MujocoRun:
+                    integrator: str = "RK4", timing: Any = None) -> MujocoRun:
     """Closed-loop response of one design with MuJoCo as the plant (module docstring).
 
     Parameters
@@ -158,13 +158,18 @@ def simulate_mujoco(diagram: Any, design: Any, inputs: Mapping[str, Any], t_end_
         MuJoCo steps per base period (the timestep is the period over ``substeps``).
     integrator : str
         MuJoCo's integrator (:data:`seactl.codegen.mjcf.INTEGRATORS`).
+    timing : object, optional
+        Time-varying timing of some delayed blocks, as :func:`seactl.simulate.engine.
+        simulate`'s (``blocks`` and ``schedules(plan)``, e.g.
+        :class:`seactl.latency.montecarlo.LinkTiming` with one run); default: the
+        design's fixed delays.
 
     Returns
     -------
     MujocoRun
         The recorded signals per tick.
     """
-    from seactl.simulate.discrete import SampledState, compile_sampled, control_tick
+    from seactl.simulate.discrete import compile_sampled, control_tick, start_timed
     from seactl.simulate.inputs import Impulse
 
     if int(np.prod(getattr(design, "shape", ()), dtype=int)) != 1:
@@ -179,7 +184,8 @@ def simulate_mujoco(diagram: Any, design: Any, inputs: Mapping[str, Any], t_end_
                              + ", ".join(sensed + actuation))
     ctrl_out = [o for o in outputs if o not in sensed and o not in actuation]
     plan = compile_sampled(diagram, design, inputs, t_end_s, ctrl_out, rates_hz=rates_hz,
-                           saturation=saturation)
+                           saturation=saturation,
+                           buffered=timing.blocks if timing is not None else ())
     Tb = plan.base_period_s
     plant = MujocoPlant(plant_model(design, Tb / substeps, integrator), Tb, sensed,
                         actuation, exo)
@@ -188,11 +194,11 @@ def simulate_mujoco(diagram: Any, design: Any, inputs: Mapping[str, Any], t_end_
         plant.kick(kicks)
     exo_t = [inputs[e] if e in inputs and not isinstance(inputs[e], Impulse) else None
              for e in exo]
-    st = SampledState.start(plan, int(plan.nbuf.max(initial=0)) + 2)
+    st, sched = start_timed(plan, timing.schedules(plan) if timing is not None else None)
     rec = {o: np.empty(plan.steps + 1) for o in outputs}
     for k in range(plan.steps + 1):
         ys = plant.sense()
-        Sc, act = control_tick(plan, st, k, ys[:, None], None)
+        Sc, act = control_tick(plan, st, k, ys[:, None], sched)
         for o in outputs:
             if o in sensed:
                 rec[o][k] = ys[sensed.index(o)]

@@ -23,16 +23,18 @@ BAND_STEP_RAD = 0.01
 BAND_T_END_S = 0.3
 BAND_RUNS = 50
 BAND_LATENCY_MS = {"inside": (1.0, 3.0), "outside": (4.0, 6.0)}   # stiffness, uniform
+STEP_LATENCY_MS = (1.0, 3.0)        # the MuJoCo step's own stiffness latency, uniform
+STEP_SEED = 1                       # its realization (the bands draw from seed 0)
 TITLE = "From analysis to a physics engine"
 CLAIMS = {
     "physics.margin_below": "At 0.8 x the predicted delay margin the MuJoCo step's error "
                             "decays, at the rate of the rightmost characteristic root",
     "physics.margin_above": "At 1.2 x the predicted delay margin the MuJoCo step's error "
                             "grows, at the rate of the rightmost characteristic root",
-    "physics.band_inside": "The MuJoCo step lies in the band monte_carlo predicts for a "
-                           "stiffness latency uniform in 1-3 ms (the design's 2 ms inside)",
-    "physics.band_outside": "The MuJoCo step leaves the band predicted for a stiffness "
-                            "latency uniform in 4-6 ms (the design's 2 ms outside)",
+    "physics.band_inside": "A MuJoCo step whose stiffness latency varies uniformly in 1-3 "
+                           "ms lies in the band monte_carlo predicts for that distribution",
+    "physics.band_outside": "The same MuJoCo step leaves the band predicted for a "
+                            "stiffness latency uniform in 4-6 ms",
 }
 
 
@@ -53,6 +55,17 @@ def _envelope(x: float, dm_ms: float):
     w1, w2 = (run.t_s >= 0.2) & (run.t_s < 0.4), run.t_s >= 0.4
     rate = float(np.log(e[w2].max() / e[w1].max()) / 0.2)
     return run.t_s, e, rate, float(d.roots().spectral_abscissa)
+
+
+def _timing(d):
+    """One realization (seed :data:`STEP_SEED`) of the stiffness latency
+    :data:`STEP_LATENCY_MS` for the MuJoCo step."""
+    from seactl.latency.models import Uniform
+    from seactl.latency.montecarlo import LinkTiming
+
+    block = next(b for b in d.diagram_for().blocks if b.name == d.links["stiffness"])
+    lat = Uniform(STEP_LATENCY_MS[0] * 1e-3, STEP_LATENCY_MS[1] * 1e-3)
+    return LinkTiming({"stiffness": block}, {"stiffness": lat}, {}, 1, STEP_SEED)
 
 
 def _band(latency_ms: tuple[float, float], run, d):
@@ -85,7 +98,8 @@ def _figure(ctx: Context, run, bands, margins) -> Figure:
         a, b = BAND_LATENCY_MS[name]
         ax.fill_between(t_ms, lo, hi, color=color, alpha=0.3,
                         label=f"band, stiffness latency {a:g}-{b:g} ms")
-    ax.plot(t_ms, run.outputs["q_j"] / BAND_STEP_RAD, "k", lw=1.2, label="MuJoCo step")
+    ax.plot(t_ms, run.outputs["q_j"] / BAND_STEP_RAD, "k", lw=1.2,
+            label="MuJoCo step, stiffness latency 1-3 ms")
     ax.set_xlabel("t [ms]")
     ax.set_ylabel("q_j / step")
     ax.legend(fontsize=8)
@@ -98,8 +112,9 @@ def _figure(ctx: Context, run, bands, margins) -> Figure:
     bx.set_ylabel("|q_j / step - 1|")
     bx.legend(fontsize=7)
     name = ctx.savefig(fig, "physics_engine.png")
-    return Figure(name, "Left: the MuJoCo SEA test bed's step (f_n = 14 Hz, delays 1/2/1 ms, "
-                        "1 kHz) in the bands of 50 sampled steps for two stiffness latency "
+    return Figure(name, "Left: the MuJoCo SEA test bed's step (f_n = 14 Hz, 1 kHz, the "
+                        "stiffness latency drawn uniformly in 1-3 ms per message) in the "
+                        "bands of 50 sampled steps for two stiffness latency "
                         "distributions. Right: its step error at f_n = 20 Hz with the outer "
                         "loops' delays at 0.8 and 1.2 x the predicted delay margin (5 kHz), "
                         "against the growth of the rightmost characteristic root.")
@@ -132,7 +147,7 @@ def physics_engine(ctx: Context) -> Section:
     d = sc.design(BAND_FN_HZ, delays_ms=BAND_DELAYS_MS, filters_hz=FILTERS_HZ)
     run = simulate_mujoco(d.diagram_for(), d.design, {"q_des": Step(BAND_STEP_RAD)},
                           BAND_T_END_S, outputs=("q_j",), rates_hz=1000.0,
-                          saturation=d.saturation(), substeps=10)
+                          saturation=d.saturation(), substeps=10, timing=_timing(d))
     bands = {name: _band(lat, run, d) for name, lat in BAND_LATENCY_MS.items()}
     sec = Section("physics-engine", TITLE, intro=(
         "The SEA test bed generated as a MuJoCo model from the actuator's parameters (rotor "
@@ -143,9 +158,9 @@ def physics_engine(ctx: Context) -> Section:
         f"delays has a delay margin of {dm_ms:.3f} ms; with its stiffness and damping "
         "delays at 0.8 and 1.2 times that, the step's error in MuJoCo decays or grows, "
         "and the rate is the real part of the rightmost characteristic root. The band: "
-        "the sampled steps of `monte_carlo` for a latency distribution enclose the "
-        "MuJoCo step when the distribution covers the design's delay, and not when it "
-        "does not."))
+        "a MuJoCo step whose stiffness latency is drawn per message from a distribution "
+        "(uniform in 1-3 ms, one realization) lies in the band of the sampled steps "
+        "`monte_carlo` draws for that distribution, and not in the band of another."))
     sec.tables.append((
         "MuJoCo step on either side of the predicted delay margin (error envelope's growth "
         "rate from 0.2-0.4 s to 0.4-0.6 s)",
@@ -154,9 +169,9 @@ def physics_engine(ctx: Context) -> Section:
         [[f"{x * dm_ms:.3f}", f"{x:g}", f"{m[2]:.3g}", f"{m[3]:.3g}"]
          for x, m in margins.items()]))
     sec.tables.append((
-        f"MuJoCo step (f_n = {BAND_FN_HZ:g} Hz, delays 1/2/1 ms, 1 kHz) against the band of "
-        f"{BAND_RUNS} sampled steps",
-        ["stiffness latency [ms]", "band max width [of the step]", "verdict"],
+        f"MuJoCo step (f_n = {BAND_FN_HZ:g} Hz, delays 1/x/1 ms, 1 kHz; stiffness latency x "
+        f"uniform in 1-3 ms) against the band of {BAND_RUNS} sampled steps",
+        ["band's stiffness latency [ms]", "band max width [of the step]", "verdict"],
         [[f"uniform {BAND_LATENCY_MS[n][0]:g}-{BAND_LATENCY_MS[n][1]:g}",
           f"{v.max_width:.3g}", v.verdict] for n, (_, _, v) in bands.items()]))
     sec.figures.append(_figure(ctx, run, bands, margins))
