@@ -119,7 +119,7 @@ def test_physics_section_renders(tmp_path, capsys):
     assert "From analysis to a physics engine" in (out / "index.html").read_text()
 
 
-def test_physics_section_without_mujoco(tmp_path, monkeypatch):
+def test_physics_section_without_mujoco(tmp_path, monkeypatch, capsys):
     # oracle: MuJoCo made unimportable; the section says how to install it and keeps its
     # claim ids, none computed
     from seactl.apps import report
@@ -130,3 +130,11 @@ def test_physics_section_without_mujoco(tmp_path, monkeypatch):
     assert [c.id for c in sec.claims] == list(physics.CLAIMS)
     assert all(c.status == "info" and c.our_value is None for c in sec.claims)
     assert "pip install '.[sim]'" in sec.intro and not sec.figures
+    from seactl.apps.cli import main
+
+    out = tmp_path / "rep"
+    assert main(["reproduce", "--out", str(out), "--only", "physics-engine",
+                 "--jobs", "1"]) == 0
+    claims = json.loads((out / "claims.json").read_text())
+    assert [c["id"] for c in claims] == list(physics.CLAIMS)
+    assert "install" in (out / "index.html").read_text()

@@ -159,8 +159,8 @@ def simulate_mujoco(diagram: Any, design: Any, inputs: Mapping[str, Any], t_end_
     integrator : str
         MuJoCo's integrator (:data:`seactl.codegen.mjcf.INTEGRATORS`).
     timing : object, optional
-        Time-varying timing of some delayed blocks, as :func:`seactl.simulate.engine.
-        simulate`'s (``blocks`` and ``schedules(plan)``, e.g.
+        Time-varying timing of some delayed blocks, as the sampled simulation's
+        (:func:`seactl.simulate.engine.simulate`: ``blocks`` and ``schedules(plan)``, e.g.
         :class:`seactl.latency.montecarlo.LinkTiming` with one run); default: the
         design's fixed delays.
 
