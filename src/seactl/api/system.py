@@ -1020,8 +1020,8 @@ class System:
         latency : dict, optional
             With ``plant="mujoco"`` or ``realtime``: loop name -> latency model (as
             :meth:`monte_carlo`) of the prediction band (default: the run's measured
-            latency of the high-level loop; ``{}``: the design's delays, one nominal
-            response).
+            latency of the high-level loop, free-running of every loop; ``{}``: the
+            design's delays, one nominal response).
         realtime : bool
             Free-running processes, each on its own clock, running the exported C
             (compiled with the system's ``cc``), with timing statistics in the summary;
