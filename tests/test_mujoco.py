@@ -232,7 +232,7 @@ def test_run_refuses_a_band_without_mujoco():
 
 
 @pytest.mark.parametrize("args, needle", [
-    (["--latency", "stiffness=uniform:1:3"], "--plant mujoco only"),
+    (["--latency", "stiffness=uniform:1:3"], "--plant mujoco or --realtime only"),
     (["--plant", "mujoco", "--latency", "speed=uniform:1:3"], "stiffness, damping, torque"),
     (["--plant", "mujoco", "--latency", "stiffness=bogus"], "--latency")])
 def test_cli_band_bad_input(args, needle, capsys):
@@ -242,3 +242,24 @@ def test_cli_band_bad_input(args, needle, capsys):
     assert main(["run", "--fn", "14", "--transport", "udp", *args]) == 2
     err = capsys.readouterr().err
     assert err.startswith("error: ") and err.count("\n") == 1 and needle in err, err
+
+
+def test_mujoco_step_with_a_latency_distribution_is_the_timed_simulation():
+    # oracle: seactl's sampled simulation of the same timing realization (the same seed:
+    # the same arrival schedule of the stiffness messages), the plant exact; MuJoCo's RK4
+    # at 1e-4 s adds no more than 1e-8 of the step
+    from seactl.latency.models import Uniform
+    from seactl.latency.montecarlo import LinkTiming, timed_simulation
+
+    d = sc.design(14, delays_ms={"torque": 1, "stiffness": 2, "damping": 1},
+                  filters_hz=(50, 100))
+    dg, lat = d.diagram_for(), {"stiffness": Uniform(1e-3, 3e-3)}
+    block = next(b for b in dg.blocks if b.name == d.links["stiffness"])
+    kw = {"rates_hz": 1000.0, "saturation": d.saturation(), "outputs": ("q_j",)}
+    run = simulate_mujoco(dg, d.design, {"q_des": Step(0.01)}, 0.3, substeps=10,
+                          timing=LinkTiming({"stiffness": block}, lat, {}, 1, 3), **kw)
+    ref = timed_simulation(dg, d.design, {"q_des": Step(0.01)}, 0.3, latency=lat, runs=1,
+                           seed=3, links=d.links, **kw)
+    fixed = simulate_mujoco(dg, d.design, {"q_des": Step(0.01)}, 0.3, substeps=10, **kw)
+    assert np.max(np.abs(run.outputs["q_j"] - np.ravel(ref.outputs["q_j"]))) < 1e-8 * 0.01
+    assert np.max(np.abs(run.outputs["q_j"] - fixed.outputs["q_j"])) > 1e-3 * 0.01

@@ -151,6 +151,27 @@ def test_short_realtime_run_counts_every_lost_message_and_trips_the_watchdog(tmp
     assert emb["watchdog_events"] >= 1
     saved = json.loads((tmp_path / "r" / "summary.json").read_text())
     assert saved["links"] == s["links"]
+    _check_latency_and_band(s)
+
+
+def _check_latency_and_band(s: dict) -> None:
+    """The latency check and the band of a free-running run.  Oracle: each loop's
+    latency is a sum of one sample of every link it crosses, so it lies between the sums
+    of their smallest and largest latencies; the verdict's word and its flag agree."""
+    hops = {"stiffness": ("plant->high-level", "high-level->embedded", "embedded->plant"),
+            "damping": ("plant->embedded", "embedded->plant"),
+            "torque": ("plant->embedded", "embedded->plant")}
+    assert set(s["latency_check"]) == set(hops)
+    for loop, c in s["latency_check"].items():
+        lat = [s["links"][h]["latency"] for h in hops[loop]]
+        assert sum(v["min_ms"] for v in lat) - 1e-9 <= c["min_ms"] <= c["mean_ms"]
+        assert c["mean_ms"] <= c["max_ms"] <= sum(v["max_ms"] for v in lat) + 1e-9
+        assert c["count"] == min(v["count"] for v in lat)
+        assert c["within"] == (c["verdict"] == "within the jitter margin")
+        assert c["within"] or c["verdict"].startswith("outside: ")
+    band = s["prediction_band"]
+    assert band["within"] == (band["verdict"] == "within the predicted band")
+    assert set(band["latency"]) == set(hops)
 
 
 def test_realtime_without_a_compiler_is_a_one_line_error(monkeypatch, capsys):

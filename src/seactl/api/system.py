@@ -1018,9 +1018,10 @@ class System:
             The plant process: seactl's exact linear plant, or the MuJoCo model of the
             actuator (:mod:`seactl.codegen.mjcf`; the ``sim`` extra; SEA and rigid only).
         latency : dict, optional
-            With ``plant="mujoco"``: loop name -> latency model (as :meth:`monte_carlo`)
-            of the prediction band (default: the run's measured latency of the high-level
-            loop; ``{}``: the design's delays, one nominal response).
+            With ``plant="mujoco"`` or ``realtime``: loop name -> latency model (as
+            :meth:`monte_carlo`) of the prediction band (default: the run's measured
+            latency of the high-level loop, free-running of every loop; ``{}``: the
+            design's delays, one nominal response).
         realtime : bool
             Free-running processes, each on its own clock, running the exported C
             (compiled with the system's ``cc``), with timing statistics in the summary;
@@ -1032,9 +1033,12 @@ class System:
         -------
         seactl.codegen.runtime.RunResult
             ``summary`` (latency per link with histograms, ``replay_max_diff``,
-            ``nominal_max_diff``, ``plant``; with MuJoCo ``prediction_band``: the
-            verdict ``"within the predicted band"`` or ``"outside: ..."`` and its
-            numbers), the responses and the latency samples.
+            ``nominal_max_diff``, ``plant``; ``latency_check``: per delayed loop across
+            the link, its measured latency against its jitter margin and delay limit,
+            ``"within the jitter margin"`` or ``"outside: ..."``; with MuJoCo or
+            ``realtime``, ``prediction_band``: the verdict ``"within the predicted
+            band"`` or ``"outside: ..."`` and its numbers), the responses and the
+            latency samples.
 
         Examples
         --------
@@ -1051,27 +1055,33 @@ class System:
                                    saturation_a=saturation_a)
         a = self._amplitude(kw["amplitude"], self.default_step, self.step_unit)
         diagram, sat = self.diagram_for(**options), self.saturation(kw["saturation_a"])
-        if plant == "mujoco":
-            from seactl.codegen.mjcf import plant_model
+        lat = None
+        if plant == "mujoco" or realtime:
             from seactl.latency.band import check_band_latency
             from seactl.latency.models import parse_latency
 
-            plant_model(self.design)   # an SEA or a rigid actuator, before any process
+            if plant == "mujoco":
+                from seactl.codegen.mjcf import plant_model
+
+                plant_model(self.design)   # an SEA or a rigid actuator, before any process
             lat = None if latency is None else \
                 {k: parse_latency(v, f"latency {k}") if isinstance(v, str) else v
                  for k, v in latency.items()}
             check_band_latency(lat, self.links)
         elif latency is not None:
-            raise InputError("latency", latency, "used with plant='mujoco' only")
+            raise InputError("latency", latency, "used with plant='mujoco' or realtime=True")
         res = run_distributed(diagram, self.design, saturation=sat, step=a,
                               duration_s=duration_s, rates_hz=rates_hz, transport=transport,
                               extra_latency_s=extra_latency_s, loss=loss, seed=seed,
                               plant=plant, realtime=bool(realtime))
-        if plant == "mujoco":
+        if plant == "mujoco" or realtime:
             from seactl.latency.band import run_band
 
             run_band(res, diagram, self.design, reference=self.reference, links=self.links,
                      latency=lat, rates_hz=rates_hz, saturation=sat, seed=seed)
+        from seactl.api.runcheck import check_run
+
+        check_run(self, res)
         return res
 
     def sweep(self, out: Any, **options: Any) -> Any:

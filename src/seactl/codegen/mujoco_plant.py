@@ -142,7 +142,7 @@ def plant_signals(diagram: Any) -> tuple[list[str], list[str], list[str]]:
 def simulate_mujoco(diagram: Any, design: Any, inputs: Mapping[str, Any], t_end_s: float, *,
                     outputs: Sequence[str] = (), rates_hz: Any = 1000.0,
                     saturation: Mapping[str, float] | None = None, substeps: int = 10,
-                    integrator: str = "RK4") -> MujocoRun:
+                    integrator: str = "RK4", timing: Any = None) -> MujocoRun:
     """Closed-loop response of one design with MuJoCo as the plant (module docstring).
 
     Parameters
@@ -163,6 +163,11 @@ def simulate_mujoco(diagram: Any, design: Any, inputs: Mapping[str, Any], t_end_
         MuJoCo steps per base period (the timestep is the period over ``substeps``).
     integrator : str
         MuJoCo's integrator (:data:`seactl.codegen.mjcf.INTEGRATORS`).
+    timing : object, optional
+        Time-varying timing of some delayed blocks, as the sampled simulation's
+        (:func:`seactl.simulate.engine.simulate`: ``blocks`` and ``schedules(plan)``, e.g.
+        :class:`seactl.latency.montecarlo.LinkTiming` with one run); default: the
+        design's fixed delays.
 
     Returns
     -------
@@ -174,18 +179,20 @@ def simulate_mujoco(diagram: Any, design: Any, inputs: Mapping[str, Any], t_end_
     if not (isinstance(substeps, (int, np.integer)) and 1 <= substeps <= 10_000):
         raise InputError("substeps", substeps, "an integer in [1, 10000]")
     plan, signals = sampled_plan(diagram, design, inputs, t_end_s, outputs, rates_hz,
-                                 saturation)
+                                 saturation, buffered=timing.blocks if timing else ())
     Tb = plan.base_period_s
     plant = MujocoPlant(plant_model(design, Tb / substeps, integrator), Tb, *signals)
-    return close_loop(plan, plant, signals, inputs, outputs)
+    return close_loop(plan, plant, signals, inputs, outputs, timing=timing)
 
 
 def sampled_plan(diagram: Any, design: Any, inputs: Mapping[str, Any], t_end_s: float,
                  outputs: Sequence[str], rates_hz: Any,
-                 saturation: Mapping[str, float] | None) -> tuple[Any, tuple]:
-    """The sampled controller's plan (:func:`seactl.simulate.discrete.compile_sampled`)
-    and the plant's signals ``(sensed, actuation, inputs)`` (:func:`plant_signals`);
-    ``outputs`` may not name a plant signal MuJoCo does not sense."""
+                 saturation: Mapping[str, float] | None, buffered: Sequence[str] = ()
+                 ) -> tuple[Any, tuple]:
+    """The sampled controller's plan (:func:`seactl.simulate.discrete.compile_sampled`;
+    ``buffered``: the delayed blocks given a time-varying timing) and the plant's signals
+    ``(sensed, actuation, inputs)`` (:func:`plant_signals`); ``outputs`` may not name a
+    plant signal MuJoCo does not sense."""
     from seactl.simulate.discrete import compile_sampled
 
     sensed, actuation, exo = plant_signals(diagram)
@@ -196,16 +203,17 @@ def sampled_plan(diagram: Any, design: Any, inputs: Mapping[str, Any], t_end_s: 
                              + ", ".join(sensed + actuation))
     ctrl_out = [o for o in outputs if o not in sensed and o not in actuation]
     plan = compile_sampled(diagram, design, inputs, t_end_s, ctrl_out, rates_hz=rates_hz,
-                           saturation=saturation)
+                           saturation=saturation, buffered=tuple(buffered))
     return plan, (sensed, actuation, exo)
 
 
 def close_loop(plan: Any, plant: MujocoPlant, signals: tuple, inputs: Mapping[str, Any],
-               outputs: Sequence[str]) -> MujocoRun:
+               outputs: Sequence[str], timing: Any = None) -> MujocoRun:
     """Run the sampled controller of ``plan`` against ``plant`` tick by tick: sense, one
-    controller tick (:func:`seactl.simulate.discrete.control_tick`), hold the actuation
-    and the physical inputs over one period of MuJoCo steps."""
-    from seactl.simulate.discrete import SampledState, control_tick
+    controller tick (:func:`seactl.simulate.discrete.control_tick`, with ``timing``'s
+    schedules if given), hold the actuation and the physical inputs over one period of
+    MuJoCo steps."""
+    from seactl.simulate.discrete import control_tick, start_timed
     from seactl.simulate.inputs import Impulse
 
     sensed, actuation, exo = signals
@@ -215,11 +223,11 @@ def close_loop(plan: Any, plant: MujocoPlant, signals: tuple, inputs: Mapping[st
         plant.kick(kicks)
     exo_t = [inputs[e] if e in inputs and not isinstance(inputs[e], Impulse) else None
              for e in exo]
-    st = SampledState.start(plan, int(plan.nbuf.max(initial=0)) + 2)
+    st, sched = start_timed(plan, timing.schedules(plan) if timing is not None else None)
     rec = {o: np.empty(plan.steps + 1) for o in outputs}
     for k in range(plan.steps + 1):
         ys = plant.sense()
-        Sc, act = control_tick(plan, st, k, ys[:, None], None)
+        Sc, act = control_tick(plan, st, k, ys[:, None], sched)
         for o in outputs:
             if o in sensed:
                 rec[o][k] = ys[sensed.index(o)]

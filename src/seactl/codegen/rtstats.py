@@ -67,3 +67,20 @@ def realtime_summary(logs: dict[str, dict[str, np.ndarray]]) -> dict[str, Any]:
             "lost": sum(v["lost"] for v in links.values()),
             "watchdog_events": sum(p.get("watchdog_events", 0) for p in procs.values()),
             "dropped": int(logs["high-level"]["dropped"])}
+
+
+LOOP_HOPS = {"high-level": ("plant->high-level", "high-level->embedded", "embedded->plant"),
+             "embedded": ("plant->embedded", "embedded->plant")}
+"""The links a loop closed on each controller process crosses, plant to plant."""
+
+
+def loop_latency_s(lat_s: dict[str, np.ndarray], process: str) -> np.ndarray:
+    """The measured latency [s] of a loop closed on ``process``: the sum of the
+    send-to-use latencies of the links it crosses (:data:`LOOP_HOPS`), paired in time
+    order (each link's samples taken at the same fractions of the run, as many as the
+    fewest); empty when a link has none."""
+    hops = [np.asarray(lat_s[h], float) for h in LOOP_HOPS.get(process, ())]
+    n = min((h.size for h in hops), default=0)
+    if n == 0:
+        return np.empty(0)
+    return sum(h[(np.arange(n) * h.size) // n] for h in hops)

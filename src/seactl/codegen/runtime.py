@@ -50,7 +50,7 @@ import subprocess
 import sys
 import tempfile
 import time
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
@@ -81,6 +81,12 @@ class RunResult(Result):
         Link -> its latency samples [s].
     summary : dict
         JSON-ready summary (what ``seactl run --json`` prints).
+    block_latency_s : dict
+        Delayed block -> the measured latency of its loop [s]: lock-step, the blocks of
+        the high-level process, half a base period plus the age of the message in use per
+        tick; free-running, every controller's delayed block, the sum of the send-to-use
+        latencies of the links the loop crosses
+        (:func:`seactl.codegen.rtstats.loop_latency_s`).
 
     Attributes
     ----------
@@ -94,6 +100,8 @@ class RunResult(Result):
     summary : dict
         JSON-ready summary: transport, rates, per-link latency statistics [ms], tracking
         and replay differences.
+    block_latency_s : dict
+        Delayed block -> its loop's measured latency [s].
     """
 
     t_s: np.ndarray
@@ -102,6 +110,7 @@ class RunResult(Result):
     q_nominal: np.ndarray
     latency_s: dict[str, np.ndarray]
     summary: dict[str, Any]
+    block_latency_s: dict[str, np.ndarray] = field(default_factory=dict)
 
     def to_dict(self) -> dict[str, Any]:
         """The summary (what ``seactl run --json`` prints, without the file list).
@@ -454,6 +463,10 @@ def analyse_run(diagram: Any, design: Any, ctl: Any, logs: dict[str, dict[str, n
     sched = scheds[links[0]] if links else np.where(used >= 0, used, -1)
     age = np.where(sched >= 0, k - sched, np.nan)
     lat_s["stiffness"] = (Tb / 2 + age[np.isfinite(age)] * Tb)
+    block_lat = {}
+    for b in links:
+        age_b = np.where(scheds[b] >= 0, k - scheds[b], np.nan)
+        block_lat[b] = Tb / 2 + age_b[np.isfinite(age_b)] * Tb
     act_used = logs["plant"]["act_used"][:K]
     summary = {
         "transport": injected["transport"], "system": diagram.name, "duration_s": K * Tb,
@@ -469,7 +482,7 @@ def analyse_run(diagram: Any, design: Any, ctl: Any, logs: dict[str, dict[str, n
         "nominal_max_diff": float(np.max(np.abs(q - q_nom)) / abs(step)),
         "final_value": float(q[-1] / step),
     }
-    return RunResult(k * Tb, q, q_rep, q_nom, lat_s, summary)
+    return RunResult(k * Tb, q, q_rep, q_nom, lat_s, summary, block_lat)
 
 
 def analyse_realtime(diagram: Any, design: Any, ctl: Any,
@@ -477,7 +490,7 @@ def analyse_realtime(diagram: Any, design: Any, ctl: Any,
                      rates_hz: Any, injected: dict[str, Any]) -> RunResult:
     """A free-running run: its timing statistics, tracking error and the nominal
     simulation (no replay: the timing is not reproducible)."""
-    from seactl.codegen.rtstats import realtime_summary
+    from seactl.codegen.rtstats import LOOP_HOPS, loop_latency_s, realtime_summary
     from seactl.simulate.engine import simulate
     from seactl.simulate.inputs import Step
 
@@ -505,7 +518,9 @@ def analyse_realtime(diagram: Any, design: Any, ctl: Any,
         "nominal_max_diff": float(np.max(np.abs(q - q_nom)) / abs(step)),
         "final_value": float(q[-1] / step),
     }
-    return RunResult(k * Tb, q, np.full(q.size, np.nan), q_nom, lat_s, summary)
+    block_lat = {b.name: loop_latency_s(lat_s, b.process) for b in diagram.blocks
+                 if b.delay and b.process in LOOP_HOPS}
+    return RunResult(k * Tb, q, np.full(q.size, np.nan), q_nom, lat_s, summary, block_lat)
 
 
 RUN_MARKER = ".seactl-run"

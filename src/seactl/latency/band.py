@@ -181,9 +181,11 @@ def measured_latency(res: Any, links: Mapping[str, str]) -> dict[str, Any]:
     message's own wait is the tick it was first in use less its tick (a message
     superseded before use waited as long as the one that superseded it), half a period
     added: what :func:`~seactl.latency.montecarlo.buffer_ticks` turns back into that
-    wait."""
+    wait.  A free-running run (:func:`realtime_latency`) has its own."""
     from seactl.latency.models import Empirical
 
+    if res.summary.get("mode") == "realtime":
+        return realtime_latency(res, links)
     lat = np.asarray(res.latency_s.get("stiffness", ()), float)
     if "stiffness" not in links or lat.size == 0:
         return {}
@@ -195,6 +197,26 @@ def measured_latency(res: Any, links: Mapping[str, str]) -> dict[str, Any]:
     v, n = np.unique(Tb / 2 + (first - msgs) * Tb, return_counts=True)
     return {"stiffness": Empirical(tuple(v.tolist()), tuple(n.astype(float).tolist()),
                                    "the run")}
+
+
+def realtime_latency(res: Any, links: Mapping[str, str]) -> dict[str, Any]:
+    """A free-running run's latency per loop: the exported C holds no analysis latency,
+    so a loop's latency is the platform's, the sum of the send-to-use latencies of the
+    links it crosses (``res.block_latency_s``), rounded to whole base ticks, half a base
+    period added (the convention of :func:`measured_latency`); a loop without a
+    measurement has none (:class:`~seactl.latency.models.Constant` 0)."""
+    from seactl.latency.models import Constant, Empirical
+
+    Tb = float(res.t_s[1] - res.t_s[0])
+    out: dict[str, Any] = {}
+    for loop, block in links.items():
+        use = np.asarray(res.block_latency_s.get(block, ()), float)
+        if use.size == 0:
+            out[loop] = Constant(0.0)
+            continue
+        v, n = np.unique(Tb / 2 + np.round(use / Tb) * Tb, return_counts=True)
+        out[loop] = Empirical(tuple(v.tolist()), tuple(n.astype(float).tolist()), "the run")
+    return out
 
 
 def _describe(model: Any) -> str:

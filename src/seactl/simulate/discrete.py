@@ -499,6 +499,18 @@ def _check_bounds(plan: SampledPlan, st: SampledState, k: int, y: np.ndarray,
     st.rec[:, :, k] = np.where(st.alive, y, np.nan)
 
 
+def start_timed(plan: SampledPlan, timing: Mapping[str, np.ndarray] | None = None
+                ) -> tuple[SampledState, dict[int, np.ndarray] | None]:
+    """The state at rest and the checked schedules of ``timing`` (as :func:`run_sampled`'s),
+    for a loop that calls :func:`control_tick` itself."""
+    sched = _check_schedule(plan, timing) if timing else None
+    ring_len = max(int(plan.nbuf.max(initial=0)), _oldest_arrival(sched)) + 2
+    st = SampledState.start(plan, ring_len)
+    if sched:
+        st.held = np.zeros(st.ring.shape[1:])
+    return st, sched
+
+
 def run_sampled(plan: SampledPlan, bound: float,
                 timing: Mapping[str, np.ndarray] | None = None) -> RunOutputs:
     """Step a :class:`SampledPlan` tick by tick.
@@ -506,11 +518,7 @@ def run_sampled(plan: SampledPlan, bound: float,
     ``timing`` (optional) maps delayed blocks (``plan.links``, compiled with
     ``buffered=``) to the source tick each tick uses, shape ``(T, n)`` (-1: nothing has
     arrived yet); between arrivals the receiver holds the last value."""
-    sched = _check_schedule(plan, timing) if timing else None
-    ring_len = max(int(plan.nbuf.max(initial=0)), _oldest_arrival(sched)) + 2
-    st = SampledState.start(plan, ring_len)
-    if sched:
-        st.held = np.zeros(st.ring.shape[1:])
+    st, sched = start_timed(plan, timing)
     for k in range(plan.steps + 1):
         Sp = sense_outputs(plan, st, k)
         Sc, new_act = control_tick(plan, st, k, _quantize(plan, Sp[plan.prow["sensed"]]), sched)

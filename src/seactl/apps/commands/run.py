@@ -7,7 +7,11 @@ JSON: the run's summary ``{"transport", "duration_s", "ticks", "rates_hz",
 ``"plant_timestep_s"`` and ``"prediction_band"``: ``{"verdict", "within", "runs",
 "ticks_outside", "max_outside", "t_worst_s", "max_width", "tolerance", "latency"}``) plus
 ``"files"``; with ``--realtime``, ``"mode": "realtime"``, ``"processes"``, ``"links"`` with
-counts and timing, ``"missed_deadlines"``, ``"lost"``, ``"watchdog_events"`` (docs/export.md).
+counts and timing, ``"missed_deadlines"``, ``"lost"``, ``"watchdog_events"`` and
+``"prediction_band"``; SEA and rigid: ``"latency_check"``: ``{LOOP: {"count", "min_ms",
+"p1_ms", "mean_ms", "p99_ms", "max_ms", "spread_ms", "spread_p99_p1_ms",
+"design_delay_ms", "jitter_margin_ms", "sampled_jitter_margin_ms", "sampled_rate_hz",
+"delay_limit_ms", "within", "verdict"}}`` (docs/export.md).
 """
 
 from __future__ import annotations
@@ -16,6 +20,7 @@ import math
 from typing import Any
 
 import click
+import numpy as np
 from rich.markup import escape
 from rich.table import Table
 
@@ -59,7 +64,8 @@ def _float(name: str, text: str, lo: float, hi: float) -> float:
               show_default=True, help="The plant process: the exact linear plant, or the "
               "actuator's MuJoCo model (pip install 'seactl[sim]'; SEA and rigid only).")
 @click.option("--latency", "latency", multiple=True, metavar="LOOP=MODEL",
-              help="--plant mujoco: latency model of a loop for the prediction band, in ms "
+              help="--plant mujoco or --realtime: latency model of a loop for the "
+                   "prediction band, in ms "
                    "(e.g. stiffness=uniform:1:3; repeatable); default: the run's measured "
                    "latency of the high-level loop.")
 @click.option("--realtime", is_flag=True,
@@ -102,7 +108,7 @@ def run(spec: DesignSpec, loop: Any, system: SystemChoice, duration: str, step: 
         default_step = kind.default_step
     unit = loop.step_unit if loop is not None else kind.step_unit
     amplitude = default_step if step is None else _float(f"--step [{unit}]", step, 1e-6, 1.0)
-    band = _band_latency(plant, latency, design, system.system)
+    band = _band_latency(plant, latency, design, system.system, realtime)
     if out is not None:
         check_export_dir(out, RUN_MARKER, "a run")
     res = run_distributed(
@@ -110,13 +116,17 @@ def run(spec: DesignSpec, loop: Any, system: SystemChoice, duration: str, step: 
         duration_s=_float("--duration [s]", duration, 0.1, 60),
         extra_latency_s=_float("--extra-latency [ms]", extra_latency, 0, 1000) / 1e3,
         loss=_float("--loss", loss, 0.0, 0.99), seed=seed, plant=plant, realtime=realtime)
-    if plant == "mujoco":
+    if plant == "mujoco" or realtime:
         from seactl.latency.band import run_band
         from seactl.latency.montecarlo import MODEL_LINKS
 
         run_band(res, diagram, design, reference=kind.reference,
                  links=MODEL_LINKS[system.system], latency=band, rates_hz=rates,
                  saturation=sat, seed=seed)
+    if loop is None:
+        from seactl.api.runcheck import check_run
+
+        check_run(_system(spec, system, design), res)
     files = write_export(run_files(res), out, RUN_MARKER, "a run") if out else []
     key = "amplitude" if loop is not None else f"amplitude_{unit}"
     if as_json:
@@ -124,6 +134,7 @@ def run(spec: DesignSpec, loop: Any, system: SystemChoice, duration: str, step: 
         return
     if realtime:
         _print_realtime(res.summary, amplitude, unit, transport, files)
+        _print_checks(res.summary)
         return
     s = res.summary
     t = Table(title=f"seactl run ({s['system']}): step {amplitude:g} {unit}, "
@@ -142,31 +153,67 @@ def run(spec: DesignSpec, loop: Any, system: SystemChoice, duration: str, step: 
     console.print(f"measured vs sampled simulation replaying the measured link timing: "
                   f"max diff {s['replay_max_diff']:.2e} of the step; vs the nominal "
                   f"simulation (design delays): {s['nominal_max_diff']:.2e}")
-    if "prediction_band" in s:
-        b = s["prediction_band"]
-        console.print(f"MuJoCo plant (step {s['plant_timestep_s']:g} s): measured step vs "
-                      f"the band of {b['runs']} sampled responses: {escape(b['verdict'])}")
+    _print_checks(s)
     if files:
         console.print("files: " + escape(", ".join(str(f) for f in files)))
 
 
-def _band_latency(plant: str, items: tuple[str, ...], design: Any,
-                  kind: str) -> dict[str, Any] | None:
+def _system(spec: DesignSpec, system: SystemChoice, design: Any) -> Any:
+    """The :class:`seactl.System` of the run (the SEA's or the rigid actuator's)."""
+    if system.system == "sea":
+        return spec.designs()
+    return RigidBatch(design, np.broadcast_to(float(spec.fn_hz.reshape(-1)[0]), design.shape))
+
+
+def _print_checks(s: dict[str, Any]) -> None:
+    """The latency check per loop and the prediction band's verdict."""
+    checks = s.get("latency_check") or {}
+    if checks:
+        t = Table(title="measured latency per delayed loop vs the design's margins")
+        for col in ("loop", "design delay [ms]", "mean [ms]", "max [ms]", "spread [ms]",
+                    "p99-p1 [ms]", "jitter margin [ms]", "sampled jitter margin [ms]",
+                    "delay limit [ms]", "within"):
+            t.add_column(escape(col))
+        for loop, c in checks.items():
+            t.add_row(escape(loop), *(_num(c[k]) for k in (
+                "design_delay_ms", "mean_ms", "max_ms", "spread_ms", "spread_p99_p1_ms",
+                "jitter_margin_ms", "sampled_jitter_margin_ms", "delay_limit_ms")),
+                "yes" if c["within"] else "no")
+        console.print(t)
+        for loop, c in checks.items():
+            console.print(f"{escape(loop)}: {escape(c['verdict'])}")
+    if "prediction_band" in s:
+        b = s["prediction_band"]
+        plant = (f"MuJoCo plant (step {s['plant_timestep_s']:g} s)"
+                 if "plant_timestep_s" in s else "free-running run")
+        console.print(f"{plant}: measured step vs the band of {b['runs']} sampled "
+                      f"responses: {escape(b['verdict'])}")
+
+
+def _num(v: float | None) -> str:
+    return "-" if v is None else f"{v:.3f}"
+
+
+def _band_latency(plant: str, items: tuple[str, ...], design: Any, kind: str,
+                  realtime: bool = False) -> dict[str, Any] | None:
     """``--latency`` items as latency models (None: the run's measured latency); MuJoCo's
     plant checked before any process starts."""
     from seactl.latency.models import parse_latency, parse_link_specs
 
-    if plant != "mujoco":
+    if plant != "mujoco" and not realtime:
         if items:
-            raise InputError("--latency", items[0], "used with --plant mujoco only")
+            raise InputError("--latency", items[0], "used with --plant mujoco or "
+                             "--realtime only")
         return None
-    from seactl.codegen.mjcf import plant_model
-    from seactl.codegen.mujoco_plant import import_mujoco
     from seactl.latency.band import check_band_latency
     from seactl.latency.montecarlo import MODEL_LINKS
 
-    plant_model(design)
-    import_mujoco()
+    if plant == "mujoco":
+        from seactl.codegen.mjcf import plant_model
+        from seactl.codegen.mujoco_plant import import_mujoco
+
+        plant_model(design)
+        import_mujoco()
     if not items:
         return None
     lat = parse_link_specs(items, parse_latency, "--latency")

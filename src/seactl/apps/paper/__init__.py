@@ -13,7 +13,17 @@ from typing import Any
 from seactl.apps.report import SectionFn, build
 from seactl.errors import InputError
 
-from . import gain_design, impedance, jitter, mobile_base, placement, running, simulation, sweep
+from . import (
+    gain_design,
+    impedance,
+    jitter,
+    mobile_base,
+    physics,
+    placement,
+    running,
+    simulation,
+    sweep,
+)
 from .warmup import WARMUPS
 
 SECTIONS: tuple[SectionFn, ...] = (
@@ -37,6 +47,7 @@ SECTIONS: tuple[SectionFn, ...] = (
     placement.placement_advisor,
     jitter.jitter_section,
     running.running,
+    physics.physics_engine,
     mobile_base.mobile_base,
 )
 

@@ -56,6 +56,10 @@ def _figures(ctx: Context, res) -> list[Figure]:
                          "right: their differences.")]
 
 
+def _ms(v: float | None) -> str:
+    return "none" if v is None else f"{v:.3f}"
+
+
 def _not_run(reason: str) -> Section:
     sec = Section("running", "From design to running controller",
                   intro="The three-process run could not be made on this machine: " + reason)
@@ -97,6 +101,18 @@ def running(ctx: Context) -> Section:
                        "of the stiffness message when used, in the sense of the analysis)",
                        ["link", "messages", "mean [ms]", "median [ms]", "p99 [ms]",
                         "max [ms]"], rows))
+    checks = s.get("latency_check", {})
+    if checks:
+        sec.tables.append((
+            "Measured latency of each loop across the link against the design's margins "
+            "(spread = max - min; the sampled jitter margin at the loop's process rate)",
+            ["loop", "design delay [ms]", "mean [ms]", "max [ms]", "spread [ms]",
+             "jitter margin [ms]", "sampled jitter margin [ms]", "delay limit [ms]",
+             "verdict"],
+            [[loop] + [_ms(c[k]) for k in ("design_delay_ms", "mean_ms", "max_ms", "spread_ms",
+                                           "jitter_margin_ms", "sampled_jitter_margin_ms",
+                                           "delay_limit_ms")] + [c["verdict"]]
+             for loop, c in checks.items()]))
     sec.figures.extend(_figures(ctx, res))
     ok = s["replay_max_diff"] <= REPLAY_TOL
     sec.claims.append(Claim(
