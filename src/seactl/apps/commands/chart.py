@@ -19,6 +19,7 @@ from seactl.errors import InputError
 
 from .common import DesignSpec, cli, console, design_options, echo_json, json_option, units_given
 from .dde import dde_option
+from .export import RIGID_OPTIONS
 from .loops import loop_options
 
 SYSTEMS = ("sea", "rigid")
@@ -57,14 +58,7 @@ def rigid_options(func: Callable[..., Any]) -> Callable[..., Any]:
         click.option("--system", type=click.Choice(SYSTEMS), default="sea", show_default=True,
                      help="SEA (the design options) or rigid actuator (--fn, --t-s, --t-d, "
                           "--f-v)."),
-        click.option("--rigid-actuator", default="ut-linear", show_default=True,
-                     help="Rigid actuator preset or TOML file."),
-        click.option("--t-s", "t_s", type=float, default=0.0, show_default=True,
-                     help="Rigid: stiffness-loop delay [ms]."),
-        click.option("--t-d", "t_d", type=float, default=0.0, show_default=True,
-                     help="Rigid: damping-loop delay [ms]."),
-        click.option("--f-v", "f_v", default="50", show_default=True,
-                     help="Rigid: velocity filter cut-off [Hz], or 'none'."),
+        *RIGID_OPTIONS,
     ]
 
     @functools.wraps(func)

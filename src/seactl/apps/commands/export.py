@@ -116,6 +116,19 @@ class SystemChoice:
         return loop.diagram, loop.design, None, loop.default_step, rates
 
 
+RIGID_OPTIONS = [
+    click.option("--rigid-actuator", default="ut-linear", show_default=True,
+                 help="Rigid actuator preset or TOML file."),
+    click.option("--t-s", "t_s", type=float, default=0.0, show_default=True,
+                 help="Rigid: stiffness-loop delay [ms]."),
+    click.option("--t-d", "t_d", type=float, default=0.0, show_default=True,
+                 help="Rigid: damping-loop delay [ms]."),
+    click.option("--f-v", "f_v", default="50", show_default=True,
+                 help="Rigid: velocity filter cut-off [Hz], or 'none'."),
+]
+"""The rigid actuator's options (``seactl export``, ``run`` and ``chart``)."""
+
+
 def system_options(func: Callable[..., Any]) -> Callable[..., Any]:
     """``--system``, ``--rate``, ``--saturation``, ``--no-zero`` and the rigid actuator's
     options (``export`` and ``run``), passed to the command as one ``system``."""
@@ -131,14 +144,7 @@ def system_options(func: Callable[..., Any]) -> Callable[..., Any]:
                           "limit [default: the actuator's]."),
         click.option("--no-zero", is_flag=True,
                      help="SEA: torque derivative on the feedback only."),
-        click.option("--rigid-actuator", default="ut-linear", show_default=True,
-                     help="Rigid actuator preset or TOML file."),
-        click.option("--t-s", "t_s", type=float, default=0.0, show_default=True,
-                     help="Rigid: stiffness-loop delay [ms]."),
-        click.option("--t-d", "t_d", type=float, default=0.0, show_default=True,
-                     help="Rigid: damping-loop delay [ms]."),
-        click.option("--f-v", "f_v", default="50", show_default=True,
-                     help="Rigid: velocity filter cut-off [Hz], or 'none'."),
+        *RIGID_OPTIONS,
     ]
 
     @functools.wraps(func)
