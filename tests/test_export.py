@@ -278,5 +278,8 @@ def test_loop_file_export_equals_its_sampled_controller(tmp_path, capsys, name, 
     assert bool(res["emulated_delays_s"]) is emulate
     if CC:
         assert res["max_error"] <= MUST_HOLD
-    api = loop.export(tmp_path / "api", lang="python")   # the Python API, same split
+    api = loop.export(tmp_path / "api", lang="json", emulate_latency=emulate)  # the API
     assert [p.name for p in api.controllers.processes] == [p["name"] for p in res["processes"]]
+    doc = json.loads((tmp_path / "api" / "controller.json").read_text())
+    assert doc["emulate_latency"] is emulate and doc["real"] == "double"
+    assert api.to_dict()["emulated_delays_s"] == res["emulated_delays_s"]

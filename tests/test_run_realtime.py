@@ -196,3 +196,20 @@ def test_ten_second_realtime_run_over_zenoh():
     assert rows["embedded->plant"]["sent"] == s["links"]["embedded->plant"]["sent"]
     assert rows["embedded->plant"]["p99_ms"] == pytest.approx(
         s["links"]["embedded->plant"]["latency"]["p99_ms"], rel=1e-9)
+
+
+@needs_cc
+def test_realtime_run_on_the_mujoco_plant():
+    # Oracle: the run's own identities (_check_consistent, _check_latency_and_band) and
+    # the physics: MuJoCo integrates the SEA test bed, so the plant reported is MuJoCo's
+    # and the joint settles at the step (final value within 10 % of it after 1 s).
+    pytest.importorskip("mujoco", reason="MuJoCo is the sim extra")
+    d = sc.design(14, delays_ms={"torque": 1, "stiffness": 2, "damping": 1},
+                  filters_hz=(50, 100))
+    res = d.run(duration_s=1.0, rates_hz={"embedded": 1000, "high-level": 500},
+                transport="udp", realtime=True, plant="mujoco")
+    s = res.summary
+    assert s["plant"] == "mujoco" and s["plant_timestep_s"] > 0
+    _check_consistent(s, 1.0, min_share=0.5)
+    _check_latency_and_band(s)
+    assert abs(s["final_value"] - 1.0) < 0.1

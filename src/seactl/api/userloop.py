@@ -295,7 +295,8 @@ class UserLoop(System):
             name: float(p.rate_hz) for name, p in self.processes.items()}
 
     def export(self, out: Any, *, lang: Any = ("c", "python", "json"), rates_hz: Any = None,
-               verify: bool = False) -> Any:
+               verify: bool = False, emulate_latency: bool = False,
+               real: str = "double") -> Any:
         """Write the discrete controller of each process of the file (C99, Python, JSON).
 
         As :meth:`seactl.Design.export`, for one design of the loop (every ``--set``
@@ -312,6 +313,12 @@ class UserLoop(System):
             Rate of every process [Hz], or per process (default: the file's).
         verify : bool
             Compile and run the C and the Python against seactl's sampled controller.
+        emulate_latency : bool
+            Keep the file's delays in the code as whole-sample buffers (for bench tests);
+            by default the code holds no delay (on the robot the latency is the
+            platform's), as :meth:`seactl.System.export`.
+        real : {"double", "float"}
+            Floating-point type of the C's signals and states.
 
         Returns
         -------
@@ -331,7 +338,8 @@ class UserLoop(System):
 
         return export_design(self.diagram, self.design, out, languages=lang,
                              rates_hz=self._export_rates(rates_hz), verify_export=verify,
-                             step=self.default_step)
+                             step=self.default_step, emulate_latency=emulate_latency,
+                             real=real)
 
     @run_doc
     def run(self, *, duration_s: float = 2.0, rates_hz: Any = None,

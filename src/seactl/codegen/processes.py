@@ -59,9 +59,14 @@ class MujocoPlantProcess:
         return self.plant.sense()
 
 
-def run_plant(cfg: dict[str, Any], link: Any) -> dict[str, np.ndarray]:
-    plant = MujocoPlantProcess(cfg) if cfg.get("plant") == "mujoco" else \
+def make_plant(cfg: dict[str, Any]) -> MatrixPlant | MujocoPlantProcess:
+    """The run's plant (``cfg["plant"]``: ``"builtin"`` or ``"mujoco"``), at rest."""
+    return MujocoPlantProcess(cfg) if cfg.get("plant") == "mujoco" else \
         MatrixPlant(cfg["plant_npz"])
+
+
+def run_plant(cfg: dict[str, Any], link: Any) -> dict[str, np.ndarray]:
+    plant = make_plant(cfg)
     Tb, K = 1.0 / cfg["base_rate_hz"], int(cfg["ticks"])
     act, act_tick = np.zeros(len(cfg["actuation"])), -1
     q = np.full(K + 1, np.nan)

@@ -250,27 +250,28 @@ def link_key(link: str) -> str:
 
 
 # ----------------------------------------------------------------------------- processes
-def linear_plant(cfg: dict[str, Any]) -> Any:
-    """The built-in plant as one function ``step(act, periods) -> sensed``: advance
-    ``periods`` base periods with the command applied at the previous call (nothing
-    before the first), apply ``act`` from now on, and return the sensed signals.  Another
-    plant (a physics engine) is another function of the same signature."""
-    m = np.load(cfg["plant_npz"])
-    Hx, Ha, Cx, Ca = m["Hx"], m["Ha"], m["Cx"], m["Ca"]
-    state = {"x": np.zeros(Hx.shape[0]), "act": None}
+def plant_stepper(cfg: dict[str, Any]) -> Any:
+    """The plant as one function ``step(act, periods) -> sensed``: advance ``periods``
+    base periods with the command applied at the previous call (nothing before the
+    first), apply ``act`` from now on, and return the sensed signals; the built-in plant
+    (:class:`seactl.codegen.processes.MatrixPlant`) or MuJoCo (``cfg["plant"]``)."""
+    from seactl.codegen.processes import make_plant
+
+    plant = make_plant(cfg)
+    state: dict[str, Any] = {"act": None}
 
     def step(act: np.ndarray, periods: int) -> np.ndarray:
         for _ in range(periods if state["act"] is not None else 0):
-            state["x"] = Hx @ state["x"] + Ha @ state["act"]
+            plant.advance(state["act"])
         state["act"] = act
-        return Cx @ state["x"] + Ca @ act
+        return plant.sense(act)
     return step
 
 
 def plant_rt(cfg: dict[str, Any]) -> Any:
     """The plant process, ready to run (``run(link) -> logs``) once the clock is set: at
     the base rate, the newest command (held), one plant step, the samples out."""
-    plant = linear_plant(cfg)
+    plant = plant_stepper(cfg)
     n_sensed = len(cfg["sensed"])
     q = np.full(int(cfg["rt_ticks"]["plant"]), np.nan)
     last = [0]

@@ -295,8 +295,7 @@ def run_distributed(diagram: Any, design: Any, *, saturation: dict[str, float] |
     plant) or ``"mujoco"`` (:mod:`seactl.codegen.mjcf`, :data:`MUJOCO_TIMESTEP_S`);
     ``on_start(pids)`` is called with the children's process ids once they are started.
     ``realtime``: free-running processes running the exported C
-    (:mod:`seactl.codegen.realtime`) instead of the lock-step replay check (built-in plant
-    only)."""
+    (:mod:`seactl.codegen.realtime`) instead of the lock-step replay check."""
     from seactl.base.limits import MIN_SAMPLES
     from seactl.codegen.parametric import compile_export
     from seactl.codegen.source import export_files
@@ -306,9 +305,6 @@ def run_distributed(diagram: Any, design: Any, *, saturation: dict[str, float] |
     _check_run(duration_s, extra_latency_s, loss, step, transport, seed)
     if plant not in PLANTS:
         raise InputError("plant", plant, " or ".join(PLANTS))
-    if realtime and plant != "builtin":
-        raise InputError("plant", plant, "builtin with realtime=True (the free-running "
-                         "plant process integrates the exact linear plant)")
     # lock-step replay of the analysis model: the processes emulate the design's latency;
     # free-running: the code that would be flashed, the latency is the platform's
     ctl, _ = compile_export(diagram, design, rates_hz, saturation,
