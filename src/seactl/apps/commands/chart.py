@@ -163,7 +163,7 @@ def _print_chart(result: Any, kind: str, unit: str) -> None:
     d1, d2 = result.delays
     t = Table(title=escape(f"Stability chart of the {kind} system over {d1} x {d2} "
                            f"(0-{result.max_s[0] * k:g} x 0-{result.max_s[1] * k:g} {unit})"))
-    for col in (f"{d1} [{unit}]", f"{d2} [{unit}]", "RHP roots", "stable", "pixels"):
+    for col in (f"{d1} [{unit}]", f"{d2} [{unit}]", "RHP roots", "stable", "size [px]"):
         t.add_column(escape(col), justify="right")
     for r in result.records():
         n = r["right_half_plane_roots"]
