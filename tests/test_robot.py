@@ -276,3 +276,21 @@ def test_workspace_map_is_each_configuration(tmp_path):
     assert m.stable.tolist() == [False, True] and m.worst == 0
     with pytest.raises(sc.InputError):
         sc.workspace_map(ARMS / "planar_2link.urdf", [0.3, 0.8])
+
+
+def test_workspace_map_largest_task_stiffness():
+    """Oracle: the certified verdict of sc.robot built directly with task_stiffness=(k_x,
+    k_x r^2) just below (stable) and just above (unstable) the returned k_x."""
+    urdf, q = ARMS / "planar_2link.urdf", [[0.3, 0.8], [0.0, 1.5]]
+    opts = dict(space="task", task="tool", fn_hz=14, **TABLE_I)
+    m = sc.workspace_map(urdf, q, **opts)
+    for i, row in enumerate(q):
+        k = float(m.max_task_stiffness_n_per_m[i])
+        reach = sc.robot(urdf, q0=row, **opts).body.reach_m
+        verdict = [bool(sc.robot(urdf, q0=row, task_stiffness=(f * k, f * k * reach ** 2),
+                                 **opts).margins().stable) for f in (1 - 1e-3, 1 + 2e-3)]
+        assert verdict == [True, False], (row, k)
+    assert m.records()[1]["max_task_stiffness_n_per_m"] == pytest.approx(
+        m.max_task_stiffness_n_per_m[1], rel=1e-9)
+    joint = sc.workspace_map(urdf, q[:1], fn_hz=14, **TABLE_I)
+    assert np.isnan(joint.max_task_stiffness_n_per_m[0])

@@ -430,7 +430,11 @@ def workspace_map(urdf: str | Path, configurations: Any, **options: Any) -> Any:
     -------
     seactl.api.robotmap.WorkspaceMap
         ``stable``, ``phase_margin_deg`` and ``delay_margin_ms`` at ``outer.j1`` per
-        configuration, ``worst``, ``records()``, ``plot()``.
+        configuration; in task space ``max_task_stiffness_n_per_m``, the largest ``k_x``
+        [N/m] the certified verdict calls stable at the given delays (``k_r / k_x`` as
+        given, or ``r^2`` by default; bisection to a relative 1e-3,
+        :func:`seactl.api.robotmap.max_task_stiffness`); ``worst``, ``records()``,
+        ``plot()``.
 
     Examples
     --------
@@ -440,7 +444,7 @@ def workspace_map(urdf: str | Path, configurations: Any, **options: Any) -> Any:
     >>> m.stable.tolist()                                          # doctest: +SKIP
     [True, True]
     """
-    from seactl.api.robotmap import WorkspaceMap
+    from seactl.api.robotmap import WorkspaceMap, max_task_stiffness
 
     q = np.asarray(configurations, float) if not isinstance(configurations, str) else None
     if q is None or q.ndim != 2 or q.shape[0] == 0 or not np.all(np.isfinite(q)):
@@ -448,7 +452,9 @@ def workspace_map(urdf: str | Path, configurations: Any, **options: Any) -> Any:
                          "an (m, n) array of joint angles [rad], one row per configuration")
     robots = [robot(urdf, q0=row, **options) for row in q]
     margins = [r.margins() for r in robots]
+    kx_max = [max_task_stiffness(r) if r.space == "task" else np.nan for r in robots]
     return WorkspaceMap(robots[0].body.joints, q,
                         np.array([bool(m.stable) for m in margins]),
                         np.array([float(m.phase_margin_deg) for m in margins]),
-                        np.array([float(m.delay_margin_ms) for m in margins]))
+                        np.array([float(m.delay_margin_ms) for m in margins]),
+                        np.array(kx_max, float))
