@@ -222,6 +222,9 @@ def test_task_stiffness_is_jt_kx_j():
     (["--urdf", "{arm}", "--space", "task"], "error: invalid --task = None"),
     (["--urdf", "{arm}", "--actuators", "j1=ut-sea"], "error: invalid --actuators = "),
     (["--urdf", "{arm}", "--q0", "1,2,3"], "error: invalid --q0 = "),
+    (["--urdf", "{arm}", "--workspace", "0:1:2"], "error: invalid --workspace [rad] = "),
+    (["--urdf", "{arm}", "--workspace", "0:1:2,0:1"], "error: invalid --workspace [rad] = "),
+    (["--urdf", "{arm}", "--workspace", "0:1:0,0:1:2"], "error: invalid --workspace [rad] = "),
 ])
 def test_bad_robots_give_one_line(tmp_path, capsys, args, start):
     """A behaviour: one line `error: ...` naming the flag, exit 2, nothing else."""
@@ -294,3 +297,25 @@ def test_workspace_map_largest_task_stiffness():
         m.max_task_stiffness_n_per_m[1], rel=1e-9)
     joint = sc.workspace_map(urdf, q[:1], fn_hz=14, **TABLE_I)
     assert np.isnan(joint.max_task_stiffness_n_per_m[0])
+
+
+def test_cli_workspace_is_the_api(capsys):
+    """Oracle: sc.workspace_map on the grid written out here (itertools.product, the
+    first joint slowest)."""
+    import itertools
+    import json
+
+    urdf = str(ARMS / "planar_2link.urdf")
+    assert main(["robot", "--urdf", urdf, "--space", "task", "--task", "tool", "--fn", "14",
+                 "--t-tau", "0.5", "--t-qs", "2", "--t-qd", "0.5", "--f-qd", "50",
+                 "--f-taud", "100", "--workspace", "0:0.3:2,0.8:1.5:2", "--json"]) == 0
+    rec = json.loads(capsys.readouterr().out)
+    grid = [list(q) for q in itertools.product([0.0, 0.3], [0.8, 1.5])]
+    m = sc.workspace_map(urdf, grid, space="task", task="tool", fn_hz=14, **TABLE_I)
+    rows = rec["configurations"]
+    assert [[r["j1_rad"], r["j2_rad"]] for r in rows] == grid and rec["worst"] == m.worst
+    for r, k in zip(rows, m.max_task_stiffness_n_per_m):
+        assert r["max_task_stiffness_n_per_m"] == pytest.approx(k, rel=1e-9)
+    assert main(["robot", "--urdf", urdf, "--workspace", "0:0:1,0.8:0.8:1"]) == 0
+    out = capsys.readouterr().out
+    assert "max k_x [N/m]" in out and "delay margin [ms]" in out
