@@ -183,6 +183,15 @@ def test_a_batch_asks_for_one_design():
         sc.rigid(8).stability_chart(("stiffness", "damping"), (0.02, -1))
 
 
+@pytest.mark.parametrize("huge_s", [1e305, 1e200, 1e9])
+def test_a_chart_too_large_is_refused_up_front(huge_s):
+    # Oracle: the error contract: an extent whose crossing curves would have more pieces
+    # than the budget (or whose bounds overflow) is an InputError naming max_s, raised
+    # before any array of that size is made.
+    with pytest.raises(sc.InputError, match="a smaller chart"):
+        sc.rigid(8).stability_chart(("stiffness", "damping"), (huge_s, 0.02))
+
+
 # ------------------------------------------------------------------ (d) command line
 def test_cli_json_plot_and_errors(tmp_path, capsys):
     png = tmp_path / "chart.png"

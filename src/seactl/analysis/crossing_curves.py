@@ -71,7 +71,11 @@ def frequency_bounds(tp: TorusPolynomial, max_s: tuple[float, float]) -> tuple[f
     dc = np.abs(c[:, 1:]).sum(axis=0)
     tau = tp.a * max_s[0] + tp.b * max_s[1] + tp.fixed_s
     h = np.concatenate([[-abs(c[:, 0].sum())], dc])
-    h[1] += float(np.abs(c[:, 0]) @ tau)
+    with np.errstate(over="ignore"):
+        h[1] += float(np.abs(c[:, 0]) @ tau)
+    if not np.all(np.isfinite(h)):
+        raise InputError("max_s", max_s, "a smaller chart: its delays times the terms' "
+                         "coefficients overflow")
     if abs(c[:, 0].sum()) == 0:
         raise InputError("delay terms", "a root at s = 0 for every delay",
                          "a characteristic equation with Delta(0) != 0")
@@ -213,13 +217,14 @@ def _copies(w: np.ndarray, u1: np.ndarray, u2: np.ndarray, max_s: tuple[float, f
             done: int) -> list[Branch]:
     """The copies ``tau_i = (u_i + 2 pi k_i) / w`` of one chain that enter the chart, cut
     into the runs of points inside (each run with one point beyond either end)."""
-    k1 = np.arange(np.ceil((-u1).min() / TWO_PI), np.floor((w * max_s[0] - u1).max() / TWO_PI)
-                   + 1)
-    k2 = np.arange(np.ceil((-u2).min() / TWO_PI), np.floor((w * max_s[1] - u2).max() / TWO_PI)
-                   + 1)
-    if done + k1.size * k2.size > MAX_COPIES:
+    lo = (np.ceil((-u1).min() / TWO_PI), np.ceil((-u2).min() / TWO_PI))
+    hi = (np.floor((w * max_s[0] - u1).max() / TWO_PI),
+          np.floor((w * max_s[1] - u2).max() / TWO_PI))
+    count = max(hi[0] - lo[0] + 1, 0.0) * max(hi[1] - lo[1] + 1, 0.0)  # (before any array)
+    if not done + count <= MAX_COPIES:
         raise InputError("max_s", max_s, "a smaller chart: its crossing curves have more than "
                          f"{MAX_COPIES:,} pieces")
+    k1, k2 = np.arange(lo[0], hi[0] + 1), np.arange(lo[1], hi[1] + 1)
     out = []
     for a in k1:
         t1 = (u1 + TWO_PI * a) / w
