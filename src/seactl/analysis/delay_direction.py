@@ -204,8 +204,8 @@ class _Ray:
         self.terms, self.L, self.dhat = terms, L, dhat
         self.k = terms.exponents @ n
         self.K = int(self.k.max())
-        self.c = np.tensordot(terms.exponents.astype(float), terms.delays_s, axes=(1, 0))
         q0 = terms.at()
+        self.c = q0.delays
         self.w_ref = frequency_scale(q0)
         self.w_max = cauchy_bound(q0)
 

@@ -92,7 +92,8 @@ class DelayTerms:
         if tau.shape[:1] != (len(self.names),):
             raise InputError("delays_s", tau.shape, f"a leading axis of {len(self.names)}")
         shape = np.broadcast_shapes(tau.shape[1:], self.shape)
-        term = np.tensordot(self.exponents.astype(float), tau, axes=(1, 0))
+        with np.errstate(over="ignore"):  # (an overflowing delay is inf: refused downstream)
+            term = np.tensordot(self.exponents.astype(float), tau, axes=(1, 0))
         n1 = self.coeffs.shape[-1]
         coeffs = np.broadcast_to(self.coeffs, (len(self.exponents),) + shape + (n1,))
         return QuasiPolynomial(np.ascontiguousarray(coeffs),
