@@ -35,6 +35,7 @@ _PUBLIC = {
     ".api.sampled_jitter": ("SampledJitterResult",),
     ".api.robot": ("robot", "Robot", "workspace_map"),
     ".api.robotcheck": ("MujocoCheck",),
+    ".api.robotmodels": ("robot_models",),
     ".api.sweeps": ("sweep", "read_sweep", "parameter_robustness"),
     ".api.mobile_base": ("compare_mobile_base", "mobile_base_params"),
     ".api.userloop": ("UserLoop",),
@@ -59,6 +60,7 @@ __all__ = [
     "rigid", "RigidBatch", "loop_model", "latency_map", "place", "sweep", "read_sweep",
     "parameter_robustness",
     "robot", "Robot", "workspace_map", "MujocoCheck",
+    "robot_models",
     "compare_mobile_base", "mobile_base_params", "LatencyMapResult", "PlacementResult",
     # your own loop (loop files, docs/loops.md)
     "load_loop", "LoopBuilder", "UserLoop",

@@ -54,6 +54,9 @@ class Robot(System):
         ``(k_x [N/m], k_r [N m/rad])`` in task space.
     urdf : str or None
         The URDF file it was built from (what :meth:`mujoco_check` compiles).
+    locked : tuple
+        ``(name, value)`` of each joint locked at its ``q0`` value (``joints=``); MuJoCo
+        compiles them fixed.
 
     Examples
     --------
@@ -75,6 +78,7 @@ class Robot(System):
     filters_hz: tuple
     task_stiffness: tuple | None
     urdf: str | None = None
+    locked: tuple = ()
 
     kind: ClassVar[str] = "robot"
     step_unit: ClassVar[str] = "rad"
@@ -334,7 +338,8 @@ def _joint_gains(actuator: Any, fn_hz: float, gs: float, joint: str) -> Any:
                                     feasible_hz=exc.feasible_hz) from None
 
 
-def robot(urdf: str | Path, *, actuators: Any = "ut-sea", space: str = "joint",
+def robot(urdf: str | Path | None = None, *, model: str | None = None,
+          joints: Sequence[str] | None = None, actuators: Any = "ut-sea", space: str = "joint",
           task: str | None = None, q0: Any = None, fn_hz: float = 14.0, gs: float = 1.0,
           delays_ms: Mapping[str, Any] | None = None,
           filters_hz: Sequence[Any] = (None, None),
@@ -343,8 +348,14 @@ def robot(urdf: str | Path, *, actuators: Any = "ut-sea", space: str = "joint",
 
     Parameters
     ----------
-    urdf : str or path
-        A URDF of revolute joints (fixed base); one SEA per joint.
+    urdf : str or path, optional
+        A URDF (fixed base); one SEA per moving joint, each revolute.
+    model : str, optional
+        Instead of ``urdf``: a robot of ``example-robot-data`` by name
+        (:func:`seactl.robot_models`; ``pip install -e ".[robots]"``).
+    joints : sequence of str, optional
+        The moving joints (at most 3; default all); every other joint is locked at its
+        ``q0`` value, its links part of the rigid body the moving joints carry.
     actuators : str or path or SEAParams or dict
         One actuator for every joint (preset name, TOML file), or joint name -> actuator.
     space : {"joint", "task"}
@@ -353,7 +364,8 @@ def robot(urdf: str | Path, *, actuators: Any = "ut-sea", space: str = "joint",
     task : str, optional
         The task frame (required in task space).
     q0 : sequence of float, optional
-        The configuration [rad] (default: zeros).
+        The configuration [rad] (default: zeros): with ``joints``, of the moving joints
+        (in the model's order; the locked ones at 0) or of all the model's joints.
     fn_hz, gs : float
         Each joint's critically damped design (:func:`seactl.design`) for its effective
         inertia ``1 / (M(q0)^{-1})_jj`` (:func:`design_inertia`) and its URDF damping.
@@ -374,7 +386,8 @@ def robot(urdf: str | Path, *, actuators: Any = "ut-sea", space: str = "joint",
     ------
     InputError
         A missing or invalid URDF, a frame it does not have, a joint without an actuator,
-        a ``q0`` of the wrong length, delays or filters out of range.
+        a ``q0`` of the wrong length, delays or filters out of range, an unknown model or
+        joint, more than 3 moving joints.
     InfeasibleDesignError
         A joint whose actuator has no critically damped design at ``fn_hz`` (named).
 
@@ -387,14 +400,15 @@ def robot(urdf: str | Path, *, actuators: Any = "ut-sea", space: str = "joint",
     >>> round(float(r.margins().phase_margin_deg), 2), bool(r.margins().stable)  # doctest: +SKIP
     (37.65, True)
     """
-    from seactl.systems.robot.model import linearize, load_model
+    from seactl.api.robotmodels import rigid_model
+    from seactl.systems.robot.model import linearize
 
     if space not in SPACES:
         raise InputError("space", space, "one of " + ", ".join(SPACES))
     if space == "task" and task is None:
         raise InputError("task", None, "a frame of the URDF (task space needs one)")
-    model = load_model(urdf)
-    body = linearize(model, q0, task)
+    pin_model, q0, path, locked = rigid_model(urdf, model, joints, q0)
+    body = linearize(pin_model, q0, task)
     inertia = design_inertia(body.mass_matrix)
     acts = [replace(a, joint_inertia=float(inertia[j]), joint_damping=float(body.damping[j]))
             for j, a in enumerate(_actuator_map(actuators, body.joints))]
@@ -410,7 +424,8 @@ def robot(urdf: str | Path, *, actuators: Any = "ut-sea", space: str = "joint",
     filters = tuple(None if f is None else float(f)
                     for f in filter_cutoffs(filters_hz, ("f_qd", "f_taud")))
     delays = {"torque": float(t_tau), "stiffness": float(t_qs), "damping": float(t_qd)}
-    return Robot(body, tuple(acts), gains, K, space, fn, g, delays, filters, kxr, str(urdf))
+    return Robot(body, tuple(acts), gains, K, space, fn, g, delays, filters, kxr, str(path),
+                 locked)
 
 
 def workspace_map(urdf: str | Path, configurations: Any, **options: Any) -> Any:

@@ -157,6 +157,7 @@ def run_check(robot: Any, factors: Any, t_end_s: float, impulse: float, rate_hz:
 
     from seactl.codegen.mujoco_robot import simulate_robot_mujoco
     from seactl.simulate.inputs import Impulse
+    from seactl.systems.robot.reduce import locked_urdf
 
     f = _check_args(factors, t_end_s, impulse, rate_hz)
     try:
@@ -173,16 +174,17 @@ def run_check(robot: Any, factors: Any, t_end_s: float, impulse: float, rate_hz:
                          "a design stable at its delays whose central delay margin is finite")
     limits = {f"i_m.j{j + 1}": float(a.max_current) for j, a in enumerate(robot.actuators)}
     rows, runs = [], []
-    for factor in f:
-        r = replace(robot, delays=dict(robot.delays, stiffness=float(factor) * t_star))
-        run = simulate_robot_mujoco(r.urdf, r.body, r.actuators, r.diagram, r.design,
-                                    {"tau_ext.j1": Impulse(float(impulse))}, float(t_end_s),
-                                    outputs=("q_j.j1",), rates_hz=float(rate_hz),
-                                    saturation=limits, gravity_mps2=gravity_mps2)
-        ratio, rate = envelope(run.t_s, run.outputs["q_j.j1"])
-        rows.append((float(factor) * t_star, bool(r.margins().stable),
-                     float(r.roots(count=3).spectral_abscissa), ratio, rate))
-        runs.append(run.outputs["q_j.j1"])
+    with locked_urdf(robot.urdf, robot.locked) as urdf:  # locked joints compiled fixed
+        for factor in f:
+            r = replace(robot, delays=dict(robot.delays, stiffness=float(factor) * t_star))
+            run = simulate_robot_mujoco(urdf, r.body, r.actuators, r.diagram, r.design,
+                                        {"tau_ext.j1": Impulse(float(impulse))}, float(t_end_s),
+                                        outputs=("q_j.j1",), rates_hz=float(rate_hz),
+                                        saturation=limits, gravity_mps2=gravity_mps2)
+            ratio, rate = envelope(run.t_s, run.outputs["q_j.j1"])
+            rows.append((float(factor) * t_star, bool(r.margins().stable),
+                         float(r.roots(count=3).spectral_abscissa), ratio, rate))
+            runs.append(run.outputs["q_j.j1"])
     d, stable, sa, ratio, rate = (np.array(c) for c in zip(*rows))
     return MujocoCheck(t_star, float(np.ravel(margin.crossing_hz)[0]), f, d, stable, sa,
                        ratio, rate, ratio < 1, stable == (ratio < 1), run.t_s,

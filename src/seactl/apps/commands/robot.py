@@ -82,7 +82,7 @@ def robot_record(r: Any, margins: dict[str, Any], roots: Any) -> dict[str, Any]:
 
 
 @cli.command()
-@click.option("--urdf", required=True, help="URDF file of the robot (revolute joints).")
+@click.option("--urdf", default=None, help="URDF file of the robot (revolute joints).")
 @click.option("--actuators", default="ut-sea", show_default=True,
               help="SEA preset or TOML file for every joint, or JOINT=PRESET|FILE,...")
 @click.option("--space", type=click.Choice(["joint", "task"]), default="joint",
@@ -102,9 +102,16 @@ def robot_record(r: Any, margins: dict[str, Any], roots: Any) -> dict[str, Any]:
 @click.option("--mujoco-check", is_flag=True,
               help="Also run the robot in MuJoCo at 0.8x and 1.2x of the central delay "
                    "margin and compare with the certified verdicts (needs mujoco).")
+@click.option("--model", default=None,
+              help="Instead of --urdf: a robot of example-robot-data by name ('list': the "
+                   "installed ones; pip install -e \".[robots]\").")
+@click.option("--joints", default=None,
+              help="The moving joints, comma-separated (at most 3); the others are locked "
+                   "at --q0.")
 @json_option
-def robot(urdf: str, actuators: str, space: str, task: str | None, q0: str | None,
-          workspace: str | None, mujoco_check: bool, as_json: bool, **axes: Any) -> None:
+def robot(urdf: str | None, actuators: str, space: str, task: str | None, q0: str | None,
+          workspace: str | None, mujoco_check: bool, model: str | None, joints: str | None,
+          as_json: bool, **axes: Any) -> None:
     """Margins of every loop break, certified verdict and spectral abscissa of a robot.
 
     Python: sc.robot(urdf, actuators=..., space=..., task=..., q0=...).
@@ -121,8 +128,17 @@ def robot(urdf: str, actuators: str, space: str, task: str | None, q0: str | Non
     --mujoco-check: Python r.mujoco_check() (docs/robots.md, "In MuJoCo").
     --workspace: one row per configuration of the grid (verdict, phase margin, delay
     margin, and in task space the largest task stiffness k_x [N/m]).
+    --model NAME --joints J1,J2: a robot of example-robot-data, only those joints moving
+    (fixed base: a legged robot's leg in the air); --q0 gives the moving joints' angles
+    (the locked ones at 0) or all the model's joints (docs/robots.md).
     """
     import seactl as sc
+
+    if model == "list":
+        _print_models(sc.robot_models(), as_json)
+        return
+    if (urdf is None) == (model is None):
+        raise InputError("--urdf", urdf, "a URDF file, or --model NAME instead (one of the two)")
 
     v = {n: None if axes[n] is None else float(AXES[n].check(axes[n], AXES[n].option))
          for n in ROBOT_AXES}
@@ -130,7 +146,8 @@ def robot(urdf: str, actuators: str, space: str, task: str | None, q0: str | Non
                 fn_hz=v["fn_hz"], gs=v["gs"],
                 delays_ms={"torque": v["t_tau_ms"], "stiffness": v["t_qs_ms"],
                            "damping": v["t_qd_ms"]},
-                filters_hz=(v["f_qd_hz"], v["f_taud_hz"]))
+                filters_hz=(v["f_qd_hz"], v["f_taud_hz"]), model=model,
+                joints=None if joints is None else [j.strip() for j in joints.split(",")])
     if workspace is not None:
         _workspace(urdf, workspace, q0, mujoco_check, as_json, opts)
         return
@@ -144,6 +161,22 @@ def robot(urdf: str, actuators: str, space: str, task: str | None, q0: str | Non
     _print(rec)
     if mujoco_check:
         _print_check(rec["mujoco_check"])
+
+
+def _print_models(models: dict[str, Any], as_json: bool) -> None:
+    """``seactl robot --model list``."""
+    if as_json:
+        echo_json(models)
+        return
+    if not models:
+        console.print('no robot models: pip install -e ".[robots]" (example-robot-data)')
+        return
+    t = Table(title="robots of example-robot-data (fixed base)")
+    for col in ("model", "example --joints", "example --task", "robot"):
+        t.add_column(escape(col))
+    for name, m in models.items():
+        t.add_row(name, ",".join(m["joints"]), m["task"], escape(m["about"]))
+    console.print(t)
 
 
 def _print(rec: dict[str, Any]) -> None:

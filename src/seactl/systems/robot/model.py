@@ -61,6 +61,13 @@ def pinocchio() -> Any:
 
 def load_model(urdf: str | Path) -> Any:
     """The pinocchio model of a URDF file of revolute joints (fixed base)."""
+    model = parse_model(urdf)
+    check_revolute(model, Path(urdf).name)
+    return model
+
+
+def parse_model(urdf: str | Path) -> Any:
+    """The pinocchio model of a URDF file (fixed base), any joints."""
     pin = pinocchio()
     path = Path(urdf)
     if not path.is_file():
@@ -79,13 +86,17 @@ def load_model(urdf: str | Path) -> Any:
         raise InputError("urdf", str(urdf), f"a valid URDF file ({words[:200]})")
     if model.nv == 0:
         raise InputError("urdf", str(urdf), "a robot with at least one moving joint")
+    return model
+
+
+def check_revolute(model: Any, source: str) -> None:
+    """A one-line error unless every joint of ``model`` is revolute (one SEA per joint)."""
     for j in range(1, model.njoints):
         if model.joints[j].nq != 1 or model.joints[j].nv != 1 or \
                 not model.joints[j].shortname().startswith("JointModelR"):
-            raise InputError("urdf", f"{path.name}: joint {model.names[j]!r}",
-                             "revolute joints only (one SEA per joint); found "
-                             + model.joints[j].shortname())
-    return model
+            raise InputError("urdf", f"{source}: joint {model.names[j]!r}",
+                             "revolute joints only (one SEA per joint; lock the others "
+                             "with joints=...); found " + model.joints[j].shortname())
 
 
 @contextmanager
