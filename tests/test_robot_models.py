@@ -165,3 +165,46 @@ def test_real_models_load_their_example_joints():
         q = np.array(pin.neutral(full))
         np.testing.assert_allclose(r.body.mass_matrix, crba(full, q)[np.ix_(idx, idx)],
                                    rtol=1e-9, err_msg=name)
+
+
+def test_workspace_of_a_model(fake_root, capsys):
+    """Oracle: sc.robot on the model at each configuration of the grid (the front end
+    shows the library's numbers)."""
+    import json
+
+    assert main(["robot", "--model", "ur5", "--joints", "j1,j2", "--fn", "14",
+                 "--workspace", "0:0:1,0.8:1.6:2", "--json"]) == 0
+    rows = json.loads(capsys.readouterr().out)["configurations"]
+    for row in rows:
+        m = sc.robot(model="ur5", joints=["j1", "j2"], q0=[row["j1_rad"], row["j2_rad"]],
+                     fn_hz=14).margins()
+        assert row["stable"] == bool(m.stable)
+        assert row["phase_margin_deg"] == pytest.approx(float(m.phase_margin_deg), rel=1e-12)
+
+
+def test_data_root_from_the_distribution_files(tmp_path, monkeypatch):
+    """A behaviour: the robots directory comes from the distribution's file list (where
+    pip put it), else from the cmeel prefix in site-packages, else None."""
+    from importlib import metadata
+    from pathlib import PurePosixPath
+
+    class Dist:
+        files = [PurePosixPath("x.dist-info/RECORD"),
+                 PurePosixPath("cmeel.prefix/share/example-robot-data/robots/a/b.urdf")]
+
+        def locate_file(self, path):
+            return tmp_path / "site" / path
+
+    monkeypatch.setattr(metadata, "distribution", lambda name: Dist())
+    assert catalog.data_root() == tmp_path / "site/cmeel.prefix/share/example-robot-data/robots"
+
+    def missing(name):
+        raise metadata.PackageNotFoundError(name)
+
+    monkeypatch.setattr(metadata, "distribution", missing)
+    monkeypatch.setattr(catalog.sysconfig, "get_paths",
+                        lambda: {"purelib": str(tmp_path), "platlib": str(tmp_path)})
+    assert catalog.data_root() is None
+    prefix = tmp_path / "cmeel.prefix" / "share" / "example-robot-data" / "robots"
+    prefix.mkdir(parents=True)
+    assert catalog.data_root() == prefix

@@ -55,13 +55,12 @@ MODELS: dict[str, ModelEntry] = {
 def data_root() -> Path | None:
     """The package's robots directory, or None when it is not installed."""
     try:
-        files = metadata.distribution(DISTRIBUTION).files or []
         dist = metadata.distribution(DISTRIBUTION)
     except metadata.PackageNotFoundError:
-        files, dist = [], None
-    for f in files:
+        dist = None
+    for f in (dist.files or []) if dist is not None else []:
         parts = f.parts
-        for i in range(len(parts) - len(DATA_DIR)):
+        for i in range(len(parts) - len(DATA_DIR) + 1):
             if parts[i:i + len(DATA_DIR)] == DATA_DIR:
                 return Path(dist.locate_file(Path(*parts[:i + len(DATA_DIR)])))
     for key in ("purelib", "platlib"):
