@@ -10,8 +10,10 @@ pinocchio's URDF parser (a second derivation of the same rigid body).
 
 from __future__ import annotations
 
+import importlib.util
 import shutil
 from pathlib import Path
+from xml.etree import ElementTree
 
 import numpy as np
 import pytest
@@ -36,6 +38,22 @@ def fake_root(tmp_path, monkeypatch):
     shutil.copy(THREE, target)
     monkeypatch.setattr(catalog, "data_root", lambda: root)
     return root
+
+
+def mujoco_mass_matrix(urdf, q):
+    """MuJoCo's joint-space mass matrix of the URDF file at ``q``."""
+    import mujoco as mj
+
+    m = mj.MjModel.from_xml_path(str(urdf))
+    d = mj.MjData(m)
+    d.qpos[:] = q
+    mj.mj_forward(m, d)
+    M = np.zeros((m.nv, m.nv))
+    try:
+        mj.mj_fullM(m, d, M)            # MuJoCo >= 4
+    except TypeError:
+        mj.mj_fullM(m, M, d.qM)         # MuJoCo 3
+    return M
 
 
 def crba(model, q):
@@ -91,20 +109,14 @@ def test_locking_a_middle_joint_keeps_the_model_order():
 def test_locked_urdf_for_mujoco_is_the_reduced_body():
     """Oracle: MuJoCo's mass matrix (mj_fullM) of the URDF it compiles for a locked robot
     (j2 fixed at 0.9 rad, no geometry) against pinocchio's full crba submatrix."""
-    mj = pytest.importorskip("mujoco")
+    pytest.importorskip("mujoco")
     from seactl.systems.robot.reduce import locked_urdf
 
     r = sc.robot(THREE, joints=["j1", "j3"], q0=[0.2, 0.9, -0.5], fn_hz=30)
     with locked_urdf(r.urdf, r.locked) as path:
-        m = mj.MjModel.from_xml_path(path)
-    d = mj.MjData(m)
-    d.qpos[:] = [0.2, -0.5]
-    mj.mj_forward(m, d)
-    M = np.zeros((m.nv, m.nv))
-    try:
-        mj.mj_fullM(m, d, M)            # MuJoCo >= 4
-    except TypeError:
-        mj.mj_fullM(m, M, d.qM)         # MuJoCo 3
+        assert [j.get("name") for j in ElementTree.parse(path).iter("joint")
+                if j.get("type") != "fixed"] == ["j1", "j3"]
+        M = mujoco_mass_matrix(path, [0.2, -0.5])
     full = crba(pin.buildModelFromUrdf(str(THREE)), [0.2, 0.9, -0.5])
     np.testing.assert_allclose(M, full[np.ix_([0, 2], [0, 2])], rtol=1e-6)
 
@@ -155,8 +167,10 @@ def test_missing_package_says_how_to_install(monkeypatch):
 
 @pytest.mark.skipif(not sc.robot_models(), reason="example-robot-data is not installed")
 def test_real_models_load_their_example_joints():
-    """Oracle: each installed model's reduced mass matrix is its full crba's submatrix
-    (example-robot-data, not needed by CI)."""
+    """Oracle: each installed model's reduced mass matrix is its full crba's submatrix,
+    and MuJoCo's of the URDF it compiles (example-robot-data, not needed by CI)."""
+    from seactl.systems.robot.reduce import locked_urdf
+
     for name, entry in sc.robot_models().items():
         r = sc.robot(model=name, joints=entry["joints"], space="task", task=entry["task"],
                      fn_hz=100)
@@ -165,6 +179,12 @@ def test_real_models_load_their_example_joints():
         q = np.array(pin.neutral(full))
         np.testing.assert_allclose(r.body.mass_matrix, crba(full, q)[np.ix_(idx, idx)],
                                    rtol=1e-9, err_msg=name)
+        if importlib.util.find_spec("mujoco") is None:
+            continue
+        with locked_urdf(r.urdf, r.locked) as path:
+            np.testing.assert_allclose(mujoco_mass_matrix(path, r.body.q0),
+                                       r.body.mass_matrix, rtol=1e-9, atol=1e-12,
+                                       err_msg=name)
 
 
 def test_workspace_of_a_model(fake_root, capsys):
