@@ -1,0 +1,173 @@
+"""A workspace map's configurations, one after the other or on Dask:
+:func:`map_configurations` (behind :func:`seactl.workspace_map`).
+
+Each configuration is one task, :func:`evaluate_configuration`: the robot designed and
+linearized there, its margins, and in task space the stiffness search
+(:func:`seactl.api.robotstiffness.search_task_stiffness`).  The same function runs in
+either backend, so both give the same numbers.
+
+The first configuration runs in this process, timed; the rest are refused up front when
+that time, times the configurations left, divided by the workers, exceeds the time budget
+(:func:`seactl.base.limits.check_budget`).  With ``backend="dask"`` the rest go to a local
+cluster started as the sweeps start theirs (:func:`seactl.sweep.engine.local_cluster`:
+single-threaded worker processes, forked warm), or to a given ``client``.
+
+Cost per process: the robot's loop (:func:`seactl.systems.robot.loops.robot_diagram`) and
+its characteristic terms are built once per process on first use and cached there.  Every
+Dask worker therefore builds them once, in parallel with the others, before its first
+configuration: a second of CPU for three joints, minutes for four (docs/robots.md,
+"Cost").  Shipping them from this process would not shorten the wall time of a local
+cluster, whose workers build them side by side.
+"""
+
+from __future__ import annotations
+
+import os
+import time
+from collections.abc import Callable, Sequence
+from typing import Any
+
+import numpy as np
+
+from seactl.base import progress
+from seactl.errors import InputError
+
+BACKENDS = ("serial", "dask")
+
+
+def evaluate_configuration(urdf: str, q0: Sequence[float], options: dict[str, Any]
+                           ) -> dict[str, Any]:
+    """One configuration of a workspace map: the robot at ``q0`` and its numbers.
+
+    Parameters
+    ----------
+    urdf : str
+        The URDF file.
+    q0 : sequence of float
+        The configuration [rad].
+    options : dict
+        The other keywords of :func:`seactl.robot`.
+
+    Returns
+    -------
+    dict
+        ``stable``, ``phase_margin_deg``, ``delay_margin_ms`` (at ``outer.j1``); in task
+        space ``max_task_stiffness_n_per_m``, ``stiffness_intervals_n_per_m`` and
+        ``single_flip`` (:class:`seactl.api.robotstiffness.StiffnessSearch`), else NaN,
+        ``()`` and True.
+    """
+    import seactl as sc
+    from seactl.api.robotstiffness import search_task_stiffness
+
+    r = sc.robot(urdf, q0=list(q0), **options)
+    m = r.margins()
+    row = {"joints": tuple(r.body.joints), "stable": bool(m.stable),
+           "phase_margin_deg": float(m.phase_margin_deg),
+           "delay_margin_ms": float(m.delay_margin_ms),
+           "max_task_stiffness_n_per_m": float("nan"),
+           "stiffness_intervals_n_per_m": (), "single_flip": True}
+    if r.space == "task":
+        s = search_task_stiffness(r)
+        row.update(max_task_stiffness_n_per_m=s.kx_max_n_per_m,
+                   stiffness_intervals_n_per_m=s.intervals_n_per_m,
+                   single_flip=s.single_flip)
+    return row
+
+
+def map_configurations(urdf: str, q: np.ndarray, options: dict[str, Any], *,
+                       backend: str = "serial", workers: int | None = None,
+                       client: Any = None) -> list[dict[str, Any]]:
+    """:func:`evaluate_configuration` at each row of ``q``, in order.
+
+    Parameters
+    ----------
+    urdf : str
+        The URDF file.
+    q : numpy.ndarray
+        ``(m, n)`` configurations [rad].
+    options : dict
+        The other keywords of :func:`seactl.robot`.
+    backend : {"serial", "dask"}
+        In this process, or on Dask.
+    workers : int, optional
+        Local Dask workers (default: all cores); ignored with ``client``.
+    client : distributed.Client, optional
+        An existing Dask client (left open).
+
+    Returns
+    -------
+    list of dict
+        One row per configuration.
+
+    Raises
+    ------
+    InputError
+        An unknown backend, or workers below 1.
+    ResourceError
+        The configurations would take longer than the time budget.
+    """
+    if backend not in BACKENDS:
+        raise InputError("backend", backend, "one of " + ", ".join(BACKENDS))
+    if workers is not None and (isinstance(workers, bool) or int(workers) != workers
+                                or workers < 1):
+        raise InputError("workers", workers, "a whole number >= 1")
+    n_workers = 1 if backend == "serial" else (workers or os.cpu_count() or 1)
+    with progress.stage("workspace map", total=len(q), unit="configurations") as bar:
+        t0 = time.perf_counter()
+        rows = [evaluate_configuration(urdf, q[0], options)]
+        bar.advance()
+        _check_time(time.perf_counter() - t0, len(q) - 1, n_workers)
+        if len(q) == 1:
+            return rows
+        if backend == "serial":
+            for row in q[1:]:
+                rows.append(evaluate_configuration(urdf, row, options))
+                bar.advance()
+            return rows
+        return rows + _on_dask(urdf, q[1:], options, workers, client, bar.advance)
+
+
+def _check_time(first_s: float, left: int, n_workers: int) -> None:
+    """Refuse the configurations ``left`` if, each as long as the first, they exceed the
+    time budget."""
+    from seactl.base.limits import check_budget
+
+    check_budget(f"{left:,} more configurations of the workspace map (the first took "
+                 f"{first_s:.3g} s)", seconds=first_s * left / max(n_workers, 1),
+                 hint="fewer configurations, or more workers (backend='dask')")
+
+
+def _on_dask(urdf: str, q: np.ndarray, options: dict[str, Any], workers: int | None,
+             client: Any, advance: Callable[[], None]) -> list[dict[str, Any]]:
+    """The rows of ``q`` on Dask (a local cluster unless ``client``), in order."""
+    import shutil
+    import tempfile
+
+    from distributed import Client, as_completed
+
+    from seactl.sweep.engine import local_cluster
+
+    own_cluster = own_client = scratch = None
+    try:
+        if client is None:
+            scratch = tempfile.mkdtemp(prefix="seactl-map-")
+            own_cluster = local_cluster(workers or os.cpu_count() or 1, scratch)
+            own_client = client = Client(own_cluster)
+        futures = [client.submit(evaluate_configuration, urdf, row.tolist(), options,
+                                 pure=False, retries=2) for row in q]
+        index = {f.key: i for i, f in enumerate(futures)}
+        rows: list[Any] = [None] * len(futures)
+        try:
+            for fut, row in as_completed(futures, with_results=True):
+                rows[index[fut.key]] = row
+                advance()
+        except BaseException:
+            client.cancel(futures)
+            raise
+        return rows
+    finally:
+        if own_client is not None:
+            own_client.close()
+            own_cluster.close()
+        if scratch is not None:
+            shutil.rmtree(scratch, ignore_errors=True)
