@@ -159,6 +159,7 @@ def test_cli_map_plot_and_worst(tmp_path, capsys):
     rec = json.loads(capsys.readouterr().out)
     m = sc.workspace_map(ARM, Q, fn_hz=14, **TABLE_I)
     assert rec["worst"] == m.worst and rec["worst_configuration"]["stable"] is False
+    assert rec["lowest_max_task_stiffness"] is None   # joint space: no k_x
     assert rec["worst_configuration"]["phase_margin_deg"] == pytest.approx(
         m.phase_margin_deg[m.worst], rel=1e-9)
     assert png.read_bytes()[:4] == b"\x89PNG"

@@ -58,8 +58,14 @@ def evaluate_configuration(urdf: str, q0: Sequence[float], options: dict[str, An
     """
     import seactl as sc
     from seactl.api.robotstiffness import search_task_stiffness
+    from seactl.errors import InfeasibleDesignError
 
-    r = sc.robot(urdf, q0=list(q0), **options)
+    try:
+        r = sc.robot(urdf, q0=list(q0), **options)
+    except InfeasibleDesignError as exc:   # (which configuration of the map)
+        angles = ", ".join(f"{x:.4g}" for x in q0)
+        raise InfeasibleDesignError(f"at q = ({angles}) rad, {exc}", fn_hz=exc.fn_hz,
+                                    feasible_hz=exc.feasible_hz) from None
     m = r.margins()
     row = {"joints": tuple(r.body.joints), "stable": bool(m.stable),
            "phase_margin_deg": float(m.phase_margin_deg),
@@ -139,13 +145,15 @@ def _check_time(first_s: float, left: int, n_workers: int) -> None:
 
 def _on_dask(urdf: str, q: np.ndarray, options: dict[str, Any], workers: int | None,
              client: Any, advance: Callable[[], None]) -> list[dict[str, Any]]:
-    """The rows of ``q`` on Dask (a local cluster unless ``client``), in order."""
+    """The rows of ``q`` on Dask (a local cluster unless ``client``), in order.  No
+    retries: an error of a configuration is the same on every try (Dask reschedules the
+    tasks of a worker that dies by itself)."""
     import shutil
     import tempfile
 
     from distributed import Client, as_completed
 
-    from seactl.sweep.engine import local_cluster
+    from seactl.sweep.engine import local_cluster, uninterrupted
 
     own_cluster = own_client = scratch = None
     try:
@@ -154,7 +162,7 @@ def _on_dask(urdf: str, q: np.ndarray, options: dict[str, Any], workers: int | N
             own_cluster = local_cluster(workers or os.cpu_count() or 1, scratch)
             own_client = client = Client(own_cluster)
         futures = [client.submit(evaluate_configuration, urdf, row.tolist(), options,
-                                 pure=False, retries=2) for row in q]
+                                 pure=False) for row in q]
         index = {f.key: i for i, f in enumerate(futures)}
         rows: list[Any] = [None] * len(futures)
         try:
@@ -166,8 +174,9 @@ def _on_dask(urdf: str, q: np.ndarray, options: dict[str, Any], workers: int | N
             raise
         return rows
     finally:
-        if own_client is not None:
-            own_client.close()
-            own_cluster.close()
-        if scratch is not None:
-            shutil.rmtree(scratch, ignore_errors=True)
+        with uninterrupted():   # (a second Ctrl-C must not cut the close short)
+            if own_client is not None:
+                own_client.close()
+                own_cluster.close()
+            if scratch is not None:
+                shutil.rmtree(scratch, ignore_errors=True)

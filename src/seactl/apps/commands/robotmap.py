@@ -9,6 +9,7 @@ from typing import Any
 from rich.markup import escape
 from rich.table import Table
 
+from seactl.api.robotmapplot import marked
 from seactl.base.outputs import FIGURE_SUFFIXES, OutputSet
 from seactl.errors import InputError
 
@@ -90,13 +91,19 @@ def _row_json(row: dict[str, Any], intervals: tuple) -> dict[str, Any]:
     return out
 
 
+def _angles(m: Any, row: dict[str, Any]) -> str:
+    return ", ".join(f"{row[f'{j}_rad']:.4g}" for j in m.joints)
+
+
 def _report(m: Any, space: str, as_json: bool) -> None:
     rows = m.records()
     intervals = m.stiffness_intervals_n_per_m or ((),) * len(rows)
     flips = [i for i, ok in enumerate(m.single_flip) if not ok]
+    limited = marked(m, "max_task_stiffness_n_per_m") if space == "task" else None
     if as_json:
         echo_json({"joints": list(m.joints), "worst": m.worst,
                    "worst_configuration": _row_json(rows[m.worst], intervals[m.worst]),
+                   "lowest_max_task_stiffness": limited,
                    "multiple_flips": flips,
                    "configurations": [_row_json(r, iv) for r, iv in zip(rows, intervals)]})
         return
@@ -116,10 +123,14 @@ def _report(m: Any, space: str, as_json: bool) -> None:
                                                             " [yellow](flips)[/yellow]"))
     console.print(t)
     w = rows[m.worst]
-    angles = ", ".join(f"{w[f'{j}_rad']:.4g}" for j in m.joints)
-    console.print(f"worst configuration: row {m.worst + 1}, q = ({angles}) rad, "
+    console.print(f"worst configuration: row {m.worst + 1}, q = ({_angles(m, w)}) rad, "
                   f"{'stable' if w['stable'] else 'UNSTABLE'}, PM "
                   f"{pm_text(w['phase_margin_deg'], w['stable'])} deg")
+    if limited is not None:
+        k = rows[limited]["max_task_stiffness_n_per_m"]
+        console.print(f"lowest largest task stiffness: row {limited + 1}, q = "
+                      f"({_angles(m, rows[limited])}) rad, max k_x "
+                      f"{'none' if k is None else format(k, '.4g')} N/m")
     if flips:
         console.print(f"[yellow]the verdict flips more than once along k_x at row(s) "
                       f"{', '.join(str(i + 1) for i in flips)}: max k_x is the top of the "
