@@ -74,12 +74,16 @@ def test_map_stiffness_stretches_are_what_a_dense_scan_sees():
 
 # ------------------------------------------------------------------ backends
 @pytest.mark.slow
-def test_dask_backend_equals_serial(joint_map):
-    """Oracle: the serial backend; two local Dask workers give the same rows, in order."""
+def test_dask_backend_equals_serial(joint_map, monkeypatch):
+    """Oracle: the serial backend; two local Dask workers give the same rows, in order.
+    A map longer than the time budget is refused after its first configuration."""
     pytest.importorskip("distributed")
     m = sc.workspace_map(ARM, Q, fn_hz=14, backend="dask", workers=2, **TABLE_I)
     assert m.records() == joint_map.records()
     assert np.array_equal(m.phase_margin_deg, joint_map.phase_margin_deg)
+    monkeypatch.setenv("SEACTL_MAX_SECONDS", "1")
+    with pytest.raises(ResourceError, match="399 more configurations"):
+        sc.workspace_map(ARM, Q[:1] * 400, fn_hz=14, backend="dask", workers=2, **TABLE_I)
 
 
 def test_backend_and_budget_are_checked(monkeypatch):

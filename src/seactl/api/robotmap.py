@@ -30,8 +30,9 @@ class WorkspaceMap(Result):
     max_task_stiffness_n_per_m : numpy.ndarray
         Task space: per configuration the largest translational task stiffness ``k_x``
         [N/m] the certified verdict calls stable, ``k_r = k_x r^2`` scaled with it
-        (:func:`max_task_stiffness`); ``inf`` if stable up to ``1e6`` times the default
-        ``k_x``, 0 if unstable down to ``1e-6`` times it.  NaN in joint space, ``(m,)``.
+        (:func:`max_task_stiffness`: the top of the highest stable stretch); ``inf`` if
+        stable at ``1e6`` times the default ``k_x``, 0 if unstable everywhere from
+        ``1e-6`` to ``1e6`` times it.  NaN in joint space, ``(m,)``.
     worst : int
         The index of the configuration with the smallest phase margin (an unstable one
         first).

@@ -6,18 +6,18 @@ linearized there, its margins, and in task space the stiffness search
 (:func:`seactl.api.robotstiffness.search_task_stiffness`).  The same function runs in
 either backend, so both give the same numbers.
 
-The first configuration runs in this process, timed; the rest are refused up front when
-that time, times the configurations left, divided by the workers, exceeds the time budget
-(:func:`seactl.base.limits.check_budget`).  With ``backend="dask"`` the rest go to a local
-cluster started as the sweeps start theirs (:func:`seactl.sweep.engine.local_cluster`:
-single-threaded worker processes, forked warm), or to a given ``client``.
+With ``backend="dask"`` the configurations go to a local cluster started as the sweeps
+start theirs (:func:`seactl.sweep.engine.local_cluster`: single-threaded worker
+processes, forked warm), or to a given ``client``.  The first configuration to finish is
+timed (in this process, or from submission on Dask); the rest are refused, before they
+run, when that time, times the configurations left, divided by the workers, exceeds the
+time budget (:func:`seactl.base.limits.check_budget`).
 
 Cost per process: the robot's loop (:func:`seactl.systems.robot.loops.robot_diagram`) and
 its characteristic terms are built once per process on first use and cached there.  Every
-Dask worker therefore builds them once, in parallel with the others, before its first
-configuration: a second of CPU for three joints, minutes for four (docs/robots.md,
-"Cost").  Shipping them from this process would not shorten the wall time of a local
-cluster, whose workers build them side by side.
+Dask worker therefore builds them once, side by side with the others, before its first
+configuration, and this process builds none: the wall time pays one build, as in the
+serial backend (docs/robots.md, "Cost").
 """
 
 from __future__ import annotations
@@ -117,20 +117,17 @@ def map_configurations(urdf: str, q: np.ndarray, options: dict[str, Any], *,
     if workers is not None and (isinstance(workers, bool) or int(workers) != workers
                                 or workers < 1):
         raise InputError("workers", workers, "a whole number >= 1")
-    n_workers = 1 if backend == "serial" else (workers or os.cpu_count() or 1)
     with progress.stage("workspace map", total=len(q), unit="configurations") as bar:
-        t0 = time.perf_counter()
-        rows = [evaluate_configuration(urdf, q[0], options)]
-        bar.advance()
-        _check_time(time.perf_counter() - t0, len(q) - 1, n_workers)
-        if len(q) == 1:
-            return rows
-        if backend == "serial":
-            for row in q[1:]:
-                rows.append(evaluate_configuration(urdf, row, options))
-                bar.advance()
-            return rows
-        return rows + _on_dask(urdf, q[1:], options, workers, client, bar.advance)
+        if backend == "dask":
+            return _on_dask(urdf, q, options, workers, client, bar.advance)
+        rows = []
+        for i, row in enumerate(q):
+            t0 = time.perf_counter()
+            rows.append(evaluate_configuration(urdf, row, options))
+            bar.advance()
+            if i == 0:
+                _check_time(time.perf_counter() - t0, len(q) - 1, 1)
+        return rows
 
 
 def _check_time(first_s: float, left: int, n_workers: int) -> None:
@@ -161,14 +158,18 @@ def _on_dask(urdf: str, q: np.ndarray, options: dict[str, Any], workers: int | N
             scratch = tempfile.mkdtemp(prefix="seactl-map-")
             own_cluster = local_cluster(workers or os.cpu_count() or 1, scratch)
             own_client = client = Client(own_cluster)
+        n_workers = len(client.scheduler_info(n_workers=-1)["workers"])
+        t0 = time.perf_counter()
         futures = [client.submit(evaluate_configuration, urdf, row.tolist(), options,
                                  pure=False) for row in q]
         index = {f.key: i for i, f in enumerate(futures)}
         rows: list[Any] = [None] * len(futures)
         try:
-            for fut, row in as_completed(futures, with_results=True):
+            for done, (fut, row) in enumerate(as_completed(futures, with_results=True)):
                 rows[index[fut.key]] = row
                 advance()
+                if done == 0:
+                    _check_time(time.perf_counter() - t0, len(q) - 1, n_workers)
         except BaseException:
             client.cancel(futures)
             raise
