@@ -601,7 +601,7 @@ def test_closing_a_sweeps_workers_ignores_a_second_ctrl_c():
 
     sw = importlib.import_module("seactl.sweep.engine")
     before = signal.getsignal(signal.SIGINT)
-    with sw._uninterrupted():
+    with sw.uninterrupted():
         os.kill(os.getpid(), signal.SIGINT)
     assert signal.getsignal(signal.SIGINT) is before
 

@@ -42,6 +42,7 @@ UNIT_SUFFIXES = ("_s", "_ms", "_hz", "_deg", "_db", "_rad", "_a", "_m", "_mps", 
 UNITLESS = {
     **dict.fromkeys(("labels", "label"), "legend labels / label columns"),
     "seconds": "the unit is the name (a sweep's wall time)",
+    "single_flip": "a boolean (a workspace map's stiffness search saw one flip)",
     "real": "the exported C's floating-point type (a word)",
     **dict.fromkeys(("stable", "uncertain", "converged", "complete", "has_crossover", "load"),
                     "a boolean"),

@@ -428,15 +428,26 @@ def robot(urdf: str | Path | None = None, *, model: str | None = None,
                  locked)
 
 
-def workspace_map(urdf: str | Path, configurations: Any, **options: Any) -> Any:
+def workspace_map(urdf: str | Path | None, configurations: Any, *, backend: str = "serial",
+                  workers: int | None = None, client: Any = None, **options: Any) -> Any:
     """The same robot design at each configuration: where it loses stability.
 
     Parameters
     ----------
     urdf : str or path
         As :func:`robot`.
-    configurations : array_like
-        ``(m, n)`` joint angles [rad], one row per configuration (a grid or a trajectory).
+    configurations : array_like or str or path
+        ``(m, n)`` joint angles [rad], one row per configuration (a grid or a trajectory),
+        or a trajectory's CSV file: a header of joint names and optionally ``t_s`` [s],
+        one row per sample (:func:`seactl.api.robottrajectory.read_trajectory`).
+    backend : {"serial", "dask"}
+        The configurations one after the other in this process, or on Dask (the sweeps'
+        local cluster, or ``client``); the numbers are the same
+        (:mod:`seactl.api.robotsweep`).
+    workers : int, optional
+        Local Dask workers (default: all cores).
+    client : distributed.Client, optional
+        An existing Dask client (``backend="dask"``; left open).
     **options
         The other keywords of :func:`robot` (``actuators``, ``space``, ``task``, ``fn_hz``,
         ``delays_ms``, ...); the gains are designed anew at each configuration.
@@ -447,8 +458,10 @@ def workspace_map(urdf: str | Path, configurations: Any, **options: Any) -> Any:
         ``stable``, ``phase_margin_deg`` and ``delay_margin_ms`` at ``outer.j1`` per
         configuration; in task space ``max_task_stiffness_n_per_m``, the largest ``k_x``
         [N/m] the certified verdict calls stable at the given delays (``k_r / k_x`` as
-        given, or ``r^2`` by default; bisection to a relative 1e-3,
-        :func:`seactl.api.robotmap.max_task_stiffness`); ``worst``, ``records()``,
+        given, or ``r^2`` by default; a decade scan then bisection to a relative 1e-3,
+        :func:`seactl.api.robotstiffness.search_task_stiffness`), with
+        ``stiffness_intervals_n_per_m`` and ``single_flip`` (False where the verdict does
+        not simply flip once); ``t_s`` of a trajectory file; ``worst``, ``records()``,
         ``plot()``.
 
     Examples
@@ -459,17 +472,41 @@ def workspace_map(urdf: str | Path, configurations: Any, **options: Any) -> Any:
     >>> m.stable.tolist()                                          # doctest: +SKIP
     [True, True]
     """
-    from seactl.api.robotmap import WorkspaceMap, max_task_stiffness
+    from seactl.api.robotmap import WorkspaceMap
+    from seactl.api.robotsweep import map_configurations
 
-    q = np.asarray(configurations, float) if not isinstance(configurations, str) else None
-    if q is None or q.ndim != 2 or q.shape[0] == 0 or not np.all(np.isfinite(q)):
+    q, t_s = _configurations(urdf, configurations, options)
+    rows = map_configurations(None if urdf is None else str(urdf), q, options, backend=backend, workers=workers,
+                              client=client)
+    col = {k: [row[k] for row in rows] for k in rows[0]}
+    return WorkspaceMap(rows[0]["joints"], q, np.array(col["stable"], bool),
+                        np.array(col["phase_margin_deg"], float),
+                        np.array(col["delay_margin_ms"], float),
+                        np.array(col["max_task_stiffness_n_per_m"], float),
+                        single_flip=np.array(col["single_flip"], bool),
+                        stiffness_intervals_n_per_m=tuple(col["stiffness_intervals_n_per_m"]),
+                        t_s=t_s)
+
+
+def _moving_joints(urdf: str | Path | None, options: dict[str, Any]) -> tuple[str, ...]:
+    """The names of the moving joints of the robot ``workspace_map`` builds."""
+    keys = ("model", "joints", "actuators", "space", "task", "fn_hz", "gs")
+    return robot(urdf, **{k: v for k, v in options.items() if k in keys}).body.joints
+
+
+def _configurations(urdf: str | Path, configurations: Any) -> tuple[np.ndarray, Any]:
+    """The ``(m, n)`` configurations [rad] and times [s] (None) of ``workspace_map``."""
+    if isinstance(configurations, (str, Path)):
+        from seactl.api.robottrajectory import read_trajectory
+        from seactl.systems.robot.model import load_model
+
+        return read_trajectory(configurations, list(load_model(urdf).names)[1:])
+    try:
+        q = np.asarray(configurations, float)
+    except (TypeError, ValueError):
+        q = np.empty(0)
+    if q.ndim != 2 or q.shape[0] == 0 or not np.all(np.isfinite(q)):
         raise InputError("configurations", configurations,
-                         "an (m, n) array of joint angles [rad], one row per configuration")
-    robots = [robot(urdf, q0=row, **options) for row in q]
-    margins = [r.margins() for r in robots]
-    kx_max = [max_task_stiffness(r) if r.space == "task" else np.nan for r in robots]
-    return WorkspaceMap(robots[0].body.joints, q,
-                        np.array([bool(m.stable) for m in margins]),
-                        np.array([float(m.phase_margin_deg) for m in margins]),
-                        np.array([float(m.delay_margin_ms) for m in margins]),
-                        np.array(kx_max, float))
+                         "an (m, n) array of joint angles [rad], one row per configuration, "
+                         "or a trajectory's CSV file")
+    return q, None

@@ -3,12 +3,12 @@ and the largest task stiffness its certified verdict allows (:func:`max_task_sti
 
 from __future__ import annotations
 
-from dataclasses import dataclass, replace
+from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
 
-from seactl.base.result import Result, new_axes
+from seactl.base.result import Result
 
 
 @dataclass(frozen=True, eq=False)
@@ -30,11 +30,22 @@ class WorkspaceMap(Result):
     max_task_stiffness_n_per_m : numpy.ndarray
         Task space: per configuration the largest translational task stiffness ``k_x``
         [N/m] the certified verdict calls stable, ``k_r = k_x r^2`` scaled with it
-        (:func:`max_task_stiffness`); ``inf`` if stable up to ``1e6`` times the default
-        ``k_x``, 0 if unstable down to ``1e-6`` times it.  NaN in joint space, ``(m,)``.
+        (:func:`max_task_stiffness`: the top of the highest stable stretch); ``inf`` if
+        stable at ``1e6`` times the default ``k_x``, 0 if unstable everywhere from
+        ``1e-6`` to ``1e6`` times it.  NaN in joint space, ``(m,)``.
     worst : int
         The index of the configuration with the smallest phase margin (an unstable one
         first).
+    single_flip : numpy.ndarray
+        Per configuration, whether the stiffness search saw the verdict flip once (stable
+        below ``max_task_stiffness_n_per_m``, unstable above); False flags a map whose
+        largest stiffness is not the whole story (:mod:`seactl.api.robotstiffness`).
+        True in joint space, ``(m,)``.
+    stiffness_intervals_n_per_m : tuple
+        Per configuration, the stable stretches ``(low, high)`` of ``k_x`` [N/m] the
+        search found (empty in joint space).
+    t_s : numpy.ndarray or None
+        The trajectory's times [s] (its ``t_s`` column), ``(m,)``.
 
     Examples
     --------
@@ -51,6 +62,9 @@ class WorkspaceMap(Result):
     phase_margin_deg: np.ndarray
     delay_margin_ms: np.ndarray
     max_task_stiffness_n_per_m: np.ndarray
+    single_flip: np.ndarray | None = None
+    stiffness_intervals_n_per_m: tuple = ()
+    t_s: np.ndarray | None = None
 
     @property
     def worst(self) -> int:
@@ -60,55 +74,44 @@ class WorkspaceMap(Result):
         return int(np.argmin(key))
 
     def _columns(self) -> dict[str, Any]:
-        cols = {f"{j}_rad": self.q0_rad[:, i] for i, j in enumerate(self.joints)}
+        cols = {} if self.t_s is None else {"t_s": self.t_s}
+        cols.update({f"{j}_rad": self.q0_rad[:, i] for i, j in enumerate(self.joints)})
         cols.update(stable=self.stable, phase_margin_deg=self.phase_margin_deg,
                     delay_margin_ms=self.delay_margin_ms,
                     max_task_stiffness_n_per_m=self.max_task_stiffness_n_per_m)
+        if self.single_flip is not None:
+            cols["single_flip"] = self.single_flip
         return cols
 
-    def plot(self, ax: Any = None) -> Any:
-        """Phase margin per configuration, unstable ones marked.
+    def plot(self, ax: Any = None, quantity: str | None = None) -> Any:
+        """The map's figure: a heat map over the two joints of a 2-joint grid, else the
+        values along the trajectory (time, or sample index); unstable configurations and
+        the worst one marked (:func:`seactl.api.robotmapplot.plot_workspace_map`).
 
         Parameters
         ----------
         ax : matplotlib.axes.Axes, optional
             Where to draw (default: a new figure).
+        quantity : {"max_task_stiffness_n_per_m", "phase_margin_deg"}, optional
+            The value drawn (default: the largest task stiffness in task space, else the
+            phase margin).
 
         Returns
         -------
         matplotlib.axes.Axes
             The axes drawn on.
         """
-        ax = new_axes(ax)
-        idx = np.arange(len(self.stable))
-        ax.plot(idx, self.phase_margin_deg, "o-", label="phase margin at outer.j1")
-        bad = ~self.stable
-        ax.plot(idx[bad], np.zeros(bad.sum()), "rx", label="unstable")
-        ax.set_xlabel("configuration")
-        ax.set_ylabel("phase margin [deg]")
-        ax.legend()
-        return ax
+        from seactl.api.robotmapplot import plot_workspace_map
+
+        return plot_workspace_map(self, ax, quantity)
 
 
-STIFFNESS_RTOL = 1e-3
-"""The relative width of the last bracket of :func:`max_task_stiffness`."""
-
-
-def _scaled(r: Any, factor: float) -> Any:
-    """The robot with its task stiffness ``K_x`` times ``factor`` (``J^T K_x J`` is linear
-    in ``K_x``)."""
-    kx, kr = r.task_stiffness
-    return replace(r, stiffness=r.stiffness * factor, task_stiffness=(kx * factor, kr * factor))
-
-
-def max_task_stiffness(r: Any, rtol: float = STIFFNESS_RTOL, span: float = 1e6) -> float:
+def max_task_stiffness(r: Any, rtol: float = 1e-3, span: float = 1e6) -> float:
     """The largest translational task stiffness ``k_x`` [N/m] at which the robot's certified
-    verdict (``margins().stable``) is stable, ``k_r / k_x`` kept as in ``r``.
-
-    From ``r``'s own ``k_x`` the bracket grows (or shrinks) by factors of 4 until the
-    verdict changes, then geometric bisection narrows it to ``hi / lo <= 1 + rtol``; the
-    stable end ``lo`` is returned.  The verdict is assumed to change once in the bracket
-    (it does on the planar arms: stable below, unstable above).
+    verdict (``margins().stable``) is stable, ``k_r / k_x`` kept as in ``r``: the top of
+    the highest stable stretch of a scan and bisection
+    (:func:`seactl.api.robotstiffness.search_task_stiffness`, which also says whether the
+    verdict flips once).
 
     Parameters
     ----------
@@ -122,26 +125,9 @@ def max_task_stiffness(r: Any, rtol: float = STIFFNESS_RTOL, span: float = 1e6) 
     Returns
     -------
     float
-        ``k_x`` [N/m]; ``inf`` if stable up to ``k_x span``, 0 if unstable down to
-        ``k_x / span``.
+        ``k_x`` [N/m]; ``inf`` if stable at ``k_x span``, 0 if unstable everywhere
+        scanned.
     """
-    def stable(f: float) -> bool:
-        return bool(_scaled(r, f).margins().stable)
+    from seactl.api.robotstiffness import search_task_stiffness
 
-    lo = hi = 1.0
-    if stable(1.0):
-        while stable(hi * 4.0):
-            hi *= 4.0
-            if hi > span:
-                return float("inf")
-        lo, hi = hi, hi * 4.0
-    else:
-        while not stable(lo / 4.0):
-            lo /= 4.0
-            if lo < 1.0 / span:
-                return 0.0
-        lo, hi = lo / 4.0, lo
-    while hi / lo > 1.0 + rtol:
-        mid = float(np.sqrt(lo * hi))
-        lo, hi = (mid, hi) if stable(mid) else (lo, mid)
-    return lo * float(r.task_stiffness[0])
+    return search_task_stiffness(r, rtol, span).kx_max_n_per_m

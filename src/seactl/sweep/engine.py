@@ -186,7 +186,7 @@ class SweepInterrupted(KeyboardInterrupt):
 
 
 @contextlib.contextmanager
-def _uninterrupted():
+def uninterrupted():
     """Ctrl-C and SIGTERM ignored meanwhile (in the main thread): closing the workers is
     not cut short by a second Ctrl-C, which would leave them and their files behind."""
     if not _main_thread():
@@ -406,7 +406,7 @@ def _run(spec: SweepSpec, out: Path, workers: int | None, client: Any, own_clien
         have = spec.n_chunks - len(missing_chunks(spec, out))
         raise SweepInterrupted(out, have, spec.n_chunks, isinstance(exc, Terminated)) from None
     finally:
-        with _uninterrupted():
+        with uninterrupted():
             if own_cluster is not None:
                 own_client.close()
                 own_cluster.close()

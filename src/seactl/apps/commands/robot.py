@@ -26,25 +26,6 @@ def _q0(text: str | None) -> list[float] | None:
                          ) from None
 
 
-def workspace_grid(text: str) -> list[list[float]]:
-    """``A:B:N,C:D:M,...`` (per joint, N angles from A to B [rad]) -> the grid's rows."""
-    import numpy as np
-
-    try:
-        axes = []
-        for part in text.split(","):
-            a, b, n = part.split(":")
-            axes.append(np.linspace(float(a), float(b), int(n)))
-        ok = all(len(x) >= 1 and np.all(np.isfinite(x)) for x in axes)
-    except ValueError:
-        ok = False
-    if not ok or np.prod([len(x) for x in axes]) > 10000:
-        raise InputError("--workspace [rad]", text, "per joint its first angle, last angle "
-                         "and count (>= 1) joined by colons, joints comma-separated, at "
-                         "most 10000 configurations, e.g. 0:0.6:3,0.8:2.2:3")
-    return np.stack(np.meshgrid(*axes, indexing="ij"), -1).reshape(-1, len(axes)).tolist()
-
-
 def _actuators(text: str) -> Any:
     """``PRESET|FILE`` for every joint, or ``joint=PRESET|FILE,...``."""
     if "=" not in text:
@@ -108,10 +89,19 @@ def robot_record(r: Any, margins: dict[str, Any], roots: Any) -> dict[str, Any]:
 @click.option("--joints", default=None,
               help="The moving joints, comma-separated (at most 3); the others are locked "
                    "at --q0.")
+@click.option("--trajectory", default=None, metavar="FILE.csv",
+              help="Map the samples of a trajectory instead of a grid: a CSV file with a "
+                   "header of joint names (and optionally t_s [s]), angles [rad].")
+@click.option("--plot", "plot", default=None, metavar="FILE.png|.svg|.pdf",
+              help="With --workspace or --trajectory: write the map's figure to FILE.")
+@click.option("--workers", type=int, default=None,
+              help="With --workspace or --trajectory: run the configurations on N local "
+                   "Dask worker processes (default: in this process).")
 @json_option
 def robot(urdf: str | None, actuators: str, space: str, task: str | None, q0: str | None,
           workspace: str | None, mujoco_check: bool, model: str | None, joints: str | None,
-          as_json: bool, **axes: Any) -> None:
+          trajectory: str | None, plot: str | None, workers: int | None, as_json: bool,
+          **axes: Any) -> None:
     """Margins of every loop break, certified verdict and spectral abscissa of a robot.
 
     Python: sc.robot(urdf, actuators=..., space=..., task=..., q0=...).
@@ -127,7 +117,8 @@ def robot(urdf: str | None, actuators: str, space: str, task: str | None, q0: st
     Breaks: outer.jN (the SEA's outer loop), stiffness.jN, damping.jN, torque.jN.
     --mujoco-check: Python r.mujoco_check() (docs/robots.md, "In MuJoCo").
     --workspace: one row per configuration of the grid (verdict, phase margin, delay
-    margin, and in task space the largest task stiffness k_x [N/m]).
+    margin, and in task space the largest task stiffness k_x [N/m]); --trajectory: the
+    same per sample of a CSV file; --plot FILE: the map's figure; --workers N: on Dask.
     --model NAME --joints J1,J2: a robot of example-robot-data, only those joints moving
     (fixed base: a legged robot's leg in the air); --q0 gives the moving joints' angles
     (the locked ones at 0) or all the model's joints (docs/robots.md).
@@ -148,9 +139,16 @@ def robot(urdf: str | None, actuators: str, space: str, task: str | None, q0: st
                            "damping": v["t_qd_ms"]},
                 filters_hz=(v["f_qd_hz"], v["f_taud_hz"]), model=model,
                 joints=None if joints is None else [j.strip() for j in joints.split(",")])
-    if workspace is not None:
-        _workspace(urdf, workspace, q0, mujoco_check, as_json, opts)
+    if workspace is not None or trajectory is not None:
+        from seactl.apps.commands.robotmap import workspace_command
+
+        workspace_command(urdf, workspace, trajectory, q0, mujoco_check, opts,
+                          plot=plot, workers=workers, as_json=as_json)
         return
+    if plot is not None or workers is not None:
+        raise InputError("--plot" if plot is not None else "--workers",
+                         plot if plot is not None else workers,
+                         "given with --workspace or --trajectory (a map's options)")
     r = sc.robot(urdf, q0=_q0(q0), **opts)
     rec = robot_record(r, r.margins_by_break(), r.roots(count=4))
     if mujoco_check:
@@ -208,37 +206,3 @@ def _print_check(rows: list[dict[str, Any]]) -> None:
                   f"{r['growth_rate_per_s']:.3g}",
                   "yes" if r["agree"] else "[red]NO[/red]")
     console.print(t)
-
-
-def _workspace(urdf: str, text: str, q0: str | None, mujoco_check: bool, as_json: bool,
-               opts: dict[str, Any]) -> None:
-    """``seactl robot --workspace``: the map's table or JSON."""
-    import seactl as sc
-
-    if q0 is not None or mujoco_check:
-        raise InputError("--workspace", text, "given without --q0 and --mujoco-check")
-    grid = workspace_grid(text)
-    try:
-        m = sc.workspace_map(urdf, grid, **opts)
-    except InputError as exc:
-        if exc.field != "q0":
-            raise
-        raise InputError("--workspace [rad]", text, exc.valid) from None
-    rows = m.records()
-    if as_json:
-        echo_json({"joints": list(m.joints), "worst": m.worst,
-                   "configurations": [{k: finite_or_none(x) if isinstance(x, float) else x
-                                       for k, x in row.items()} for row in rows]})
-        return
-    t = Table(title=f"workspace map, {opts['space']} space, {len(rows)} configurations")
-    for col in [f"{j} [rad]" for j in m.joints] + ["verdict", "PM [deg]",
-                                                   "delay margin [ms]", "max k_x [N/m]"]:
-        t.add_column(escape(col))
-    for row in rows:
-        t.add_row(*(f"{row[f'{j}_rad']:.4g}" for j in m.joints),
-                  "stable" if row["stable"] else "[red]UNSTABLE[/red]",
-                  pm_text(row["phase_margin_deg"], row["stable"]),
-                  *("none" if row[k] is None else f"{row[k]:.4g}"
-                    for k in ("delay_margin_ms", "max_task_stiffness_n_per_m")))
-    console.print(t)
-    console.print(f"worst configuration: row {m.worst + 1}")
