@@ -490,17 +490,19 @@ def workspace_map(urdf: str | Path | None, configurations: Any, *, backend: str 
 
 def _moving_joints(urdf: str | Path | None, options: dict[str, Any]) -> tuple[str, ...]:
     """The names of the moving joints of the robot ``workspace_map`` builds."""
-    keys = ("model", "joints", "actuators", "space", "task", "fn_hz", "gs")
-    return robot(urdf, **{k: v for k, v in options.items() if k in keys}).body.joints
+    from seactl.api.robotmodels import rigid_model
+
+    pin_model = rigid_model(urdf, options.get("model"), options.get("joints"), None)[0]
+    return tuple(pin_model.names[1:])
 
 
-def _configurations(urdf: str | Path, configurations: Any) -> tuple[np.ndarray, Any]:
+def _configurations(urdf: str | Path | None, configurations: Any,
+                    options: dict[str, Any]) -> tuple[np.ndarray, Any]:
     """The ``(m, n)`` configurations [rad] and times [s] (None) of ``workspace_map``."""
     if isinstance(configurations, (str, Path)):
         from seactl.api.robottrajectory import read_trajectory
-        from seactl.systems.robot.model import load_model
 
-        return read_trajectory(configurations, list(load_model(urdf).names)[1:])
+        return read_trajectory(configurations, list(_moving_joints(urdf, options)))
     try:
         q = np.asarray(configurations, float)
     except (TypeError, ValueError):
