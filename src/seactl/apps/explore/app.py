@@ -144,14 +144,15 @@ def _fmt(x: Any, fmt: str = ".4g") -> str:
     return "none" if x is None else f"{x:{fmt}}"
 
 
-def badge_html(r: dict[str, Any]) -> str:
-    """The coloured verdict badge (:func:`~seactl.apps.explore.model.badges`): white words
-    on green (good), orange (a warning) or red (bad)."""
+def badge_html(r: dict[str, Any], items: list[tuple[str, str, str]] | None = None) -> str:
+    """The coloured verdict badge (``items``, by default
+    :func:`~seactl.apps.explore.model.badges` of ``r``): white words on green (good),
+    orange (a warning) or red (bad)."""
     spans = "".join(
         f"<span id='{i}' data-tone='{tone}' style='display:inline-block;margin:2px 6px 2px 0;"
         f"padding:3px 10px;border-radius:12px;color:white;font-weight:bold;font-size:13px;"
         f"background:{BADGE_COLOURS[tone]}'>{html.escape(text)}</span>"
-        for i, text, tone in badges(r))
+        for i, text, tone in (badges(r) if items is None else items))
     return f"<div id='badge'>{spans}</div>"
 
 
