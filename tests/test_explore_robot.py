@@ -146,6 +146,8 @@ def test_callbacks_follow_the_sliders_and_keep_the_page_on_bad_input(start):
     (f"--robot {ARM} --space task --task nope", "invalid --task = 'nope'"),
     (f"--robot {ARM} --q0 1,2,3", "2 finite joint angles"),
     (f"--robot {ARM} --actuators j1=ut-sea", "joint 'j2' without an actuator"),
+    ("--space task", "invalid --space = 'task': must be given with --robot"),
+    (f"--robot {ARM} --loop examples/loops/two-mass-notch.toml", "given without --loop"),
 ])
 def test_bad_robot_input_is_one_line(args, needle, capsys):
     assert main(["explore", "--no-browser", *args.split()]) == 2

@@ -35,18 +35,19 @@ def check_address(host: str, port: int, allow_remote: bool) -> None:
               help="Start with this loop file (docs/loops.md): its variables as sliders.")
 @click.option("--robot", "robot_urdf", default=None, metavar="FILE.urdf",
               help="Explore this robot instead (docs/explore.md, \"Robots\").")
-@click.option("--actuators", default="ut-sea", show_default=True,
+@click.option("--actuators", default=None,
               help="With --robot: SEA preset or TOML file for every joint, or "
-                   "JOINT=PRESET|FILE,...")
-@click.option("--space", type=click.Choice(["joint", "task"]), default="joint",
-              show_default=True, help="With --robot: the first stiffness space.")
+                   "JOINT=PRESET|FILE,... [default: ut-sea]")
+@click.option("--space", type=click.Choice(["joint", "task"]), default=None,
+              help="With --robot: the first stiffness space [default: joint].")
 @click.option("--task", default=None,
               help="With --robot: task frame (default: the URDF's last link).")
 @click.option("--q0", default=None,
               help="With --robot: first configuration [rad], comma-separated (default 0).")
 def explore(host: str, port: int, no_browser: bool, allow_remote: bool,
-            loop_file: str | None, robot_urdf: str | None = None, actuators: str = "ut-sea",
-            space: str = "joint", task: str | None = None, q0: str | None = None) -> None:
+            loop_file: str | None, robot_urdf: str | None = None,
+            actuators: str | None = None, space: str | None = None, task: str | None = None,
+            q0: str | None = None) -> None:
     """Tune one SEA design by hand in the browser; every view updates live.
 
     Python: seactl.apps.explore.model.views(...) (its numbers: sc.design(...).margins(), .roots(),
@@ -91,15 +92,19 @@ def explore(host: str, port: int, no_browser: bool, allow_remote: bool,
           robot=robot)
 
 
-def _robot_start(urdf: str | None, loop_file: str | None, actuators: str, space: str,
-                 task: str | None, q0: str | None) -> Any:
+def _robot_start(urdf: str | None, loop_file: str | None, actuators: str | None,
+                 space: str | None, task: str | None, q0: str | None) -> Any:
     """The robot page's first controls, checked now (a bad URDF, frame, actuator or
     ``--q0`` is a one-line error before the server starts); None without ``--robot``."""
     if urdf is None:
+        for flag, value in (("--actuators", actuators), ("--space", space),
+                            ("--task", task), ("--q0", q0)):
+            if value is not None:
+                raise InputError(flag, value, "given with --robot")
         return None
     if loop_file is not None:
         raise InputError("--robot", urdf, "given without --loop (one page at a time)")
     from seactl.apps.explore.robotmodel import q_from_text, start_controls
 
-    return start_controls(urdf, actuators=actuators, space=space, task=task,
-                          q_rad=q_from_text(q0))
+    return start_controls(urdf, actuators=actuators or "ut-sea", space=space or "joint",
+                          task=task, q_rad=q_from_text(q0))

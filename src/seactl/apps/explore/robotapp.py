@@ -97,8 +97,9 @@ class RobotExplorer:
                                        value=getattr(c, key), width=320,
                                        css_classes=[f"seactl-{key}"])
         self.space = RadioButtonGroup(labels=list(rm.SPACES), active=rm.SPACES.index(c.space))
-        self.task = Select(title="task frame", value=c.task or "",
-                           options=list(self.info.links), width=150)
+        frames = [*self.info.links, *([c.task] if c.task and c.task not in
+                                       self.info.links else [])]  # --task: any frame
+        self.task = Select(title="task frame", value=c.task or "", options=frames, width=150)
         names = list(self.info.joints)
         self.map_x = Select(title="map across", value=names[0], options=names, width=100)
         self.map_y = Select(title="map up", value=names[min(1, len(names) - 1)],

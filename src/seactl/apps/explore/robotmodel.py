@@ -240,7 +240,6 @@ def fast_views(c: RobotControls, acc: dict[str, Any] | None = None) -> dict[str,
                "phase_margin_deg": _one(m.phase_margin_deg),
                "crossover_hz": _one(m.crossover_hz),
                "delay_margin_ms": _one(m.delay_margin_ms), "passive": out["passive"],
-               "task_stiffness": r.task_stiffness,
                **{k: out[k] for k in ("step_amplitude", "step_overshoot_pct",
                                       "step_settling_ms")}}
     results["verdict"] = verdict(results)
