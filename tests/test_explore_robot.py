@@ -122,14 +122,14 @@ def test_workspace_map_is_the_library_map_and_the_cli_one(start, capsys):
 
 
 def test_callbacks_follow_the_sliders_and_keep_the_page_on_bad_input(start):
-    """Oracle: sc.robot at the slider's new q (the table's delay margin of outer.j2)."""
+    """Oracle: sc.robot at the slider's new q (``margins()``, the System's outer loop:
+    the delay margin of the table's outer.j1 row)."""
     from seactl.apps.explore.robotapp import RobotExplorer
 
     ex = RobotExplorer(start)  # no document: each change updates synchronously
     ex.q_sliders[1].value = 1.2
-    r = _direct(replace(start[0], q_rad=(Q[0], 1.2)))
-    dm = float(r.margins_by_break()["outer.j2"].delay_margin_ms)
-    assert f"id='dm-outer-j2' style='text-align:right'>{dm:.4g}<" in ex.table.text
+    dm = float(_direct(replace(start[0], q_rad=(Q[0], 1.2))).margins().delay_margin_ms)
+    assert f"id='dm-outer-j1' style='text-align:right'>{dm:.4g}<" in ex.table.text
     assert "--q0 0.3,1.2 " in ex.command.text
     assert max(sum(m[-1:]) for m in ex.last_ms) < 3000  # warm updates (docs/explore.md)
     table = ex.table.text
@@ -155,3 +155,37 @@ def test_bad_robot_input_is_one_line(args, needle, capsys):
     err = captured.err.strip()
     assert needle in err and len(err.splitlines()) == 1 and err.startswith("error:")
     assert captured.out == ""
+
+
+class _QueueDoc:
+    """A document stand-in whose next-tick callbacks run only when the test says so."""
+
+    def __init__(self):
+        self.queue = []
+
+    def add_next_tick_callback(self, callback):
+        self.queue.append(callback)
+
+    def run(self):
+        while self.queue:
+            self.queue.pop(0)()
+
+
+def test_a_dragged_joint_slider_is_computed_once_for_its_latest_value(start):
+    """Changes arriving before the update runs are merged; a stale second stage (the
+    margins table) is dropped.  Oracle: sc.robot at the last q (``margins()``: the PM of
+    the table's outer.j1 row)."""
+    from seactl.apps.explore.robotapp import RobotExplorer
+
+    doc = _QueueDoc()
+    ex = RobotExplorer(start, doc)
+    ex.last_ms.clear()
+    for q in (0.9, 1.0, 1.1):
+        ex.q_sliders[1].value = q
+    assert len(doc.queue) == 1  # one update for three changes
+    doc.queue.pop(0)()  # stage 1 at q2 = 1.1; the table's stage is now queued
+    ex.q_sliders[1].value = 1.3  # a newer change supersedes it
+    doc.run()
+    assert len(ex.last_ms) == 1 and "--q0 0.3,1.3 " in ex.command.text
+    pm = float(_direct(replace(start[0], q_rad=(Q[0], 1.3))).margins().phase_margin_deg)
+    assert f"id='pm-outer-j1' style='text-align:right'>{pm:.2f}<" in ex.table.text
