@@ -52,6 +52,7 @@ def test_start_reads_the_urdf_layout(start):
     c, info = start
     assert info.joints == ("j1", "j2") and info.limits_rad == ((-3.14, 3.14),) * 2
     assert info.links[-1] == "tool" and c.task == "tool" and c.q_rad == Q
+    assert rm.start_controls(ARM, space="task")[0].task == "tool"  # no --task: the leaf
 
 
 def test_views_are_the_api_numbers(task_views):

@@ -110,7 +110,7 @@ def q_from_text(text: str | None) -> list[float] | None:
 @dataclass(frozen=True)
 class RobotInfo:
     """What the page's controls need from the URDF: joint names (the model's order),
-    their slider ranges [rad] and the links (the task frame choices)."""
+    their slider ranges [rad] and the links (the task frame choices, the leaves last)."""
 
     joints: tuple[str, ...]
     limits_rad: tuple[tuple[float, float], ...]
@@ -127,9 +127,12 @@ def robot_info(urdf: str, joints: tuple[str, ...]) -> RobotInfo:
         lo = float(lim.get("lower", -math.pi)) if lim is not None else -math.pi
         hi = float(lim.get("upper", math.pi)) if lim is not None else math.pi
         found[j.get("name")] = (lo, hi) if hi > lo else (-math.pi, math.pi)
-    links = tuple(str(k.get("name")) for k in root.iter("link") if k.get("name"))
+    parents = {p.get("link") for j in root.iter("joint") for p in j.iter("parent")}
+    links = [str(k.get("name")) for k in root.iter("link") if k.get("name")]
+    leaves = [k for k in links if k not in parents]   # the default task frame: the last
+    links = [k for k in links if k not in leaves] + leaves
     return RobotInfo(tuple(joints), tuple(found.get(j, (-math.pi, math.pi)) for j in joints),
-                     links)
+                     tuple(links))
 
 
 def start_controls(urdf: str, *, actuators: str = "ut-sea", space: str = "joint",
@@ -146,6 +149,12 @@ def start_controls(urdf: str, *, actuators: str = "ut-sea", space: str = "joint"
     """
     if not Path(urdf).is_file():
         raise InputError("--robot", urdf, "an existing URDF file")
+    if space == "task" and task is None:
+        try:  # a file the library refuses: its error, before the XML is read here
+            sc.robot(urdf, actuators=actuator_spec(actuators), q0=q_rad)
+        except InfeasibleDesignError:
+            pass
+        task = robot_info(urdf, ()).links[-1]
     for fn_hz in (RobotControls.fn_hz, ROBOT_BOUNDS["fn_hz"][1]):
         try:
             r = sc.robot(urdf, actuators=actuator_spec(actuators), space=space, task=task,
