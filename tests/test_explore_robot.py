@@ -53,6 +53,10 @@ def test_start_reads_the_urdf_layout(start):
     assert info.joints == ("j1", "j2") and info.limits_rad == ((-3.14, 3.14),) * 2
     assert info.links[-1] == "tool" and c.task == "tool" and c.q_rad == Q
     assert rm.start_controls(ARM, space="task")[0].task == "tool"  # no --task: the leaf
+    fn = rm.start_controls(ARM)[0].fn_hz  # q = 0: no gains for j2 at 14 Hz
+    sc.robot(ARM, fn_hz=fn)  # oracle: the library, on the slider's 0.1 Hz grid
+    with pytest.raises(sc.InfeasibleDesignError):
+        sc.robot(ARM, fn_hz=round(fn - 0.1, 1))
 
 
 def test_views_are_the_api_numbers(task_views):

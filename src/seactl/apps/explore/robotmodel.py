@@ -139,13 +139,15 @@ def start_controls(urdf: str, *, actuators: str = "ut-sea", space: str = "joint"
                    task: str | None = None, q_rad: Any = None
                    ) -> tuple[RobotControls, RobotInfo]:
     """The page's first controls and the URDF's layout, checked by building the robot:
-    a bad file, frame, actuator or ``q`` raises the library's error (a design infeasible
-    at the default f_n does not: the page says it and the sliders move on).
+    a bad file, frame, actuator or ``q`` raises the library's error.  The page starts at
+    f_n = 14 Hz, or, where a joint has no feasible gains there at ``q``, at the lowest f_n
+    (on the slider's 0.1 Hz grid, up to 50 Hz) where every joint has.
 
     Raises
     ------
     InputError
-        From :func:`seactl.robot` (the message names the field).
+        From :func:`seactl.robot` (the message names the field), or no feasible design
+        up to 50 Hz.
     """
     if not Path(urdf).is_file():
         raise InputError("--robot", urdf, "an existing URDF file")
@@ -155,21 +157,23 @@ def start_controls(urdf: str, *, actuators: str = "ut-sea", space: str = "joint"
         except InfeasibleDesignError:
             pass
         task = robot_info(urdf, ()).links[-1]
-    for fn_hz in (RobotControls.fn_hz, ROBOT_BOUNDS["fn_hz"][1]):
+    fn_hz, r = RobotControls.fn_hz, None
+    while r is None and fn_hz <= ROBOT_BOUNDS["fn_hz"][1]:
         try:
             r = sc.robot(urdf, actuators=actuator_spec(actuators), space=space, task=task,
                          q0=q_rad, fn_hz=fn_hz)
-            break
-        except InfeasibleDesignError:
-            continue  # every input is valid: the page shows the infeasible design
-    else:
+        except InfeasibleDesignError as exc:
+            above = [lo for lo, hi in exc.feasible_hz or () if hi > fn_hz]
+            fn_hz = math.ceil(max(min(above, default=math.inf), fn_hz) * 10 + 1e-6) / 10
+    if r is None:
         raise InputError("--robot", urdf, "a robot with a feasible design for f_n "
-                         f"<= {ROBOT_BOUNDS['fn_hz'][1]:g} Hz")
+                         f"<= {ROBOT_BOUNDS['fn_hz'][1]:g} Hz at this q")
     info = robot_info(urdf, r.body.joints)
     q = tuple(float(x) for x in r.body.q0)
     if task is None:
         task = info.links[-1] if info.links else None
-    return RobotControls(str(urdf), q, space=space, task=task, actuators=actuators), info
+    return RobotControls(str(urdf), q, fn_hz=fn_hz, space=space, task=task,
+                         actuators=actuators), info
 
 
 # ------------------------------------------------------------------ views
