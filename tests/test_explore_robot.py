@@ -194,3 +194,49 @@ def test_a_dragged_joint_slider_is_computed_once_for_its_latest_value(start):
     assert len(ex.last_ms) == 1 and "--q0 0.3,1.3 " in ex.command.text
     pm = float(_direct(replace(start[0], q_rad=(Q[0], 1.3))).margins().phase_margin_deg)
     assert f"id='pm-outer-j1' style='text-align:right'>{pm:.2f}<" in ex.table.text
+
+
+class _Doc:
+    """A Bokeh document stand-in: its roots, and the session-end callbacks."""
+
+    def __init__(self):
+        self.roots, self.ended, self.title = [], [], ""
+
+    def add_next_tick_callback(self, callback):
+        callback()
+
+    def clear(self):
+        self.roots = []
+
+    def add_root(self, root):
+        self.roots.append(root)
+
+    def on_session_destroyed(self, callback):
+        self.ended.append(callback)
+
+
+def test_an_uploaded_urdf_opens_the_robot_page_until_the_session_ends(tmp_path):
+    """Oracle: the file itself (its joints; the command line names it as uploaded), and
+    the temporary copy existing while the session lives, gone after."""
+    import tempfile
+    from pathlib import Path
+
+    from seactl.apps.explore.robotapp import open_uploaded_robot
+
+    def copies():
+        return set(Path(tempfile.gettempdir()).glob("seactl-robot-*/my_arm.urdf"))
+
+    doc, before = _Doc(), copies()
+    content = Path(ARM).read_bytes()
+    open_uploaded_robot(doc, "my arm.urdf", content)
+    assert doc.title == "seactl explore: robot" and len(doc.roots) == 1
+    c, info = rm.robot_from_upload("my arm.urdf", content, str(tmp_path))
+    assert c.file_name == "my_arm.urdf" and info.joints == ("j1", "j2")
+    assert rm.command_line(c).startswith("seactl robot --urdf my_arm.urdf ")
+    new = copies() - before
+    assert len(new) == 1 and next(iter(new)).read_bytes() == content
+    for end in doc.ended:
+        end(None)
+    assert not any(p.exists() for p in new)
+    with pytest.raises(sc.errors.SeactlError, match="'broken.urdf': must be a valid URDF"):
+        open_uploaded_robot(doc, "broken.urdf", b"<robot")

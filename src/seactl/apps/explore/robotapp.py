@@ -9,8 +9,11 @@ workspace map is computed only when its button is pressed.
 
 from __future__ import annotations
 
+import atexit
 import functools
 import html
+import shutil
+import tempfile
 import time
 from dataclasses import replace
 from typing import Any
@@ -32,7 +35,7 @@ from bokeh.palettes import Category10
 from bokeh.plotting import figure
 
 from . import robotmodel as rm
-from .app import badge_html
+from .app import badge_html, make_document
 from .model import number, safe
 
 SLIDERS = {"fn_hz": "f_n [Hz]", "t_tau_ms": "T_tau torque delay [ms]",
@@ -73,6 +76,8 @@ class RobotExplorer:
 
     def __init__(self, start: tuple[rm.RobotControls, rm.RobotInfo], doc: Any = None):
         self.doc = doc
+        self.sea_button = Button(label="built-in SEA", width=100)
+        self.sea_button.on_click(self.leave_robot)
         self.base, self.info = start
         self.pending = False
         self.generation = 0
@@ -127,6 +132,12 @@ class RobotExplorer:
         return replace(self.base, q_rad=q, space=space, task=self.task.value or None, **v)
 
     # ------------------------------------------------------------ callbacks
+    def leave_robot(self) -> None:
+        """Back to the built-in SEA page (it can open another robot)."""
+        if self.doc is not None:
+            self.doc.clear()
+            make_document(self.doc, robot_page=open_uploaded_robot)
+
     def on_change(self, attr: str, old: Any, new: Any) -> None:
         """Bokeh's callback signature for :meth:`request`."""
         self.request()
@@ -252,9 +263,10 @@ class RobotExplorer:
     def layout(self) -> Any:
         """The verdict badge, controls and words on the left; the table and views right."""
         head = Div(text=f"<h3 style='margin:0'>seactl explore: "
-                        f"{html.escape(self.base.urdf)}</h3>", width=330)
+                        f"{html.escape(self.base.file_name or self.base.urdf)}</h3>",
+                   width=330)
         controls = column(
-            head, self.badge, *self.q_sliders, *self.sliders.values(),
+            head, self.sea_button, self.badge, *self.q_sliders, *self.sliders.values(),
             row(self.space, self.task), self.status, self.results, self.command,
             row(self.map_x, self.map_y, self.map_points), self.map_button, self.map_msg)
         grid = gridplot(self.figures, ncols=2, toolbar_location="right")
@@ -272,4 +284,24 @@ def make_robot_document(doc: Any, start: tuple[rm.RobotControls, rm.RobotInfo]) 
     explorer = RobotExplorer(start, doc)
     doc.title = "seactl explore: robot"
     doc.add_root(explorer.layout())
+
+
+def open_uploaded_robot(doc: Any, filename: str, content: bytes) -> None:
+    """Replace the page by the robot page of an uploaded URDF
+    (:func:`~seactl.apps.explore.robotmodel.robot_from_upload`).  The file stays in a
+    temporary directory of the session, deleted when the session or the server ends (at
+    once if the library refuses it: then its error propagates)."""
+    folder = tempfile.mkdtemp(prefix="seactl-robot-")
+    try:
+        start = rm.robot_from_upload(filename, content, folder)
+    except BaseException:
+        shutil.rmtree(folder, ignore_errors=True)
+        raise
+    if doc is None:
+        shutil.rmtree(folder, ignore_errors=True)
+        return
+    doc.on_session_destroyed(lambda _context: shutil.rmtree(folder, ignore_errors=True))
+    atexit.register(shutil.rmtree, folder, ignore_errors=True)  # a server stopped first
+    doc.clear()
+    make_robot_document(doc, start)
 

@@ -13,7 +13,7 @@ over two joints around ``q`` (:func:`seactl.workspace_map`).
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Any
 from xml.etree import ElementTree
@@ -21,7 +21,7 @@ from xml.etree import ElementTree
 import numpy as np
 
 import seactl as sc
-from seactl.errors import InfeasibleDesignError, InputError
+from seactl.errors import InfeasibleDesignError, InputError, SeactlError
 
 from .model import num_text, run_stages, safe
 
@@ -42,6 +42,7 @@ MAP_POINTS = (3, 5, 7)
 """A workspace map spans ``q +- MAP_SPAN_RAD`` on each of its two joints, with one of
 these numbers of points per joint (the page's choice; the first is the default)."""
 SPACES = ("joint", "task")
+MAX_URDF_BYTES = 256 * 1024
 BREAK_COLUMNS = ("phase_margin_deg", "crossover_hz", "gain_margin_db", "delay_margin_ms")
 
 
@@ -50,7 +51,8 @@ class RobotControls:
     """The value of every control of the robot page (CLI units: rad, ms, Hz).
 
     ``actuators`` is the ``--actuators`` text of ``seactl robot`` (a preset or TOML file
-    for every joint, or ``JOINT=PRESET|FILE,...``); ``task`` is used in task space.
+    for every joint, or ``JOINT=PRESET|FILE,...``); ``task`` is used in task space;
+    ``file_name`` is how the command lines name an uploaded URDF (default: ``urdf``).
     """
 
     urdf: str
@@ -65,6 +67,7 @@ class RobotControls:
     space: str = "joint"
     task: str | None = None
     actuators: str = "ut-sea"
+    file_name: str | None = None
 
     def options(self) -> dict[str, Any]:
         """The keywords of :func:`seactl.robot` (and :func:`seactl.workspace_map`) but
@@ -176,6 +179,31 @@ def start_controls(urdf: str, *, actuators: str = "ut-sea", space: str = "joint"
                          actuators=actuators), info
 
 
+def robot_from_upload(filename: str, content: bytes, directory: str
+                      ) -> tuple[RobotControls, RobotInfo]:
+    """An uploaded URDF, written into ``directory`` (it must stay there while the page
+    uses it: the robot is built from the file at every change) and checked by
+    :func:`start_controls`.
+
+    Raises
+    ------
+    SeactlError
+        Too large, or the library's message (naming the uploaded file).
+    """
+    stem = "".join(ch if ch.isalnum() or ch in "-_." else "_"
+                   for ch in Path(str(filename or "robot.urdf")).stem)
+    name = f"{stem or 'robot'}.urdf"
+    if len(content) > MAX_URDF_BYTES:
+        raise InputError("robot file", name, f"at most {MAX_URDF_BYTES // 1024} kB")
+    path = Path(directory) / name
+    path.write_bytes(content)
+    try:
+        c, info = start_controls(str(path))
+    except SeactlError as exc:
+        raise SeactlError(str(exc).replace(str(path), name)) from None
+    return replace(c, file_name=name), info
+
+
 # ------------------------------------------------------------------ views
 def _one(x: Any) -> float | None:
     v = float(np.reshape(x, -1)[0])
@@ -222,7 +250,8 @@ def command_line(c: RobotControls, workspace: str | None = None) -> str:
     def num(x: float) -> str:
         return f"{x:.10g}"
 
-    opts = [f"--urdf {c.urdf}", f"--actuators {c.actuators}", f"--space {c.space}"]
+    opts = [f"--urdf {c.file_name or c.urdf}", f"--actuators {c.actuators}",
+            f"--space {c.space}"]
     if c.space == "task" and c.task:
         opts.append(f"--task {c.task}")
     if workspace is None:

@@ -66,13 +66,12 @@ def serve(host: str, port: int, *, open_browser: bool = True,
     from bokeh.server.server import Server
 
     from . import loopmodel
-    from .app import make_document
     from .model import Controls, views
 
     origins = [f"{host}:{port}"] + ([f"localhost:{port}", f"127.0.0.1:{port}"]
                                     if is_loopback(host) else [])
     try:
-        page = (functools.partial(make_document, loop=loop) if robot is None
+        page = (functools.partial(_sea_page, loop=loop) if robot is None
                 else functools.partial(_robot_page, start=robot))
         server = Server({"/": Application(FunctionHandler(page))}, address=host,
                         port=port, allow_websocket_origin=origins, num_procs=1)
@@ -100,3 +99,10 @@ def _robot_page(doc: Any, start: tuple[Any, Any]) -> None:
     from .robotapp import make_robot_document
 
     make_robot_document(doc, start)
+
+
+def _sea_page(doc: Any, loop: tuple[Any, str] | None) -> None:
+    from .app import make_document
+    from .robotapp import open_uploaded_robot
+
+    make_document(doc, loop=loop, robot_page=open_uploaded_robot)
