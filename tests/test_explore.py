@@ -227,6 +227,12 @@ def test_callbacks_update_the_page_and_survive_a_bad_upload():
     assert ">error: " in ex.upload_msg.text
     ex.load_upload("my-sea.toml", base64.b64encode(README_TOML).decode())
     assert ex.actuator.value == "my-sea" and "my-sea.toml" in ex.command.text
+    opened = []
+    ex.robot_page = lambda doc, name, content: opened.append((name, content))
+    ex.load_robot_upload("arm.urdf", base64.b64encode(b"<robot/>").decode())
+    assert opened == [("arm.urdf", b"<robot/>")]  # the robot page gets the file's bytes
+    ex.load_robot_upload("arm.urdf", "not base64!")
+    assert ">error: " in ex.robot_msg.text and "Traceback" not in ex.robot_msg.text
     assert len(ex.last_ms) >= 4 and max(m[-1] for m in ex.last_ms) < 5000  # see README
     assert all(len(m) == len(model.STAGES) for m in ex.last_ms)
 

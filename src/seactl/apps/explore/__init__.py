@@ -10,7 +10,11 @@ browser or Bokeh:
   verdict badge;
 * :mod:`seactl.apps.explore.loopmodel` - the same for a loop file (:func:`seactl.load_loop`,
   the :class:`seactl.UserLoop` views) and its command line;
+* :mod:`seactl.apps.explore.robotmodel` - the same for a robot (``--robot URDF``:
+  :func:`seactl.robot` at a configuration, its margins per loop break, impedance
+  matrix and step; :func:`seactl.workspace_map` on request);
 * :mod:`seactl.apps.explore.app` - the Bokeh document (widgets, figures, callbacks);
+  :mod:`seactl.apps.explore.robotapp` the robot's;
 * :mod:`seactl.apps.explore.server` - the Bokeh server bound to a loopback address.
 
 Neither ``import seactl`` nor the command line imports this package before

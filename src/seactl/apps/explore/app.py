@@ -144,14 +144,15 @@ def _fmt(x: Any, fmt: str = ".4g") -> str:
     return "none" if x is None else f"{x:{fmt}}"
 
 
-def badge_html(r: dict[str, Any]) -> str:
-    """The coloured verdict badge (:func:`~seactl.apps.explore.model.badges`): white words
-    on green (good), orange (a warning) or red (bad)."""
+def badge_html(r: dict[str, Any], items: list[tuple[str, str, str]] | None = None) -> str:
+    """The coloured verdict badge (``items``, by default
+    :func:`~seactl.apps.explore.model.badges` of ``r``): white words on green (good),
+    orange (a warning) or red (bad)."""
     spans = "".join(
         f"<span id='{i}' data-tone='{tone}' style='display:inline-block;margin:2px 6px 2px 0;"
         f"padding:3px 10px;border-radius:12px;color:white;font-weight:bold;font-size:13px;"
         f"background:{BADGE_COLOURS[tone]}'>{html.escape(text)}</span>"
-        for i, text, tone in badges(r))
+        for i, text, tone in (badges(r) if items is None else items))
     return f"<div id='badge'>{spans}</div>"
 
 
@@ -249,8 +250,9 @@ class Explorer:
     """One browser session: its widgets, figures, sources and callbacks."""
 
     def __init__(self, doc: Any = None, controls: Controls | None = None,
-                 loop: tuple[Any, str] | None = None):
+                 loop: tuple[Any, str] | None = None, robot_page: Any = None):
         self.doc = doc
+        self.robot_page = robot_page  # (doc, file name, bytes) -> the robot page, or None
         self.loop: tuple[Any, str] | None = None
         self.loop_sliders: dict[str, Slider] = {}
         self.loop_values: dict[str, float] = {}
@@ -310,6 +312,10 @@ class Explorer:
         self.actuator.on_change("value", self.on_change)
         self.upload.on_change("value", self.on_upload)
         self.loop_upload.on_change("value", self.on_loop_upload)
+        self.robot_upload = FileInput(accept=".urdf", title="robot (URDF)", width=200,
+                                      css_classes=["seactl-robot-file"])
+        self.robot_msg = Div(text="", width=320, styles={"color": "#b00020"})
+        self.robot_upload.on_change("value", self.on_robot_upload)
 
     def _buttons(self) -> list[Button]:
         src = self.sources["exports"]
@@ -470,6 +476,34 @@ class Explorer:
                                if f is not None]
         self.mode.active = MODES.index(c.mode)
         self.request()
+
+    # ------------------------------------------------------------ robots
+    def on_robot_upload(self, attr: str, old: Any, new: Any) -> None:
+        """The robot file input (read on the next tick, as :meth:`on_upload`)."""
+        if self.doc is None:
+            self.read_robot_upload()
+        else:
+            self.doc.add_next_tick_callback(self.read_robot_upload)
+
+    def read_robot_upload(self) -> None:
+        """Load what the robot file input holds."""
+        def prop(name: str) -> str:
+            try:
+                return str(getattr(self.robot_upload, name) or "")
+            except UnsetValueError:
+                return ""
+
+        self.load_robot_upload(prop("filename") or "robot.urdf", prop("value"))
+
+    def load_robot_upload(self, filename: str, value_b64: str) -> None:
+        """Open the robot page on an uploaded URDF (``robot_page``); a file the library
+        refuses only shows its message, and the page stays."""
+        try:
+            content = base64.b64decode(value_b64 or "", validate=True)
+            self.robot_page(self.doc, filename, content)
+        except Exception as exc:  # noqa: BLE001 - any bad upload is a message, never a trace
+            message = html.escape(str(exc) or type(exc).__name__)
+            self.robot_msg.text = f"<span id='robot-msg'>error: {message}</span>"
 
     # ------------------------------------------------------------ loop files
     def on_loop_upload(self, attr: str, old: Any, new: Any) -> None:
@@ -724,6 +758,7 @@ class Explorer:
         head = Div(text="<h3 style='margin:0'>seactl explore</h3>", width=320)
         controls = column(
             head, self.badge, row(self.loop_upload, self.sea_button), self.loop_msg,
+            *((self.robot_upload, self.robot_msg) if self.robot_page else ()),
             self.loop_box, row(self.actuator, self.upload), self.upload_msg,
             *(s[k] for k in ("fn_hz", "gs", "zeta1", "zeta2", "ratio", "t_tau_ms", "t_qs_ms",
                              "t_qd_ms")),
@@ -734,9 +769,11 @@ class Explorer:
         return row(controls, grid)
 
 
-def make_document(doc: Any, loop: tuple[Any, str] | None = None) -> None:
+def make_document(doc: Any, loop: tuple[Any, str] | None = None,
+                  robot_page: Any = None) -> None:
     """Bokeh application entry: one :class:`Explorer` per browser session (``loop``: a
-    loop file to start with, ``(UserLoop, file name)``)."""
-    explorer = Explorer(doc, loop=loop)
+    loop file to start with, ``(UserLoop, file name)``; ``robot_page``: what opens the
+    robot page on an uploaded URDF, ``(doc, file name, bytes)``)."""
+    explorer = Explorer(doc, loop=loop, robot_page=robot_page)
     doc.title = "seactl explore"
     doc.add_root(explorer.layout())

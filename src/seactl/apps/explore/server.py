@@ -50,11 +50,13 @@ def check_port_free(host: str, port: int) -> None:
 
 
 def serve(host: str, port: int, *, open_browser: bool = True,
-          announce: Callable[[str], None] = print, loop: tuple[Any, str] | None = None
-          ) -> None:
+          announce: Callable[[str], None] = print, loop: tuple[Any, str] | None = None,
+          robot: tuple[Any, Any] | None = None) -> None:
     """Bind, warm the caches, then serve until interrupted (Ctrl+C or SIGTERM: the
     ``KeyboardInterrupt`` propagates once the server is stopped).  ``loop``: a loop file
-    every new page starts with, ``(UserLoop, file name)``.
+    every new page starts with, ``(UserLoop, file name)``; ``robot``: serve the robot
+    page instead, ``(RobotControls, RobotInfo)`` (:func:`~seactl.apps.explore.robotmodel.
+    start_controls`).
 
     Websocket connections are accepted only from pages served under ``host:port``
     (and ``localhost:port`` on a loopback address), Bokeh's cross-origin check.
@@ -64,18 +66,23 @@ def serve(host: str, port: int, *, open_browser: bool = True,
     from bokeh.server.server import Server
 
     from . import loopmodel
-    from .app import make_document
     from .model import Controls, views
 
     origins = [f"{host}:{port}"] + ([f"localhost:{port}", f"127.0.0.1:{port}"]
                                     if is_loopback(host) else [])
     try:
-        page = functools.partial(make_document, loop=loop)
+        page = (functools.partial(_sea_page, loop=loop) if robot is None
+                else functools.partial(_robot_page, start=robot))
         server = Server({"/": Application(FunctionHandler(page))}, address=host,
                         port=port, allow_websocket_origin=origins, num_procs=1)
     except OSError as exc:
         raise InputError("--port", port, f"a free port on {host} ({exc.strerror})") from None
-    views(Controls())  # the first evaluation loads the derived loop, not a user
+    if robot is not None:
+        from . import robotmodel
+
+        robotmodel.safe_views(robot[0])  # compiles and caches the robot's diagram
+    else:
+        views(Controls())  # the first evaluation loads the derived loop, not a user
     if loop is not None:
         loopmodel.views(loopmodel.LoopControls(*loop))
     server.start()
@@ -86,3 +93,16 @@ def serve(host: str, port: int, *, open_browser: bool = True,
         server.io_loop.start()   # until Ctrl-C or SIGTERM (the caller's exit status)
     finally:
         server.stop()
+
+
+def _robot_page(doc: Any, start: tuple[Any, Any]) -> None:
+    from .robotapp import make_robot_document
+
+    make_robot_document(doc, start)
+
+
+def _sea_page(doc: Any, loop: tuple[Any, str] | None) -> None:
+    from .app import make_document
+    from .robotapp import open_uploaded_robot
+
+    make_document(doc, loop=loop, robot_page=open_uploaded_robot)
