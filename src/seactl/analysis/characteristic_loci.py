@@ -1,0 +1,237 @@
+"""Generalized Nyquist margins of a loop broken at several signals at once.
+
+Breaking a diagram at ``n`` signals ``x_1 .. x_n`` together (each held, then driven)
+gives the loop matrix ``L(s)``: ``L_jk = -`` the response at the block feeding ``x_j`` to
+a drive at ``x_k``.  Its return difference satisfies
+``det(I + L(s)) = Q(s) / Q_cut(s)``, the closed loop's characteristic quasi-polynomial
+over the one with the ``n`` signals held (the multivariable form of the return
+difference; :func:`loop_matrix` builds ``L`` from the diagram's transfers).  The
+eigenvalues of ``L(jw)``, the characteristic loci, are the generalized Nyquist plot:
+``det(I + L) = prod_i (1 + lambda_i)``, so the closed loop gains a root on the imaginary
+axis exactly where a locus passes through -1.
+
+A common factor on every channel, ``c L``, multiplies every locus by ``c``; so
+
+* the phase margin is the smallest common phase rotation ``e^{-j phi}`` that puts a
+  locus on -1: at every crossover ``|lambda_i(jw)| = 1`` the margin
+  ``180 + arg(lambda_i)`` wrapped to (-180, 180], the one smallest in absolute value
+  reported (the SISO convention of :mod:`seactl.analysis.margins`);
+* the gain margin is the common gain that does: at every phase crossover (a locus on
+  the negative real axis) ``1 / |lambda_i|``, the one closest to 1 in the log sense;
+* a delay ``e^{-s t}`` on every channel (a process's latency, when every broken path
+  runs through it) rotates every locus by ``-w t``: the delay margin is
+  ``min_i ((PM_i mod 360) pi / 180) / w_i`` over the crossovers;
+* the smallest singular value of ``I + L(jw)`` over frequency is the distance of the
+  return difference from singularity: a perturbation ``L -> L + Delta`` with
+  ``sigma_max(Delta) < sigma_min(I + L)`` at every frequency cannot put a root on the
+  axis.
+
+Crossings are located on a dense logarithmic grid by sign changes of functions symmetric
+in the eigenvalues (so no ordering of the loci is needed): ``prod_i (|lambda_i| - 1)``
+for the crossovers and ``prod_i Im(lambda_i)`` for the real axis, then solved on the
+exact loop matrix (Brent's method).  A locus touching the unit circle between two grid
+points without crossing it, or two loci crossing in the same grid interval, is not seen;
+the stability verdict does not come from here but from the certified count of the
+characteristic quasi-polynomial's roots.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+from seactl.diagram.blockdiagram import evaluate_forms
+
+MatrixFn = Callable[[np.ndarray], np.ndarray]
+"""Frequencies ``w`` [rad/s], shape ``(F,)`` -> ``L(jw)``, shape ``(F, n, n)``."""
+
+_XTOL = 1e-14
+
+
+def loop_matrix(diagram: Any, design: Any, returns: Sequence[str], breaks: Sequence[str]
+                ) -> MatrixFn:
+    """The loop matrix of ``diagram`` broken at the signals ``breaks`` together.
+
+    Parameters
+    ----------
+    diagram : seactl.diagram.blockdiagram.BlockDiagram
+        The diagram (a single design).
+    design : DesignBatch
+        The numbers its blocks read.
+    returns : sequence of str
+        Per break ``x_j``, the signal of the block that feeds ``x_j`` through a unit gain
+        (what comes back to the break).
+    breaks : sequence of str
+        The broken signals, held and driven one at a time.
+
+    Returns
+    -------
+    callable
+        ``w`` [rad/s] -> ``L(jw)`` of shape ``(F, n, n)``, ``L_jk = -returns_j / breaks_k``.
+    """
+    cut = tuple(breaks)
+    transfers = [[_numeric(diagram.transfer(y, u, cut), design) for u in breaks]
+                 for y in returns]
+
+    def at(w: np.ndarray) -> np.ndarray:
+        s = 1j * np.asarray(w, float).reshape(-1)
+        out = np.empty((s.size, len(returns), len(breaks)), complex)
+        for j, row in enumerate(transfers):
+            for k, t in enumerate(row):
+                with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
+                    out[:, j, k] = -np.asarray(t(s)).reshape(-1)
+        return out
+    return at
+
+
+def _numeric(transfer: Any, design: Any) -> Callable[[np.ndarray], np.ndarray]:
+    """``s -> transfer(design, s)``; a transfer given as quasi-polynomials ``N / D``
+    (a cycle diagram's) has them evaluated once for the design."""
+    if hasattr(transfer, "forms"):
+        num, den = evaluate_forms(transfer.forms, design)
+        return lambda s: num(s) / den(s)
+    return lambda s: transfer(design, s)
+
+
+@dataclass(frozen=True)
+class LociMargins:
+    """Generalized Nyquist margins (see the module docstring); angles in degrees, gains
+    absolute, frequencies in rad/s, delays in s.
+
+    ``crossover_w``/``crossover_pm_deg``: every gain crossover and its phase margin;
+    ``phase_w``/``phase_gain``: every phase crossover and ``1 / |lambda|`` there;
+    ``phase_margin_deg``, ``crossover``: the margin smallest in absolute value (``inf``,
+    NaN without crossover); ``gain_margin``, ``phase_crossover``; ``delay_margin_s``,
+    ``delay_crossing``: the smallest extra common delay and its crossover;
+    ``min_return``, ``min_return_w``: the smallest singular value of ``I + L`` on the grid;
+    ``omega``, ``loci``: the grid and the eigenvalues there, ``(F, n)``, each column
+    continued from the previous frequency by nearest assignment.
+    """
+
+    omega: np.ndarray
+    loci: np.ndarray
+    crossover_w: np.ndarray
+    crossover_pm_deg: np.ndarray
+    phase_w: np.ndarray
+    phase_gain: np.ndarray
+    min_return: float
+    min_return_w: float
+
+    def _best_pm(self) -> int | None:
+        if self.crossover_w.size == 0:
+            return None
+        return int(np.argmin(np.abs(self.crossover_pm_deg)))
+
+    @property
+    def phase_margin_deg(self) -> float:
+        i = self._best_pm()
+        return float("inf") if i is None else float(self.crossover_pm_deg[i])
+
+    @property
+    def crossover(self) -> float:
+        i = self._best_pm()
+        return float("nan") if i is None else float(self.crossover_w[i])
+
+    @property
+    def gain_margin(self) -> float:
+        if self.phase_w.size == 0:
+            return float("inf")
+        return float(self.phase_gain[np.argmin(np.abs(np.log(self.phase_gain)))])
+
+    @property
+    def phase_crossover(self) -> float:
+        if self.phase_w.size == 0:
+            return float("nan")
+        return float(self.phase_w[np.argmin(np.abs(np.log(self.phase_gain)))])
+
+    @property
+    def _delays(self) -> np.ndarray:
+        return np.radians(np.remainder(self.crossover_pm_deg, 360.0)) / self.crossover_w
+
+    @property
+    def delay_margin_s(self) -> float:
+        return float(self._delays.min()) if self.crossover_w.size else float("inf")
+
+    @property
+    def delay_crossing(self) -> float:
+        return float(self.crossover_w[np.argmin(self._delays)]) if self.crossover_w.size \
+            else float("nan")
+
+
+def _eig(matrix_at: MatrixFn, w: np.ndarray) -> np.ndarray:
+    return np.linalg.eigvals(matrix_at(np.atleast_1d(w)))
+
+
+def _sign_changes(f: np.ndarray) -> np.ndarray:
+    """Indices ``i`` where ``f`` changes sign between ``i`` and ``i + 1``."""
+    s = np.sign(f)
+    return np.flatnonzero(s[:-1] * s[1:] < 0)
+
+
+def _solve(matrix_at: MatrixFn, fn: Callable[[np.ndarray], float], a: float, b: float
+           ) -> float:
+    from scipy.optimize import brentq
+
+    return float(brentq(lambda w: fn(_eig(matrix_at, w)[0]), a, b, xtol=_XTOL * b,
+                        rtol=4 * np.finfo(float).eps))
+
+
+def _modulus(lam: np.ndarray) -> Any:
+    return np.prod(np.abs(lam) - 1.0, axis=-1)
+
+
+def _imag(lam: np.ndarray) -> Any:
+    return np.prod(lam.imag, axis=-1)
+
+
+def _continued(lam: np.ndarray) -> np.ndarray:
+    """The eigenvalues reordered so that each column moves least between frequencies."""
+    from scipy.optimize import linear_sum_assignment
+
+    out = lam.copy()
+    for i in range(1, len(out)):
+        cost = np.abs(out[i - 1][:, None] - out[i][None, :])
+        out[i] = out[i][linear_sum_assignment(cost)[1]]
+    return out
+
+
+def loci_margins(matrix_at: MatrixFn, omega: np.ndarray) -> LociMargins:
+    """The generalized Nyquist margins of the loop matrix ``matrix_at`` (see the module
+    docstring).
+
+    Parameters
+    ----------
+    matrix_at : callable
+        ``w`` [rad/s] -> ``L(jw)`` ``(F, n, n)`` (:func:`loop_matrix`).
+    omega : numpy.ndarray
+        The increasing grid [rad/s] the crossings are bracketed on.
+
+    Returns
+    -------
+    LociMargins
+    """
+    omega = np.asarray(omega, float)
+    L = matrix_at(omega)
+    lam = np.linalg.eigvals(L)
+    cw, cpm = [], []
+    for i in _sign_changes(_modulus(lam)):
+        w = _solve(matrix_at, _modulus, omega[i], omega[i + 1])
+        z = _eig(matrix_at, w)[0]
+        z = z[np.argmin(np.abs(np.abs(z) - 1.0))]
+        cw.append(w)
+        cpm.append(180.0 - np.remainder(-np.degrees(np.angle(z)), 360.0))
+    pw, pg = [], []
+    for i in _sign_changes(_imag(lam)):
+        w = _solve(matrix_at, _imag, omega[i], omega[i + 1])
+        z = _eig(matrix_at, w)[0]
+        z = z[np.argmin(np.abs(z.imag))]
+        if z.real < 0:
+            pw.append(w)
+            pg.append(1.0 / abs(z.real))
+    sv = np.linalg.svd(np.eye(L.shape[-1]) + L, compute_uv=False).min(axis=-1)
+    k = int(np.argmin(sv))
+    return LociMargins(omega, _continued(lam), np.array(cw), np.array(cpm), np.array(pw),
+                       np.array(pg), float(sv[k]), float(omega[k]))
