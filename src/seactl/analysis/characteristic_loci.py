@@ -43,17 +43,22 @@ from typing import Any
 
 import numpy as np
 
-from seactl.diagram.blockdiagram import evaluate_forms
-
 MatrixFn = Callable[[np.ndarray], np.ndarray]
 """Frequencies ``w`` [rad/s], shape ``(F,)`` -> ``L(jw)``, shape ``(F, n, n)``."""
 
 _XTOL = 1e-14
+_CHUNK = 256
 
 
 def loop_matrix(diagram: Any, design: Any, returns: Sequence[str], breaks: Sequence[str]
                 ) -> MatrixFn:
     """The loop matrix of ``diagram`` broken at the signals ``breaks`` together.
+
+    At each frequency the signal-flow graph is solved numerically: with ``A(s)`` the
+    blocks' responses (``A[dst, src]``, exact delays) and the exogenous inputs and the
+    broken signals held, ``(I - A) x = e_k`` drives break ``k`` alone, and what returns
+    is read at ``returns``; no transfer is derived, so the cost grows with the number of
+    signals, not with the number of the diagram's cycles.
 
     Parameters
     ----------
@@ -72,28 +77,27 @@ def loop_matrix(diagram: Any, design: Any, returns: Sequence[str], breaks: Seque
     callable
         ``w`` [rad/s] -> ``L(jw)`` of shape ``(F, n, n)``, ``L_jk = -returns_j / breaks_k``.
     """
-    cut = tuple(breaks)
-    transfers = [[_numeric(diagram.transfer(y, u, cut), design) for u in breaks]
-                 for y in returns]
+    index = {name: i for i, name in enumerate(diagram.signals)}
+    held = set(diagram.inputs) | set(breaks)
+    edges = [(index[b.dst], index[b.src], b) for b in diagram.blocks if b.dst not in held]
+    size = len(index)
+    drive = np.zeros((size, len(breaks)))
+    drive[[index[x] for x in breaks], np.arange(len(breaks))] = 1.0
+    rows = [index[y] for y in returns]
 
     def at(w: np.ndarray) -> np.ndarray:
-        s = 1j * np.asarray(w, float).reshape(-1)
-        out = np.empty((s.size, len(returns), len(breaks)), complex)
-        for j, row in enumerate(transfers):
-            for k, t in enumerate(row):
-                with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
-                    out[:, j, k] = -np.asarray(t(s)).reshape(-1)
+        w = np.asarray(w, float).reshape(-1)
+        out = np.empty((w.size, len(returns), len(breaks)), complex)
+        for lo in range(0, w.size, _CHUNK):
+            s = 1j * w[lo:lo + _CHUNK]
+            a = np.zeros((s.size, size, size), complex)
+            for dst, src, b in edges:
+                a[:, dst, src] += np.broadcast_to(b.response(design, s), s.shape)
+            x = np.linalg.solve(np.eye(size) - a, np.broadcast_to(drive, (s.size,) +
+                                                                   drive.shape))
+            out[lo:lo + _CHUNK] = -x[:, rows, :]
         return out
     return at
-
-
-def _numeric(transfer: Any, design: Any) -> Callable[[np.ndarray], np.ndarray]:
-    """``s -> transfer(design, s)``; a transfer given as quasi-polynomials ``N / D``
-    (a cycle diagram's) has them evaluated once for the design."""
-    if hasattr(transfer, "forms"):
-        num, den = evaluate_forms(transfer.forms, design)
-        return lambda s: num(s) / den(s)
-    return lambda s: transfer(design, s)
 
 
 @dataclass(frozen=True)
@@ -106,7 +110,8 @@ class LociMargins:
     ``phase_margin_deg``, ``crossover``: the margin smallest in absolute value (``inf``,
     NaN without crossover); ``gain_margin``, ``phase_crossover``; ``delay_margin_s``,
     ``delay_crossing``: the smallest extra common delay and its crossover;
-    ``min_return``, ``min_return_w``: the smallest singular value of ``I + L`` on the grid;
+    ``min_return``, ``min_return_w``: the smallest singular value of ``I + L`` (the grid's,
+    refined between its neighbours);
     ``omega``, ``loci``: the grid and the eigenvalues there, ``(F, n)``, each column
     continued from the previous frequency by nearest assignment.
     """
@@ -231,7 +236,27 @@ def loci_margins(matrix_at: MatrixFn, omega: np.ndarray) -> LociMargins:
         if z.real < 0:
             pw.append(w)
             pg.append(1.0 / abs(z.real))
-    sv = np.linalg.svd(np.eye(L.shape[-1]) + L, compute_uv=False).min(axis=-1)
-    k = int(np.argmin(sv))
+    sv_min, sv_w = _smallest_return(matrix_at, omega, L)
     return LociMargins(omega, _continued(lam), np.array(cw), np.array(cpm), np.array(pw),
-                       np.array(pg), float(sv[k]), float(omega[k]))
+                       np.array(pg), sv_min, sv_w)
+
+
+def _smallest_return(matrix_at: MatrixFn, omega: np.ndarray, L: np.ndarray
+                     ) -> tuple[float, float]:
+    """The smallest singular value of ``I + L(jw)`` and where: the grid's smallest,
+    refined between its neighbours (bounded Brent)."""
+    from scipy.optimize import minimize_scalar
+
+    eye = np.eye(L.shape[-1])
+
+    def sigma(w: float) -> float:
+        return float(np.linalg.svd(eye + matrix_at(np.array([w]))[0], compute_uv=False)[-1])
+
+    sv = np.linalg.svd(eye + L, compute_uv=False)[:, -1]
+    k = int(np.argmin(sv))
+    lo, hi = omega[max(k - 1, 0)], omega[min(k + 1, omega.size - 1)]
+    best = minimize_scalar(sigma, bounds=(lo, hi), method="bounded",
+                           options={"xatol": 1e-10 * hi})
+    if best.success and best.fun < sv[k]:
+        return float(best.fun), float(best.x)
+    return float(sv[k]), float(omega[k])

@@ -69,7 +69,7 @@ class MimoMarginsResult(Result):
     delay_crossing_hz : float
         The crossover where it does [Hz].
     min_return_difference : float
-        The smallest singular value of ``I + L`` on the grid (dimensionless): every
+        The smallest singular value of ``I + L`` over frequency (dimensionless): every
         perturbation of ``L`` smaller in norm at every frequency keeps the verdict.
     min_return_difference_hz : float
         Where [Hz].
