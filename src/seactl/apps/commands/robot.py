@@ -102,15 +102,15 @@ def robot_record(r: Any, margins: dict[str, Any], roots: Any) -> dict[str, Any]:
 @click.option("--mujoco-check", is_flag=True,
               help="Also run the robot in MuJoCo at 0.8x and 1.2x of the central delay "
                    "margin and compare with the certified verdicts (needs mujoco).")
-@click.option("--mimo", is_flag=True,
-              help="Also the generalized Nyquist margins of the central process: every "
+@click.option("--mimo/--no-mimo", default=True, show_default=True,
+              help="The generalized Nyquist margins of the central process: every "
                    "stiffness channel broken at once (Python: r.mimo_margins()).")
 @click.option("--placement", default=None, metavar="CENTRAL_MS,EMBEDDED_MS",
               help="Also every placement of stiffness and damping on the central or the "
                    "embedded processes with these latencies [ms] (Python: r.placement()).")
 @json_option
 def robot(urdf: str, actuators: str, space: str, task: str | None, q0: str | None,
-          workspace: str | None, mujoco_check: bool, as_json: bool, mimo: bool = False,
+          workspace: str | None, mujoco_check: bool, as_json: bool, mimo: bool = True,
           placement: str | None = None, **axes: Any) -> None:
     """Margins of every loop break, certified verdict and spectral abscissa of a robot.
 
@@ -128,8 +128,8 @@ def robot(urdf: str, actuators: str, space: str, task: str | None, q0: str | Non
     --mujoco-check: Python r.mujoco_check() (docs/robots.md, "In MuJoCo").
     --workspace: one row per configuration of the grid (verdict, phase margin, delay
     margin, and in task space the largest task stiffness k_x [N/m]).
-    --mimo: the margins of the central process's loop, every stiffness channel broken at
-    once; a single break's margin can look ample on a coupled robot that is unstable.
+    The central process's row (--mimo, the default) breaks every stiffness channel at
+    once: a single break's margin can look ample on a coupled robot that is unstable.
     --placement 5,0.5: stiffness and damping on the central (5 ms) or embedded (0.5 ms)
     processes, each placement's verdict and central latency margins (docs/robots.md).
     """
@@ -142,8 +142,8 @@ def robot(urdf: str, actuators: str, space: str, task: str | None, q0: str | Non
                 delays_ms={"torque": v["t_tau_ms"], "stiffness": v["t_qs_ms"],
                            "damping": v["t_qd_ms"]},
                 filters_hz=(v["f_qd_hz"], v["f_taud_hz"]))
-    if workspace is not None and (mimo or placement is not None):
-        raise InputError("--workspace", workspace, "given without --mimo and --placement")
+    if workspace is not None and placement is not None:
+        raise InputError("--workspace", workspace, "given without --placement")
     if workspace is not None:
         _workspace(urdf, workspace, q0, mujoco_check, as_json, opts)
         return
@@ -157,9 +157,9 @@ def robot(urdf: str, actuators: str, space: str, task: str | None, q0: str | Non
         echo_json(rec)
         return
     _print(rec)
+    central()
     if mujoco_check:
         _print_check(rec["mujoco_check"])
-    central()
 
 
 def _print(rec: dict[str, Any]) -> None:
