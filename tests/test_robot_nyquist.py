@@ -1,7 +1,8 @@
 """A robot's central process as a MIMO loop (Robot.mimo_margins) and the placement of its
 loops (Robot.placement).
 
-Oracles: for one joint, the SEA's own diagram (its blocks, with a tap) broken at its
+Oracles: closed-form margins of delayed integrators mixed by a constant matrix; for one
+joint, the SEA's own diagram (its blocks, with a tap) broken at its
 stiffness path and scanned by the certified SISO margins, and the SEA's delay margin;
 for the planar 2-link arm, the delay margin by frequency sweeping of the exact
 characteristic quasi-polynomial (a second method), the rightmost characteristic roots
@@ -57,6 +58,31 @@ def arm_margins(arm):
 def _stable(r, **delays_ms) -> bool:
     return bool(replace(r, delays=dict(r.delays, **{k: 1e-3 * v for k, v in
                                                      delays_ms.items()})).margins().stable)
+
+
+def test_loci_margins_of_delayed_integrators():
+    """Oracle: closed form.  ``L = P diag(k_i e^{-s tau} / s) P^-1`` has the loci
+    ``k_i e^{-jw tau} / (jw)``: crossover ``w = k_i``, phase margin
+    ``90 deg - k_i tau``, extra delay ``(pi / 2) / k_i - tau``; phase crossover
+    ``w = pi / (2 tau)`` with gain margin ``pi / (2 tau k_i)``."""
+    from seactl.analysis.characteristic_loci import loci_margins
+
+    k, tau = np.array([3.0, 20.0]), 0.01
+    P = np.array([[1.0, 0.4], [-0.3, 2.0]])
+
+    def L(w):
+        lam = k[None, :] * np.exp(-1j * w[:, None] * tau) / (1j * w[:, None])
+        return P @ (lam[:, :, None] * np.eye(2)) @ np.linalg.inv(P)
+
+    m = loci_margins(L, np.logspace(-1, 4, 800))
+    assert np.allclose(np.sort(m.crossover_w), k, rtol=1e-10)
+    pm = np.degrees(np.pi / 2 - k * tau)
+    assert m.phase_margin_deg == pytest.approx(pm.min(), rel=1e-10)
+    assert m.crossover == pytest.approx(k[np.argmin(pm)], rel=1e-10)
+    assert m.delay_margin_s == pytest.approx((np.pi / 2 / k - tau).min(), rel=1e-9)
+    gm = np.pi / (2 * tau * k)
+    assert m.gain_margin == pytest.approx(gm[np.argmin(np.abs(np.log(gm)))], rel=1e-9)
+    assert m.phase_crossover == pytest.approx(np.pi / (2 * tau), rel=1e-10)
 
 
 def test_one_joint_is_the_sea_stiffness_loop(tmp_path):

@@ -5,7 +5,7 @@ gives the loop matrix ``L(s)``: ``L_jk = -`` the response at the block feeding `
 a drive at ``x_k``.  Its return difference satisfies
 ``det(I + L(s)) = Q(s) / Q_cut(s)``, the closed loop's characteristic quasi-polynomial
 over the one with the ``n`` signals held (the multivariable form of the return
-difference; :func:`loop_matrix` builds ``L`` from the diagram's transfers).  The
+difference; :func:`loop_matrix` solves the signal-flow graph for ``L``).  The
 eigenvalues of ``L(jw)``, the characteristic loci, are the generalized Nyquist plot:
 ``det(I + L) = prod_i (1 + lambda_i)``, so the closed loop gains a root on the imaginary
 axis exactly where a locus passes through -1.
@@ -26,17 +26,19 @@ A common factor on every channel, ``c L``, multiplies every locus by ``c``; so
   ``sigma_max(Delta) < sigma_min(I + L)`` at every frequency cannot put a root on the
   axis.
 
-Crossings are located on a dense logarithmic grid by sign changes of functions symmetric
-in the eigenvalues (so no ordering of the loci is needed): ``prod_i (|lambda_i| - 1)``
-for the crossovers and ``prod_i Im(lambda_i)`` for the real axis, then solved on the
-exact loop matrix (Brent's method).  A locus touching the unit circle between two grid
-points without crossing it, or two loci crossing in the same grid interval, is not seen;
-the stability verdict does not come from here but from the certified count of the
-characteristic quasi-polynomial's roots.
+Crossings are bracketed on a dense logarithmic grid by sign changes of ``|lambda| - 1``
+(crossovers) and ``Im lambda`` (the real axis) along each locus, continued from one
+frequency to the next by least total distance, and of their products over the loci
+(symmetric in the eigenvalues, so independent of the continuation where two loci come
+close), then solved on the exact loop matrix (Brent's method).  A locus touching the
+unit circle between two grid points without crossing it is not seen; the stability
+verdict does not come from here but from the certified count of the characteristic
+quasi-polynomial's roots.
 """
 
 from __future__ import annotations
 
+import itertools
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from typing import Any
@@ -48,6 +50,7 @@ MatrixFn = Callable[[np.ndarray], np.ndarray]
 
 _XTOL = 1e-14
 _CHUNK = 256
+_ENUMERATED = 5
 
 
 def loop_matrix(diagram: Any, design: Any, returns: Sequence[str], breaks: Sequence[str]
@@ -166,8 +169,8 @@ class LociMargins:
             else float("nan")
 
 
-def _eig(matrix_at: MatrixFn, w: np.ndarray) -> np.ndarray:
-    return np.linalg.eigvals(matrix_at(np.atleast_1d(w)))
+def _eig(matrix_at: MatrixFn, w: float) -> np.ndarray:
+    return np.linalg.eigvals(matrix_at(np.array([w])))[0]
 
 
 def _sign_changes(f: np.ndarray) -> np.ndarray:
@@ -176,30 +179,81 @@ def _sign_changes(f: np.ndarray) -> np.ndarray:
     return np.flatnonzero(s[:-1] * s[1:] < 0)
 
 
-def _solve(matrix_at: MatrixFn, fn: Callable[[np.ndarray], float], a: float, b: float
-           ) -> float:
-    from scipy.optimize import brentq
-
-    return float(brentq(lambda w: fn(_eig(matrix_at, w)[0]), a, b, xtol=_XTOL * b,
-                        rtol=4 * np.finfo(float).eps))
-
-
 def _modulus(lam: np.ndarray) -> Any:
-    return np.prod(np.abs(lam) - 1.0, axis=-1)
+    return np.abs(lam) - 1.0
 
 
 def _imag(lam: np.ndarray) -> Any:
-    return np.prod(lam.imag, axis=-1)
+    return lam.imag
 
 
 def _continued(lam: np.ndarray) -> np.ndarray:
-    """The eigenvalues reordered so that each column moves least between frequencies."""
+    """The eigenvalues reordered so that each column moves least between frequencies
+    (the permutation of least total distance: among all of them for a few loci, else by
+    the assignment algorithm)."""
     from scipy.optimize import linear_sum_assignment
 
+    n = lam.shape[1]
+    perms = np.array(list(itertools.permutations(range(n)))) if n <= _ENUMERATED else None
+    rows = np.arange(n)
     out = lam.copy()
     for i in range(1, len(out)):
         cost = np.abs(out[i - 1][:, None] - out[i][None, :])
-        out[i] = out[i][linear_sum_assignment(cost)[1]]
+        best = perms[np.argmin(cost[rows, perms].sum(axis=1))] if perms is not None \
+            else linear_sum_assignment(cost)[1]
+        out[i] = out[i][best]
+    return out
+
+
+def _root(matrix_at: MatrixFn, fn: Callable[[np.ndarray], Any], a: float, b: float,
+          value: Callable[[np.ndarray, float], float],
+          select: Callable[[np.ndarray, float], complex]) -> tuple[float, complex] | None:
+    """Where ``value(eigenvalues, w)`` changes sign in ``[a, b]`` (Brent), and the
+    eigenvalue ``select`` chooses there; None if ``fn`` of it is not 0 (the sign change
+    was a jump between eigenvalues)."""
+    from scipy.optimize import brentq
+
+    def g(w: float) -> float:
+        return float(value(_eig(matrix_at, w), w))
+
+    if g(a) * g(b) >= 0:
+        return None
+    w = float(brentq(g, a, b, xtol=_XTOL * b, rtol=4 * np.finfo(float).eps))
+    z = select(_eig(matrix_at, w), w)
+    return (w, z) if abs(fn(z)) <= 1e-6 * max(1.0, abs(z)) else None
+
+
+def _crossings(matrix_at: MatrixFn, omega: np.ndarray, loci: np.ndarray,
+               fn: Callable[[np.ndarray], Any], wanted: Callable[[np.ndarray], Any]
+               ) -> list[tuple[float, complex]]:
+    """Every frequency where a locus has ``fn = 0`` (among brackets whose end values
+    are ``wanted``), and the locus there: bracketed by sign changes of ``fn`` along each
+    continued locus (loci crossing at once) and of ``prod_i fn(lambda_i)`` (an
+    order-free check where the continuation swaps loci)."""
+    found, seen = [], set()
+    for col in range(loci.shape[1]):
+        for i in _sign_changes(fn(loci[:, col])):
+            a, b, za, zb = omega[i], omega[i + 1], loci[i, col], loci[i + 1, col]
+            seen.add(i)
+            if not (wanted(za) or wanted(zb)):
+                continue
+
+            def near(lam: np.ndarray, w: float, a=a, b=b, za=za, zb=zb) -> complex:
+                guess = za + (zb - za) * (w - a) / (b - a)
+                return complex(lam[np.argmin(np.abs(lam - guess))])
+            found.append(_root(matrix_at, fn, a, b, lambda lam, w, near=near:
+                               fn(near(lam, w)), near))
+    for i in _sign_changes(np.prod(fn(loci), axis=1)):
+        if i in seen or not np.any(wanted(loci[i])):
+            continue
+        found.append(_root(matrix_at, fn, omega[i], omega[i + 1],
+                           lambda lam, w: np.prod(fn(lam)),
+                           lambda lam, w: complex(lam[np.argmin(np.abs(fn(lam)))])))
+    out: list[tuple[float, complex]] = []
+    for w, z in sorted((x for x in found if x is not None), key=lambda x: x[0]):
+        if not any(abs(w - v) <= 1e-9 * w and abs(z - y) <= 1e-6 * max(1.0, abs(y))
+                   for v, y in out):
+            out.append((w, z))
     return out
 
 
@@ -220,25 +274,15 @@ def loci_margins(matrix_at: MatrixFn, omega: np.ndarray) -> LociMargins:
     """
     omega = np.asarray(omega, float)
     L = matrix_at(omega)
-    lam = np.linalg.eigvals(L)
-    cw, cpm = [], []
-    for i in _sign_changes(_modulus(lam)):
-        w = _solve(matrix_at, _modulus, omega[i], omega[i + 1])
-        z = _eig(matrix_at, w)[0]
-        z = z[np.argmin(np.abs(np.abs(z) - 1.0))]
-        cw.append(w)
-        cpm.append(180.0 - np.remainder(-np.degrees(np.angle(z)), 360.0))
-    pw, pg = [], []
-    for i in _sign_changes(_imag(lam)):
-        w = _solve(matrix_at, _imag, omega[i], omega[i + 1])
-        z = _eig(matrix_at, w)[0]
-        z = z[np.argmin(np.abs(z.imag))]
-        if z.real < 0:
-            pw.append(w)
-            pg.append(1.0 / abs(z.real))
+    loci = _continued(np.linalg.eigvals(L))
+    gain = _crossings(matrix_at, omega, loci, _modulus, lambda z: np.ones(np.shape(z), bool))
+    cpm = [180.0 - np.remainder(-np.degrees(np.angle(z)), 360.0) for _, z in gain]
+    phase = [(w, z) for w, z in _crossings(matrix_at, omega, loci, _imag,
+                                           lambda z: np.real(z) < 0) if z.real < 0]
     sv_min, sv_w = _smallest_return(matrix_at, omega, L)
-    return LociMargins(omega, _continued(lam), np.array(cw), np.array(cpm), np.array(pw),
-                       np.array(pg), sv_min, sv_w)
+    return LociMargins(omega, loci, np.array([w for w, _ in gain]), np.array(cpm),
+                       np.array([w for w, _ in phase]),
+                       np.array([1.0 / abs(z) for _, z in phase]), sv_min, sv_w)
 
 
 def _smallest_return(matrix_at: MatrixFn, omega: np.ndarray, L: np.ndarray
