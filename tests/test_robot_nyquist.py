@@ -156,7 +156,22 @@ def test_gain_margin_is_where_a_common_gain_flips_the_verdict(arm, arm_margins):
     assert abs(z.real) < 1e-6 * abs(z.imag)
     assert abs(abs(z.imag) - 2 * np.pi * arm_margins.phase_crossover_hz) < 1e-6 * abs(z.imag)
     assert scaled(0.999 * g).margins().stable and not scaled(1.001 * g).margins().stable
-    assert 0 < arm_margins.min_return_difference <= 1
+
+
+def test_smallest_return_difference_is_the_minimum(arm, arm_margins):
+    """Oracle: brute force, the smallest singular value of ``I + L`` on a grid 10 times
+    finer than the analysis's, over the same span."""
+    from seactl.analysis.characteristic_loci import loop_matrix
+
+    L = loop_matrix(arm.diagram, arm.design, [f"q_sens.j{j + 1}" for j in range(arm.n)],
+                    [f"qs.j{j + 1}" for j in range(arm.n)])
+    f = arm_margins.frequency_hz
+    w = 2 * np.pi * np.geomspace(f[0], f[-1], 10 * f.size)
+    sv = np.linalg.svd(np.eye(arm.n) + L(w), compute_uv=False)[:, -1]
+    assert arm_margins.min_return_difference <= sv.min() + 1e-12
+    assert arm_margins.min_return_difference >= sv.min() - 1e-6
+    assert arm_margins.min_return_difference_hz == pytest.approx(
+        w[np.argmin(sv)] / (2 * np.pi), rel=2e-3)
 
 
 def test_placement_margins(arm):
