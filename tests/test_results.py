@@ -72,6 +72,8 @@ UNITLESS = {
                     "a boolean (a robot's MuJoCo check against its verdicts)"),
     **dict.fromkeys(("factors", "envelope_ratio"), "a dimensionless ratio (MuJoCo check)"),
     "worst": "a count or an index (the worst configuration of a workspace map)",
+    **dict.fromkeys(("characteristic_loci", "min_return_difference"),
+                    "dimensionless (eigenvalues and singular values of a loop matrix)"),
     "joints": "words (a workspace map's joint names)",
     "direction": "dimensionless weights d / max(d), per delay name",
     **dict.fromkeys(("z", "magnitude", "stiffness"), "in the result's own `unit`"),

@@ -36,6 +36,8 @@ _PUBLIC = {
     ".api.robot": ("robot", "Robot", "workspace_map"),
     ".api.robotcheck": ("MujocoCheck",),
     ".api.robotmodels": ("robot_models",),
+    ".api.robotnyquist": ("MimoMarginsResult",),
+    ".api.robotplacement": ("RobotPlacementResult",),
     ".api.sweeps": ("sweep", "read_sweep", "parameter_robustness"),
     ".api.mobile_base": ("compare_mobile_base", "mobile_base_params"),
     ".api.userloop": ("UserLoop",),
@@ -61,6 +63,7 @@ __all__ = [
     "parameter_robustness",
     "robot", "Robot", "workspace_map", "MujocoCheck",
     "robot_models",
+    "MimoMarginsResult", "RobotPlacementResult",
     "compare_mobile_base", "mobile_base_params", "LatencyMapResult", "PlacementResult",
     # your own loop (loop files, docs/loops.md)
     "load_loop", "LoopBuilder", "UserLoop",

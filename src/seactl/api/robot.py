@@ -279,6 +279,75 @@ class Robot(System):
 
         return run_check(self, factors, t_end_s, impulse, rate_hz, gravity_mps2)
 
+    # ------------------------------------------------------------ the central process's MIMO loop
+    def mimo_margins(self) -> Any:
+        """The generalized Nyquist margins of the loop broken at every stiffness channel
+        at once (the central process; damping and torque loops closed), exact delays.
+
+        Returns
+        -------
+        seactl.api.robotnyquist.MimoMarginsResult
+            The characteristic loci (eigenvalues of the ``n x n`` loop matrix on a
+            frequency grid), ``phase_margin_deg`` and ``gain_margin`` (the common phase
+            rotation and gain of every channel that puts a locus on -1), the crossovers,
+            ``delay_margin_s`` (the extra central latency that puts a root on the
+            imaginary axis), ``min_return_difference`` (smallest singular value of
+            ``I + L``), ``stable`` (the certified verdict), ``records()``, ``plot()``.
+
+        Examples
+        --------
+        >>> import seactl as sc
+        >>> r = sc.robot("examples/robots/planar_2link.urdf", space="task", task="tool",
+        ...              q0=[0.3, 0.8], fn_hz=14,
+        ...              delays_ms={"torque": 0.5, "stiffness": 2, "damping": 0.5},
+        ...              filters_hz=(50, 100))                   # doctest: +SKIP
+        >>> m = r.mimo_margins()                                  # doctest: +SKIP
+        >>> round(m.phase_margin_deg, 2), round(m.delay_margin_s * 1e3, 2)  # doctest: +SKIP
+        (28.65, 25.64)
+        """
+        from seactl.api.robotnyquist import mimo_margins
+
+        return mimo_margins(self)
+
+    def placement(self, central_ms: float = 5.0, embedded_ms: float = 0.5, *,
+                  loops: Sequence[str] = ("stiffness", "damping")) -> Any:
+        """Every placement of ``loops`` on the central process or the joints' embedded
+        processes (the other loops embedded), each with its verdict and central latency
+        margins.
+
+        Parameters
+        ----------
+        central_ms, embedded_ms : float
+            The latency of the central process and of every embedded one [ms].
+        loops : sequence of str
+            The loops placed, among ``stiffness``, ``damping``, ``torque``.
+
+        Returns
+        -------
+        seactl.api.robotplacement.RobotPlacementResult
+            Per placement ``stable``, the stiffness channels' generalized Nyquist
+            ``phase_margin_deg``, ``delay_margin_s`` (the extra central latency, every
+            central loop delayed alike) and ``max_central_latency_s`` (the first crossing
+            from a central latency of zero); ``option(...)``, ``records()``, ``plot()``.
+
+        Raises
+        ------
+        InputError
+            A latency out of range, an unknown or repeated loop.
+
+        Examples
+        --------
+        >>> import seactl as sc
+        >>> r = sc.robot("examples/robots/planar_2link.urdf", space="task", task="tool",
+        ...              q0=[0.3, 0.8], fn_hz=14, filters_hz=(50, 100))   # doctest: +SKIP
+        >>> p = r.placement(central_ms=5, embedded_ms=0.5)                # doctest: +SKIP
+        >>> p.option(stiffness="central", damping="embedded").stable      # doctest: +SKIP
+        True
+        """
+        from seactl.api.robotplacement import robot_placement
+
+        return robot_placement(self, central_ms, embedded_ms, tuple(loops))
+
 
 def design_inertia(mass_matrix: np.ndarray) -> np.ndarray:
     """Per joint the inertia its SEA is designed for: ``1 / (M^{-1})_jj`` [kg m^2], what

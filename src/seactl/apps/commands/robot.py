@@ -97,11 +97,17 @@ def robot_record(r: Any, margins: dict[str, Any], roots: Any) -> dict[str, Any]:
 @click.option("--workers", type=int, default=None,
               help="With --workspace or --trajectory: run the configurations on N local "
                    "Dask worker processes (default: in this process).")
+@click.option("--mimo/--no-mimo", default=True, show_default=True,
+              help="The generalized Nyquist margins of the central process: every "
+                   "stiffness channel broken at once (Python: r.mimo_margins()).")
+@click.option("--placement", default=None, metavar="CENTRAL_MS,EMBEDDED_MS",
+              help="Also every placement of stiffness and damping on the central or the "
+                   "embedded processes with these latencies [ms] (Python: r.placement()).")
 @json_option
 def robot(urdf: str | None, actuators: str, space: str, task: str | None, q0: str | None,
           workspace: str | None, mujoco_check: bool, model: str | None, joints: str | None,
           trajectory: str | None, plot: str | None, workers: int | None, as_json: bool,
-          **axes: Any) -> None:
+          mimo: bool = True, placement: str | None = None, **axes: Any) -> None:
     """Margins of every loop break, certified verdict and spectral abscissa of a robot.
 
     Python: sc.robot(urdf, actuators=..., space=..., task=..., q0=...).
@@ -122,6 +128,10 @@ def robot(urdf: str | None, actuators: str, space: str, task: str | None, q0: st
     --model NAME --joints J1,J2: a robot of example-robot-data, only those joints moving
     (fixed base: a legged robot's leg in the air); --q0 gives the moving joints' angles
     (the locked ones at 0) or all the model's joints (docs/robots.md).
+    The central process's row (--mimo, the default) breaks every stiffness channel at
+    once: a single break's margin can look ample on a coupled robot that is unstable.
+    --placement 5,0.5: stiffness and damping on the central (5 ms) or embedded (0.5 ms)
+    processes, each placement's verdict and central latency margins (docs/robots.md).
     """
     import seactl as sc
 
@@ -139,7 +149,12 @@ def robot(urdf: str | None, actuators: str, space: str, task: str | None, q0: st
                            "damping": v["t_qd_ms"]},
                 filters_hz=(v["f_qd_hz"], v["f_taud_hz"]), model=model,
                 joints=None if joints is None else [j.strip() for j in joints.split(",")])
-    if workspace is not None or trajectory is not None:
+    is_map = workspace is not None or trajectory is not None
+    if is_map and placement is not None:
+        raise InputError("--workspace" if workspace is not None else "--trajectory",
+                         workspace if workspace is not None else trajectory,
+                         "given without --placement")
+    if is_map:
         from seactl.apps.commands.robotmap import workspace_command
 
         workspace_command(urdf, workspace, trajectory, q0, mujoco_check, opts,
@@ -150,13 +165,16 @@ def robot(urdf: str | None, actuators: str, space: str, task: str | None, q0: st
                          plot if plot is not None else workers,
                          "given with --workspace or --trajectory (a map's options)")
     r = sc.robot(urdf, q0=_q0(q0), **opts)
+    central, extra = _central_views(r, mimo, placement)
     rec = robot_record(r, r.margins_by_break(), r.roots(count=4))
     if mujoco_check:
         rec["mujoco_check"] = r.mujoco_check().records()
+    rec.update(extra)
     if as_json:
         echo_json(rec)
         return
     _print(rec)
+    central()
     if mujoco_check:
         _print_check(rec["mujoco_check"])
 
@@ -206,3 +224,21 @@ def _print_check(rows: list[dict[str, Any]]) -> None:
                   f"{r['growth_rate_per_s']:.3g}",
                   "yes" if r["agree"] else "[red]NO[/red]")
     console.print(t)
+
+
+def _central_views(r: Any, mimo: bool, placement: str | None) -> tuple[Any, dict[str, Any]]:
+    """``--mimo`` and ``--placement``: what prints their tables, and their records."""
+    from .robotmimo import mimo_record, placement_record, print_mimo, print_placement
+
+    rec: dict[str, Any] = {}
+    if placement is not None:
+        rec["placement"] = placement_record(r, placement)
+    if mimo:
+        rec["mimo"] = mimo_record(r)
+
+    def show() -> None:
+        if mimo:
+            print_mimo(rec["mimo"])
+        if placement is not None:
+            print_placement(rec["placement"])
+    return show, rec

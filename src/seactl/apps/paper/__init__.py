@@ -20,6 +20,7 @@ from . import (
     mobile_base,
     physics,
     placement,
+    robot_placement,
     running,
     simulation,
     sweep,
@@ -49,6 +50,7 @@ SECTIONS: tuple[SectionFn, ...] = (
     running.running,
     physics.physics_engine,
     mobile_base.mobile_base,
+    robot_placement.robot_placement,
 )
 
 
