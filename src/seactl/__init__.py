@@ -35,6 +35,8 @@ _PUBLIC = {
     ".api.sampled_jitter": ("SampledJitterResult",),
     ".api.robot": ("robot", "Robot", "workspace_map"),
     ".api.robotcheck": ("MujocoCheck",),
+    ".api.robotimpedance": ("TaskImpedanceResult", "RobotPassivityResult"),
+    ".api.robottask": ("TaskResponseResult",),
     ".api.sweeps": ("sweep", "read_sweep", "parameter_robustness"),
     ".api.mobile_base": ("compare_mobile_base", "mobile_base_params"),
     ".api.userloop": ("UserLoop",),
@@ -59,6 +61,7 @@ __all__ = [
     "rigid", "RigidBatch", "loop_model", "latency_map", "place", "sweep", "read_sweep",
     "parameter_robustness",
     "robot", "Robot", "workspace_map", "MujocoCheck",
+    "TaskImpedanceResult", "RobotPassivityResult", "TaskResponseResult",
     "compare_mobile_base", "mobile_base_params", "LatencyMapResult", "PlacementResult",
     # your own loop (loop files, docs/loops.md)
     "load_loop", "LoopBuilder", "UserLoop",

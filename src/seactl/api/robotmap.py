@@ -32,6 +32,9 @@ class WorkspaceMap(Result):
         [N/m] the certified verdict calls stable, ``k_r = k_x r^2`` scaled with it
         (:func:`max_task_stiffness`); ``inf`` if stable up to ``1e6`` times the default
         ``k_x``, 0 if unstable down to ``1e-6`` times it.  NaN in joint space, ``(m,)``.
+    passive : numpy.ndarray or None
+        Per configuration the certified passivity of the joint impedance on 0.01 Hz to
+        10 kHz (:meth:`seactl.api.robot.Robot.passivity`), ``(m,)``.
     worst : int
         The index of the configuration with the smallest phase margin (an unstable one
         first).
@@ -51,6 +54,7 @@ class WorkspaceMap(Result):
     phase_margin_deg: np.ndarray
     delay_margin_ms: np.ndarray
     max_task_stiffness_n_per_m: np.ndarray
+    passive: Any = None
 
     @property
     def worst(self) -> int:
@@ -64,6 +68,8 @@ class WorkspaceMap(Result):
         cols.update(stable=self.stable, phase_margin_deg=self.phase_margin_deg,
                     delay_margin_ms=self.delay_margin_ms,
                     max_task_stiffness_n_per_m=self.max_task_stiffness_n_per_m)
+        if self.passive is not None:
+            cols["passive"] = self.passive
         return cols
 
     def plot(self, ax: Any = None) -> Any:

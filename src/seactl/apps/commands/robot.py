@@ -102,9 +102,18 @@ def robot_record(r: Any, margins: dict[str, Any], roots: Any) -> dict[str, Any]:
 @click.option("--mujoco-check", is_flag=True,
               help="Also run the robot in MuJoCo at 0.8x and 1.2x of the central delay "
                    "margin and compare with the certified verdicts (needs mujoco).")
+@click.option("--impedance", default=None,
+              help="Frequencies [Hz], comma-separated: the task impedance's principal "
+                   "values (joint space without --task) and the certified passivity.")
+@click.option("--task-step", default=None,
+              help="Direction X,Y,Z of a 1 mm step of the task reference (needs --task).")
+@click.option("--task-impulse", default=None,
+              help="Direction X,Y,Z of a 0.01 N s force impulse at the task frame.")
 @json_option
 def robot(urdf: str, actuators: str, space: str, task: str | None, q0: str | None,
-          workspace: str | None, mujoco_check: bool, as_json: bool, **axes: Any) -> None:
+          workspace: str | None, mujoco_check: bool, as_json: bool,
+          impedance: str | None = None, task_step: str | None = None,
+          task_impulse: str | None = None, **axes: Any) -> None:
     """Margins of every loop break, certified verdict and spectral abscissa of a robot.
 
     Python: sc.robot(urdf, actuators=..., space=..., task=..., q0=...).
@@ -121,6 +130,8 @@ def robot(urdf: str, actuators: str, space: str, task: str | None, q0: str | Non
     --mujoco-check: Python r.mujoco_check() (docs/robots.md, "In MuJoCo").
     --workspace: one row per configuration of the grid (verdict, phase margin, delay
     margin, and in task space the largest task stiffness k_x [N/m]).
+    --impedance, --task-step, --task-impulse: Python r.task_impedance(f_hz),
+    r.passivity(), r.task_step(direction), r.task_impulse(direction) (docs/robots.md).
     """
     import seactl as sc
 
@@ -135,6 +146,11 @@ def robot(urdf: str, actuators: str, space: str, task: str | None, q0: str | Non
         _workspace(urdf, workspace, q0, mujoco_check, as_json, opts)
         return
     r = sc.robot(urdf, q0=_q0(q0), **opts)
+    if impedance is not None or task_step is not None or task_impulse is not None:
+        from .robotimpedance import task_views
+
+        task_views(r, impedance, task_step, task_impulse, as_json)
+        return
     rec = robot_record(r, r.margins_by_break(), r.roots(count=4))
     if mujoco_check:
         rec["mujoco_check"] = r.mujoco_check().records()
@@ -199,13 +215,15 @@ def _workspace(urdf: str, text: str, q0: str | None, mujoco_check: bool, as_json
         return
     t = Table(title=f"workspace map, {opts['space']} space, {len(rows)} configurations")
     for col in [f"{j} [rad]" for j in m.joints] + ["verdict", "PM [deg]",
-                                                   "delay margin [ms]", "max k_x [N/m]"]:
+                                                   "delay margin [ms]", "max k_x [N/m]",
+                                                   "passive"]:
         t.add_column(escape(col))
     for row in rows:
         t.add_row(*(f"{row[f'{j}_rad']:.4g}" for j in m.joints),
                   "stable" if row["stable"] else "[red]UNSTABLE[/red]",
                   pm_text(row["phase_margin_deg"], row["stable"]),
                   *("none" if row[k] is None else f"{row[k]:.4g}"
-                    for k in ("delay_margin_ms", "max_task_stiffness_n_per_m")))
+                    for k in ("delay_margin_ms", "max_task_stiffness_n_per_m")),
+                  "yes" if row.get("passive") else "no")
     console.print(t)
     console.print(f"worst configuration: row {m.worst + 1}")
