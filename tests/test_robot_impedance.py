@@ -127,6 +127,10 @@ def test_passivity_verdict_near_the_boundary(factor):
     if not p.passive:
         zn = sea_joint_impedance(r, [p.negative_f_hz])[0]
         assert np.linalg.eigvalsh(0.5 * (zn + zn.conj().T))[0] < 0
+    # the reported worst point: the 400-per-decade grid's, of the second derivation too
+    g = f[::5]
+    assert p.worst_f_hz == pytest.approx(g[np.argmin(lam[::5])], rel=1e-12)
+    assert p.hermitian_min == pytest.approx(lam[::5].min(), rel=1e-7, abs=1e-9)
 
 
 def test_stretched_arm_task_impedance_is_tangential():
@@ -199,7 +203,8 @@ def test_cli_impedance_json_is_the_api(capsys):
 
 
 @pytest.mark.parametrize("extra", [["--impedance", "1,x"], ["--task-step", "1,0"],
-                                   ["--task-impulse", "0,0,0"], ["--impedance", "-1"]])
+                                   ["--task-impulse", "0,0,0"], ["--impedance", "-1"],
+                                   ["--impedance", "1", "--mujoco-check"]])
 def test_cli_bad_input_is_one_line(capsys, extra):
     """A behaviour: one line `error: ...` naming the option, exit 2, nothing else."""
     args = ["robot", "--urdf", str(ARM), "--space", "task", "--task", "tool", "--q0",
@@ -207,14 +212,16 @@ def test_cli_bad_input_is_one_line(capsys, extra):
     assert main(args + extra) == 2
     out = capsys.readouterr()
     assert out.out == "" and out.err.count("\n") == 1
-    assert out.err.startswith("error: invalid " + extra[0])
+    assert out.err.startswith("error: invalid " + extra[0]) or (
+        len(extra) == 3 and out.err.startswith("error: invalid --impedance/"))
 
 
 def test_api_errors_name_the_field():
     r = sc.robot(ARM, q0=Q0, fn_hz=14)                         # no task frame
     for call, field in ((lambda: r.task_impedance([1.0], space="task"), "space"),
                         (lambda: r.task_step((1, 0, 0)), "task"),
-                        (lambda: r.passivity((10, 1)), "f_range_hz")):
+                        (lambda: r.passivity((10, 1)), "f_range_hz"),
+                        (lambda: r.passivity((10,)), "f_range_hz")):
         with pytest.raises(InputError) as exc:
             call()
         assert exc.value.field == field

@@ -185,16 +185,22 @@ class TaskImpedanceResult(Result):
 def passivity(r: Any, f_range_hz: Any = PASSIVITY_RANGE_HZ,
               points_per_decade: int = 400) -> RobotPassivityResult:
     """:meth:`seactl.api.robot.Robot.passivity` (its documentation)."""
-    from seactl.systems.robot.taskimpedance import certify_passive, hermitian_min
+    from seactl.systems.robot.taskimpedance import (
+        certify_passive,
+        hermitian_min,
+        joint_impedance,
+        joint_quasi,
+    )
 
-    lo, hi = (float(x) for x in finite_array("f_range_hz", f_range_hz, minimum=0.0,
-                                              strict=True).reshape(-1)[:2])
-    if not lo < hi or np.size(f_range_hz) != 2:
+    fr = finite_array("f_range_hz", f_range_hz, minimum=0.0, strict=True).reshape(-1)
+    if fr.size != 2 or not fr[0] < fr[1]:
         raise InputError("f_range_hz", f_range_hz, "(lo, hi) with 0 < lo < hi [Hz]")
-    c = certify_passive(r.diagram, r.design, r.n, (lo, hi), points_per_decade=points_per_decade)
+    lo, hi = float(fr[0]), float(fr[1])
+    N, D = joint_quasi(r.diagram, r.design, r.n)
+    c = certify_passive(N, D, (lo, hi), points_per_decade=points_per_decade)
     f = np.logspace(np.log10(lo), np.log10(hi),
                     max(2, int(np.ceil(np.log10(hi / lo) * points_per_decade)) + 1))
-    lam = hermitian_min(r.impedance_matrix(f))
+    lam = hermitian_min(joint_impedance(N, D, f))
     i = int(np.argmin(lam))
     return RobotPassivityResult((lo, hi), bool(c.positive), bool(c.proven),
                                 c.negative_w / (2 * np.pi), float(f[i]), float(lam[i]))

@@ -142,15 +142,20 @@ def robot(urdf: str, actuators: str, space: str, task: str | None, q0: str | Non
                 delays_ms={"torque": v["t_tau_ms"], "stiffness": v["t_qs_ms"],
                            "damping": v["t_qd_ms"]},
                 filters_hz=(v["f_qd_hz"], v["f_taud_hz"]))
+    if impedance is not None or task_step is not None or task_impulse is not None:
+        from .robotimpedance import task_views
+
+        if workspace is not None or mujoco_check:
+            raise InputError("--impedance/--task-step/--task-impulse", "with "
+                             + ("--workspace" if workspace is not None else "--mujoco-check"),
+                             "given without --workspace and --mujoco-check")
+        task_views(sc.robot(urdf, q0=_q0(q0), **opts), impedance, task_step, task_impulse,
+                   as_json)
+        return
     if workspace is not None:
         _workspace(urdf, workspace, q0, mujoco_check, as_json, opts)
         return
     r = sc.robot(urdf, q0=_q0(q0), **opts)
-    if impedance is not None or task_step is not None or task_impulse is not None:
-        from .robotimpedance import task_views
-
-        task_views(r, impedance, task_step, task_impulse, as_json)
-        return
     rec = robot_record(r, r.margins_by_break(), r.roots(count=4))
     if mujoco_check:
         rec["mujoco_check"] = r.mujoco_check().records()

@@ -72,16 +72,29 @@ def hermitian_min(z: np.ndarray) -> np.ndarray:
     return np.linalg.eigvalsh(0.5 * (z + np.conj(np.swapaxes(z, -1, -2))))[..., 0]
 
 
-def certify_passive(diagram: Any, design: Any, n: int, f_range_hz: tuple[float, float],
-                    every: int = 16, points_per_decade: int = 400) -> Any:
-    """:func:`seactl.certify.hermitian.certify_hermitian` of the joint impedance on
-    ``f_range_hz``, from base points every ``every`` of a grid of ``points_per_decade``."""
-    from seactl.certify.hermitian import certify_hermitian
+def joint_quasi(diagram: Any, design: Any, n: int) -> tuple[list[list[Any]], Any]:
+    """The quasi-polynomials ``(N, D)`` of :func:`joint_forms` for one design."""
     from seactl.diagram.blockdiagram import evaluate_forms
 
     forms, dform = joint_forms(diagram, n)
     D = evaluate_forms((dform,), design)[0]
-    N = [[evaluate_forms((f,), design)[0] for f in row] for row in forms]
+    return [[evaluate_forms((f,), design)[0] for f in row] for row in forms], D
+
+
+def joint_impedance(N: list[list[Any]], D: Any, f_hz: np.ndarray) -> np.ndarray:
+    """``Z_q = N / (-s D)`` at ``s = j 2 pi f``: ``(F, n, n)``."""
+    s = (2j * np.pi * np.asarray(f_hz, float)).reshape(1, -1)
+    d = -s * D(s)
+    return np.stack([np.stack([q(s) / d for q in row], -1) for row in N], -2)[0]
+
+
+def certify_passive(N: list[list[Any]], D: Any, f_range_hz: tuple[float, float],
+                    every: int = 16, points_per_decade: int = 400) -> Any:
+    """:func:`seactl.certify.hermitian.certify_hermitian` of the joint impedance
+    (:func:`joint_quasi`) on ``f_range_hz``, from base points every ``every`` of a grid of
+    ``points_per_decade``."""
+    from seactl.certify.hermitian import certify_hermitian
+
     lo, hi = f_range_hz
     npts = max(2, int(np.ceil(np.log10(hi / lo) * points_per_decade / every)) + 1)
     return certify_hermitian(N, D, 2 * np.pi * np.logspace(np.log10(lo), np.log10(hi), npts))
