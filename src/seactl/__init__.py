@@ -38,6 +38,8 @@ _PUBLIC = {
     ".api.robotmodels": ("robot_models",),
     ".api.robotnyquist": ("MimoMarginsResult",),
     ".api.robotplacement": ("RobotPlacementResult",),
+    ".api.robotimpedance": ("TaskImpedanceResult", "RobotPassivityResult"),
+    ".api.robottask": ("TaskResponseResult",),
     ".api.sweeps": ("sweep", "read_sweep", "parameter_robustness"),
     ".api.mobile_base": ("compare_mobile_base", "mobile_base_params"),
     ".api.userloop": ("UserLoop",),
@@ -64,6 +66,7 @@ __all__ = [
     "robot", "Robot", "workspace_map", "MujocoCheck",
     "robot_models",
     "MimoMarginsResult", "RobotPlacementResult",
+    "TaskImpedanceResult", "RobotPassivityResult", "TaskResponseResult",
     "compare_mobile_base", "mobile_base_params", "LatencyMapResult", "PlacementResult",
     # your own loop (loop files, docs/loops.md)
     "load_loop", "LoopBuilder", "UserLoop",

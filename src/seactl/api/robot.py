@@ -347,6 +347,101 @@ class Robot(System):
         from seactl.api.robotplacement import robot_placement
 
         return robot_placement(self, central_ms, embedded_ms, tuple(loops))
+    # ------------------------------------------------------------ task impedance, passivity
+    def task_impedance(self, f_hz: Any, *, space: str | None = None) -> Any:
+        """The impedance matrix felt at the task frame's translation, joints' references
+        fixed: ``Z_x = (U_r^T J Z_q^-1 J^T U_r)^-1`` [N s/m] with ``Z_q`` the joint
+        impedance (:meth:`impedance_matrix`, the links' own inertia excluded) and ``U_r``
+        the ``r`` directions the joints move (docs/robots.md).
+
+        Parameters
+        ----------
+        f_hz : array_like
+            Frequencies [Hz] > 0, 1-D.
+        space : {"task", "joint"}, optional
+            ``"joint"``: the same views of ``Z_q`` itself (default: task if the robot has
+            a task frame).
+
+        Returns
+        -------
+        seactl.api.robotimpedance.TaskImpedanceResult
+            ``z``, ``principal_values``, ``directions``, ``hermitian_min``, ``passive``
+            (certified on the range of ``f_hz``), ``records()``, ``plot()``.
+        """
+        from seactl.api.robotimpedance import task_impedance
+
+        return task_impedance(self, f_hz, space)
+
+    def passivity(self, f_range_hz: Any = (0.01, 1e4), *,
+                  points_per_decade: int = 400) -> Any:
+        """Whether the joint impedance's Hermitian part ``(Z_q + Z_q^H) / 2`` is positive
+        definite over a frequency range: certified between the points of a grid
+        (:mod:`seactl.certify.hermitian`), or refuted by a point; it implies the task
+        impedance's passivity.
+
+        Parameters
+        ----------
+        f_range_hz : (float, float)
+            The range [Hz]; nothing is claimed outside it (the SEA's default).
+        points_per_decade : int
+            Density of the grid of the smallest eigenvalue reported (``worst_f_hz``);
+            the certificate starts from every 16th point and halves as it needs.
+
+        Returns
+        -------
+        seactl.api.robotimpedance.RobotPassivityResult
+            ``passive``, ``proven``, ``negative_f_hz``, ``worst_f_hz``, ``hermitian_min``.
+        """
+        from seactl.api.robotimpedance import passivity
+
+        return passivity(self, f_range_hz, points_per_decade)
+
+    def task_step(self, direction: Any = (1.0, 0.0, 0.0), *, amplitude_m: float = 1e-3,
+                  t_end_s: float = 2.0) -> Any:
+        """The task frame's response to a step of its reference along ``direction``: the
+        joints' references step by ``J^+ dx`` (continuous, exact delays).
+
+        Parameters
+        ----------
+        direction : sequence of 3 float
+            World-aligned (normalized).
+        amplitude_m : float
+            The step [m] > 0.
+        t_end_s : float
+            Simulated time [s], at most 20.
+
+        Returns
+        -------
+        seactl.api.robottask.TaskResponseResult
+            ``t_s``, ``x_m``, ``along_m``, ``stable``, ``metrics`` (of ``along_m`` divided
+            by the step), ``plot()``.
+        """
+        from seactl.api.robottask import task_response
+
+        return task_response(self, "step", direction, amplitude_m, t_end_s)
+
+    def task_impulse(self, direction: Any = (1.0, 0.0, 0.0), *, amplitude_n_s: float = 0.01,
+                     t_end_s: float = 2.0) -> Any:
+        """The task frame's response to a force impulse at it along ``direction`` (the
+        joints' external torque impulse ``J^T F``; references fixed).
+
+        Parameters
+        ----------
+        direction : sequence of 3 float
+            World-aligned (normalized).
+        amplitude_n_s : float
+            The impulse [N s] > 0.
+        t_end_s : float
+            Simulated time [s], at most 20.
+
+        Returns
+        -------
+        seactl.api.robottask.TaskResponseResult
+            As :meth:`task_step`; ``metrics`` are the peak deviation and recovery time.
+        """
+        from seactl.api.robottask import task_response
+
+        return task_response(self, "impulse", direction, amplitude_n_s, t_end_s)
 
 
 def design_inertia(mass_matrix: np.ndarray) -> np.ndarray:
@@ -530,7 +625,8 @@ def workspace_map(urdf: str | Path | None, configurations: Any, *, backend: str 
         given, or ``r^2`` by default; a decade scan then bisection to a relative 1e-3,
         :func:`seactl.api.robotstiffness.search_task_stiffness`), with
         ``stiffness_intervals_n_per_m`` and ``single_flip`` (False where the verdict does
-        not simply flip once); ``t_s`` of a trajectory file; ``worst``, ``records()``,
+        not simply flip once); ``passive``, the certified passivity of the joint impedance
+        (:meth:`Robot.passivity`); ``t_s`` of a trajectory file; ``worst``, ``records()``,
         ``plot()``.
 
     Examples
@@ -545,8 +641,8 @@ def workspace_map(urdf: str | Path | None, configurations: Any, *, backend: str 
     from seactl.api.robotsweep import map_configurations
 
     q, t_s = _configurations(urdf, configurations, options)
-    rows = map_configurations(None if urdf is None else str(urdf), q, options, backend=backend, workers=workers,
-                              client=client)
+    rows = map_configurations(None if urdf is None else str(urdf), q, options,
+                              backend=backend, workers=workers, client=client)
     col = {k: [row[k] for row in rows] for k in rows[0]}
     return WorkspaceMap(rows[0]["joints"], q, np.array(col["stable"], bool),
                         np.array(col["phase_margin_deg"], float),
@@ -554,7 +650,7 @@ def workspace_map(urdf: str | Path | None, configurations: Any, *, backend: str 
                         np.array(col["max_task_stiffness_n_per_m"], float),
                         single_flip=np.array(col["single_flip"], bool),
                         stiffness_intervals_n_per_m=tuple(col["stiffness_intervals_n_per_m"]),
-                        t_s=t_s)
+                        t_s=t_s, passive=np.array(col["passive"], bool))
 
 
 def _moving_joints(urdf: str | Path | None, options: dict[str, Any]) -> tuple[str, ...]:

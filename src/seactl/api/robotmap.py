@@ -33,6 +33,9 @@ class WorkspaceMap(Result):
         (:func:`max_task_stiffness`: the top of the highest stable stretch); ``inf`` if
         stable at ``1e6`` times the default ``k_x``, 0 if unstable everywhere from
         ``1e-6`` to ``1e6`` times it.  NaN in joint space, ``(m,)``.
+    passive : numpy.ndarray or None
+        Per configuration the certified passivity of the joint impedance on 0.01 Hz to
+        10 kHz (:meth:`seactl.api.robot.Robot.passivity`), ``(m,)``.
     worst : int
         The index of the configuration with the smallest phase margin (an unstable one
         first).
@@ -65,6 +68,7 @@ class WorkspaceMap(Result):
     single_flip: np.ndarray | None = None
     stiffness_intervals_n_per_m: tuple = ()
     t_s: np.ndarray | None = None
+    passive: Any = None
 
     @property
     def worst(self) -> int:
@@ -81,6 +85,8 @@ class WorkspaceMap(Result):
                     max_task_stiffness_n_per_m=self.max_task_stiffness_n_per_m)
         if self.single_flip is not None:
             cols["single_flip"] = self.single_flip
+        if self.passive is not None:
+            cols["passive"] = self.passive
         return cols
 
     def plot(self, ax: Any = None, quantity: str | None = None) -> Any:

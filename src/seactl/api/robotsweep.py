@@ -71,7 +71,8 @@ def evaluate_configuration(urdf: str | None, q0: Sequence[float], options: dict[
            "phase_margin_deg": float(m.phase_margin_deg),
            "delay_margin_ms": float(m.delay_margin_ms),
            "max_task_stiffness_n_per_m": float("nan"),
-           "stiffness_intervals_n_per_m": (), "single_flip": True}
+           "stiffness_intervals_n_per_m": (), "single_flip": True,
+           "passive": bool(r.passivity().passive)}
     if r.space == "task":
         s = search_task_stiffness(r)
         row.update(max_task_stiffness_n_per_m=s.kx_max_n_per_m,

@@ -103,11 +103,20 @@ def robot_record(r: Any, margins: dict[str, Any], roots: Any) -> dict[str, Any]:
 @click.option("--placement", default=None, metavar="CENTRAL_MS,EMBEDDED_MS",
               help="Also every placement of stiffness and damping on the central or the "
                    "embedded processes with these latencies [ms] (Python: r.placement()).")
+@click.option("--impedance", default=None,
+              help="Frequencies [Hz], comma-separated: the task impedance's principal "
+                   "values (joint space without --task) and the certified passivity.")
+@click.option("--task-step", default=None,
+              help="Direction X,Y,Z of a 1 mm step of the task reference (needs --task).")
+@click.option("--task-impulse", default=None,
+              help="Direction X,Y,Z of a 0.01 N s force impulse at the task frame.")
 @json_option
 def robot(urdf: str | None, actuators: str, space: str, task: str | None, q0: str | None,
           workspace: str | None, mujoco_check: bool, model: str | None, joints: str | None,
           trajectory: str | None, plot: str | None, workers: int | None, as_json: bool,
-          mimo: bool = True, placement: str | None = None, **axes: Any) -> None:
+          mimo: bool = True, placement: str | None = None, impedance: str | None = None,
+          task_step: str | None = None, task_impulse: str | None = None,
+          **axes: Any) -> None:
     """Margins of every loop break, certified verdict and spectral abscissa of a robot.
 
     Python: sc.robot(urdf, actuators=..., space=..., task=..., q0=...).
@@ -132,6 +141,8 @@ def robot(urdf: str | None, actuators: str, space: str, task: str | None, q0: st
     once: a single break's margin can look ample on a coupled robot that is unstable.
     --placement 5,0.5: stiffness and damping on the central (5 ms) or embedded (0.5 ms)
     processes, each placement's verdict and central latency margins (docs/robots.md).
+    --impedance, --task-step, --task-impulse: Python r.task_impedance(f_hz),
+    r.passivity(), r.task_step(direction), r.task_impulse(direction) (docs/robots.md).
     """
     import seactl as sc
 
@@ -150,6 +161,17 @@ def robot(urdf: str | None, actuators: str, space: str, task: str | None, q0: st
                 filters_hz=(v["f_qd_hz"], v["f_taud_hz"]), model=model,
                 joints=None if joints is None else [j.strip() for j in joints.split(",")])
     is_map = workspace is not None or trajectory is not None
+    if impedance is not None or task_step is not None or task_impulse is not None:
+        from .robotimpedance import task_views
+
+        if is_map or mujoco_check or placement is not None:
+            other = ("--workspace/--trajectory" if is_map else
+                     "--mujoco-check" if mujoco_check else "--placement")
+            raise InputError("--impedance/--task-step/--task-impulse", "with " + other,
+                             "given without " + other)
+        task_views(sc.robot(urdf, q0=_q0(q0), **opts), impedance, task_step, task_impulse,
+                   as_json)
+        return
     if is_map and placement is not None:
         raise InputError("--workspace" if workspace is not None else "--trajectory",
                          workspace if workspace is not None else trajectory,

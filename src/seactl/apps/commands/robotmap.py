@@ -110,7 +110,7 @@ def _report(m: Any, space: str, as_json: bool) -> None:
     t = Table(title=f"workspace map, {space} space, {len(rows)} configurations")
     time_col = ["t [s]"] if m.t_s is not None else []
     for col in time_col + [f"{j} [rad]" for j in m.joints] + [
-            "verdict", "PM [deg]", "delay margin [ms]", "max k_x [N/m]"]:
+            "verdict", "PM [deg]", "delay margin [ms]", "max k_x [N/m]", "passive"]:
         t.add_column(escape(col))
     for i, row in enumerate(rows):
         kx = row["max_task_stiffness_n_per_m"]
@@ -120,7 +120,8 @@ def _report(m: Any, space: str, as_json: bool) -> None:
                   pm_text(row["phase_margin_deg"], row["stable"]),
                   "none" if row["delay_margin_ms"] is None else f"{row['delay_margin_ms']:.4g}",
                   ("none" if kx is None else f"{kx:.4g}") + ("" if i not in flips else
-                                                            " [yellow](flips)[/yellow]"))
+                                                            " [yellow](flips)[/yellow]"),
+                  "yes" if row.get("passive") else "no")
     console.print(t)
     w = rows[m.worst]
     console.print(f"worst configuration: row {m.worst + 1}, q = ({_angles(m, w)}) rad, "
