@@ -1057,17 +1057,13 @@ class System:
         diagram, sat = self.diagram_for(**options), self.saturation(kw["saturation_a"])
         lat = None
         if plant == "mujoco" or realtime:
-            from seactl.latency.band import check_band_latency
-            from seactl.latency.models import parse_latency
+            from seactl.latency.band import band_latency
 
             if plant == "mujoco":
                 from seactl.codegen.mjcf import plant_model
 
                 plant_model(self.design)   # an SEA or a rigid actuator, before any process
-            lat = None if latency is None else \
-                {k: parse_latency(v, f"latency {k}") if isinstance(v, str) else v
-                 for k, v in latency.items()}
-            check_band_latency(lat, self.links)
+            lat = band_latency(latency, self.links)
         elif latency is not None:
             raise InputError("latency", latency, "used with plant='mujoco' or realtime=True")
         res = run_distributed(diagram, self.design, saturation=sat, step=a,

@@ -90,7 +90,7 @@ LOOP_OPTIONS: dict[str, frozenset[str]] = {
     "export": frozenset({"out", "lang", "rates_hz", "emulate_latency", "real", "verify", "cc",
                          "as_json"}),
     "run": frozenset({"rates_hz", "duration", "step", "extra_latency", "loss", "seed",
-                      "transport", "realtime", "out", "as_json"}),
+                      "transport", "realtime", "latency", "out", "as_json"}),
     "place": frozenset({"as_json"}),
     "roots": frozenset({"count", "as_json"}),
     "delay-margin": frozenset({"direction", "as_json"}),
