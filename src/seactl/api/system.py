@@ -245,6 +245,12 @@ class System:
         raise NotImplementedError
 
     @property
+    def output_unit(self) -> str:
+        """The unit of :attr:`output`, :attr:`step_unit` (the output tracks the reference).
+        """
+        return self.step_unit
+
+    @property
     def max_current_a(self) -> float:
         """The actuator's current limit [A] (the default of ``saturation_a``)."""
         raise NotImplementedError
@@ -837,7 +843,8 @@ class System:
         roots = functools.partial(closed_loop_right_roots, diagram, self.design,
                                   self.reference_frequency())
         return ResponseResult(SEAResponse(kind, sim, metrics), self.labels(), roots,
-                              links=self.links, amplitude=amplitude, amplitude_unit=unit)
+                              links=self.links, amplitude=amplitude, amplitude_unit=unit,
+                              output=self.output, output_unit=self.output_unit)
 
     def _sampled_info(self, info: dict[str, Any], diagram: Any, rate_hz: float) -> None:
         """The sampled loop's certified verdict beside the response (``sampled_verdict``,

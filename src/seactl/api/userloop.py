@@ -113,6 +113,12 @@ class UserLoop(System):
         return self.compiled.model.signals.reference_unit or "reference units"
 
     @property
+    def output_unit(self) -> str:
+        """``""``: a loop file names its output signal, not the output's unit.
+        """
+        return ""
+
+    @property
     def loops(self) -> tuple[str, ...]:  # type: ignore[override]
         """The delayed blocks: the keys of the responses' requested and effective
         delays (and the links of :meth:`monte_carlo`).
