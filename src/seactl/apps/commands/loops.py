@@ -92,6 +92,7 @@ LOOP_OPTIONS: dict[str, frozenset[str]] = {
     "run": frozenset({"rates_hz", "duration", "step", "extra_latency", "loss", "seed",
                       "transport", "realtime", "latency", "out", "as_json"}),
     "place": frozenset({"as_json"}),
+    "jitter": frozenset({"as_json"}),
     "roots": frozenset({"count", "as_json"}),
     "delay-margin": frozenset({"direction", "as_json"}),
     "chart": frozenset({"delays", "max_s", "max_ms", "resolution", "plot", "as_json"}),
