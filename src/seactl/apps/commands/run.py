@@ -65,8 +65,8 @@ def _float(name: str, text: str, lo: float, hi: float) -> float:
 @click.option("--latency", "latency", multiple=True, metavar="LOOP=MODEL",
               help="--plant mujoco or --realtime: latency model of a loop for the "
                    "prediction band, in ms "
-                   "(e.g. stiffness=uniform:1:3; repeatable); default: the run's measured "
-                   "latency of the high-level loop.")
+                   "(e.g. stiffness=uniform:1:3; --loop: a delayed block, e.g. K_fb=1.5; "
+                   "repeatable); default: the run's measured latency.")
 @click.option("--realtime", is_flag=True,
               help="Free-running processes, each on its own clock, running the exported C "
                    "(default: lock-step, the exact replay check).")
