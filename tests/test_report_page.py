@@ -74,6 +74,10 @@ def test_summary_line_uses_the_agreed_words():
     one = {"status": "fail"}
     assert summary_line([one]) == ("1 claim of the paper checked: 0 reproduced, "
                                    "1 does not hold as printed, 0 findings")
+    # a claim not computed (skip) is not one of those checked: counted apart
+    assert summary_line([one, {"status": "skip"}, {"status": "skip"}]) == (
+        "1 claim of the paper checked: 0 reproduced, 1 does not hold as printed, "
+        "0 findings; 2 not computed")
 
 
 def test_verdict_per_section_counts_its_claims(snapshot_page):

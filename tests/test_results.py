@@ -49,7 +49,8 @@ UNITLESS = {
     **dict.fromkeys(("verdict", "kind", "mode", "model", "unit", "units", "arch", "loop",
                      "name", "baseline", "note", "max_error_text", "compiler", "reason",
                      "rate_label", "recommended", "bottleneck", "spec_hash", "actuator",
-                     "amplitude_unit", "output", "port"), "a word (a name, a unit)"),
+                     "amplitude_unit", "output", "output_unit", "port"),
+                    "a word (a name, a unit)"),
     "amplitude": "in `amplitude_unit` (rad or m for a step, N m s or N s for an impulse, "
                  "or a loop file's unit)",
     **dict.fromkeys(("unstable_poles", "unstable_modes", "right_half_plane_roots",

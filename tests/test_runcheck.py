@@ -10,6 +10,7 @@ delay limit; the latency injected into the run; MuJoCo absent (``sys.modules``).
 from __future__ import annotations
 
 import json
+import re
 import sys
 
 import numpy as np
@@ -121,20 +122,31 @@ def test_physics_section_renders(tmp_path, capsys):
 
 def test_physics_section_without_mujoco(tmp_path, monkeypatch, capsys):
     # oracle: MuJoCo made unimportable; the section says how to install it and keeps its
-    # claim ids, none computed
+    # claim ids, none computed; the report counts them apart from the claims checked
+    # (its 4 claims: physics.CLAIMS), in the printed summary and on the page
     from seactl.apps import report
     from seactl.apps.paper import physics
 
     monkeypatch.setitem(sys.modules, "mujoco", None)
     sec = physics.physics_engine(report.Context(tmp_path))
     assert [c.id for c in sec.claims] == list(physics.CLAIMS)
-    assert all(c.status == "info" and c.our_value is None for c in sec.claims)
+    assert all(c.status == "skip" and c.our_value is None for c in sec.claims)
     assert "pip install '.[sim]'" in sec.intro and not sec.figures
     from seactl.apps.cli import main
 
     out = tmp_path / "rep"
+    capsys.readouterr()
     assert main(["reproduce", "--out", str(out), "--only", "physics-engine",
                  "--jobs", "1"]) == 0
     claims = json.loads((out / "claims.json").read_text())
     assert [c["id"] for c in claims] == list(physics.CLAIMS)
-    assert "install" in (out / "index.html").read_text()
+    n = len(physics.CLAIMS)
+    line = (f"0 claims of the paper checked: 0 reproduced, 0 do not hold as printed "
+            f"(reasons in the report), 0 findings; {n} not computed")
+    assert line in " ".join(capsys.readouterr().out.split())
+    html = (out / "index.html").read_text()
+    assert "install" in html
+    head = html[html.index('id="summary-line">'):].split("</p>")[0]
+    text = " ".join(re.sub(r"<[^>]+>", "", head.split(">", 1)[1]).split())
+    assert text == (f"0 claims of the paper checked: 0 reproduced, 0 do not hold as printed, "
+                    f"0 findings; {n} not computed.")

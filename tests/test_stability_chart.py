@@ -211,3 +211,22 @@ def test_cli_json_plot_and_errors(tmp_path, capsys):
         code = main(["chart", *args.split()])
         err = capsys.readouterr().err
         assert code == 2 and err.count("\n") == 1 and err.startswith(f"error: invalid {flag}")
+
+
+@pytest.mark.parametrize("option, value, needle", [
+    ("--max-ms", "0,5", "two finite delays > 0 [ms]"),
+    ("--max-ms", "1e12,20", "a smaller chart"),
+    ("--max-s", "0,1", "two finite delays > 0 [s]"),
+])
+def test_cli_extent_errors_name_the_option_typed_in_its_unit(capsys, option, value, needle):
+    # Oracle: the error contract: a bad extent is reported on the option the user typed,
+    # with the value as typed (milliseconds for --max-ms) and the range in that unit;
+    # the library's name (max_s, seconds) never reaches the user of --max-ms.
+    code = main(["chart", "--system", "rigid", "--fn", "8", "--t-s", "1.5", "--t-d", "1.5",
+                 "--delays", "stiffness,damping", option, value])
+    err = capsys.readouterr().err
+    assert code == 2 and err.count("\n") == 1, err
+    assert err.startswith(f"error: invalid {option} = '{value}': must be "), err
+    assert needle in err
+    if option == "--max-ms":
+        assert "--max-s " not in err and "[s]" not in err

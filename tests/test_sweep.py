@@ -1,8 +1,11 @@
 """Sweeps: equal to the points computed one by one, resumable, same on Dask, guarded."""
 
+import contextlib
 import itertools
 import json
+import socket
 import sys
+import warnings
 from dataclasses import replace
 
 import numpy as np
@@ -306,8 +309,11 @@ def cluster():
 
     from distributed import LocalCluster
 
+    from seactl.sweep.engine import SCHEDULER_HTTP
+
     with LocalCluster(n_workers=2, threads_per_worker=1, processes=True,
-                      dashboard_address=None, silence_logs=logging.ERROR) as c:
+                      dashboard_address=None, scheduler_kwargs=SCHEDULER_HTTP,
+                      silence_logs=logging.ERROR) as c:
         yield c
 
 
@@ -377,6 +383,21 @@ def _worker_state():
     return loaded, signal.getsignal(signal.SIGINT) == signal.SIG_IGN, os.getppid()
 
 
+@contextlib.contextmanager
+def _port_held(port: int):
+    """``port`` taken on every interface meanwhile (left alone if something holds it)."""
+    sock = socket.socket()
+    try:
+        sock.bind(("", port))
+        sock.listen()
+    except OSError:
+        pass
+    try:
+        yield
+    finally:
+        sock.close()
+
+
 @pytest.mark.parametrize("method", ["forkserver", "spawn"])
 def test_local_workers_start_warm_and_ignore_ctrl_c(method, reference, tmp_path,
                                                      monkeypatch):
@@ -395,7 +416,13 @@ def test_local_workers_start_warm_and_ignore_ctrl_c(method, reference, tmp_path,
         pytest.skip(f"no {method} here")
     if method == "spawn":
         monkeypatch.setattr(multiprocessing, "get_all_start_methods", lambda: ["spawn"])
-    cluster = local_cluster(2)
+    # Dask's default HTTP port held (as another cluster on the machine would): the
+    # scheduler's HTTP server takes a free loopback port without a warning
+    with _port_held(8787), warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        cluster = local_cluster(2)
+    assert not [w for w in caught if "already in use" in str(w.message)]
+    assert cluster.scheduler.http_server.address == "127.0.0.1"
     try:
         with Client(cluster) as client:
             state = client.run(_worker_state)

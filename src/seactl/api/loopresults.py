@@ -276,6 +276,8 @@ class LoopResponseResult(ResponseResult):
         ``"step"`` or ``"impulse"``; ``"continuous"`` or ``"sampled"``.
     output : str
         The output signal.
+    output_unit : str
+        ``""``: a loop file declares no unit for its output.
     amplitude : float
         Step size, or impulse area, in the loop file's units.
     amplitude_unit : str
@@ -322,6 +324,7 @@ class LoopResponseResult(ResponseResult):
         self.labels = labels
         self._right_roots = right_roots
         self.amplitude_unit = amplitude_unit
+        self.output_unit = ""   # a loop file names its output, not the output's unit
 
     kind = property(lambda self: self._inner.kind)
     mode = property(lambda self: self._inner.result.mode)
@@ -421,30 +424,6 @@ class LoopResponseResult(ResponseResult):
                 "amplitude": self.amplitude}
         del out["amplitude"]
         return head | out
-
-    def plot(self, ax: Any = None) -> Any:
-        """The output against time, one line per design.
-
-        Parameters
-        ----------
-        ax : matplotlib.axes.Axes, optional
-            Where to draw (default: a new figure).
-
-        Returns
-        -------
-        matplotlib.axes.Axes
-            The axes drawn on.
-        """
-        ax = new_axes(ax)
-        ys = np.reshape(self.position, (-1, self.t_s.size))
-        for y, label in zip(ys, self.labels):
-            ax.plot(self.t_s, y, label=label)
-        ax.set_xlabel("time [s]")
-        ax.set_ylabel(f"{self.output} / step" if self.kind == "step" else self.output)
-        ax.grid(True, alpha=0.3)
-        if len(ys) <= 8:
-            ax.legend(loc="best")
-        return ax
 
 
 @dataclass(frozen=True)

@@ -473,6 +473,10 @@ class ResponseResult(Result):
         step, ``"N m s"`` or ``"N s"`` for an impulse).
     amplitude_unit : str
         Its unit.
+    output : str
+        The output signal (the system's ``output``: ``"q_j"``, ``"x"``, ...).
+    output_unit : str
+        Its unit (``""``: not known).
 
     Attributes
     ----------
@@ -482,6 +486,8 @@ class ResponseResult(Result):
         The step or impulse applied, in ``amplitude_unit``.
     amplitude_unit : str
         Its unit.
+    output, output_unit : str
+        The output signal and its unit (the axis of :meth:`plot`).
     kind : str
         ``"step"`` or ``"impulse"``.
     mode : str
@@ -510,13 +516,16 @@ class ResponseResult(Result):
     """
 
     def __init__(self, response: Any, labels: list[str], right_roots: Any = None,
-                 links: Any = None, amplitude: float | None = None, amplitude_unit: str = ""):
+                 links: Any = None, amplitude: float | None = None, amplitude_unit: str = "",
+                 output: str = "output", output_unit: str = ""):
         self._response = response
         self.labels = labels
         self._right_roots = right_roots
         self._links = dict(links) if links is not None else None
         self.amplitude = amplitude
         self.amplitude_unit = amplitude_unit
+        self.output = output
+        self.output_unit = output_unit
 
     kind = _field("_response", "kind", "``step`` or ``impulse``.")
     t_s = _field("_response", "t_s", "Sample times [s].")
@@ -643,7 +652,8 @@ class ResponseResult(Result):
         return [{"label": label, **row} for label, row in zip(self.labels, rows)]
 
     def plot(self, ax: Any = None) -> Any:
-        """Joint position against time, one line per design.
+        """The output against time, one line per design: relative to the step
+        (``"x / step"``), or in its unit for an impulse (``"x [m]"``).
 
         Parameters
         ----------
@@ -660,7 +670,8 @@ class ResponseResult(Result):
         for y, label in zip(ys, self.labels):
             ax.plot(self.t_s, y, label=label)
         ax.set_xlabel("time [s]")
-        ax.set_ylabel("q_j / step" if self.kind == "step" else "q_j [rad]")
+        unit = f" [{self.output_unit}]" if self.output_unit else ""
+        ax.set_ylabel(f"{self.output} / step" if self.kind == "step" else self.output + unit)
         ax.grid(True, alpha=0.3)
         if len(ys) <= 8:
             ax.legend(loc="best")

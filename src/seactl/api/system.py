@@ -245,6 +245,12 @@ class System:
         raise NotImplementedError
 
     @property
+    def output_unit(self) -> str:
+        """The unit of :attr:`output`, :attr:`step_unit` (the output tracks the reference).
+        """
+        return self.step_unit
+
+    @property
     def max_current_a(self) -> float:
         """The actuator's current limit [A] (the default of ``saturation_a``)."""
         raise NotImplementedError
@@ -837,7 +843,8 @@ class System:
         roots = functools.partial(closed_loop_right_roots, diagram, self.design,
                                   self.reference_frequency())
         return ResponseResult(SEAResponse(kind, sim, metrics), self.labels(), roots,
-                              links=self.links, amplitude=amplitude, amplitude_unit=unit)
+                              links=self.links, amplitude=amplitude, amplitude_unit=unit,
+                              output=self.output, output_unit=self.output_unit)
 
     def _sampled_info(self, info: dict[str, Any], diagram: Any, rate_hz: float) -> None:
         """The sampled loop's certified verdict beside the response (``sampled_verdict``,
@@ -1057,17 +1064,13 @@ class System:
         diagram, sat = self.diagram_for(**options), self.saturation(kw["saturation_a"])
         lat = None
         if plant == "mujoco" or realtime:
-            from seactl.latency.band import check_band_latency
-            from seactl.latency.models import parse_latency
+            from seactl.latency.band import band_latency
 
             if plant == "mujoco":
                 from seactl.codegen.mjcf import plant_model
 
                 plant_model(self.design)   # an SEA or a rigid actuator, before any process
-            lat = None if latency is None else \
-                {k: parse_latency(v, f"latency {k}") if isinstance(v, str) else v
-                 for k, v in latency.items()}
-            check_band_latency(lat, self.links)
+            lat = band_latency(latency, self.links)
         elif latency is not None:
             raise InputError("latency", latency, "used with plant='mujoco' or realtime=True")
         res = run_distributed(diagram, self.design, saturation=sat, step=a,

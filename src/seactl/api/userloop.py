@@ -113,6 +113,12 @@ class UserLoop(System):
         return self.compiled.model.signals.reference_unit or "reference units"
 
     @property
+    def output_unit(self) -> str:
+        """``""``: a loop file names its output signal, not the output's unit.
+        """
+        return ""
+
+    @property
     def loops(self) -> tuple[str, ...]:  # type: ignore[override]
         """The delayed blocks: the keys of the responses' requested and effective
         delays (and the links of :meth:`monte_carlo`).
@@ -345,11 +351,15 @@ class UserLoop(System):
     def run(self, *, duration_s: float = 2.0, rates_hz: Any = None,
             amplitude: float | None = None, transport: str = "zenoh",
             extra_latency_s: float = 0.0, loss: float = 0.0, seed: int = 0,
-            step: float | None = None, realtime: bool = False) -> Any:
+            step: float | None = None, realtime: bool = False, latency: Any = None) -> Any:
         """Run the exported controllers as three OS processes on loopback.
 
         As :meth:`seactl.Design.run`, for a loop file whose processes are ``embedded`` and
-        ``high-level`` (e.g. ``examples/loops/paper-sea.toml``).
+        ``high-level`` (e.g. ``examples/loops/paper-sea.toml``).  With ``realtime`` the
+        measured step is judged against the band of sampled steps of the file's own
+        ``[signals] reference`` and ``output`` (its loops: :attr:`links`); a file without
+        a reference, or whose output is not the signal the run measures, gets the verdict
+        ``"not computed: ..."`` saying why.
 
         Parameters
         ----------
@@ -364,11 +374,16 @@ class UserLoop(System):
             Deprecated spelling of ``amplitude``.
         realtime : bool
             Free-running processes running the exported C (as :meth:`seactl.Design.run`).
+        latency : dict, optional
+            With ``realtime``: delayed block -> latency model of the prediction band (as
+            :meth:`monte_carlo`; default: the run's measured latency of every loop; ``{}``:
+            the file's delays, one nominal response).
 
         Returns
         -------
         seactl.codegen.runtime.RunResult
-            ``summary``, the responses and the latency samples.
+            ``summary``, the responses and the latency samples; with ``realtime``,
+            ``summary["prediction_band"]`` (as :meth:`seactl.Design.run`).
 
         Examples
         --------
@@ -383,11 +398,40 @@ class UserLoop(System):
             warnings.warn("run(step=) is deprecated; use amplitude=", DeprecationWarning,
                           stacklevel=2)
             amplitude = step if amplitude is None else amplitude
-        return run_distributed(self.diagram, self.design, saturation=None,
-                               step=self.default_step if amplitude is None else amplitude,
-                               duration_s=duration_s, rates_hz=self._export_rates(rates_hz),
-                               transport=transport, extra_latency_s=extra_latency_s,
-                               loss=loss, seed=seed, realtime=bool(realtime))
+        lat = None
+        if realtime:
+            from seactl.latency.band import band_latency
+
+            lat = band_latency(latency, self.links)
+        elif latency is not None:
+            raise InputError("latency", latency, "used with realtime=True")
+        rates = self._export_rates(rates_hz)
+        res = run_distributed(self.diagram, self.design, saturation=None,
+                              step=self.default_step if amplitude is None else amplitude,
+                              duration_s=duration_s, rates_hz=rates, transport=transport,
+                              extra_latency_s=extra_latency_s, loss=loss, seed=seed,
+                              realtime=bool(realtime))
+        if realtime:
+            self._run_band(res, lat, rates, seed)
+        return res
+
+    def _run_band(self, res: Any, latency: Any, rates_hz: Any, seed: int) -> None:
+        """The run's prediction band on the file's own reference and output, or why
+        there is none (``summary["prediction_band"]``)."""
+        from seactl.latency.band import run_band
+
+        sig = self.compiled.model.signals
+        measured = res.summary["output"]
+        if sig.reference is None:
+            why = "the loop file declares no [signals] reference"
+        elif sig.output != measured:
+            why = (f"the run measures {measured}, the loop file's [signals] output is "
+                   f"{sig.output or 'not declared'}")
+        else:
+            run_band(res, self.diagram, self.design, reference=sig.reference,
+                     links=self.links, latency=latency, rates_hz=rates_hz, seed=seed)
+            return
+        res.summary["prediction_band"] = {"verdict": f"not computed: {why}", "within": None}
 
     def _transfer(self, name: str) -> tuple[Any, bool]:
         """The transfer :meth:`to_control` exports and whether it is divided by ``-s``."""

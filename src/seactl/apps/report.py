@@ -30,7 +30,7 @@ from seactl.base import progress
 from seactl.base.outputs import reason
 from seactl.errors import OutputError
 
-STATUSES = ("pass", "fail", "info")
+STATUSES = ("pass", "fail", "info", "skip")
 
 
 @dataclass(frozen=True)
@@ -38,8 +38,9 @@ class Claim:
     """A numeric claim of the paper and what seactl computes for it.
 
     ``status`` is ``pass`` when ``|our - paper| <= tolerance`` (numbers) or
-    the stated relation holds, ``fail`` otherwise (``note`` says why), and
-    ``info`` for findings without a pass/fail criterion.
+    the stated relation holds, ``fail`` otherwise (``note`` says why),
+    ``info`` for findings without a pass/fail criterion, and ``skip`` for a claim
+    not computed here (``note`` says why, e.g. an optional extra not installed).
     """
 
     id: str

@@ -17,16 +17,18 @@ from collections.abc import Sequence
 from dataclasses import dataclass
 from typing import Any
 
-WORDS = {"pass": "reproduced", "fail": "does not hold as printed", "info": "finding"}
+WORDS = {"pass": "reproduced", "fail": "does not hold as printed", "info": "finding",
+         "skip": "not computed"}
 """What each claim status means, in the words people read (the report, the summary line)."""
 
 
 def count_words(counts: dict[str, int]) -> dict[str, str]:
-    """``{status: "3 reproduced" | "1 does not hold as printed" | "2 findings" ...}``."""
+    """``{status: "3 reproduced" | "1 does not hold as printed" | "2 findings" |
+    "4 not computed"}``."""
     fail = "does not hold as printed" if counts.get("fail", 0) == 1 else \
         "do not hold as printed"
     info = "finding" if counts.get("info", 0) == 1 else "findings"
-    words = {"pass": "reproduced", "fail": fail, "info": info}
+    words = {"pass": "reproduced", "fail": fail, "info": info, "skip": "not computed"}
     return {s: f"{counts.get(s, 0)} {w}" for s, w in words.items()}
 
 
@@ -39,11 +41,16 @@ def counts_phrase(counts: dict[str, int]) -> str:
 def summary_line(claims: Sequence[dict[str, Any]], reasons: str = "") -> str:
     """``"142 claims of the paper checked: 105 reproduced, 18 do not hold as printed,
     19 findings"`` for a list of claims (``claims.json``'s dicts); ``reasons`` (e.g.
-    ``" (reasons in the report)"``) follows the count of claims that do not hold."""
-    w = count_words(status_counts(claims))
-    noun = "claim" if len(claims) == 1 else "claims"
-    return (f"{len(claims)} {noun} of the paper checked: {w['pass']}, {w['fail']}{reasons}, "
+    ``" (reasons in the report)"``) follows the count of claims that do not hold.  Claims
+    not computed here (``skip``) are not checked: they follow, counted apart
+    (``"; 4 not computed"``)."""
+    counts = status_counts(claims)
+    w = count_words(counts)
+    checked = len(claims) - counts["skip"]
+    noun = "claim" if checked == 1 else "claims"
+    line = (f"{checked} {noun} of the paper checked: {w['pass']}, {w['fail']}{reasons}, "
             f"{w['info']}")
+    return line + (f"; {w['skip']}" if counts["skip"] else "")
 
 
 def status_counts(claims: Sequence[dict[str, Any]]) -> dict[str, int]:
@@ -65,8 +72,9 @@ class SectionVerdict:
     @property
     def status(self) -> str:
         """``fail`` if any claim does not hold, else ``pass`` if any is reproduced, else
-        ``info`` (findings only), else ``none`` (a section without claims)."""
-        for s in ("fail", "pass", "info"):
+        ``info`` (findings only), else ``skip`` (none computed), else ``none`` (a
+        section without claims)."""
+        for s in ("fail", "pass", "info", "skip"):
             if self.counts[s]:
                 return s
         return "none"
@@ -75,7 +83,7 @@ class SectionVerdict:
     def label(self) -> str:
         """The verdict in words (the coloured cell of the table)."""
         return {"fail": "not as printed", "pass": "reproduced", "info": "findings",
-                "none": "no claims"}[self.status]
+                "skip": "not computed", "none": "no claims"}[self.status]
 
 
 def section_verdicts(sections: Sequence[Any]) -> list[SectionVerdict]:
@@ -157,6 +165,7 @@ def render_html(sections: Sequence[Any], claims: Sequence[dict[str, Any]], versi
     counts = status_counts(claims)
     return env.get_template("report.html").render(
         sections=sections, verdicts={v.id: v for v in section_verdicts(sections)},
-        claims=claims, counts=counts, words=count_words(counts), by_section=by_section,
+        claims=claims, checked=len(claims) - counts["skip"], counts=counts,
+        words=count_words(counts), by_section=by_section,
         not_holding=flagged["fail"], findings=flagged["info"], status_words=WORDS,
         version=version)

@@ -172,6 +172,23 @@ def check_band_latency(latency: Mapping[str, Any] | None, links: Mapping[str, st
             raise InputError("latency", k, "a loop: " + ", ".join(links))
 
 
+def band_latency(latency: Mapping[str, Any] | None, links: Mapping[str, str]
+                 ) -> dict[str, Any] | None:
+    """A run's ``latency`` argument as models: text parsed
+    (:func:`~seactl.latency.models.parse_latency`, milliseconds), every loop checked
+    (:func:`check_band_latency`); None stays None (the run's measured latency)."""
+    from seactl.latency.models import parse_latency
+
+    if latency is None:
+        return None
+    if not isinstance(latency, Mapping):
+        raise InputError("latency", latency, "a mapping: loop -> latency model")
+    lat = {k: parse_latency(v, f"latency {k}") if isinstance(v, str) else v
+           for k, v in latency.items()}
+    check_band_latency(lat, links)
+    return lat
+
+
 def measured_latency(res: Any, links: Mapping[str, str]) -> dict[str, Any]:
     """The run's measured latency of the high-level loop as an
     :class:`~seactl.latency.models.Empirical` model, when the system has that loop.

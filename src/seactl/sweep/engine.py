@@ -201,8 +201,15 @@ def uninterrupted():
             signal.signal(sig, handler)
 
 
+SCHEDULER_HTTP = {"dashboard_address": "127.0.0.1:0"}
+"""``scheduler_kwargs`` of a local cluster: the scheduler's HTTP server (its health and
+metrics routes, started even without a dashboard) on loopback at a free port, not on
+Dask's default 8787, which another cluster on the machine may hold."""
+
+
 def local_cluster(workers: int, scratch: str | None = None):
-    """One single-threaded worker process per core (dashboard, profiler off), forked from
+    """One single-threaded worker process per core (dashboard, profiler off; the
+    scheduler's HTTP server as :data:`SCHEDULER_HTTP`), forked from
     a warm template where the platform allows (:func:`start_worker_template`), with their
     files in ``scratch`` (default: Dask's ``dask-scratch-space`` in the temporary directory,
     which Dask leaves behind).
@@ -242,7 +249,8 @@ def local_cluster(workers: int, scratch: str | None = None):
                               "distributed.admin.system-monitor.interval": "2s",
                               **({} if scratch is None else {"temporary-directory": scratch})}):
             cluster = LocalCluster(n_workers=workers, threads_per_worker=1, processes=True,
-                                   dashboard_address=None, silence_logs=logging.CRITICAL,
+                                   dashboard_address=None, scheduler_kwargs=SCHEDULER_HTTP,
+                                   silence_logs=logging.CRITICAL,
                                    preload=["seactl.sweep.worker"])
     finally:
         if previous is not None:

@@ -52,6 +52,18 @@ def chart_extent(max_s: str | None, max_ms: str | None) -> tuple[float, float]:
     return t[0] * 1e-3, t[1] * 1e-3
 
 
+def extent_error(exc: InputError, max_s: str | None, max_ms: str | None) -> InputError:
+    """A library error about the chart's extent (``max_s``, in s) re-worded for the option
+    the user typed, with the value as typed and in its unit; any other error as it is."""
+    flag, unit, text = ("--max-s", "s", max_s) if max_s is not None else \
+        ("--max-ms", "ms", max_ms)
+    if exc.field == "max_s":
+        return InputError(flag, text, exc.valid.replace("[s]", f"[{unit}]"))
+    if "(max_s)" in exc.valid:
+        return InputError(exc.field, exc.value, exc.valid.replace("(max_s)", f"({flag})"))
+    return exc
+
+
 def rigid_options(func: Callable[..., Any]) -> Callable[..., Any]:
     """``--system`` and the rigid actuator's options (as ``seactl export`` takes them)."""
     options = [
@@ -143,7 +155,10 @@ def chart(spec: DesignSpec, rigid: tuple | None, delays: str, max_s: str | None,
         names = parse_pair("--delays", delays, numbers=False)
         extent = chart_extent(max_s, max_ms)
         kind, system = ("dde", dde) if dde is not None else chart_system(spec, loop, rigid)
-        result = system.stability_chart(names, extent, resolution=resolution)
+        try:
+            result = system.stability_chart(names, extent, resolution=resolution)
+        except InputError as exc:
+            raise extent_error(exc, max_s, max_ms) from None
         if plot_p:
             from seactl.apps.plots import pyplot
 

@@ -121,7 +121,8 @@ def reproduce(out: str, only: tuple[str, ...], jobs: int | None) -> None:
     """Regenerate every table, figure and numeric claim of the paper into a report.
 
     Ends with the claims in words: reproduced, do not hold as printed (the report says
-    why), findings (claims.json keeps the status pass / fail / info).  Exits 0 when the
+    why), findings, and apart those not computed here (claims.json keeps the status
+    pass / fail / info / skip).  Exits 0 when the
     report was written, whatever the claims' verdicts.
 
     Python: seactl.apps.paper.reproduce(out).
@@ -138,7 +139,7 @@ def reproduce(out: str, only: tuple[str, ...], jobs: int | None) -> None:
 def claims_summary(claims: list[dict[str, Any]]) -> str:
     """The claims in the report's words (:data:`~seactl.apps.report_page.WORDS`): ``pass`` is
     reproduced, ``fail`` does not hold as printed (the report gives the reason), ``info`` is a
-    finding (nothing to compare)."""
+    finding (nothing to compare), ``skip`` is not computed here (counted apart)."""
     return summary_line(claims, reasons=" (reasons in the report)")
 
 

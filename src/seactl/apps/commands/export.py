@@ -97,15 +97,21 @@ class SystemChoice:
             with np.errstate(over="ignore"):   # extreme --gs: infinite gains, refused later
                 design = spec.designs().sea
             return sea_diagram(self.zero), design, {"i_m": lim}, 0.1, self.rates_hz
-        from seactl.api.rigid import rigid
         from seactl.systems.rigid.model import RIGID_DIAGRAM
 
-        fv = None if self.f_v.strip().lower() == "none" else _number("--f-v [Hz]", self.f_v)
-        d = rigid(float(spec.fn_hz.reshape(-1)[0]), actuator=self.rigid_actuator,
-                  delays_ms={"stiffness": self.t_s,
-                             "damping": self.t_d}, velocity_filter_hz=fv).rigid
+        d = self.rigid_system(spec).rigid
         sat = _saturation(self.saturation, d.actuator.max_force, "N")
         return RIGID_DIAGRAM, d, {"F_des": sat}, 0.004, self.rates_hz
+
+    def rigid_system(self, spec: DesignSpec) -> Any:
+        """The rigid actuator of ``--fn``, ``--t-s``, ``--t-d``, ``--f-v`` (one design):
+        :func:`seactl.rigid`'s :class:`~seactl.RigidBatch`."""
+        from seactl.api.rigid import rigid
+
+        fv = None if self.f_v.strip().lower() == "none" else _number("--f-v [Hz]", self.f_v)
+        return rigid(float(spec.fn_hz.reshape(-1)[0]), actuator=self.rigid_actuator,
+                     delays_ms={"stiffness": self.t_s, "damping": self.t_d},
+                     velocity_filter_hz=fv)
 
     def _loop(self, loop: Any) -> tuple[Any, ...]:
         if int(np.prod(loop.shape, dtype=int)) != 1:

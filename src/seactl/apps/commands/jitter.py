@@ -23,6 +23,7 @@ from .common import (
     sampled_callout,
     verdict_text,
 )
+from .loops import loop_options
 
 LINKS = {"stiffness": "t_qs_ms", "damping": "t_qd_ms", "torque": "t_tau_ms"}
 
@@ -94,17 +95,20 @@ def trace_checks(spec: DesignSpec, rows: list[dict[str, Any]], traces: dict[str,
                    "seactl run's latency-stiffness.csv): checked against [T, T + J].")
 @rate_option
 @json_option
+@loop_options
 def jitter(spec: DesignSpec, traces: tuple[str, ...], rate_hz: float | None,
-           as_json: bool) -> None:
+           as_json: bool, loop: Any) -> None:
     """Jitter margins [ms]: the largest time-varying extra delay in [0, J] that each loop
     is guaranteed to tolerate (Kao-Lincoln small-gain bound, exact delays), next to the
     whole outer loop's margin for a constant extra delay.
 
-    Python: sc.design(...).jitter_margins() (--rate: .margins(rate_hz=...)).
+    Python: sc.design(...).jitter_margins() (--rate: .margins(rate_hz=...));
+    sc.load_loop(FILE).jitter_margins() for --loop (each named break of the file).
 
     \b
     Example (Table I):
       seactl jitter --fn 12 14 16 18 20 --t-tau 0.5 --t-qs 2 --t-qd 0.5 --f-qd 50 --f-taud 100
+      seactl jitter --loop examples/loops/rigid.toml --set fn=6,8,10
 
     With --rate, the loop sampled at that rate beside them: its certified verdict and
     delay margin (JSON "sampled": .margins(rate_hz=...)) and each loop's jitter margin when
@@ -112,6 +116,9 @@ def jitter(spec: DesignSpec, traces: tuple[str, ...], rate_hz: float | None,
     .jitter_margins(rate_hz=...), in ms and in samples; sampled-data small-gain bound with
     the aliased plant, docs/theory/sampled-jitter.md).
     """
+    if loop is not None:
+        loop_jitter(loop, as_json)
+        return
     measured = parse_traces(traces)
     rows = jitter_rows(spec)
     checks = trace_checks(spec, rows, measured)
@@ -175,3 +182,37 @@ def jitter(spec: DesignSpec, traces: tuple[str, ...], rate_hz: float | None,
                       + ("" if c["covered"] else f" (analyse with the trace's minimum, "
                          f"--{LINKS[c['link']][:-3].replace('_', '-')} "
                          f"{c['min_ms']:.3g}, and compare the spread)"), highlight=False)
+
+
+def loop_jitter(loop: Any, as_json: bool) -> None:
+    """A loop file's jitter margins per design and named break
+    (:meth:`seactl.UserLoop.jitter_margins`), as JSON or a table."""
+    res = loop.jitter_margins()
+    rows = res.records()
+    if as_json:
+        echo_json({"loop": res.loop, "designs": rows})
+        return
+    breaks = list(res.break_jitter_margins_s)
+    labels = [k for k in rows[0] if k not in _loop_keys(breaks)] if rows else []
+    t = Table(title=escape(f"Jitter margins [ms] of loop file '{res.loop}' at each named "
+                           "break"))
+    for col in [*labels, *(f"{b} [ms]" for b in breaks), f"delay margin at {breaks[-1]} [ms]",
+                "stable"]:
+        t.add_column(escape(col), justify="right")
+    for r in rows:
+        stable = bool(r["stable"])
+        t.add_row(*(f"{r[k]:g}" if isinstance(r[k], float) else escape(str(r[k]))
+                    for k in labels),
+                  *(_ms(r[f"{b}_jitter_margin_ms"], stable) for b in breaks),
+                  _ms(r["delay_margin_ms"], stable), "yes" if stable else "[red]no[/red]")
+    console.print(t)
+    console.print(f"The last break ({escape(breaks[-1])}) is the whole loop's "
+                  "(jitter_margin_ms in JSON); a loop stays stable under any latency "
+                  "variation within its jitter margin there (sufficient, not necessary); "
+                  "the delay margin is for a constant extra delay.", highlight=False)
+
+
+def _loop_keys(breaks: list[str]) -> set[str]:
+    """The columns of a loop's jitter records that are not labels."""
+    return {"jitter_margin_ms", "delay_margin_ms", "stable",
+            *(f"{b}_jitter_margin_ms" for b in breaks)}

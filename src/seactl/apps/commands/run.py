@@ -20,7 +20,6 @@ import math
 from typing import Any
 
 import click
-import numpy as np
 from rich.markup import escape
 from rich.table import Table
 
@@ -66,8 +65,8 @@ def _float(name: str, text: str, lo: float, hi: float) -> float:
 @click.option("--latency", "latency", multiple=True, metavar="LOOP=MODEL",
               help="--plant mujoco or --realtime: latency model of a loop for the "
                    "prediction band, in ms "
-                   "(e.g. stiffness=uniform:1:3; repeatable); default: the run's measured "
-                   "latency of the high-level loop.")
+                   "(e.g. stiffness=uniform:1:3; --loop: a delayed block, e.g. K_fb=1.5; "
+                   "repeatable); default: the run's measured latency.")
 @click.option("--realtime", is_flag=True,
               help="Free-running processes, each on its own clock, running the exported C "
                    "(default: lock-step, the exact replay check).")
@@ -100,33 +99,20 @@ def run(spec: DesignSpec, loop: Any, system: SystemChoice, duration: str, step: 
           --rate high-level=500 --duration 10 --realtime
     """
     from seactl.codegen.export import check_export_dir, write_export
-    from seactl.codegen.runtime import RUN_MARKER, run_distributed, run_files
+    from seactl.codegen.runtime import RUN_MARKER, run_files
 
-    diagram, design, sat, default_step, rates = system.build(spec, loop)
-    kind = Design if system.system == "sea" else RigidBatch
-    if loop is None:
-        default_step = kind.default_step
-    unit = loop.step_unit if loop is not None else kind.step_unit
-    amplitude = default_step if step is None else _float(f"--step [{unit}]", step, 1e-6, 1.0)
-    band = _band_latency(plant, latency, design, system.system, realtime)
+    api, options = _api_system(spec, system, loop, plant)
+    unit = api.step_unit
+    amplitude = api.default_step if step is None else \
+        _float(f"--step [{unit}]", step, 1e-6, 1.0)
+    band = _band_latency(plant, latency, realtime)
     if out is not None:
         check_export_dir(out, RUN_MARKER, "a run")
-    res = run_distributed(
-        diagram, design, saturation=sat, rates_hz=rates, transport=transport, step=amplitude,
-        duration_s=_float("--duration [s]", duration, 0.1, 60),
+    res = api.run(
+        duration_s=_float("--duration [s]", duration, 0.1, 60), amplitude=amplitude,
         extra_latency_s=_float("--extra-latency [ms]", extra_latency, 0, 1000) / 1e3,
-        loss=_float("--loss", loss, 0.0, 0.99), seed=seed, plant=plant, realtime=realtime)
-    if plant == "mujoco" or realtime:
-        from seactl.latency.band import run_band
-        from seactl.latency.montecarlo import MODEL_LINKS
-
-        run_band(res, diagram, design, reference=kind.reference,
-                 links=MODEL_LINKS[system.system], latency=band, rates_hz=rates,
-                 saturation=sat, seed=seed)
-    if loop is None:
-        from seactl.api.runcheck import check_run
-
-        check_run(_system(spec, system, design), res)
+        loss=_float("--loss", loss, 0.0, 0.99), seed=seed, transport=transport,
+        realtime=realtime, latency=band, **options)
     files = write_export(run_files(res), out, RUN_MARKER, "a run") if out else []
     key = "amplitude" if loop is not None else f"amplitude_{unit}"
     if as_json:
@@ -158,11 +144,19 @@ def run(spec: DesignSpec, loop: Any, system: SystemChoice, duration: str, step: 
         console.print("files: " + escape(", ".join(str(f) for f in files)))
 
 
-def _system(spec: DesignSpec, system: SystemChoice, design: Any) -> Any:
-    """The :class:`seactl.System` of the run (the SEA's or the rigid actuator's)."""
+def _api_system(spec: DesignSpec, system: SystemChoice, loop: Any, plant: str
+                ) -> tuple[Any, dict[str, Any]]:
+    """The :class:`seactl.System` that runs (the SEA's design, the rigid actuator or the
+    loop file; one design) and the keywords of its ``run`` from the options."""
+    _, _, sat, _, rates = system.build(spec, loop)   # one design, the options checked
+    if loop is not None:
+        return loop, {"rates_hz": rates}
     if system.system == "sea":
-        return spec.designs()
-    return RigidBatch(design, np.broadcast_to(float(spec.fn_hz.reshape(-1)[0]), design.shape))
+        return spec.designs(), {"rates_hz": rates, "saturation_a": sat["i_m"],
+                                "plant": plant, "zero": system.zero}
+    rig = system.rigid_system(spec)
+    return rig, {"rates_hz": rates, "saturation_a": sat["F_des"] / rig.amperes_per_actuation,
+                 "plant": plant}
 
 
 def _print_checks(s: dict[str, Any]) -> None:
@@ -186,18 +180,18 @@ def _print_checks(s: dict[str, Any]) -> None:
         b = s["prediction_band"]
         plant = (f"MuJoCo plant (step {s['plant_timestep_s']:g} s)"
                  if "plant_timestep_s" in s else "free-running run")
-        console.print(f"{plant}: measured step vs the band of {b['runs']} sampled "
-                      f"responses: {escape(b['verdict'])}")
+        what = f"the band of {b['runs']} sampled responses" if "runs" in b else "the band"
+        console.print(f"{plant}: measured step vs {what}: {escape(b['verdict'])}")
 
 
 def _num(v: float | None) -> str:
     return "-" if v is None else f"{v:.3f}"
 
 
-def _band_latency(plant: str, items: tuple[str, ...], design: Any, kind: str,
-                  realtime: bool = False) -> dict[str, Any] | None:
-    """``--latency`` items as latency models (None: the run's measured latency); MuJoCo's
-    plant checked before any process starts."""
+def _band_latency(plant: str, items: tuple[str, ...], realtime: bool
+                  ) -> dict[str, Any] | None:
+    """``--latency`` items as latency models (None: the run's measured latency; the
+    system's ``run`` checks each loop)."""
     from seactl.latency.models import parse_latency, parse_link_specs
 
     if plant != "mujoco" and not realtime:
@@ -205,23 +199,9 @@ def _band_latency(plant: str, items: tuple[str, ...], design: Any, kind: str,
             raise InputError("--latency", items[0], "used with --plant mujoco or "
                              "--realtime only")
         return None
-    from seactl.latency.band import check_band_latency
-    from seactl.latency.montecarlo import MODEL_LINKS
+    return parse_link_specs(items, parse_latency, "--latency") if items else None
 
-    if plant == "mujoco":
-        from seactl.codegen.mjcf import plant_model
-        from seactl.codegen.mujoco_plant import import_mujoco
 
-        plant_model(design)
-        import_mujoco()
-    if not items:
-        return None
-    lat = parse_link_specs(items, parse_latency, "--latency")
-    try:
-        check_band_latency(lat, MODEL_LINKS[kind])
-    except InputError as exc:
-        raise InputError("--latency", exc.value, exc.valid) from None
-    return lat
 def _ms(d: dict[str, Any], key: str) -> str:
     return f"{d[key]:.3f}" if d.get("count") else "-"
 

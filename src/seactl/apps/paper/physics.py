@@ -125,7 +125,7 @@ def _skipped(reason: str) -> Section:
         "This section needs MuJoCo, which is not installed here: install seactl with "
         "its sim extra (pip install '.[sim]') and run seactl reproduce again. " + reason))
     for cid, text in CLAIMS.items():
-        sec.claims.append(Claim(cid, "physics-engine", text, None, None, None, "info",
+        sec.claims.append(Claim(cid, "physics-engine", text, None, None, None, "skip",
                                 "not computed: MuJoCo is not installed (pip install "
                                 "'.[sim]')"))
     return sec
