@@ -82,7 +82,7 @@ NOT_WITH: tuple[tuple[str, tuple[str, ...]], ...] = (
     *((view, (*MAPS, "--mujoco-check", "--placement")) for view in TASK_VIEWS),
 )
 """Each option and the options it cannot be given with: a map analyses its own
-configurations, one table per configuration; the task views replace the margins' tables."""
+configurations (one row each), not q0; the task views replace the margins' tables."""
 
 ONLY_WITH: tuple[tuple[str, tuple[str, ...]], ...] = (("--plot", MAPS), ("--workers", MAPS))
 """Each option and the options (one of them) it needs."""
@@ -92,7 +92,8 @@ def check_combinations(o: dict[str, Any]) -> None:
     """One line ``error: invalid --A = VALUE: must be given without --B`` (or ``with``)
     for the first pair of :data:`NOT_WITH` / :data:`ONLY_WITH` the options break."""
     flags = {f for flag, others in (*NOT_WITH, *ONLY_WITH) for f in (flag, *others)}
-    given = {f: _value(o, f) for f in flags if _value(o, f) not in (None, False)}
+    given = {f: _value(o, f) for f in flags
+             if _value(o, f) is not None and _value(o, f) is not False}
     for flag, others in NOT_WITH:
         clash = [x for x in others if x in given]
         if flag in given and clash:
