@@ -6,7 +6,7 @@ import re
 
 NUMBER = re.compile(r"[-+]?(\d[\d,]*\.?\d*|\.\d+)(e[-+]?\d+)?")
 DIMENSIONLESS = {"GS", "ratio", "ratio d/s", "worst run", "messages", "points", "states",
-                 "RHP roots"}
+                 "RHP roots", "min sigma(I+L)"}
 """Numeric columns whose numbers have no unit: gain scales, ratios, counts, run indices."""
 
 

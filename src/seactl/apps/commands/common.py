@@ -341,7 +341,28 @@ class Interrupted(Exception):
 class _Command(click.Command):
     """A command whose library errors are re-worded for the command line: an
     :class:`InputError` naming a parameter (``t_qs_ms``, ``out``) names the flag the user
-    typed instead (``--t-qs [ms]``, ``--out``)."""
+    typed instead (``--t-qs [ms]``, ``--out``). ``sections`` (heading, parameter names)
+    groups the options of ``--help`` under headings; the others follow under "Options"."""
+
+    def __init__(self, *args: Any, sections: Sequence[tuple[str, Sequence[str]]] = (),
+                 **kwargs: Any):
+        super().__init__(*args, **kwargs)
+        self.sections = tuple(sections)
+
+    def format_options(self, ctx: click.Context, formatter: click.HelpFormatter) -> None:
+        if not self.sections:
+            return super().format_options(ctx, formatter)
+        rows = {p.name: p.get_help_record(ctx) for p in self.get_params(ctx)}
+        placed = {name for _, names in self.sections for name in names}
+        groups = [*self.sections, ("Options", [n for n in rows if n not in placed])]
+        # one column width under every heading; a longer option's help starts below it
+        width = max(len(r[0]) for r in rows.values() if r is not None and len(r[0]) <= 26)
+        for title, names in groups:
+            records = [(rows[n][0].ljust(width), rows[n][1]) for n in names
+                       if rows.get(n) is not None]
+            if records:
+                with formatter.section(title):
+                    formatter.write_dl(records, col_max=width)
 
     def invoke(self, ctx: click.Context) -> Any:
         try:

@@ -12,6 +12,7 @@ from seactl.base.axes import AXES
 from seactl.errors import InputError
 
 from .common import axis_option, cli, console, echo_json, finite_or_none, json_option, pm_text
+from .robotmimo import mimo_record, parse_placement, placement_record, print_mimo, print_placement
 
 ROBOT_AXES = ("fn_hz", "gs", "t_tau_ms", "t_qs_ms", "t_qd_ms", "f_qd_hz", "f_taud_hz")
 
@@ -62,143 +63,190 @@ def robot_record(r: Any, margins: dict[str, Any], roots: Any) -> dict[str, Any]:
             "breaks": breaks}
 
 
-@cli.command()
+SECTIONS = (
+    ("The robot", ("urdf", "model", "joints", "actuators", "space", "task", "q0")),
+    ("The design (as seactl gains)", ROBOT_AXES),
+    ("At q0 (default: the margins of every loop break)",
+     ("mimo", "placement", "mujoco_check")),
+    ("At q0, instead of the margins", ("impedance", "task_step", "task_impulse")),
+    ("Over the workspace, instead of q0", ("workspace", "trajectory", "plot", "workers")),
+)
+"""The headings of ``seactl robot --help`` and the parameters under each."""
+
+TASK_VIEWS = ("--impedance", "--task-step", "--task-impulse")
+MAPS = ("--workspace", "--trajectory")
+
+NOT_WITH: tuple[tuple[str, tuple[str, ...]], ...] = (
+    ("--workspace", ("--trajectory", "--q0", "--mujoco-check", "--placement")),
+    ("--trajectory", ("--q0", "--mujoco-check", "--placement")),
+    *((view, (*MAPS, "--mujoco-check", "--placement")) for view in TASK_VIEWS),
+)
+"""Each option and the options it cannot be given with: a map analyses its own
+configurations (one row each), not q0; the task views replace the margins' tables."""
+
+ONLY_WITH: tuple[tuple[str, tuple[str, ...]], ...] = (("--plot", MAPS), ("--workers", MAPS))
+"""Each option and the options (one of them) it needs."""
+
+
+def check_combinations(o: dict[str, Any]) -> None:
+    """One line ``error: invalid --A = VALUE: must be given without --B`` (or ``with``)
+    for the first pair of :data:`NOT_WITH` / :data:`ONLY_WITH` the options break."""
+    flags = {f for flag, others in (*NOT_WITH, *ONLY_WITH) for f in (flag, *others)}
+    given = {f: _value(o, f) for f in flags
+             if _value(o, f) is not None and _value(o, f) is not False}
+    for flag, others in NOT_WITH:
+        clash = [x for x in others if x in given]
+        if flag in given and clash:
+            raise InputError(flag, given[flag], f"given without {clash[0]}")
+    for flag, needs in ONLY_WITH:
+        if flag in given and not any(x in given for x in needs):
+            raise InputError(flag, given[flag], "given with " + " or ".join(needs))
+
+
+def _value(o: dict[str, Any], flag: str) -> Any:
+    """The value of option ``flag`` (``--task-step``) among the command's parameters."""
+    return o[flag[2:].replace("-", "_")]
+
+
+@cli.command(sections=SECTIONS)
 @click.option("--urdf", default=None, help="URDF file of the robot (revolute joints).")
-@click.option("--actuators", default="ut-sea", show_default=True,
-              help="SEA preset or TOML file for every joint, or JOINT=PRESET|FILE,...")
-@click.option("--space", type=click.Choice(["joint", "task"]), default="joint",
-              show_default=True, help="Stiffness in joint space or in task space.")
-@click.option("--task", default=None, help="Task frame (a frame of the URDF; task space).")
-@click.option("--q0", default=None, help="Configuration [rad], comma-separated (default 0).")
-@axis_option("fn_hz")
-@axis_option("gs")
-@axis_option("t_tau_ms")
-@axis_option("t_qs_ms")
-@axis_option("t_qd_ms")
-@axis_option("f_qd_hz")
-@axis_option("f_taud_hz")
-@click.option("--workspace", default=None,
-              help="Map a grid of configurations instead of one q0: A:B:N per joint [rad], "
-                   "comma-separated (Python: sc.workspace_map).")
-@click.option("--mujoco-check", is_flag=True,
-              help="Also run the robot in MuJoCo at 0.8x and 1.2x of the central delay "
-                   "margin and compare with the certified verdicts (needs mujoco).")
 @click.option("--model", default=None,
               help="Instead of --urdf: a robot of example-robot-data by name ('list': the "
                    "installed ones; pip install -e \".[robots]\").")
 @click.option("--joints", default=None,
               help="The moving joints, comma-separated (at most 3); the others are locked "
                    "at --q0.")
-@click.option("--trajectory", default=None, metavar="FILE.csv",
-              help="Map the samples of a trajectory instead of a grid: a CSV file with a "
-                   "header of joint names (and optionally t_s [s]), angles [rad].")
-@click.option("--plot", "plot", default=None, metavar="FILE.png|.svg|.pdf",
-              help="With --workspace or --trajectory: write the map's figure to FILE.")
-@click.option("--workers", type=int, default=None,
-              help="With --workspace or --trajectory: run the configurations on N local "
-                   "Dask worker processes (default: in this process).")
+@click.option("--actuators", default="ut-sea", show_default=True,
+              help="SEA preset or TOML file for every joint, or JOINT=PRESET|FILE,...")
+@click.option("--space", type=click.Choice(["joint", "task"]), default="joint",
+              show_default=True, help="Stiffness in joint space or in task space.")
+@click.option("--task", default=None, help="Task frame (a frame of the URDF; task space).")
+@click.option("--q0", default=None,
+              help="Configuration [rad], comma-separated (default 0): the moving joints' "
+                   "angles, or every joint's.")
+@axis_option("fn_hz")
+@axis_option("gs")
+@axis_option("t_tau_ms", help_extra=" Each joint's embedded process.")
+@axis_option("t_qs_ms", help_extra=" The central process.")
+@axis_option("t_qd_ms", help_extra=" Each joint's embedded process.")
+@axis_option("f_qd_hz")
+@axis_option("f_taud_hz")
 @click.option("--mimo/--no-mimo", default=True, show_default=True,
-              help="The generalized Nyquist margins of the central process: every "
-                   "stiffness channel broken at once (Python: r.mimo_margins()).")
+              help="A row for the central process: every stiffness channel broken at once, "
+                   "which one break's margin can overstate (generalized Nyquist; Python: "
+                   "r.mimo_margins()).")
 @click.option("--placement", default=None, metavar="CENTRAL_MS,EMBEDDED_MS",
-              help="Also every placement of stiffness and damping on the central or the "
+              help="A row per placement of stiffness and damping on the central or the "
                    "embedded processes with these latencies [ms] (Python: r.placement()).")
-@click.option("--impedance", default=None,
-              help="Frequencies [Hz], comma-separated: the task impedance's principal "
-                   "values (joint space without --task) and the certified passivity.")
-@click.option("--task-step", default=None,
-              help="Direction X,Y,Z of a 1 mm step of the task reference (needs --task).")
-@click.option("--task-impulse", default=None,
-              help="Direction X,Y,Z of a 0.01 N s force impulse at the task frame.")
+@click.option("--mujoco-check", is_flag=True,
+              help="Run the robot in MuJoCo at 0.8x and 1.2x of the central delay margin "
+                   "and compare with the certified verdicts (Python: r.mujoco_check()).")
+@click.option("--impedance", default=None, metavar="F1,F2,...",
+              help="Frequencies [Hz]: the task impedance's principal values (joint space "
+                   "without --task) and the certified passivity (Python: "
+                   "r.task_impedance(f_hz), r.passivity()).")
+@click.option("--task-step", default=None, metavar="X,Y,Z",
+              help="A 1 mm step of the task reference along X,Y,Z (needs --task; Python: "
+                   "r.task_step(direction)).")
+@click.option("--task-impulse", default=None, metavar="X,Y,Z",
+              help="A 0.01 N s force impulse at the task frame along X,Y,Z (Python: "
+                   "r.task_impulse(direction)).")
+@click.option("--workspace", default=None, metavar="A:B:N,...",
+              help="A grid: per joint N angles from A to B [rad], joints comma-separated; "
+                   "one row per configuration (Python: sc.workspace_map).")
+@click.option("--trajectory", default=None, metavar="FILE.csv",
+              help="The samples of a trajectory: a CSV file with a header of joint names "
+                   "(and optionally t_s [s]), angles [rad].")
+@click.option("--plot", "plot", default=None, metavar="FILE.png|.svg|.pdf",
+              help="Write the map's figure to FILE.")
+@click.option("--workers", type=int, default=None,
+              help="Run the configurations on N local Dask worker processes (default: in "
+                   "this process).")
 @json_option
-def robot(urdf: str | None, actuators: str, space: str, task: str | None, q0: str | None,
-          workspace: str | None, mujoco_check: bool, model: str | None, joints: str | None,
-          trajectory: str | None, plot: str | None, workers: int | None, as_json: bool,
-          mimo: bool = True, placement: str | None = None, impedance: str | None = None,
-          task_step: str | None = None, task_impulse: str | None = None,
-          **axes: Any) -> None:
-    """Margins of every loop break, certified verdict and spectral abscissa of a robot.
-
-    Python: sc.robot(urdf, actuators=..., space=..., task=..., q0=...).
+def robot(**o: Any) -> None:
+    """Margins, verdict, task impedance and loop placement of a robot of SEA joints from
+    its URDF, at one configuration or over its workspace.
 
     \b
-    Example:
+    Example: the margins of every loop break and of the central process at q0
       seactl robot --urdf examples/robots/planar_2link.urdf --q0 0.3,0.8 --fn 14 \\
           --t-tau 0.5 --t-qs 2 --t-qd 0.5 --f-qd 50 --f-taud 100
 
-    The rigid body is linearized at q0 with gravity compensated; each joint's SEA is
-    designed for its apparent inertia 1/(M^-1)_jj; the stiffness runs on the central
-    process (delay --t-qs), damping and torque loops on each joint's embedded process.
-    Breaks: outer.jN (the SEA's outer loop), stiffness.jN, damping.jN, torque.jN.
-    --mujoco-check: Python r.mujoco_check() (docs/robots.md, "In MuJoCo").
-    --workspace: one row per configuration of the grid (verdict, phase margin, delay
-    margin, and in task space the largest task stiffness k_x [N/m]); --trajectory: the
-    same per sample of a CSV file; --plot FILE: the map's figure; --workers N: on Dask.
-    --model NAME --joints J1,J2: a robot of example-robot-data, only those joints moving
-    (fixed base: a legged robot's leg in the air); --q0 gives the moving joints' angles
-    (the locked ones at 0) or all the model's joints (docs/robots.md).
-    The central process's row (--mimo, the default) breaks every stiffness channel at
-    once: a single break's margin can look ample on a coupled robot that is unstable.
-    --placement 5,0.5: stiffness and damping on the central (5 ms) or embedded (0.5 ms)
-    processes, each placement's verdict and central latency margins (docs/robots.md).
-    --impedance, --task-step, --task-impulse: Python r.task_impedance(f_hz),
-    r.passivity(), r.task_step(direction), r.task_impulse(direction) (docs/robots.md).
+    Python: sc.robot(urdf, actuators=..., space=..., task=..., q0=...).
+
+    Each joint's SEA is designed for its apparent inertia at q0; the stiffness runs on the
+    central process (delay --t-qs), damping and torque loops on each joint's embedded
+    process. Breaks: outer.jN (the SEA's outer loop), stiffness.jN, damping.jN, torque.jN.
+    --model list: the robots of example-robot-data. Details: docs/robots.md.
     """
     import seactl as sc
 
-    if model == "list":
-        _print_models(sc.robot_models(), as_json)
+    if o["model"] == "list":
+        _print_models(sc.robot_models(), o["as_json"])
         return
-    if (urdf is None) == (model is None):
-        raise InputError("--urdf", urdf, "a URDF file, or --model NAME instead (one of the two)")
+    if (o["urdf"] is None) == (o["model"] is None):
+        raise InputError("--urdf", o["urdf"],
+                         "a URDF file, or --model NAME instead (one of the two)")
+    check_combinations(o)
+    opts = _robot_options(o)
+    if any(_value(o, f) is not None for f in TASK_VIEWS):
+        _task_views(o, opts)
+    elif o["workspace"] is not None or o["trajectory"] is not None:
+        from .robotmap import workspace_command
 
-    v = {n: None if axes[n] is None else float(AXES[n].check(axes[n], AXES[n].option))
+        workspace_command(o["urdf"], o["workspace"], o["trajectory"], o["q0"],
+                          o["mujoco_check"], opts, plot=o["plot"], workers=o["workers"],
+                          as_json=o["as_json"])
+    else:
+        _at_q0(o, opts)
+
+
+def _robot_options(o: dict[str, Any]) -> dict[str, Any]:
+    """The keyword arguments of ``sc.robot`` / ``sc.workspace_map`` but the configuration."""
+    v = {n: None if o[n] is None else float(AXES[n].check(o[n], AXES[n].option))
          for n in ROBOT_AXES}
-    opts = dict(actuators=_actuators(actuators), space=space, task=task,
+    joints = o["joints"]
+    return dict(actuators=_actuators(o["actuators"]), space=o["space"], task=o["task"],
                 fn_hz=v["fn_hz"], gs=v["gs"],
                 delays_ms={"torque": v["t_tau_ms"], "stiffness": v["t_qs_ms"],
                            "damping": v["t_qd_ms"]},
-                filters_hz=(v["f_qd_hz"], v["f_taud_hz"]), model=model,
+                filters_hz=(v["f_qd_hz"], v["f_taud_hz"]), model=o["model"],
                 joints=None if joints is None else [j.strip() for j in joints.split(",")])
-    is_map = workspace is not None or trajectory is not None
-    if impedance is not None or task_step is not None or task_impulse is not None:
-        from .robotimpedance import task_views
 
-        if is_map or mujoco_check or placement is not None:
-            other = ("--workspace/--trajectory" if is_map else
-                     "--mujoco-check" if mujoco_check else "--placement")
-            raise InputError("--impedance/--task-step/--task-impulse", "with " + other,
-                             "given without " + other)
-        task_views(sc.robot(urdf, q0=_q0(q0), **opts), impedance, task_step, task_impulse,
-                   as_json)
-        return
-    if is_map and placement is not None:
-        raise InputError("--workspace" if workspace is not None else "--trajectory",
-                         workspace if workspace is not None else trajectory,
-                         "given without --placement")
-    if is_map:
-        from seactl.apps.commands.robotmap import workspace_command
 
-        workspace_command(urdf, workspace, trajectory, q0, mujoco_check, opts,
-                          plot=plot, workers=workers, as_json=as_json)
-        return
-    if plot is not None or workers is not None:
-        raise InputError("--plot" if plot is not None else "--workers",
-                         plot if plot is not None else workers,
-                         "given with --workspace or --trajectory (a map's options)")
-    r = sc.robot(urdf, q0=_q0(q0), **opts)
-    central, extra = _central_views(r, mimo, placement)
+def _task_views(o: dict[str, Any], opts: dict[str, Any]) -> None:
+    """``--impedance``, ``--task-step``, ``--task-impulse`` at q0."""
+    import seactl as sc
+
+    from .robotimpedance import task_views
+
+    task_views(sc.robot(o["urdf"], q0=_q0(o["q0"]), **opts), o["impedance"], o["task_step"],
+               o["task_impulse"], o["as_json"])
+
+
+def _at_q0(o: dict[str, Any], opts: dict[str, Any]) -> None:
+    """The margins of every break at q0, the verdict, and the rows ``--mimo``,
+    ``--placement``, ``--mujoco-check`` ask for: tables in that order, or one JSON."""
+    import seactl as sc
+
+    if o["placement"] is not None:
+        parse_placement(o["placement"])      # a typo fails before the analysis
+    r = sc.robot(o["urdf"], q0=_q0(o["q0"]), **opts)
     rec = robot_record(r, r.margins_by_break(), r.roots(count=4))
-    if mujoco_check:
+    if o["mimo"]:
+        rec["mimo"] = mimo_record(r)
+    if o["placement"] is not None:
+        rec["placement"] = placement_record(r, o["placement"])
+    if o["mujoco_check"]:
         rec["mujoco_check"] = r.mujoco_check().records()
-    rec.update(extra)
-    if as_json:
+    if o["as_json"]:
         echo_json(rec)
         return
     _print(rec)
-    central()
-    if mujoco_check:
-        _print_check(rec["mujoco_check"])
+    for key, show in (("mimo", print_mimo), ("placement", print_placement),
+                      ("mujoco_check", _print_check)):
+        if key in rec:
+            show(rec[key])
 
 
 def _print_models(models: dict[str, Any], as_json: bool) -> None:
@@ -246,21 +294,3 @@ def _print_check(rows: list[dict[str, Any]]) -> None:
                   f"{r['growth_rate_per_s']:.3g}",
                   "yes" if r["agree"] else "[red]NO[/red]")
     console.print(t)
-
-
-def _central_views(r: Any, mimo: bool, placement: str | None) -> tuple[Any, dict[str, Any]]:
-    """``--mimo`` and ``--placement``: what prints their tables, and their records."""
-    from .robotmimo import mimo_record, placement_record, print_mimo, print_placement
-
-    rec: dict[str, Any] = {}
-    if placement is not None:
-        rec["placement"] = placement_record(r, placement)
-    if mimo:
-        rec["mimo"] = mimo_record(r)
-
-    def show() -> None:
-        if mimo:
-            print_mimo(rec["mimo"])
-        if placement is not None:
-            print_placement(rec["placement"])
-    return show, rec
