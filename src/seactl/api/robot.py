@@ -660,8 +660,10 @@ def workspace_map(urdf: str | Path | None, configurations: Any, *, backend: str 
         :func:`seactl.api.robotstiffness.search_task_stiffness`), with
         ``stiffness_intervals_n_per_m`` and ``single_flip`` (False where the verdict does
         not simply flip once); ``passive``, the certified passivity of the joint impedance
-        (:meth:`Robot.passivity`); ``t_s`` of a trajectory file; ``worst``, ``records()``,
-        ``plot()``.
+        (:meth:`Robot.passivity`); ``mimo_phase_margin_deg`` and ``mimo_delay_margin_ms``,
+        every stiffness channel broken at once (:meth:`Robot.mimo_margins`); ``t_s`` of a
+        trajectory file; ``worst`` (the smallest ``mimo_delay_margin_ms``, an unstable
+        configuration first), ``records()``, ``plot()``.
 
     Examples
     --------
@@ -684,7 +686,9 @@ def workspace_map(urdf: str | Path | None, configurations: Any, *, backend: str 
                         np.array(col["max_task_stiffness_n_per_m"], float),
                         single_flip=np.array(col["single_flip"], bool),
                         stiffness_intervals_n_per_m=tuple(col["stiffness_intervals_n_per_m"]),
-                        t_s=t_s, passive=np.array(col["passive"], bool))
+                        t_s=t_s, passive=np.array(col["passive"], bool),
+                        mimo_phase_margin_deg=np.array(col["mimo_phase_margin_deg"], float),
+                        mimo_delay_margin_ms=np.array(col["mimo_delay_margin_ms"], float))
 
 
 def _moving_joints(urdf: str | Path | None, options: dict[str, Any]) -> tuple[str, ...]:
