@@ -134,7 +134,8 @@ def test_bad_trajectory_is_one_line(tmp_path, capsys, text, words):
 
 # ------------------------------------------------------------------ the figure and the CLI
 def test_grid_figure_is_a_heat_map_of_the_map():
-    """Oracle: the map's phase margins placed on the grid by hand (q1 across, q2 up)."""
+    """Oracle: the map's central delay margins (the default in joint space) and phase
+    margins placed on the grid by hand (q1 across, q2 up)."""
     import matplotlib
 
     matplotlib.use("Agg")
@@ -143,12 +144,16 @@ def test_grid_figure_is_a_heat_map_of_the_map():
     grid = [[a, b] for a in (0.0, 0.3) for b in (1.5, 2.2)]
     m = sc.workspace_map(ARM, grid, fn_hz=14, **TABLE_I)
     assert [x.tolist() for x in grid_axes(m.q0_rad)] == [[0.0, 0.3], [1.5, 2.2]]
-    ax = m.plot()
-    mesh = ax.collections[0].get_array()
-    expect = [[m.phase_margin_deg[2 * i + j] for i in range(2)] for j in range(2)]
-    assert np.allclose(np.asarray(mesh).reshape(2, 2), expect)
-    assert "worst: configuration" in ax.get_legend().get_texts()[-1].get_text()
-    plt.close(ax.figure)
+    for quantity in (None, "phase_margin_deg"):
+        ax = m.plot(quantity=quantity)
+        mesh = ax.collections[0].get_array()
+        values = m.mimo_delay_margin_ms if quantity is None else m.phase_margin_deg
+        expect = [[values[2 * i + j] for i in range(2)] for j in range(2)]
+        expect = np.where(np.isfinite(expect), expect, np.nan)
+        assert np.allclose(np.ma.filled(np.asarray(mesh, float).reshape(2, 2), np.nan),
+                           expect, equal_nan=True)
+        assert "worst: configuration" in ax.get_legend().get_texts()[-1].get_text()
+        plt.close(ax.figure)
     assert grid_axes(np.array(Q)) is None   # a trajectory is drawn along its samples
 
 
@@ -170,3 +175,34 @@ def test_cli_map_plot_and_worst(tmp_path, capsys):
     assert main(["robot", "--urdf", str(ARM), "--plot", str(png)]) == 2
     assert "--workspace or --trajectory" in capsys.readouterr().err + \
         capsys.readouterr().out
+
+
+# ------------------------------------------------------------------ the MIMO margins
+def test_map_has_each_configurations_mimo_margins(joint_map):
+    """Oracle: Robot.mimo_margins() of sc.robot at each configuration, outside the map."""
+    for i, q in enumerate(Q):
+        mm = sc.robot(ARM, q0=q, fn_hz=14, **TABLE_I).mimo_margins()
+        assert joint_map.mimo_phase_margin_deg[i] == pytest.approx(mm.phase_margin_deg,
+                                                                   rel=1e-12)
+        assert joint_map.mimo_delay_margin_ms[i] == pytest.approx(1e3 * mm.delay_margin_s,
+                                                                  rel=1e-12)
+    rec = joint_map.records()   # (rounded to 12 significant digits)
+    assert [r["mimo_phase_margin_deg"] for r in rec] == pytest.approx(
+        joint_map.mimo_phase_margin_deg.tolist(), rel=1e-9)
+
+
+def test_worst_is_the_least_central_delay_margin():
+    """Oracle: the documented rule on hand-made maps: the smallest central delay margin
+    even where the phase margin at outer.j1 ranks otherwise; an unstable one first."""
+    from seactl.api.robotmap import WorkspaceMap
+
+    def worst(stable, pm, dm):
+        n = len(stable)
+        return WorkspaceMap(("j1", "j2"), np.zeros((n, 2)), np.array(stable),
+                            np.array(pm, float), np.zeros(n), np.full(n, np.nan),
+                            mimo_phase_margin_deg=np.zeros(n),
+                            mimo_delay_margin_ms=np.array(dm, float)).worst
+
+    assert worst([True, True, True], [10.0, 40.0, 60.0], [30.0, 5.0, math.inf]) == 1
+    assert worst([True, False, True], [10.0, 40.0, 60.0], [30.0, 0.0, 2.0]) == 1
+    assert worst([True, True], [10.0, 40.0], [math.inf, 7.0]) == 1

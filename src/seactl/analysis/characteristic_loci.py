@@ -82,8 +82,10 @@ def loop_matrix(diagram: Any, design: Any, returns: Sequence[str], breaks: Seque
     """
     index = {name: i for i, name in enumerate(diagram.signals)}
     held = set(diagram.inputs) | set(breaks)
-    edges = [(index[b.dst], index[b.src], b) for b in diagram.blocks if b.dst not in held]
+    edges = [b for b in diagram.blocks if b.dst not in held]
     size = len(index)
+    cell = np.array([index[b.dst] * size + index[b.src] for b in edges], dtype=np.intp)
+    response = _responses(edges, design)
     drive = np.zeros((size, len(breaks)))
     drive[[index[x] for x in breaks], np.arange(len(breaks))] = 1.0
     rows = [index[y] for y in returns]
@@ -92,14 +94,43 @@ def loop_matrix(diagram: Any, design: Any, returns: Sequence[str], breaks: Seque
         w = np.asarray(w, float).reshape(-1)
         out = np.empty((w.size, len(returns), len(breaks)), complex)
         for lo in range(0, w.size, _CHUNK):
-            s = 1j * w[lo:lo + _CHUNK]
-            a = np.zeros((s.size, size, size), complex)
-            for dst, src, b in edges:
-                a[:, dst, src] += np.broadcast_to(b.response(design, s), s.shape)
-            x = np.linalg.solve(np.eye(size) - a, np.broadcast_to(drive, (s.size,) +
-                                                                   drive.shape))
+            part = w[lo:lo + _CHUNK]
+            a = np.zeros((part.size, size * size), complex)
+            np.add.at(a, (slice(None), cell), response(part).T)
+            x = np.linalg.solve(np.eye(size) - a.reshape(-1, size, size),
+                                np.broadcast_to(drive, (part.size,) + drive.shape))
             out[lo:lo + _CHUNK] = -x[:, rows, :]
         return out
+    return at
+
+
+def _responses(blocks: Sequence[Any], design: Any) -> Callable[[np.ndarray], np.ndarray]:
+    """``w`` [rad/s] ``(F,)`` -> every block's response at ``jw``, ``(len(blocks), F)``
+    (a single design): the blocks' coefficients read once, their polynomials evaluated
+    together (Horner, highest power first, zeros in front of the shorter ones) and their
+    delays as ``cos(w T) - j sin(w T)``."""
+    def stacked(polys: list[list[float]]) -> np.ndarray:
+        out = np.zeros((len(polys), max(len(p) for p in polys)))
+        for i, p in enumerate(polys):
+            out[i, out.shape[1] - len(p):] = p
+        return out
+
+    coeffs = [b.coefficients(design) for b in blocks]
+    num = stacked([[float(c) for c in n] for n, _ in coeffs])
+    den = stacked([[float(c) for c in d] for _, d in coeffs])
+    tau = np.array([0.0 if b.delay is None else float(getattr(design, b.delay))
+                    for b in blocks])
+
+    def horner(c: np.ndarray, s: np.ndarray) -> np.ndarray:
+        acc = np.broadcast_to(c[:, :1], (c.shape[0], s.size)).astype(complex)
+        for k in range(1, c.shape[1]):
+            acc = acc * s + c[:, k:k + 1]
+        return acc
+
+    def at(w: np.ndarray) -> np.ndarray:
+        s = 1j * w
+        phase = tau[:, None] * w
+        return horner(num, s) / horner(den, s) * (np.cos(phase) - 1j * np.sin(phase))
     return at
 
 

@@ -204,7 +204,8 @@ def _rebracket(f: Callable[[np.ndarray, np.ndarray], np.ndarray], b: np.ndarray,
 def loop_margins(loop: LoopFn, design: Any, omega: np.ndarray, *,
                  open_loop_rhp_poles: np.ndarray | int = 0, max_depth: int = 9,
                  stability_only: bool = False,
-                 block_cache: dict[str, np.ndarray] | None = None) -> Margins:
+                 block_cache: dict[str, np.ndarray] | None = None,
+                 shared_forms: dict | None = None) -> Margins:
     """Margins and Nyquist stability of ``L`` for a batch of designs.
 
     A loop of a block diagram (``diagram.loop(sensor, cut)``, a
@@ -232,6 +233,10 @@ def loop_margins(loop: LoopFn, design: Any, omega: np.ndarray, *,
         Only the stability verdict (skip crossings).
     block_cache : dict, optional
         Opaque path only: shared block responses on the base grid.
+    shared_forms : dict, optional
+        Block-diagram loops only: kept by the caller between loops of the same diagram
+        and design, whose characteristic terms are then evaluated once
+        (:func:`~seactl.diagram.blockdiagram.evaluate_forms`).
 
     Returns
     -------
@@ -255,7 +260,8 @@ def loop_margins(loop: LoopFn, design: Any, omega: np.ndarray, *,
     if isinstance(loop, Transfer) and loop.kind == "loop":
         w = np.asarray(omega, float)
         scale = np.sqrt(w[..., 0] * w[..., -1]) if w[..., 0].all() else w[..., -1] / 30.0
-        return certified_margins(loop, design, scale, stability_only=stability_only)
+        return certified_margins(loop, design, scale, stability_only=stability_only,
+                                 shared_forms=shared_forms)
     return _heuristic_margins(loop, design, omega, open_loop_rhp_poles, max_depth,
                               stability_only, block_cache)
 
@@ -584,7 +590,8 @@ class _CertifiedScan:
 
 
 def certified_margins(loop: Transfer, design: Any, w_ref: np.ndarray | float, *,
-                      stability_only: bool = False) -> Margins:
+                      stability_only: bool = False, shared_forms: dict | None = None
+                      ) -> Margins:
     """Margins and stability of a block-diagram loop by a scan that cannot skip.
 
     The loop ``L = diagram.loop(sensor, cut)`` is ``N / D`` with ``D`` the diagram's
@@ -615,6 +622,8 @@ def certified_margins(loop: Transfer, design: Any, w_ref: np.ndarray | float, *,
         Frequency scale [rad/s] per design (start of the logarithmic part of the grid).
     stability_only : bool
         Only count roots (skip crossings).
+    shared_forms : dict, optional
+        As :func:`loop_margins`'s.
 
     Returns
     -------
@@ -623,7 +632,8 @@ def certified_margins(loop: Transfer, design: Any, w_ref: np.ndarray | float, *,
     """
     shape = tuple(getattr(design, "shape", ()))
     n = int(np.prod(shape, dtype=int))
-    N, D = evaluate_forms(loop.diagram.return_difference(loop.input, loop.cut), design)
+    N, D = evaluate_forms(loop.diagram.return_difference(loop.input, loop.cut), design,
+                          shared_forms)
     delta = N + D
     delta.require_retarded(f"loop of {loop.diagram.name!r} broken at {loop.input!r}")
     tau_max = np.concatenate([N.delays, D.delays]).max(axis=0)

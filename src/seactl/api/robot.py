@@ -12,6 +12,7 @@ from __future__ import annotations
 
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, replace
+from functools import cached_property
 from pathlib import Path
 from typing import Any, ClassVar
 
@@ -205,11 +206,11 @@ class Robot(System):
         from seactl.analysis.margins import default_grid, loop_margins
         from seactl.api.results import MarginsResult
 
-        grid = default_grid(self.reference_frequency())
-        return {name: MarginsResult(loop_margins(self.diagram.loop(signal), self.design, grid),
+        grid, design = default_grid(self.reference_frequency()), self.design
+        return {name: MarginsResult(loop_margins(self.diagram.loop(signal), design, grid,
+                                                 shared_forms=self._evaluated_forms),
                                     self.label_columns())
                 for name, signal in self.breaks.items()}
-
 
     def impedance_matrix(self, f_hz: Any) -> np.ndarray:
         """The joint-space impedance matrix ``Z(j 2 pi f)`` felt by the links: with every
@@ -443,6 +444,39 @@ class Robot(System):
 
         return task_response(self, "impulse", direction, amplitude_n_s, t_end_s)
 
+    # ------------------------------------------------------------ the loop's evaluated terms
+    @cached_property
+    def _evaluated_forms(self) -> dict:
+        """The characteristic terms of this robot's loop evaluated for its design, kept
+        between its loop breaks (every break's ``N`` and ``D`` are sums of the same
+        terms; :func:`seactl.diagram.blockdiagram.evaluate_forms`)."""
+        return {}
+
+    def margins(self, rate_hz: Any = None) -> Any:
+        """The margins of the loop broken at ``q_sens.j1`` (the break ``outer.j1`` of
+        :meth:`margins_by_break`), as :meth:`seactl.System.margins`; the continuous
+        loop's characteristic terms are evaluated once with the other breaks'.
+
+        Parameters
+        ----------
+        rate_hz : float or dict, optional
+            As :meth:`seactl.System.margins` (None: the continuous loop).
+
+        Returns
+        -------
+        MarginsResult or SampledMarginsResult
+            As :meth:`seactl.System.margins`.
+        """
+        if rate_hz is not None:
+            return super().margins(rate_hz)
+        from seactl.analysis.margins import default_grid, loop_margins
+        from seactl.api.results import MarginsResult
+
+        return MarginsResult(loop_margins(self.diagram.loop(self.sensor), self.design,
+                                          default_grid(self.reference_frequency()),
+                                          shared_forms=self._evaluated_forms),
+                             self.label_columns())
+
 
 def design_inertia(mass_matrix: np.ndarray) -> np.ndarray:
     """Per joint the inertia its SEA is designed for: ``1 / (M^{-1})_jj`` [kg m^2], what
@@ -626,8 +660,10 @@ def workspace_map(urdf: str | Path | None, configurations: Any, *, backend: str 
         :func:`seactl.api.robotstiffness.search_task_stiffness`), with
         ``stiffness_intervals_n_per_m`` and ``single_flip`` (False where the verdict does
         not simply flip once); ``passive``, the certified passivity of the joint impedance
-        (:meth:`Robot.passivity`); ``t_s`` of a trajectory file; ``worst``, ``records()``,
-        ``plot()``.
+        (:meth:`Robot.passivity`); ``mimo_phase_margin_deg`` and ``mimo_delay_margin_ms``,
+        every stiffness channel broken at once (:meth:`Robot.mimo_margins`); ``t_s`` of a
+        trajectory file; ``worst`` (the smallest ``mimo_delay_margin_ms``, an unstable
+        configuration first), ``records()``, ``plot()``.
 
     Examples
     --------
@@ -650,7 +686,9 @@ def workspace_map(urdf: str | Path | None, configurations: Any, *, backend: str 
                         np.array(col["max_task_stiffness_n_per_m"], float),
                         single_flip=np.array(col["single_flip"], bool),
                         stiffness_intervals_n_per_m=tuple(col["stiffness_intervals_n_per_m"]),
-                        t_s=t_s, passive=np.array(col["passive"], bool))
+                        t_s=t_s, passive=np.array(col["passive"], bool),
+                        mimo_phase_margin_deg=np.array(col["mimo_phase_margin_deg"], float),
+                        mimo_delay_margin_ms=np.array(col["mimo_delay_margin_ms"], float))
 
 
 def _moving_joints(urdf: str | Path | None, options: dict[str, Any]) -> tuple[str, ...]:

@@ -24,9 +24,18 @@ class WorkspaceMap(Result):
     stable : numpy.ndarray
         The certified verdict per configuration, ``(m,)``.
     phase_margin_deg : numpy.ndarray
-        Phase margin at ``outer.j1`` [deg], ``(m,)``.
+        Phase margin at ``outer.j1`` [deg], ``(m,)``: one loop broken, the others
+        closed; on a coupled robot it can look ample where the robot is unstable.
     delay_margin_ms : numpy.ndarray
         Delay margin at ``outer.j1`` [ms], ``(m,)``.
+    mimo_phase_margin_deg : numpy.ndarray or None
+        The generalized Nyquist phase margin of every stiffness channel broken at once
+        (:meth:`seactl.api.robot.Robot.mimo_margins`, its ``phase_margin_deg``) [deg],
+        ``(m,)``.
+    mimo_delay_margin_ms : numpy.ndarray or None
+        The extra latency of the central process that puts a root on the imaginary axis
+        (:meth:`~seactl.api.robot.Robot.mimo_margins`, its ``delay_margin_s``) [ms]: 0
+        where unstable, ``inf`` without crossover, ``(m,)``.
     max_task_stiffness_n_per_m : numpy.ndarray
         Task space: per configuration the largest translational task stiffness ``k_x``
         [N/m] the certified verdict calls stable, ``k_r = k_x r^2`` scaled with it
@@ -37,8 +46,9 @@ class WorkspaceMap(Result):
         Per configuration the certified passivity of the joint impedance on 0.01 Hz to
         10 kHz (:meth:`seactl.api.robot.Robot.passivity`), ``(m,)``.
     worst : int
-        The index of the configuration with the smallest phase margin (an unstable one
-        first).
+        The index of the configuration with the smallest ``mimo_delay_margin_ms`` (an
+        unstable one first): the least extra central latency the robot tolerates
+        (without the MIMO margins: the smallest ``phase_margin_deg``).
     single_flip : numpy.ndarray
         Per configuration, whether the stiffness search saw the verdict flip once (stable
         below ``max_task_stiffness_n_per_m``, unstable above); False flags a map whose
@@ -69,13 +79,16 @@ class WorkspaceMap(Result):
     stiffness_intervals_n_per_m: tuple = ()
     t_s: np.ndarray | None = None
     passive: Any = None
+    mimo_phase_margin_deg: Any = None
+    mimo_delay_margin_ms: Any = None
 
     @property
     def worst(self) -> int:
-        """The index of the configuration with the smallest phase margin (an unstable
-        one first)."""
-        key = np.where(self.stable, self.phase_margin_deg, -np.inf)
-        return int(np.argmin(key))
+        """The index of the configuration with the smallest central delay margin
+        (``mimo_delay_margin_ms``; an unstable one first)."""
+        value = self.phase_margin_deg if self.mimo_delay_margin_ms is None else \
+            self.mimo_delay_margin_ms
+        return int(np.argmin(np.where(self.stable, value, -np.inf)))
 
     def _columns(self) -> dict[str, Any]:
         cols = {} if self.t_s is None else {"t_s": self.t_s}
@@ -87,6 +100,9 @@ class WorkspaceMap(Result):
             cols["single_flip"] = self.single_flip
         if self.passive is not None:
             cols["passive"] = self.passive
+        if self.mimo_delay_margin_ms is not None:
+            cols.update(mimo_phase_margin_deg=self.mimo_phase_margin_deg,
+                        mimo_delay_margin_ms=self.mimo_delay_margin_ms)
         return cols
 
     def plot(self, ax: Any = None, quantity: str | None = None) -> Any:
@@ -98,9 +114,10 @@ class WorkspaceMap(Result):
         ----------
         ax : matplotlib.axes.Axes, optional
             Where to draw (default: a new figure).
-        quantity : {"max_task_stiffness_n_per_m", "phase_margin_deg"}, optional
-            The value drawn (default: the largest task stiffness in task space, else the
-            phase margin).
+        quantity : str, optional
+            The value drawn, a key of :data:`seactl.api.robotmapplot.QUANTITIES`
+            (default: the largest task stiffness in task space, else the central delay
+            margin ``mimo_delay_margin_ms``).
 
         Returns
         -------

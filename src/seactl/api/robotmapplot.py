@@ -16,6 +16,8 @@ from seactl.base.result import new_axes
 from seactl.errors import InputError
 
 QUANTITIES = {"max_task_stiffness_n_per_m": "largest task stiffness k_x [N/m]",
+              "mimo_delay_margin_ms": "central delay margin [ms]",
+              "mimo_phase_margin_deg": "MIMO phase margin [deg]",
               "phase_margin_deg": "phase margin at outer.j1 [deg]"}
 """The values a map can draw -> their axis label."""
 
@@ -33,18 +35,21 @@ def grid_axes(q: np.ndarray) -> tuple[np.ndarray, np.ndarray] | None:
 
 
 def default_quantity(m: Any) -> str:
-    """The largest task stiffness where the map has it (task space), else the phase
-    margin."""
+    """The largest task stiffness where the map has it (task space), else the central
+    delay margin (the phase margin at ``outer.j1`` for a map without MIMO margins)."""
     k = np.asarray(m.max_task_stiffness_n_per_m, float)
-    return "phase_margin_deg" if np.all(np.isnan(k)) else "max_task_stiffness_n_per_m"
+    if not np.all(np.isnan(k)):
+        return "max_task_stiffness_n_per_m"
+    return "phase_margin_deg" if m.mimo_delay_margin_ms is None else "mimo_delay_margin_ms"
 
 
 def marked(m: Any, quantity: str) -> int:
-    """The configuration marked as worst: ``m.worst`` for the phase margin, the smallest
-    largest stiffness for the stiffness (an unstable configuration first either way)."""
-    if quantity == "phase_margin_deg":
+    """The configuration marked: the smallest value of ``quantity`` (an unstable
+    configuration first; for the central delay margin, ``m.worst``)."""
+    if quantity == "mimo_delay_margin_ms":
         return int(m.worst)
-    k = np.where(m.stable, np.nan_to_num(m.max_task_stiffness_n_per_m, nan=np.inf), -np.inf)
+    k = np.where(m.stable, np.nan_to_num(np.asarray(getattr(m, quantity), float),
+                                         nan=np.inf), -np.inf)
     return int(np.argmin(k))
 
 
@@ -66,8 +71,9 @@ def plot_workspace_map(m: Any, ax: Any = None, quantity: str | None = None) -> A
         The axes drawn on.
     """
     quantity = default_quantity(m) if quantity is None else quantity
-    if quantity not in QUANTITIES:
-        raise InputError("quantity", quantity, "one of " + ", ".join(QUANTITIES))
+    if quantity not in QUANTITIES or getattr(m, quantity) is None:
+        raise InputError("quantity", quantity, "one of " + ", ".join(
+            q for q in QUANTITIES if getattr(m, q) is not None))
     values = np.asarray(getattr(m, quantity), float)
     if quantity == "max_task_stiffness_n_per_m" and np.all(np.isnan(values)):
         raise InputError("quantity", quantity, "phase_margin_deg in joint space (the "
@@ -81,7 +87,7 @@ def plot_workspace_map(m: Any, ax: Any = None, quantity: str | None = None) -> A
         x = np.arange(len(values)) if m.t_s is None else np.asarray(m.t_s, float)
         xy = (x, np.where(np.isfinite(values), values, np.nan))
         _curve(ax, m, x, values, quantity)
-    what = "worst" if quantity == "phase_margin_deg" else "lowest k_x"
+    what = "lowest k_x" if quantity == "max_task_stiffness_n_per_m" else "worst"
     _marks(ax, m, xy, marked(m, quantity), what)
     ax.legend(loc="best", fontsize="small")
     return ax
@@ -94,7 +100,8 @@ def _heat(ax: Any, m: Any, axes: tuple[np.ndarray, np.ndarray], values: np.ndarr
 
     a, b = axes
     z = values.reshape(a.size, b.size).T
-    z = np.where(np.isfinite(z) & ((z > 0) | (quantity == "phase_margin_deg")), z, np.nan)
+    z = np.where(np.isfinite(z) & ((z > 0) | (quantity != "max_task_stiffness_n_per_m")),
+                 z, np.nan)
     stiff = quantity == "max_task_stiffness_n_per_m" and np.any(np.isfinite(z))
     norm = LogNorm(np.nanmin(z), np.nanmax(z)) if stiff else None
     mesh = ax.pcolormesh(a, b, z, shading="nearest", cmap="viridis", norm=norm)

@@ -51,7 +51,9 @@ def evaluate_configuration(urdf: str | None, q0: Sequence[float], options: dict[
     Returns
     -------
     dict
-        ``stable``, ``phase_margin_deg``, ``delay_margin_ms`` (at ``outer.j1``); in task
+        ``stable``, ``phase_margin_deg``, ``delay_margin_ms`` (at ``outer.j1``),
+        ``mimo_phase_margin_deg`` and ``mimo_delay_margin_ms`` (every stiffness channel
+        broken at once, :meth:`seactl.api.robot.Robot.mimo_margins`), ``passive``; in task
         space ``max_task_stiffness_n_per_m``, ``stiffness_intervals_n_per_m`` and
         ``single_flip`` (:class:`seactl.api.robotstiffness.StiffnessSearch`), else NaN,
         ``()`` and True.
@@ -73,6 +75,9 @@ def evaluate_configuration(urdf: str | None, q0: Sequence[float], options: dict[
            "max_task_stiffness_n_per_m": float("nan"),
            "stiffness_intervals_n_per_m": (), "single_flip": True,
            "passive": bool(r.passivity().passive)}
+    mimo = r.mimo_margins()
+    row.update(mimo_phase_margin_deg=float(mimo.phase_margin_deg),
+               mimo_delay_margin_ms=1e3 * float(mimo.delay_margin_s))
     if r.space == "task":
         s = search_task_stiffness(r)
         row.update(max_task_stiffness_n_per_m=s.kx_max_n_per_m,

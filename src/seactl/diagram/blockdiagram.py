@@ -163,11 +163,15 @@ class BlockDiagram:
         fed = {b.dst for b in self.blocks}
         return tuple(s for s in self.signals if s not in fed)
 
+    @cached_property
+    def _by_name(self) -> dict[str, Block]:
+        return {b.name: b for b in self.blocks}
+
     def block(self, name: str) -> Block:
-        for b in self.blocks:
-            if b.name == name:
-                return b
-        raise KeyError(name)
+        try:
+            return self._by_name[name]
+        except KeyError:
+            raise KeyError(name) from None
 
     def without(self, *names: str) -> BlockDiagram:
         """A copy with the named blocks removed (structural variants)."""
@@ -625,6 +629,14 @@ class QuasiForm:
         """Blocks that are not design-independent constants (their denominators multiply)."""
         return tuple(b for b in self.diagram.blocks if constant_gain(b) is None)
 
+    @cached_property
+    def _terms(self) -> list[tuple[float, frozenset, tuple[str, ...]]]:
+        """Per term: its coefficient, its blocks and the sorted names of their delays."""
+        block = self.diagram.block
+        return [(coef, frozenset(blocks),
+                 tuple(sorted(block(n).delay for n in blocks if block(n).delay is not None)))
+                for coef, blocks in self.terms]
+
     def evaluate(self, design: Any, shared: dict | None = None) -> QuasiPolynomial:
         """The quasi-polynomial of ``design``; ``shared``: a dict kept between the
         forms of one diagram evaluated for the same design (a loop's ``N`` and ``D``),
@@ -654,21 +666,14 @@ class QuasiForm:
             if len(den) > 1 or np.any(np.asarray(den[0]) != 1):  # (1: nothing to multiply)
                 factors[b.name, False] = _powers_first(den, shape)
         groups: dict[tuple[str, ...], np.ndarray] = {}
-        # terms share their leading factors
-        products: dict[tuple, np.ndarray] = shared.setdefault("products", {})
-        for coef, blocks in self.terms:
-            poly, key = np.ones((1,) + shape), ()
-            for b in self.dynamic:
-                f = (b.name, b.name in blocks)
-                if f not in factors:
-                    continue
-                key += (f,)
-                if key not in products:
-                    products[key] = factors[f] if len(key) == 1 else _polymul(poly, factors[f])
-                poly = products[key]
+        # a term's product depends only on its blocks: computed once per design (the
+        # forms of one diagram share most of their terms)
+        leaves: dict[frozenset, np.ndarray] = shared.setdefault("terms", {})
+        for coef, blocks, delays in self._terms:
+            poly = leaves.get(blocks)
+            if poly is None:
+                poly = leaves[blocks] = self._product(blocks, factors, shared, shape)
             poly = coef * poly
-            delays = tuple(sorted(self.diagram.block(n).delay for n in blocks
-                                  if self.diagram.block(n).delay is not None))
             groups[delays] = poly if delays not in groups else _polyadd(groups[delays], poly)
         keys = sorted(groups, key=lambda k: (len(k), k))
         if not keys or keys[0] != ():
@@ -680,12 +685,34 @@ class QuasiForm:
             np.add(np.moveaxis(groups[k], 0, -1), 0.0, out=coeffs[i, ..., :groups[k].shape[0]])
         return keys, coeffs
 
+    def _product(self, blocks: frozenset, factors: dict, shared: dict,
+                 shape: tuple[int, ...]) -> np.ndarray:
+        """The product of a term's factors (the numerators of ``blocks``, the
+        denominators of the other dynamic blocks), from a tree of partial products shared
+        by the terms: each node keyed by its parent node and its last factor (node 0:
+        the empty product)."""
+        products: dict[tuple, tuple[int, np.ndarray]] = shared.setdefault("products", {})
+        poly, node = np.ones((1,) + shape), 0
+        for b in self.dynamic:
+            f = (b.name, b.name in blocks)
+            if f not in factors:
+                continue
+            hit = products.get((node, f))
+            if hit is None:
+                hit = (len(products) + 1,
+                       factors[f] if node == 0 else _polymul(poly, factors[f]))
+                products[node, f] = hit
+            node, poly = hit
+        return poly
 
-def evaluate_forms(forms: Sequence[QuasiForm], design: Any) -> tuple[QuasiPolynomial, ...]:
+
+def evaluate_forms(forms: Sequence[QuasiForm], design: Any, shared: dict | None = None
+                   ) -> tuple[QuasiPolynomial, ...]:
     """Each of ``forms`` (of one diagram, e.g. a loop's ``N`` and ``D``) for ``design``,
     flat, sharing their blocks' coefficients and partial products, which are freed on
-    return (held any longer, they would add to the peak memory of what follows)."""
-    shared: dict = {}
+    return (held any longer, they would add to the peak memory of what follows) unless
+    the caller passes ``shared`` (a dict it keeps for more forms of the same design)."""
+    shared = {} if shared is None else shared
     return tuple(f.evaluate(design, shared).flat() for f in forms)
 
 

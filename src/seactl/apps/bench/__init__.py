@@ -11,7 +11,18 @@ from __future__ import annotations
 from collections.abc import Callable, Iterable
 from typing import Any
 
-from . import core, impedance, jitter, loopfile, mobile_base, placement, roots, simulate, sweep
+from . import (
+    core,
+    impedance,
+    jitter,
+    loopfile,
+    mobile_base,
+    placement,
+    robot,
+    roots,
+    simulate,
+    sweep,
+)
 from ._harness import BenchResult, benchmark, median_time
 
 __all__ = ["BENCHMARKS", "BenchResult", "benchmark", "median_time", "registered",
@@ -23,7 +34,7 @@ BENCHMARKS: tuple[Callable, ...] = (
     impedance.bench_impedance,
     simulate.bench_simulate, placement.bench_latency_map, sweep.bench_sweep,
     mobile_base.bench_circle, mobile_base.bench_tuning, core.bench_cli_startup,
-    jitter.bench_jitter,
+    jitter.bench_jitter, robot.bench_robot_breaks,
 )
 
 

@@ -91,6 +91,11 @@ def _row_json(row: dict[str, Any], intervals: tuple) -> dict[str, Any]:
     return out
 
 
+def _ms(x: Any) -> str:
+    """A delay margin [ms] of a row (None: no crossover)."""
+    return "none" if x is None else f"{x:.4g}"
+
+
 def _angles(m: Any, row: dict[str, Any]) -> str:
     return ", ".join(f"{row[f'{j}_rad']:.4g}" for j in m.joints)
 
@@ -110,7 +115,8 @@ def _report(m: Any, space: str, as_json: bool) -> None:
     t = Table(title=f"workspace map, {space} space, {len(rows)} configurations")
     time_col = ["t [s]"] if m.t_s is not None else []
     for col in time_col + [f"{j} [rad]" for j in m.joints] + [
-            "verdict", "PM [deg]", "delay margin [ms]", "max k_x [N/m]", "passive"]:
+            "verdict", "PM outer.j1 [deg]", "delay margin outer.j1 [ms]", "MIMO PM [deg]",
+            "central delay margin [ms]", "max k_x [N/m]", "passive"]:
         t.add_column(escape(col))
     for i, row in enumerate(rows):
         kx = row["max_task_stiffness_n_per_m"]
@@ -118,15 +124,18 @@ def _report(m: Any, space: str, as_json: bool) -> None:
                   *(f"{row[f'{j}_rad']:.4g}" for j in m.joints),
                   "stable" if row["stable"] else "[red]UNSTABLE[/red]",
                   pm_text(row["phase_margin_deg"], row["stable"]),
-                  "none" if row["delay_margin_ms"] is None else f"{row['delay_margin_ms']:.4g}",
+                  _ms(row["delay_margin_ms"]),
+                  pm_text(row["mimo_phase_margin_deg"], row["stable"]),
+                  _ms(row["mimo_delay_margin_ms"]),
                   ("none" if kx is None else f"{kx:.4g}") + ("" if i not in flips else
                                                             " [yellow](flips)[/yellow]"),
                   "yes" if row.get("passive") else "no")
     console.print(t)
     w = rows[m.worst]
-    console.print(f"worst configuration: row {m.worst + 1}, q = ({_angles(m, w)}) rad, "
-                  f"{'stable' if w['stable'] else 'UNSTABLE'}, PM "
-                  f"{pm_text(w['phase_margin_deg'], w['stable'])} deg")
+    console.print(f"worst configuration (least central delay margin): row {m.worst + 1}, "
+                  f"q = ({_angles(m, w)}) rad, {'stable' if w['stable'] else 'UNSTABLE'}, "
+                  f"central delay margin {_ms(w['mimo_delay_margin_ms'])} ms, MIMO PM "
+                  f"{pm_text(w['mimo_phase_margin_deg'], w['stable'])} deg")
     if limited is not None:
         k = rows[limited]["max_task_stiffness_n_per_m"]
         console.print(f"lowest largest task stiffness: row {limited + 1}, q = "
