@@ -121,24 +121,34 @@ def test_locked_urdf_for_mujoco_is_the_reduced_body():
     np.testing.assert_allclose(M, full[np.ix_([0, 2], [0, 2])], rtol=1e-6)
 
 
-def four_link(tmp_path: Path) -> Path:
-    """The 3-link arm with a fourth revolute joint between link3 and the tool."""
-    text = THREE.read_text().replace('<joint name="tool_joint" type="fixed">',
-                                     '<joint name="tool_joint" type="revolute">'
-                                     '<axis xyz="0 0 1"/><limit lower="-3" upper="3" '
-                                     'effort="100" velocity="10"/>')
-    path = tmp_path / "four.urdf"
+def chain(tmp_path: Path, n: int) -> Path:
+    """The 3-link arm with ``n - 3`` more revolute joints, each carrying a small link
+    between link3 and the tool."""
+    text = THREE.read_text()
+    extra, parent = "", "link3"
+    for i in range(4, n + 1):
+        extra += (f'<joint name="j{i}" type="revolute"><parent link="{parent}"/>'
+                  f'<child link="link{i}"/><origin xyz="0.1 0 0"/><axis xyz="0 0 1"/>'
+                  '<limit lower="-3" upper="3" effort="100" velocity="10"/></joint>'
+                  f'<link name="link{i}"><inertial><mass value="0.1"/><inertia ixx="1e-4" '
+                  'iyy="1e-4" izz="1e-4" ixy="0" ixz="0" iyz="0"/></inertial></link>')
+        parent = f"link{i}"
+    text = text.replace('<joint name="tool_joint" type="fixed">\n    <parent link="link3"/>',
+                        extra + '<joint name="tool_joint" type="fixed">\n    <parent link="'
+                        + parent + '"/>')
+    path = tmp_path / f"chain{n}.urdf"
     path.write_text(text)
     return path
 
 
-def test_more_than_three_moving_joints_are_refused(tmp_path):
-    """A behaviour: 4 moving joints are refused up front (field joints, range named);
-    choosing 3 of them builds the robot."""
+def test_more_than_seven_moving_joints_are_refused(tmp_path):
+    """A behaviour: 8 moving joints are refused up front (field joints, range named);
+    choosing 7 of them builds the robot."""
     with pytest.raises(sc.InputError) as info:
-        sc.robot(four_link(tmp_path))
-    assert info.value.field == "joints" and "at most 3 moving joints" in info.value.valid
-    assert sc.robot(four_link(tmp_path), joints=["j1", "j2", "j3"], fn_hz=60).n == 3
+        sc.robot(chain(tmp_path, 8))
+    assert info.value.field == "joints" and "at most 7 moving joints" in info.value.valid
+    seven = [f"j{i}" for i in range(1, 8)]
+    assert sc.robot(chain(tmp_path, 8), joints=seven, fn_hz=400).n == 7
 
 
 @pytest.mark.parametrize("args,start", [
@@ -146,12 +156,12 @@ def test_more_than_three_moving_joints_are_refused(tmp_path):
     (["--model", "ur5", "--joints", "j1,j9"], "error: invalid --joints = 'j9': must be "),
     (["--model", "ur5", "--urdf", "{three}"], "error: invalid --urdf = "),
     ([], "error: invalid --urdf = None: must be a URDF file, or --model"),
-    (["--urdf", "{four}"], "error: invalid --joints = '4 moving joints"),
+    (["--urdf", "{eight}"], "error: invalid --joints = '8 moving joints"),
     (["--model", "ur5", "--joints", "j1,j2", "--q0", "1,2,3,4"], "error: invalid --q0 "),
 ])
 def test_model_errors_give_one_line(fake_root, tmp_path, capsys, args, start):
     """A behaviour: one line `error: ...` naming the flag, exit 2, nothing else."""
-    argv = ["robot"] + [a.format(three=THREE, four=four_link(tmp_path)) for a in args]
+    argv = ["robot"] + [a.format(three=THREE, eight=chain(tmp_path, 8)) for a in args]
     assert main(argv) == 2
     out = capsys.readouterr()
     assert out.out == "" and out.err.startswith(start) and out.err.count("\n") == 1

@@ -133,17 +133,9 @@ class Robot(System):
     @property
     def design(self) -> Any:
         from seactl.systems.robot.loops import robot_design
-        from seactl.systems.sea.loops import filter_time_constant
 
-        f_qd, f_taud = self.filters_hz
-        joints = []
-        for a, g in zip(self.actuators, self.gains):
-            joints.append(dict(Im=a.Im, bm=a.bm, k=a.k, beta=a.beta, bj=a.bj, Bq=g.Bq,
-                               Ktau=g.Ktau, Btau=g.Btau, Tf_qd=filter_time_constant(f_qd),
-                               Tf_taud=filter_time_constant(f_taud),
-                               T_tau=self.delays["torque"], T_qd=self.delays["damping"]))
-        return robot_design(np.linalg.inv(self.body.mass_matrix), self.stiffness, joints,
-                            self.delays["stiffness"])
+        return robot_design(np.linalg.inv(self.body.mass_matrix), self.stiffness,
+                            self.joint_fields(), self.delays["stiffness"])
 
     @property
     def delays_s(self) -> dict[str, np.ndarray]:
@@ -469,6 +461,10 @@ class Robot(System):
         """
         if rate_hz is not None:
             return super().margins(rate_hz)
+        if self.large:
+            from seactl.api.robotlarge import large_margins
+
+            return large_margins(self)
         from seactl.analysis.margins import default_grid, loop_margins
         from seactl.api.results import MarginsResult
 
@@ -476,6 +472,50 @@ class Robot(System):
                                           default_grid(self.reference_frequency()),
                                           shared_forms=self._evaluated_forms),
                              self.label_columns())
+
+    # ------------------------------------------------------------ more than three joints
+    @property
+    def large(self) -> bool:
+        """More joints than the diagram's cycles serve (:data:`MASON_JOINTS`): the
+        characteristic comes joint by joint (:mod:`seactl.systems.robot.characteristic`);
+        :meth:`margins` gives the verdict only (margins NaN), :meth:`mimo_margins`,
+        :meth:`delay_margin` and :meth:`stability_chart` work, the views that need the
+        loop's transfers (and :meth:`roots`) are refused."""
+        from seactl.systems.robot.loops import MASON_JOINTS
+
+        return self.n > MASON_JOINTS
+
+    def joint_fields(self) -> list[dict[str, float]]:
+        """Per joint the numbers its SEA's blocks read (as
+        :func:`~seactl.systems.robot.loops.robot_design` takes them)."""
+        from seactl.systems.sea.loops import filter_time_constant
+
+        f_qd, f_taud = self.filters_hz
+        return [dict(Im=a.Im, bm=a.bm, k=a.k, beta=a.beta, bj=a.bj, Bq=g.Bq, Ktau=g.Ktau,
+                     Btau=g.Btau, Tf_qd=filter_time_constant(f_qd),
+                     Tf_taud=filter_time_constant(f_taud), T_tau=self.delays["torque"],
+                     T_qd=self.delays["damping"])
+                for a, g in zip(self.actuators, self.gains)]
+
+    def delay_terms(self) -> Any:
+        """As :meth:`seactl.System.delay_terms`; with more than three joints built joint by
+        joint, its delays named by process (``stiffness``, ``torque``, ``damping``)."""
+        if not self.large:
+            return super().delay_terms()
+        from seactl.api.robotlarge import large_delay_terms
+
+        return large_delay_terms(self)
+
+    def roots(self, count: int = 6) -> Any:
+        """As :meth:`seactl.System.roots`; refused with more than three joints (the root
+        finder misses roots of the joint-by-joint characteristic near the axis: the
+        verdict and the delay margins come from certified counts instead)."""
+        if self.large:
+            from seactl.systems.robot.loops import LARGE_VIEWS, MASON_JOINTS
+
+            raise InputError("joints", f"{self.n} moving joints",
+                             f"at most {MASON_JOINTS} for roots(); with more: {LARGE_VIEWS}")
+        return super().roots(count)
 
 
 def design_inertia(mass_matrix: np.ndarray) -> np.ndarray:
@@ -552,7 +592,7 @@ def robot(urdf: str | Path | None = None, *, model: str | None = None,
         Instead of ``urdf``: a robot of ``example-robot-data`` by name
         (:func:`seactl.robot_models`; ``pip install -e ".[robots]"``).
     joints : sequence of str, optional
-        The moving joints (at most 3; default all); every other joint is locked at its
+        The moving joints (at most 7; default all); every other joint is locked at its
         ``q0`` value, its links part of the rigid body the moving joints carry.
     actuators : str or path or SEAParams or dict
         One actuator for every joint (preset name, TOML file), or joint name -> actuator.
@@ -585,7 +625,7 @@ def robot(urdf: str | Path | None = None, *, model: str | None = None,
     InputError
         A missing or invalid URDF, a frame it does not have, a joint without an actuator,
         a ``q0`` of the wrong length, delays or filters out of range, an unknown model or
-        joint, more than 3 moving joints.
+        joint, more than 7 moving joints.
     InfeasibleDesignError
         A joint whose actuator has no critically damped design at ``fn_hz`` (named).
 

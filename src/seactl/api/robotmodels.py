@@ -10,9 +10,10 @@ from typing import Any
 
 from seactl.errors import InputError
 
-MAX_JOINTS = 3
-"""The most moving joints :func:`seactl.robot` accepts: the characteristic quasi-polynomial
-of the coupled loop comes from its diagram's cycles, whose number grows too fast beyond."""
+MAX_JOINTS = 7
+"""The most moving joints :func:`seactl.robot` accepts: beyond 3 the characteristic comes
+from each joint's own loop (:mod:`seactl.systems.robot.characteristic`), whose
+determinant grows as ``n 2^n`` polynomial products on ``(n + 1)^3`` points."""
 
 
 def robot_models() -> dict[str, dict[str, Any]]:

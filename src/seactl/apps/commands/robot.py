@@ -41,7 +41,8 @@ def _actuators(text: str) -> Any:
 
 
 def robot_record(r: Any, margins: dict[str, Any], roots: Any) -> dict[str, Any]:
-    """The JSON of ``seactl robot``: the model, the per-break margins, the verdict."""
+    """The JSON of ``seactl robot``: the model, the per-break margins (none for a robot of
+    more than three joints: they need the loop's transfers), the verdict."""
     breaks = {}
     for name, m in margins.items():
         breaks[name] = {"phase_margin_deg": finite_or_none(m.phase_margin_deg),
@@ -57,9 +58,10 @@ def robot_record(r: Any, margins: dict[str, Any], roots: Any) -> dict[str, Any]:
             "task_stiffness_n_per_m": None if kx is None else kx[0],
             "task_rotational_stiffness_nm_per_rad": None if kx is None else kx[1],
             "stiffness_nm_per_rad": r.stiffness.tolist(),
-            "stable": bool(next(iter(margins.values())).stable),
-            "spectral_abscissa_per_s": finite_or_none(roots.spectral_abscissa),
-            "roots_complete": not bool(roots.uncertain),
+            "stable": bool((margins["outer.j1"] if margins else r.margins()).stable),
+            "spectral_abscissa_per_s": None if roots is None
+            else finite_or_none(roots.spectral_abscissa),
+            "roots_complete": roots is not None and not bool(roots.uncertain),
             "breaks": breaks}
 
 
@@ -114,7 +116,7 @@ def _value(o: dict[str, Any], flag: str) -> Any:
               help="Instead of --urdf: a robot of example-robot-data by name ('list': the "
                    "installed ones; pip install -e \".[robots]\").")
 @click.option("--joints", default=None,
-              help="The moving joints, comma-separated (at most 3); the others are locked "
+              help="The moving joints, comma-separated (at most 7); the others are locked "
                    "at --q0.")
 @click.option("--actuators", default="ut-sea", show_default=True,
               help="SEA preset or TOML file for every joint, or JOINT=PRESET|FILE,...")
@@ -232,7 +234,8 @@ def _at_q0(o: dict[str, Any], opts: dict[str, Any]) -> None:
     if o["placement"] is not None:
         parse_placement(o["placement"])      # a typo fails before the analysis
     r = sc.robot(o["urdf"], q0=_q0(o["q0"]), **opts)
-    rec = robot_record(r, r.margins_by_break(), r.roots(count=4))
+    rec = robot_record(r, {} if r.large else r.margins_by_break(),
+                       None if r.large else r.roots(count=4))
     if o["mimo"]:
         rec["mimo"] = mimo_record(r)
     if o["placement"] is not None:
@@ -274,7 +277,12 @@ def _print(rec: dict[str, Any]) -> None:
         t.add_row(name, pm_text(b["phase_margin_deg"], b["stable"]),
                   *("none" if b[k] is None else f"{b[k]:.4g}"
                     for k in ("crossover_hz", "gain_margin_db", "delay_margin_ms")))
-    console.print(t)
+    if rec["breaks"]:
+        console.print(t)
+    else:
+        console.print(f"{len(rec['joints'])}-joint robot, {rec['space']} space: the margins "
+                      "per loop break need the loop's transfers (at most 3 joints); the "
+                      "verdict and the central process's MIMO row come joint by joint")
     verdict = "stable" if rec["stable"] else "[red]UNSTABLE[/red]"
     sa = rec["spectral_abscissa_per_s"]
     console.print(f"certified verdict: {verdict}; spectral abscissa "

@@ -31,6 +31,15 @@ import numpy as np
 
 from seactl.diagram.blockdiagram import Block, DesignBatch
 from seactl.diagram.mason import CycleDiagram
+from seactl.errors import InputError
+
+MASON_JOINTS = 3
+"""The most joints whose diagram's transfers come from its cycles (their number grows too
+fast beyond: :class:`LargeRobotDiagram`)."""
+LARGE_VIEWS = ("margins() (its verdict), mimo_margins(), delay_margin(), "
+               "stability_chart(), placement(), step(), impulse(), mujoco_check(), "
+               "margins(rate_hz=...)")
+"""The views of a robot with more joints (from :mod:`seactl.systems.robot.characteristic`)."""
 
 BREAKS = {"outer": "q_sens", "stiffness": "qs", "damping": "qd", "torque": "tau_sens"}
 """Loop -> the signal (per joint) where it is broken."""
@@ -120,6 +129,21 @@ def _pair_blocks(j: int, k: int, coupled: bool) -> list[Block]:
     return out
 
 
+@dataclass(frozen=True)
+class LargeRobotDiagram(CycleDiagram):
+    """The diagram of a robot of more than :data:`MASON_JOINTS` joints: its blocks and
+    their numeric responses (the loop matrix) serve; a transfer or characteristic derived
+    from its cycles is refused (too many), naming the views that work."""
+
+    def _refuse(self, *_: Any, **__: Any) -> Any:
+        n = sum(1 for b in self.blocks if b.name.startswith("momentum_"))
+        raise InputError("joints", f"{n} moving joints",
+                         f"at most {MASON_JOINTS} for this view (it needs the loop's transfers, "
+                         f"from its diagram's cycles); with more: {LARGE_VIEWS}")
+
+    characteristic = return_difference = transfer_forms = _refuse
+
+
 @lru_cache(maxsize=16)
 def robot_diagram(n: int, coupled: bool) -> CycleDiagram:
     """The diagram of an ``n``-joint robot; ``coupled``: a full stiffness matrix (task
@@ -130,7 +154,8 @@ def robot_diagram(n: int, coupled: bool) -> CycleDiagram:
     for j in range(n):
         for k in range(n):
             blocks += _pair_blocks(j, k, coupled)
-    return CycleDiagram(f"robot-{n}{'-task' if coupled else ''}", blocks)
+    cls = CycleDiagram if n <= MASON_JOINTS else LargeRobotDiagram
+    return cls(f"robot-{n}{'-task' if coupled else ''}", blocks)
 
 
 @dataclass(frozen=True, eq=False)
