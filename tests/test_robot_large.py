@@ -14,7 +14,7 @@ import pytest
 import seactl as sc
 from seactl.analysis.delay_direction import direction_margin
 from seactl.analysis.margins import certified_right_roots
-from seactl.analysis.roots import frequency_scale
+from seactl.analysis.roots import frequency_scale, quasi_roots
 from seactl.api.robotlarge import large_delay_terms
 from seactl.apps.cli import main
 
@@ -42,7 +42,7 @@ def test_joint_by_joint_is_the_diagrams_determinant(urdf, q0, space, fn_hz, join
     """Oracle: the Mason graph determinant of the whole robot diagram (its cycles), at
     random complex s.  The only factor between them is det(M)^-1: the diagram carries the
     rigid body as its inverse mass matrix (the Minv blocks), Q as M itself.  The certified
-    verdicts and the central delay margins of both agree."""
+    verdicts, the central delay margins and the rightmost roots of both agree."""
     r = sc.robot(ROBOTS / urdf, q0=q0, joints=joints, space=space, task="tool",
                  fn_hz=fn_hz, delays_ms=DELAYS_MS, filters_hz=(50, 100))
     mason, ours = r.delay_terms(), large_delay_terms(r)
@@ -54,6 +54,8 @@ def test_joint_by_joint_is_the_diagrams_determinant(urdf, q0, space, fn_hz, join
     a = direction_margin(mason, {"stiffness": 1}).delay_margin_s
     b = direction_margin(ours, {"stiffness": 1}).delay_margin_s
     np.testing.assert_allclose(b, a, rtol=1e-9)
+    roots = [quasi_roots(t.at(), count=2).roots for t in (mason, ours)]
+    np.testing.assert_allclose(roots[1], roots[0], rtol=1e-8)
 
 
 @pytest.fixture(scope="module")
