@@ -507,9 +507,10 @@ class Robot(System):
         return large_delay_terms(self)
 
     def roots(self, count: int = 6) -> Any:
-        """As :meth:`seactl.System.roots`; refused with more than three joints (the root
-        finder misses roots of the joint-by-joint characteristic near the axis: the
-        verdict and the delay margins come from certified counts instead)."""
+        """As :meth:`seactl.System.roots`; refused with more than three joints: on the
+        joint-by-joint characteristic (degree up to ``6 n``) the collocation need not
+        converge and the inclusion discs take degrees below 32; the verdict and the delay
+        margins come from certified counts instead."""
         if self.large:
             from seactl.systems.robot.loops import LARGE_VIEWS, MASON_JOINTS
 
