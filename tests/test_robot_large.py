@@ -133,3 +133,19 @@ def test_panda_seven_joints():
     assert m.stable
     np.testing.assert_allclose([m.delay_margin_s, m.delay_crossing_hz],
                                [float(dm.delay_margin_s), float(dm.crossing_hz)], rtol=1e-6)
+
+
+def test_workspace_map_of_a_four_joint_arm():
+    # oracle: each row of the map is the robot built at that configuration by sc.robot
+    # (its certified verdict and its MIMO central delay margin); passivity, which needs
+    # the diagram's transfers, is None (not computed), and the CLI table says n/a
+    arm = ROBOTS / "planar_4link.urdf"
+    opts = dict(fn_hz=60, delays_ms=FOUR_DELAYS_MS, filters_hz=(200, 400))
+    q = [FOUR["q0"], [0.2, 0.9, -0.4, 0.5]]
+    m = sc.workspace_map(arm, q, **opts)
+    for i, row in enumerate(q):
+        r = sc.robot(arm, q0=row, **opts)
+        assert bool(m.stable[i]) == bool(r.margins().stable)
+        assert m.mimo_delay_margin_ms[i] == pytest.approx(
+            1e3 * float(r.mimo_margins().delay_margin_s), rel=1e-9)
+    assert list(m.passive) == [None, None]

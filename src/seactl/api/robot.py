@@ -727,9 +727,17 @@ def workspace_map(urdf: str | Path | None, configurations: Any, *, backend: str 
                         np.array(col["max_task_stiffness_n_per_m"], float),
                         single_flip=np.array(col["single_flip"], bool),
                         stiffness_intervals_n_per_m=tuple(col["stiffness_intervals_n_per_m"]),
-                        t_s=t_s, passive=np.array(col["passive"], bool),
+                        t_s=t_s, passive=_passive_column(col["passive"]),
                         mimo_phase_margin_deg=np.array(col["mimo_phase_margin_deg"], float),
                         mimo_delay_margin_ms=np.array(col["mimo_delay_margin_ms"], float))
+
+
+def _passive_column(values: list) -> np.ndarray:
+    """The map's ``passive`` per configuration: bool, or None where not computed (more
+    than three joints: the joint impedance needs the diagram's transfers)."""
+    if any(v is None for v in values):
+        return np.array(values, object)
+    return np.array(values, bool)
 
 
 def _moving_joints(urdf: str | Path | None, options: dict[str, Any]) -> tuple[str, ...]:

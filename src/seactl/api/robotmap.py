@@ -44,7 +44,8 @@ class WorkspaceMap(Result):
         ``1e-6`` to ``1e6`` times it.  NaN in joint space, ``(m,)``.
     passive : numpy.ndarray or None
         Per configuration the certified passivity of the joint impedance on 0.01 Hz to
-        10 kHz (:meth:`seactl.api.robot.Robot.passivity`), ``(m,)``.
+        10 kHz (:meth:`seactl.api.robot.Robot.passivity`), ``(m,)``; None entries (an
+        object array) where not computed: more than three joints.
     worst : int
         The index of the configuration with the smallest ``mimo_delay_margin_ms`` (an
         unstable one first): the least extra central latency the robot tolerates

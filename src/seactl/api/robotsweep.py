@@ -74,7 +74,7 @@ def evaluate_configuration(urdf: str | None, q0: Sequence[float], options: dict[
            "delay_margin_ms": float(m.delay_margin_ms),
            "max_task_stiffness_n_per_m": float("nan"),
            "stiffness_intervals_n_per_m": (), "single_flip": True,
-           "passive": bool(r.passivity().passive)}
+           "passive": None if r.large else bool(r.passivity().passive)}
     mimo = r.mimo_margins()
     row.update(mimo_phase_margin_deg=float(mimo.phase_margin_deg),
                mimo_delay_margin_ms=1e3 * float(mimo.delay_margin_s))

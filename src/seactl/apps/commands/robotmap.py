@@ -129,7 +129,7 @@ def _report(m: Any, space: str, as_json: bool) -> None:
                   _ms(row["mimo_delay_margin_ms"]),
                   ("none" if kx is None else f"{kx:.4g}") + ("" if i not in flips else
                                                             " [yellow](flips)[/yellow]"),
-                  "yes" if row.get("passive") else "no")
+                  "n/a" if row.get("passive") is None else "yes" if row["passive"] else "no")
     console.print(t)
     w = rows[m.worst]
     console.print(f"worst configuration (least central delay margin): row {m.worst + 1}, "
