@@ -285,8 +285,11 @@ def _print(rec: dict[str, Any]) -> None:
                       "verdict and the central process's MIMO row come joint by joint")
     verdict = "stable" if rec["stable"] else "[red]UNSTABLE[/red]"
     sa = rec["spectral_abscissa_per_s"]
-    console.print(f"certified verdict: {verdict}; spectral abscissa "
-                  f"{'none' if sa is None else format(sa, '.4g')} 1/s")
+    if rec["breaks"]:
+        console.print(f"certified verdict: {verdict}; spectral abscissa "
+                      f"{'none' if sa is None else format(sa, '.4g')} 1/s")
+    else:   # (no roots beyond three joints: the verdict is a certified count)
+        console.print(f"certified verdict: {verdict}")
 
 
 def _print_check(rows: list[dict[str, Any]]) -> None:
