@@ -480,14 +480,21 @@ class Robot(System):
         characteristic comes joint by joint (:mod:`seactl.systems.robot.characteristic`);
         :meth:`margins` gives the verdict only (margins NaN), :meth:`mimo_margins`,
         :meth:`delay_margin` and :meth:`stability_chart` work, the views that need the
-        loop's transfers (and :meth:`roots`) are refused."""
+        loop's transfers (and :meth:`roots`) are refused.
+        """
         from seactl.systems.robot.loops import MASON_JOINTS
 
         return self.n > MASON_JOINTS
 
     def joint_fields(self) -> list[dict[str, float]]:
         """Per joint the numbers its SEA's blocks read (as
-        :func:`~seactl.systems.robot.loops.robot_design` takes them)."""
+        :func:`~seactl.systems.robot.loops.robot_design` takes them).
+
+        Returns
+        -------
+        list of dict
+            Per joint the field name (without the joint's suffix) -> value.
+        """
         from seactl.systems.sea.loops import filter_time_constant
 
         f_qd, f_taud = self.filters_hz
@@ -499,7 +506,13 @@ class Robot(System):
 
     def delay_terms(self) -> Any:
         """As :meth:`seactl.System.delay_terms`; with more than three joints built joint by
-        joint, its delays named by process (``stiffness``, ``torque``, ``damping``)."""
+        joint, its delays named by process (``stiffness``, ``torque``, ``damping``).
+
+        Returns
+        -------
+        seactl.diagram.delayterms.DelayTerms
+            The characteristic as a function of the named delays.
+        """
         if not self.large:
             return super().delay_terms()
         from seactl.api.robotlarge import large_delay_terms
@@ -510,7 +523,23 @@ class Robot(System):
         """As :meth:`seactl.System.roots`; refused with more than three joints: on the
         joint-by-joint characteristic (degree up to ``6 n``) the collocation need not
         converge and the inclusion discs take degrees below 32; the verdict and the delay
-        margins come from certified counts instead."""
+        margins come from certified counts instead.
+
+        Parameters
+        ----------
+        count : int
+            As :meth:`seactl.System.roots`.
+
+        Returns
+        -------
+        RootsResult
+            As :meth:`seactl.System.roots`.
+
+        Raises
+        ------
+        InputError
+            More than three moving joints (names ``joints``).
+        """
         if self.large:
             from seactl.systems.robot.loops import LARGE_VIEWS, MASON_JOINTS
 
