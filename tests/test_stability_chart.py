@@ -192,6 +192,15 @@ def test_a_chart_too_large_is_refused_up_front(huge_s):
         sc.rigid(8).stability_chart(("stiffness", "damping"), (huge_s, 0.02))
 
 
+def test_a_huge_extent_on_one_axis_is_refused_not_out_of_memory():
+    # Oracle: the error contract. The SEA's stiffness/damping chart with a huge first extent
+    # and a small second one has chains none of whose copies enter the chart along the
+    # second delay while the first range of copies is enormous: that must be skipped, not
+    # allocated (it was a MemoryError), and the chart refused as too large.
+    with pytest.raises(sc.InputError, match="a smaller chart"):
+        sc.design(14).stability_chart(("stiffness", "damping"), (1e9, 5e-3))
+
+
 # ------------------------------------------------------------------ (d) command line
 def test_cli_json_plot_and_errors(tmp_path, capsys):
     png = tmp_path / "chart.png"

@@ -221,6 +221,8 @@ def _copies(w: np.ndarray, u1: np.ndarray, u2: np.ndarray, max_s: tuple[float, f
     hi = (np.floor((w * max_s[0] - u1).max() / TWO_PI),
           np.floor((w * max_s[1] - u2).max() / TWO_PI))
     count = max(hi[0] - lo[0] + 1, 0.0) * max(hi[1] - lo[1] + 1, 0.0)  # (before any array)
+    if count == 0:  # (no copy enters: one range may still be huge, the other empty)
+        return []
     if not done + count <= MAX_COPIES:
         raise InputError("max_s", max_s, "a smaller chart: its crossing curves have more than "
                          f"{MAX_COPIES:,} pieces")
