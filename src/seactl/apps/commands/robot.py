@@ -27,14 +27,15 @@ def _q0(text: str | None) -> list[float] | None:
                          ) from None
 
 
-def _actuators(text: str) -> Any:
-    """``PRESET|FILE`` for every joint, or ``joint=PRESET|FILE,...``."""
+def actuator_spec(text: str) -> Any:
+    """``PRESET|FILE`` for every joint, or ``JOINT=PRESET|FILE,...`` as a dict (the
+    ``--actuators`` syntax of ``seactl robot`` and of the explorer's robot page)."""
     if "=" not in text:
         return text
     out = {}
     for part in text.split(","):
         joint, _, spec = part.partition("=")
-        if not joint or not spec:
+        if not joint.strip() or not spec.strip():
             raise InputError("--actuators", text, "PRESET, FILE, or JOINT=PRESET|FILE,...")
         out[joint.strip()] = spec.strip()
     return out
@@ -196,9 +197,8 @@ def robot(**o: Any) -> None:
     elif o["workspace"] is not None or o["trajectory"] is not None:
         from .robotmap import workspace_command
 
-        workspace_command(o["urdf"], o["workspace"], o["trajectory"], o["q0"],
-                          o["mujoco_check"], opts, plot=o["plot"], workers=o["workers"],
-                          as_json=o["as_json"])
+        workspace_command(o["urdf"], o["workspace"], o["trajectory"], opts,
+                          plot=o["plot"], workers=o["workers"], as_json=o["as_json"])
     else:
         _at_q0(o, opts)
 
@@ -208,7 +208,7 @@ def _robot_options(o: dict[str, Any]) -> dict[str, Any]:
     v = {n: None if o[n] is None else float(AXES[n].check(o[n], AXES[n].option))
          for n in ROBOT_AXES}
     joints = o["joints"]
-    return dict(actuators=_actuators(o["actuators"]), space=o["space"], task=o["task"],
+    return dict(actuators=actuator_spec(o["actuators"]), space=o["space"], task=o["task"],
                 fn_hz=v["fn_hz"], gs=v["gs"],
                 delays_ms={"torque": v["t_tau_ms"], "stiffness": v["t_qs_ms"],
                            "damping": v["t_qd_ms"]},

@@ -36,15 +36,10 @@ def workspace_grid(text: str) -> list[list[float]]:
 
 
 def workspace_command(urdf: str, workspace: str | None, trajectory: str | None,
-                      q0: str | None, mujoco_check: bool, opts: dict[str, Any], *,
-                      plot: str | None, workers: int | None, as_json: bool) -> None:
-    """The map of a grid (``--workspace``) or a trajectory file (``--trajectory``)."""
-    option, text = (("--workspace", workspace) if workspace is not None else
-                    ("--trajectory", trajectory))
-    if workspace is not None and trajectory is not None:
-        raise InputError("--trajectory", trajectory, "given without --workspace (one map)")
-    if q0 is not None or mujoco_check:
-        raise InputError(option, text, "given without --q0 and --mujoco-check")
+                      opts: dict[str, Any], *, plot: str | None, workers: int | None,
+                      as_json: bool) -> None:
+    """The map of a grid (``--workspace``) or a trajectory file (``--trajectory``); the
+    options it cannot be given with are refused by ``seactl robot`` before it."""
     if workers is not None and workers < 1:
         raise InputError("--workers", workers, ">= 1 (omit it to run in this process)")
     with OutputSet() as outs:

@@ -21,6 +21,7 @@ from xml.etree import ElementTree
 import numpy as np
 
 import seactl as sc
+from seactl.apps.commands.robot import actuator_spec
 from seactl.errors import InfeasibleDesignError, InputError, SeactlError
 
 from .model import num_text, run_stages, safe
@@ -82,20 +83,6 @@ class RobotControls:
     def system(self) -> Any:
         """The robot these controls describe (:func:`seactl.robot` validates them)."""
         return sc.robot(self.urdf, q0=list(self.q_rad), **self.options())
-
-
-def actuator_spec(text: str) -> Any:
-    """``PRESET|FILE`` for every joint, or ``JOINT=PRESET|FILE,...`` as a dict (the
-    ``--actuators`` syntax of ``seactl robot``)."""
-    if "=" not in text:
-        return text
-    out = {}
-    for part in text.split(","):
-        joint, _, spec = part.partition("=")
-        if not joint.strip() or not spec.strip():
-            raise InputError("--actuators", text, "PRESET, FILE, or JOINT=PRESET|FILE,...")
-        out[joint.strip()] = spec.strip()
-    return out
 
 
 def q_from_text(text: str | None) -> list[float] | None:
