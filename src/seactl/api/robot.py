@@ -459,19 +459,11 @@ class Robot(System):
         MarginsResult or SampledMarginsResult
             As :meth:`seactl.System.margins`.
         """
-        if rate_hz is not None:
-            return super().margins(rate_hz)
-        if self.large:
+        if rate_hz is None and self.large:
             from seactl.api.robotlarge import large_margins
 
             return large_margins(self)
-        from seactl.analysis.margins import default_grid, loop_margins
-        from seactl.api.results import MarginsResult
-
-        return MarginsResult(loop_margins(self.diagram.loop(self.sensor), self.design,
-                                          default_grid(self.reference_frequency()),
-                                          shared_forms=self._evaluated_forms),
-                             self.label_columns())
+        return super().margins(rate_hz)
 
     # ------------------------------------------------------------ more than three joints
     @property

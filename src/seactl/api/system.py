@@ -260,6 +260,13 @@ class System:
         """Motor current [A] per unit of the actuation signal."""
         raise NotImplementedError
 
+    @property
+    def _evaluated_forms(self) -> dict | None:
+        """Characteristic terms evaluated for this design, kept between the views that
+        break the loop at different signals (a kind whose breaks share many terms keeps a
+        dict; None: each view evaluates its own)."""
+        return None
+
     def reference_frequency(self) -> np.ndarray:
         """A frequency scale [rad/s] per design (the margins' and roots' grids).
 
@@ -446,7 +453,9 @@ class System:
         from seactl.analysis.margins import default_grid, loop_margins
 
         return MarginsResult(loop_margins(self.diagram.loop(self.sensor), self.design,
-                                          default_grid(w_ref)), self.label_columns())
+                                          default_grid(w_ref),
+                                          shared_forms=self._evaluated_forms),
+                             self.label_columns())
 
     def roots(self, count: int = 6) -> RootsResult:
         """Rightmost roots of the closed loop (exact delays), per design.
